@@ -1,0 +1,77 @@
+"""The Typer apps and the error-to-exit-code wrapper every command uses."""
+from __future__ import annotations
+
+import functools
+import os
+import traceback
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from bpmid import __version__
+from bpmid.errors import InputError
+from bpmid.progress import set_quiet
+
+app = typer.Typer(
+    name="bpmid", no_args_is_help=True, add_completion=False, rich_markup_mode=None,
+    help="Identify models of bending pneumatic muscles: relaxation fits, the VBMM, baselines, discovery, control.\n\n"
+         "Start with: bpmid run   (the whole study on the shipped datasets; see the README)",
+)
+fit_app = typer.Typer(no_args_is_help=True, rich_markup_mode=None,
+                      help="Fit model constants to logs (relaxation tests or pressure-angle runs).")
+app.add_typer(fit_app, name="fit")
+
+
+def _version(value: bool):
+    if value:
+        typer.echo(f"bpmid {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress on stderr."),
+          version: Optional[bool] = typer.Option(None, "--version", callback=_version, is_eager=True,
+                                                 help="Print the version and exit.")):
+    set_quiet(quiet)
+
+
+def fail(message: str, code: int = 2):
+    typer.echo(f"error: {message}", err=True)
+    raise typer.Exit(code)
+
+
+def command(typer_app: typer.Typer, name: str, **kw):
+    """Register ``fn`` as command ``name``; InputError -> exit 2, any other exception -> exit 1."""
+
+    def deco(fn):
+        @functools.wraps(fn)
+        def wrapper(*args, **kwargs):
+            try:
+                return fn(*args, **kwargs)
+            except InputError as exc:
+                fail(exc.format(), 2)
+            except (typer.Exit, typer.Abort, SystemExit):
+                raise
+            except KeyboardInterrupt:
+                fail("interrupted", 130)
+            except Exception as exc:  # an internal failure: say so, keep the traceback one variable away
+                if os.environ.get("BPMID_DEBUG"):
+                    raise
+                typer.echo(traceback.format_exc(limit=-3), err=True)
+                fail(f"internal error: {type(exc).__name__}: {exc} (set BPMID_DEBUG=1 for the full traceback)", 1)
+
+        kw.setdefault("no_args_is_help", False)
+        return typer_app.command(name, **kw)(wrapper)
+
+    return deco
+
+
+def existing_files(paths: list[Path], what: str = "log") -> list[Path]:
+    """Check that every path is an existing file (exit-2 message naming the first that is not)."""
+    if not paths:
+        raise InputError(f"no {what} files given")
+    for p in paths:
+        if not Path(p).is_file():
+            raise InputError(f"{what} file not found", path=p)
+    return [Path(p) for p in paths]

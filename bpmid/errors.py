@@ -1,0 +1,48 @@
+"""Errors meant for people.
+
+:class:`InputError` is bad input or usage (the CLI exits with code 2). It names what is at fault:
+the file, and where known the line or the config key, what was expected and what was found.
+Anything else escaping a command is an internal failure (exit code 1).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class InputError(Exception):
+    """Bad input: a file, line or key a user can fix.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, in plain words (what was expected, what was found).
+    path : str or Path, optional
+        The file at fault.
+    line : int, optional
+        1-based line number in that file.
+    key : str, optional
+        Dotted config/parameter key or column name at fault.
+    """
+
+    def __init__(self, message: str, *, path: str | Path | None = None,
+                 line: int | None = None, key: str | None = None):
+        self.message = message
+        self.path = None if path is None else str(path)
+        self.line = line
+        self.key = key
+        super().__init__(self.format())
+
+    def format(self) -> str:
+        where = []
+        if self.path:
+            where.append(self.path + (f":{self.line}" if self.line else ""))
+        elif self.line:
+            where.append(f"line {self.line}")
+        if self.key:
+            where.append(f"key '{self.key}'")
+        prefix = ", ".join(where)
+        return f"{prefix}: {self.message}" if prefix else self.message
+
+
+class ConvergenceError(InputError):
+    """A fit or solve that did not converge on the given data (reported as bad input, exit 2)."""

@@ -1,0 +1,1 @@
+"""Readers for relaxation and motion logs, unit handling, and atomic writers with provenance."""

@@ -1,0 +1,130 @@
+"""Result files: YAML with ``schema`` and ``provenance`` blocks, written atomically.
+
+Every output says what made it: bpmid version, the command line, sha256 of each input file and of
+the config, creation time (UTC; ``SOURCE_DATE_EPOCH`` pins it for reproducible builds), and the seed
+where one was used.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import os
+import shlex
+import sys
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+import yaml
+
+from bpmid import __version__
+from bpmid.errors import InputError
+from bpmid.io.atomic import write_text
+
+
+def sha256_file(path: str | Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def command_line() -> str:
+    """The command as the user typed it (``bpmid ...``)."""
+    argv = list(sys.argv)
+    if argv:
+        argv[0] = "bpmid" if Path(argv[0]).name in ("bpmid", "__main__.py", "bpmid.exe") else Path(argv[0]).name
+    return " ".join(shlex.quote(a) for a in argv)
+
+
+def provenance(inputs: Iterable[str | Path] = (), *, config=None, seed: int | None = None,
+               command: str | None = None, timestamp: bool = True, extra: dict | None = None) -> dict:
+    """The provenance block.
+
+    Parameters
+    ----------
+    inputs : paths of the input files (hashed with sha256)
+    config : a :class:`bpmid.config.Config` or a path, or None
+    seed : the seed of every random draw, when one was used
+    command : override the recorded command line (default: ``sys.argv``)
+    timestamp : include the creation time (False for byte-reproducible files)
+    """
+    block: dict[str, Any] = {"bpmid_version": __version__, "command": command or command_line()}
+    block["inputs"] = {str(p): sha256_file(p) for p in inputs}
+    if config is not None:
+        cpath = getattr(config, "path", config)
+        csha = getattr(config, "sha256", None)
+        if cpath is not None:
+            block["config"] = {"path": str(cpath), "sha256": csha or sha256_file(cpath)}
+    if timestamp:
+        epoch = os.environ.get("SOURCE_DATE_EPOCH")
+        now = (_dt.datetime.fromtimestamp(int(epoch), _dt.timezone.utc) if epoch
+               else _dt.datetime.now(_dt.timezone.utc))
+        block["created"] = now.replace(microsecond=0).isoformat()
+    if seed is not None:
+        block["seed"] = int(seed)
+    if extra:
+        block.update(extra)
+    return block
+
+
+def _plain(obj):
+    """numpy scalars/arrays and tuples -> plain YAML types."""
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return [_plain(v) for v in obj.tolist()]
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None if np.isnan(obj) else obj
+    if isinstance(obj, Path):
+        return str(obj)
+    return obj
+
+
+def dump_yaml(data: dict) -> str:
+    return yaml.safe_dump(_plain(data), sort_keys=False, allow_unicode=True, width=110)
+
+
+def write_result(path: str | Path, schema: str, body: dict, prov: dict) -> Path:
+    """Write ``{schema, <body...>, provenance}`` atomically as YAML."""
+    data = {"schema": schema}
+    data.update(body)
+    data["provenance"] = prov
+    return write_text(path, dump_yaml(data))
+
+
+def read_result(path: str | Path, schema_prefix: str) -> dict:
+    """Read a result YAML and check its schema (``bpmid.vbmm/`` etc.)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("file not found", path=path)
+    try:
+        data = yaml.safe_load(path.read_text("utf-8"))
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        raise InputError(f"not valid YAML: {getattr(exc, 'problem', exc)}", path=path,
+                         line=None if mark is None else mark.line + 1) from exc
+    if not isinstance(data, dict):
+        raise InputError("expected a YAML mapping", path=path)
+    schema = data.get("schema")
+    if schema is None:
+        raise InputError(f"missing key (expected schema: {schema_prefix}<version>)", path=path, key="schema")
+    if not str(schema).startswith(schema_prefix):
+        raise InputError(f"wrong kind of file: schema {schema!r}, expected {schema_prefix}<version>",
+                         path=path, key="schema")
+    return data
+
+
+def require(data: dict, dotted: str, path=None):
+    """``data['a']['b']`` for ``'a.b'``, or an InputError naming the missing key."""
+    cur = data
+    for part in dotted.split("."):
+        if not isinstance(cur, dict) or part not in cur:
+            raise InputError("missing key", path=path, key=dotted)
+        cur = cur[part]
+    return cur
