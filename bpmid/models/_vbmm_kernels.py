@@ -1,0 +1,190 @@
+"""Compiled step-by-step kernels of the VBMM (private; the numpy API is :mod:`bpmid.models.vbmm`).
+
+At step k every hereditary operator is affine in the current strain,
+M-hat[x]_k = M0 x_k + c_k, with c_k fixed by the history (recursive: the branch states; full or
+window: the stored strain history). The forward model therefore solves one scalar equation per
+step, P_model(beta_k) = P_k, by a bracketed Newton iteration warm-started at beta_{k-1}, then commits
+the step to the history.
+
+Geometry vector ``geo``: th, alpha0, R0, l0, n (SI). Closure: 0 = "paper", 1 = "consistent".
+Mode: 0 = recursive, 1 = sliding window, 2 = full history.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+BETA_MAX = 4.0 * math.pi  # rad; the solve's upper bracket (VBMM.md section 5)
+
+STATUS_OK = 0
+STATUS_ABOVE_RANGE = 1  # pressure needs beta > 4 pi
+STATUS_NO_CONVERGENCE = 2
+
+
+@numba.njit(cache=True, inline="always")
+def u3_from_beta(beta, R0, l0, n):  # pragma: no cover - compiled
+    pn2 = 4.0 * math.pi * math.pi * n * n
+    D = l0 * l0 + pn2 * R0 * R0
+    E = pn2 * pn2 * R0 * R0
+    return -2.0 * R0 + (2.0 * math.sqrt(D * beta * beta + E) - 2.0 * l0 * beta) / (beta * beta + pn2)
+
+
+@numba.njit(cache=True, inline="always")
+def stretch(u3, R0, l0, n):  # pragma: no cover - compiled
+    A = -math.pi * math.pi * n * n / (l0 * l0)
+    B = -4.0 * math.pi * math.pi * n * n * R0 / (l0 * l0)
+    return math.sqrt(1.0 + A * u3 * u3 + B * u3)
+
+
+@numba.njit(cache=True)
+def pressure_at(beta, geo, closure, G0, K0, cG1, cG2, cK1, cK2, scale, stiff):  # pragma: no cover
+    """Gauge pressure (Pa) that holds ``beta`` given the history constants of this step."""
+    th, alpha0, R0, l0, n = geo[0], geo[1], geo[2], geo[3], geo[4]
+    u3 = u3_from_beta(beta, R0, l0, n)
+    F = stretch(u3, R0, l0, n)
+    e1 = F - 1.0
+    e2 = u3 / R0
+    g1 = G0 * e1 + cG1
+    g2 = G0 * e2 + cG2
+    lam = (K0 * e1 + cK1) + (K0 * e2 + cK2) - (2.0 / 3.0) * (g1 + g2)
+    s = scale * (1.0 + stiff * e1 * e1)
+    s1 = s * (2.0 * g1 + lam)
+    s2 = s * (2.0 * g2 + lam)
+    R = R0 + 0.5 * u3
+    if closure == 0:
+        gb = l0 * math.cos(alpha0) * (1.0 + u3 / R0)
+        return th / R * (s2 + (s2 * gb + s1 * e1) / (1.0 - 2.0 * gb * F))
+    ca = math.cos(alpha0) * (1.0 + e2)
+    return th / R * (s2 + s1 * e1 / (1.0 - ca))
+
+
+@numba.njit(cache=True)
+def _history_const(mode, k, t, x, Minf, M, tau, h, a, window):  # pragma: no cover
+    """c_k of M-hat[x]_k = M0 x_k + c_k (x[k] is not used)."""
+    if k == 0:
+        return 0.0
+    m0 = Minf
+    for j in range(M.size):
+        m0 += M[j]
+    if mode == 0:
+        c = 0.0
+        for j in range(M.size):
+            c += M[j] * (a[j] * h[j] - x[k - 1])
+        return c
+    acc = Minf * x[0]
+    start = 1
+    if mode == 1:
+        # last sample older than the window: lump everything up to it
+        ls = -1
+        for i in range(k, -1, -1):
+            if t[k] - t[i] > window:
+                ls = i
+                break
+        if ls >= 1:
+            age = t[k] - t[ls]
+            mk = Minf
+            for j in range(M.size):
+                mk += M[j] * math.exp(-age / tau[j])
+            acc += mk * (x[ls] - x[0])
+            start = ls + 1
+    for i in range(start, k):
+        age = t[k] - t[i]
+        mk = Minf
+        for j in range(M.size):
+            mk += M[j] * math.exp(-age / tau[j])
+        acc += mk * (x[i] - x[i - 1])
+    return acc - m0 * x[k - 1]
+
+
+@numba.njit(cache=True)
+def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, window,
+                   fall_ratio, stiff, scale):  # pragma: no cover - compiled
+    """beta (rad) for gauge pressures ``p`` (Pa) at times ``t`` (s).
+
+    Returns (beta, e1, e2, status); status[k] is STATUS_OK, STATUS_ABOVE_RANGE or STATUS_NO_CONVERGENCE.
+    ``fall_ratio`` multiplies every tau on steps where the pressure falls (recursive mode only);
+    ``stiff`` is the strain-stiffening coefficient (moduli scale by 1 + stiff e1^2); ``scale`` (N,) a
+    per-step modulus scale (thermal softening). Defaults 1, 0, ones give the plain VBMM.
+    """
+    n = t.size
+    R0, l0, nn = geo[2], geo[3], geo[4]
+    beta = np.zeros(n)
+    e1 = np.zeros(n)
+    e2 = np.zeros(n)
+    status = np.zeros(n, np.int64)
+    hG1 = np.zeros(Gj.size)
+    hG2 = np.zeros(Gj.size)
+    hK1 = np.zeros(Kj.size)
+    hK2 = np.zeros(Kj.size)
+    aG = np.ones(Gj.size)
+    aK = np.ones(Kj.size)
+    G0full = Ginf
+    for j in range(Gj.size):
+        G0full += Gj[j]
+    K0full = Kinf
+    for j in range(Kj.size):
+        K0full += Kj[j]
+    b_prev = 0.0
+    for k in range(n):
+        if k == 0:
+            G0, K0 = Ginf, Kinf
+            cG1 = cG2 = cK1 = cK2 = 0.0
+        else:
+            G0, K0 = G0full, K0full
+            dt = t[k] - t[k - 1]
+            r = fall_ratio if (mode == 0 and p[k] < p[k - 1]) else 1.0
+            for j in range(Gj.size):
+                aG[j] = math.exp(-dt / (tauG[j] * r))
+            for j in range(Kj.size):
+                aK[j] = math.exp(-dt / (tauK[j] * r))
+            cG1 = _history_const(mode, k, t, e1, Ginf, Gj, tauG, hG1, aG, window)
+            cG2 = _history_const(mode, k, t, e2, Ginf, Gj, tauG, hG2, aG, window)
+            cK1 = _history_const(mode, k, t, e1, Kinf, Kj, tauK, hK1, aK, window)
+            cK2 = _history_const(mode, k, t, e2, Kinf, Kj, tauK, hK2, aK, window)
+        sc = scale[k]
+        f0 = pressure_at(0.0, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p[k]
+        b = 0.0
+        if f0 < 0.0:
+            lo, hi = 0.0, BETA_MAX
+            fhi = pressure_at(hi, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p[k]
+            if fhi < 0.0:
+                status[k] = STATUS_ABOVE_RANGE
+                b = BETA_MAX
+            else:
+                x = min(max(b_prev, 1e-9), BETA_MAX - 1e-9)
+                ok = False
+                for it in range(100):
+                    fx = pressure_at(x, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p[k]
+                    if fx > 0.0:
+                        hi = x
+                    else:
+                        lo = x
+                    hstep = 1e-7 * max(x, 1e-3)
+                    d = (pressure_at(x + hstep, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)
+                         - p[k] - fx) / hstep
+                    xn = x - fx / d if d > 0.0 else 0.5 * (lo + hi)
+                    if not (lo < xn < hi):
+                        xn = 0.5 * (lo + hi)
+                    if abs(xn - x) < 1e-13 or hi - lo < 1e-14:
+                        x = xn
+                        ok = True
+                        break
+                    x = xn
+                if not ok:
+                    status[k] = STATUS_NO_CONVERGENCE
+                b = x
+        beta[k] = b
+        u3 = u3_from_beta(b, R0, l0, nn)
+        e1[k] = stretch(u3, R0, l0, nn) - 1.0
+        e2[k] = u3 / R0
+        if k > 0:
+            for j in range(Gj.size):
+                hG1[j] = aG[j] * hG1[j] + (e1[k] - e1[k - 1])
+                hG2[j] = aG[j] * hG2[j] + (e2[k] - e2[k - 1])
+            for j in range(Kj.size):
+                hK1[j] = aK[j] * hK1[j] + (e1[k] - e1[k - 1])
+                hK2[j] = aK[j] * hK2[j] + (e2[k] - e2[k - 1])
+        b_prev = b
+    return beta, e1, e2, status

@@ -1,0 +1,482 @@
+"""The viscoelasticity-based mechanistic model (VBMM) of a bending pneumatic muscle, as ../shared/spec/VBMM.md
+makes it precise.
+
+- Kinematics from one scalar u3 (radial displacement, m): :func:`kinematics`, :func:`u3_from_beta`.
+- Stresses from Prony kernels for G and K (any number of branches, time constants shared or split),
+  lambda-hat = K-hat - 2/3 G-hat, eps3 = 0.
+- Pressure closures: ``"paper"`` (eq. 18 implemented literally in SI, the default) and ``"consistent"``.
+- Forward model beta(P) (:meth:`VBMM.forward`, compiled per-step solve) and inverse model P(beta)
+  (:meth:`VBMM.inverse`, closed form, vectorised), in three history modes: ``recursive`` (exact, O(1)
+  per step, default), ``window`` (eq. 19) and ``full`` (eq. 5 as written).
+
+Deviations from the paper, on purpose (see README): BL is taken as sqrt(l0^2 + 4 pi^2 n^2 R0^2) so that
+beta = 0 <=> u3 = 0 (VBMM.md section 1); pressures are gauge inside the model.
+
+Units: SI inside (m, Pa, s, rad). Results files carry the units of every constant.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Literal, Optional, Sequence
+
+import numpy as np
+
+from bpmid.errors import InputError
+from bpmid.models import _vbmm_kernels as K
+from bpmid.viscoelastic import hereditary_full, hereditary_recursive, hereditary_states, hereditary_window
+
+MPa = 1e6
+
+
+# ---------------------------------------------------------------------------------------------
+# geometry and material
+# ---------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Geometry:
+    """Muscle geometry (paper Table I), SI: th, R0, l0 in m; alpha0 in rad; n turns (1).
+
+    Attributes
+    ----------
+    th : wall thickness of the elastic tube (m)
+    alpha0 : initial helix angle of the braid thread from the circumferential direction (rad)
+    R0 : initial inner radius (m)
+    l0 : initial length = length of the inextensible suture (m)
+    n : turns of one braid thread around the tube (1)
+    """
+
+    th: float = 2.0e-3
+    alpha0: float = math.radians(30.0)
+    R0: float = 16.73e-3
+    l0: float = 195.9e-3
+    n: float = 7.43
+
+    def validate(self, where="geometry", path=None):
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if not (np.isfinite(v) and v > 0):
+                raise InputError(f"geometry must be positive and finite, found {v!r}", path=path, key=f"{where}.{f.name}")
+        if not self.alpha0 < math.pi / 2:
+            raise InputError(f"alpha0 is in rad and must be below pi/2, found {self.alpha0:g}", path=path,
+                             key=f"{where}.alpha0")
+        if self.th > 0.05 or self.R0 > 0.5 or self.l0 > 5.0:
+            raise InputError("geometry is in metres (th, R0, l0); the values look like millimetres",
+                             path=path, key=where)
+
+    def vector(self) -> np.ndarray:
+        return np.array([self.th, self.alpha0, self.R0, self.l0, self.n], float)
+
+    def to_yaml(self) -> dict:
+        return {"th": self.th, "alpha0": self.alpha0, "R0": self.R0, "l0": self.l0, "n": self.n}
+
+
+@dataclasses.dataclass(frozen=True)
+class Material:
+    """Prony constants of the VBMM (Pa, s).
+
+    G(t) = G_inf + sum_j G_j exp(-t/tauG_j), K(t) = K_inf + sum_j K_j exp(-t/tauK_j).
+    ``tauK`` None means shared time constants (tauK = tauG), the paper's choice.
+    """
+
+    G_inf: float
+    K_inf: float
+    G: tuple[float, ...] = ()
+    K: tuple[float, ...] = ()
+    tauG: tuple[float, ...] = ()
+    tauK: Optional[tuple[float, ...]] = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "G", tuple(float(v) for v in self.G))
+        object.__setattr__(self, "K", tuple(float(v) for v in self.K))
+        object.__setattr__(self, "tauG", tuple(float(v) for v in self.tauG))
+        if self.tauK is not None:
+            object.__setattr__(self, "tauK", tuple(float(v) for v in self.tauK))
+        if not (len(self.G) == len(self.K) == len(self.tauG)):
+            raise InputError("material branches need the same number of G, K and tau values", key="material.branches")
+        if self.tauK is not None and len(self.tauK) != len(self.K):
+            raise InputError("material: one tauK per branch", key="material.branches")
+        for name, vals in (("G_inf", [self.G_inf]), ("K_inf", [self.K_inf]), ("G", self.G), ("K", self.K)):
+            if any((not np.isfinite(v)) or v < 0 for v in vals):
+                raise InputError(f"moduli must be finite and non-negative, found {name} = {vals}", key=f"material.{name}")
+        for v in self.tauG + (self.tauK or ()):
+            if not (np.isfinite(v) and v > 0):
+                raise InputError(f"time constants must be positive, found {v!r} s", key="material.branches")
+
+    @property
+    def n_branches(self) -> int:
+        return len(self.G)
+
+    @property
+    def split(self) -> bool:
+        return self.tauK is not None
+
+    @property
+    def tau_K(self) -> tuple[float, ...]:
+        return self.tauG if self.tauK is None else self.tauK
+
+    @classmethod
+    def paper_fit(cls) -> "Material":
+        """VBMM-fit constants of the paper (section V.A): refit on motion data."""
+        return cls(0.00905 * MPa, 6.434 * MPa, (0.0183 * MPa,), (13.645 * MPa,), (0.213,))
+
+    @classmethod
+    def paper_mat(cls) -> "Material":
+        """VBMM-mat. constants of the paper: straight from the relaxation test."""
+        return cls(0.00905 * MPa, 6.753 * MPa, (0.0183 * MPa,), (13.639 * MPa,), (0.399,))
+
+    def scaled(self, factor: float) -> "Material":
+        """All moduli times ``factor`` (time constants unchanged)."""
+        return dataclasses.replace(self, G_inf=self.G_inf * factor, K_inf=self.K_inf * factor,
+                                   G=tuple(v * factor for v in self.G), K=tuple(v * factor for v in self.K))
+
+    def to_yaml(self, stderr: dict | None = None) -> dict:
+        """``material`` block of ``bpmid.vbmm/1`` (param mappings in Pa and s)."""
+        se = stderr or {}
+
+        def par(name, value, unit):
+            s = se.get(name)
+            return {"value": float(value), "stderr": None if s is None or not np.isfinite(s) else float(s), "unit": unit}
+
+        branches = []
+        for j in range(self.n_branches):
+            b = {"G": par(f"G_{j + 1}", self.G[j], "Pa"), "K": par(f"K_{j + 1}", self.K[j], "Pa")}
+            if self.split:
+                b["tauG"] = par(f"tauG_{j + 1}", self.tauG[j], "s")
+                b["tauK"] = par(f"tauK_{j + 1}", self.tauK[j], "s")
+            else:
+                b["tau"] = par(f"tau_{j + 1}", self.tauG[j], "s")
+            branches.append(b)
+        return {"G_inf": par("G_inf", self.G_inf, "Pa"), "K_inf": par("K_inf", self.K_inf, "Pa"), "branches": branches}
+
+
+@dataclasses.dataclass(frozen=True)
+class VBMMConfig:
+    """Config section ``model``: how the VBMM is evaluated.
+
+    Attributes
+    ----------
+    closure : "paper" (eq. 18 literally, SI) or "consistent"
+    history : "recursive" (exact, default), "window" (eq. 19) or "full" (eq. 5)
+    window_s : sliding-window length T_win (s), used by history = window
+    geometry : muscle geometry in SI (m, rad)
+    """
+
+    closure: Literal["paper", "consistent"] = "paper"
+    history: Literal["recursive", "window", "full"] = "recursive"
+    window_s: float = 20.0
+    geometry: Geometry = dataclasses.field(default_factory=Geometry)
+
+    def validate(self, where, path):
+        if not self.window_s > 0:
+            raise InputError(f"window length must be positive, found {self.window_s:g} s", path=path,
+                             key=f"{where}.window_s")
+        self.geometry.validate(f"{where}.geometry", path)
+
+
+_MODES = {"recursive": 0, "window": 1, "full": 2}
+_CLOSURES = {"paper": 0, "consistent": 1}
+
+
+# ---------------------------------------------------------------------------------------------
+# kinematics (vectorised)
+# ---------------------------------------------------------------------------------------------
+def u3_from_beta(beta, geo: Geometry = Geometry()):
+    """Radial displacement u3 (m) for bending angle beta (rad): eq. (18), first line."""
+    beta = np.asarray(beta, float)
+    pn2 = 4.0 * math.pi**2 * geo.n**2
+    D = geo.l0**2 + pn2 * geo.R0**2
+    E = pn2**2 * geo.R0**2
+    return -2.0 * geo.R0 + (2.0 * np.sqrt(D * beta**2 + E) - 2.0 * geo.l0 * beta) / (beta**2 + pn2)
+
+
+def kinematics(u3, geo: Geometry = Geometry()) -> dict:
+    """Everything that follows from u3 (m): F, eps1, eps2, beta (rad), R (m), cos(alpha)."""
+    u3 = np.asarray(u3, float)
+    A = -math.pi**2 * geo.n**2 / geo.l0**2
+    B = -4.0 * math.pi**2 * geo.n**2 * geo.R0 / geo.l0**2
+    F = np.sqrt(1.0 + A * u3**2 + B * u3)
+    eps1 = F - 1.0
+    eps2 = u3 / geo.R0
+    beta = 2.0 * (F - 1.0) * geo.l0 / (2.0 * geo.R0 + u3)
+    return {"F": F, "eps1": eps1, "eps2": eps2, "beta": beta, "R": geo.R0 + 0.5 * u3,
+            "cos_alpha": math.cos(geo.alpha0) * (1.0 + eps2)}
+
+
+def closure_pressure(u3, sigma1, sigma2, geo: Geometry = Geometry(), closure: str = "paper"):
+    """Gauge pressure (Pa) from u3 (m) and the stresses (Pa) by the chosen closure."""
+    kin = kinematics(u3, geo)
+    F, R = kin["F"], kin["R"]
+    if closure == "paper":
+        gb = geo.l0 * math.cos(geo.alpha0) * (1.0 + np.asarray(u3) / geo.R0)
+        return geo.th / R * (sigma2 + (sigma2 * gb + sigma1 * (F - 1.0)) / (1.0 - 2.0 * gb * F))
+    if closure == "consistent":
+        return geo.th / R * (sigma2 + sigma1 * (F - 1.0) / (1.0 - kin["cos_alpha"]))
+    raise InputError(f"unknown closure {closure!r} (paper or consistent)", key="model.closure")
+
+
+# ---------------------------------------------------------------------------------------------
+# the model
+# ---------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class VBMM:
+    """A VBMM with fixed constants; evaluate with :meth:`forward` and :meth:`inverse`.
+
+    Attributes
+    ----------
+    material : Prony constants (Pa, s)
+    geometry : SI geometry
+    closure : "paper" or "consistent"
+    history : "recursive", "window" or "full"
+    window_s : T_win (s) for history = "window"
+    fall_ratio : time constants are multiplied by this on falling-pressure steps (1 = symmetric;
+        the asymmetric_relaxation effect; recursive history only)
+    stiffening : strain-stiffening coefficient c, moduli scale by (1 + c eps1^2) (0 = linear; the
+        strain_stiffening effect)
+    """
+
+    material: Material = dataclasses.field(default_factory=Material.paper_fit)
+    geometry: Geometry = dataclasses.field(default_factory=Geometry)
+    closure: str = "paper"
+    history: str = "recursive"
+    window_s: float = 20.0
+    fall_ratio: float = 1.0
+    stiffening: float = 0.0
+
+    def __post_init__(self):
+        if self.closure not in _CLOSURES:
+            raise InputError(f"unknown closure {self.closure!r} (paper or consistent)", key="model.closure")
+        if self.history not in _MODES:
+            raise InputError(f"unknown history mode {self.history!r} (recursive, window or full)", key="model.history")
+        if self.fall_ratio != 1.0 and self.history != "recursive":
+            raise InputError("asymmetric relaxation (fall_ratio != 1) needs history = recursive", key="model.history")
+
+    @classmethod
+    def from_config(cls, material: Material, cfg: VBMMConfig | None = None, **kw) -> "VBMM":
+        cfg = cfg or VBMMConfig()
+        return cls(material=material, geometry=cfg.geometry, closure=cfg.closure, history=cfg.history,
+                   window_s=cfg.window_s, **kw)
+
+    def replace(self, **kw) -> "VBMM":
+        return dataclasses.replace(self, **kw)
+
+    # -- forward ------------------------------------------------------------------------------
+    def forward_full(self, t, p_gauge_pa, *, scale=None, name: str = "log"):
+        """Forward model with every internal signal.
+
+        Parameters
+        ----------
+        t : (N,) s, strictly increasing
+        p_gauge_pa : (N,) gauge pressure, Pa
+        scale : (N,) per-step modulus scale (thermal softening), default ones
+
+        Returns
+        -------
+        dict with beta (rad), eps1, eps2, status (N,)
+        """
+        t = np.ascontiguousarray(t, float)
+        p = np.ascontiguousarray(p_gauge_pa, float)
+        if t.shape != p.shape or t.ndim != 1:
+            raise ValueError("t and p must be 1-D arrays of equal length")
+        sc = np.ones_like(t) if scale is None else np.ascontiguousarray(scale, float)
+        m = self.material
+        beta, e1, e2, status = K.forward_kernel(
+            t, p, self.geometry.vector(), _CLOSURES[self.closure],
+            float(m.G_inf), np.asarray(m.G, float), np.asarray(m.tauG, float),
+            float(m.K_inf), np.asarray(m.K, float), np.asarray(m.tau_K, float),
+            _MODES[self.history], float(self.window_s), float(self.fall_ratio), float(self.stiffening), sc)
+        return {"beta": beta, "eps1": e1, "eps2": e2, "status": status}
+
+    def forward(self, t, p_gauge_pa, *, scale=None, name: str = "log", path=None) -> np.ndarray:
+        """Bending angle beta (rad), shape (N,), for gauge pressures (Pa). Pressures needing
+        beta > 4 pi are refused (InputError naming the log and the time)."""
+        out = self.forward_full(t, p_gauge_pa, scale=scale, name=name)
+        bad = np.flatnonzero(out["status"] == K.STATUS_ABOVE_RANGE)
+        if bad.size:
+            k = int(bad[0])
+            raise InputError(f"{name}: pressure {p_gauge_pa[k]:.6g} Pa gauge at t = {t[k]:g} s is above the model's "
+                             f"range (it would bend the muscle beyond 4 pi rad)", path=path)
+        if np.any(out["status"] == K.STATUS_NO_CONVERGENCE):  # pragma: no cover - safeguarded solve
+            k = int(np.flatnonzero(out["status"] == K.STATUS_NO_CONVERGENCE)[0])
+            raise RuntimeError(f"{name}: forward solve did not converge at t = {t[k]:g} s")
+        return out["beta"]
+
+    def forward_deg(self, t, p_gauge_pa, **kw) -> np.ndarray:
+        return np.degrees(self.forward(t, p_gauge_pa, **kw))
+
+    # -- inverse ------------------------------------------------------------------------------
+    def _operator(self, t, x, M_inf, M, tau, direction=None):
+        if self.history == "recursive":
+            if self.fall_ratio != 1.0 and direction is not None:
+                return M_inf * x + _asymmetric_states(t, x, np.asarray(tau), self.fall_ratio, direction) @ np.asarray(M)
+            return hereditary_recursive(t, x, M_inf, M, tau)
+        if self.history == "window":
+            return hereditary_window(t, x, M_inf, M, tau, self.window_s)
+        return hereditary_full(t, x, M_inf, M, tau)
+
+    def stresses(self, t, beta, *, scale=None, direction=None) -> dict:
+        """sigma1, sigma2 (Pa) and the strains along an angle history beta (rad)."""
+        t = np.asarray(t, float)
+        beta = np.asarray(beta, float)
+        u3 = u3_from_beta(beta, self.geometry)
+        kin = kinematics(u3, self.geometry)
+        e1, e2 = kin["eps1"], kin["eps2"]
+        m = self.material
+        g1 = self._operator(t, e1, m.G_inf, m.G, m.tauG, direction)
+        g2 = self._operator(t, e2, m.G_inf, m.G, m.tauG, direction)
+        k1 = self._operator(t, e1, m.K_inf, m.K, m.tau_K, direction)
+        k2 = self._operator(t, e2, m.K_inf, m.K, m.tau_K, direction)
+        lam = k1 + k2 - (2.0 / 3.0) * (g1 + g2)
+        s = (1.0 + self.stiffening * e1**2) * (1.0 if scale is None else np.asarray(scale, float))
+        return {"u3": u3, "eps1": e1, "eps2": e2, "sigma1": s * (2.0 * g1 + lam), "sigma2": s * (2.0 * g2 + lam)}
+
+    def inverse(self, t, beta_rad, *, scale=None, direction=None) -> np.ndarray:
+        """Gauge pressure (Pa), shape (N,), that produces the angle history ``beta_rad`` (closed form).
+
+        ``direction`` (N,) of +1/-1 marks rising/falling steps for asymmetric relaxation (default: the
+        sign of the angle change).
+        """
+        beta_rad = np.asarray(beta_rad, float)
+        if direction is None and self.fall_ratio != 1.0:
+            direction = np.sign(np.diff(beta_rad, prepend=beta_rad[0]))
+        st = self.stresses(t, beta_rad, scale=scale, direction=direction)
+        return closure_pressure(st["u3"], st["sigma1"], st["sigma2"], self.geometry, self.closure)
+
+    def equilibrium_pressure(self, beta_rad) -> np.ndarray:
+        """Relaxed-equilibrium gauge pressure (Pa) for a held angle (long-term moduli only)."""
+        beta_rad = np.atleast_1d(np.asarray(beta_rad, float))
+        u3 = u3_from_beta(beta_rad, self.geometry)
+        kin = kinematics(u3, self.geometry)
+        m = self.material
+        e1, e2 = kin["eps1"], kin["eps2"]
+        lam = (m.K_inf - 2.0 / 3.0 * m.G_inf) * (e1 + e2)
+        s = 1.0 + self.stiffening * e1**2
+        return closure_pressure(u3, s * (2 * m.G_inf * e1 + lam), s * (2 * m.G_inf * e2 + lam), self.geometry, self.closure)
+
+    def equilibrium_angle(self, p_gauge_pa) -> np.ndarray:
+        """Relaxed-equilibrium angle (rad) for held gauge pressures (Pa), by the same compiled solve."""
+        p = np.atleast_1d(np.asarray(p_gauge_pa, float))
+        relaxed = self.replace(material=Material(self.material.G_inf, self.material.K_inf), history="recursive",
+                               fall_ratio=1.0)
+        # each pressure on its own: a one-sample log is the relaxed equilibrium (h = 0)
+        return np.array([relaxed.forward(np.zeros(1), np.array([pk]))[0] for pk in p])
+
+
+def _asymmetric_states(t, x, tau, ratio, direction):
+    """Branch states with tau multiplied by ``ratio`` on falling steps (direction < 0)."""
+    t = np.asarray(t, float)
+    x = np.asarray(x, float)
+    dt = np.diff(t, prepend=t[0])
+    dx = np.diff(x, prepend=x[0])
+    falling = np.asarray(direction) < 0
+    h = np.zeros((t.size, tau.size))
+    for j, tj in enumerate(tau):
+        a = np.exp(-dt / np.where(falling, tj * ratio, tj))
+        # h_k = a_k h_{k-1} + dx_k: a linear recursion with varying coefficient
+        hj = 0.0
+        col = h[:, j]
+        for k in range(1, t.size):
+            hj = a[k] * hj + dx[k]
+            col[k] = hj
+    return h
+
+
+# ---------------------------------------------------------------------------------------------
+# parameter files (schema bpmid.vbmm/1)
+# ---------------------------------------------------------------------------------------------
+def material_from_yaml(data: dict, path=None) -> Material:
+    """Read the ``material`` block of a ``bpmid.vbmm/1`` file (values in Pa and s)."""
+    from bpmid.params import parse_param_entry
+    from bpmid.io.results import require
+
+    def val(entry, key, unit):
+        v, _se, u = parse_param_entry(entry, path=path, key=key)
+        if u is not None and u != unit:
+            raise InputError(f"unit {u!r} where {unit!r} is expected", path=path, key=key)
+        return v
+
+    mat = require(data, "material", path)
+    G_inf = val(require(data, "material.G_inf", path), "material.G_inf", "Pa")
+    K_inf = val(require(data, "material.K_inf", path), "material.K_inf", "Pa")
+    branches = mat.get("branches", [])
+    if not isinstance(branches, list):
+        raise InputError("material.branches must be a list of {G, K, tau}", path=path, key="material.branches")
+    G, Kk, tG, tK, split = [], [], [], [], False
+    for j, b in enumerate(branches):
+        key = f"material.branches[{j}]"
+        if not isinstance(b, dict):
+            raise InputError("expected a mapping {G, K, tau}", path=path, key=key)
+        for req in ("G", "K"):
+            if req not in b:
+                raise InputError("missing key", path=path, key=f"{key}.{req}")
+        G.append(val(b["G"], f"{key}.G", "Pa"))
+        Kk.append(val(b["K"], f"{key}.K", "Pa"))
+        if "tau" in b:
+            tG.append(val(b["tau"], f"{key}.tau", "s"))
+            tK.append(tG[-1])
+        elif "tauG" in b and "tauK" in b:
+            split = True
+            tG.append(val(b["tauG"], f"{key}.tauG", "s"))
+            tK.append(val(b["tauK"], f"{key}.tauK", "s"))
+        else:
+            raise InputError("missing key (tau, or tauG and tauK)", path=path, key=f"{key}.tau")
+    try:
+        return Material(G_inf, K_inf, tuple(G), tuple(Kk), tuple(tG), tuple(tK) if split else None)
+    except InputError as exc:
+        raise InputError(exc.message, path=path, key=exc.key) from None
+
+
+def geometry_from_yaml(data: dict | None, path=None) -> Geometry:
+    if data is None:
+        return Geometry()
+    if not isinstance(data, dict):
+        raise InputError("geometry must be a mapping th, alpha0, R0, l0, n (SI)", path=path, key="geometry")
+    known = {f.name for f in dataclasses.fields(Geometry)}
+    for k in data:
+        if k not in known:
+            raise InputError(f"unknown geometry key (known: {', '.join(sorted(known))})", path=path, key=f"geometry.{k}")
+    vals = {}
+    for k, v in data.items():
+        if isinstance(v, dict):
+            v = v.get("value")
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise InputError(f"expected a number in SI units, found {v!r}", path=path, key=f"geometry.{k}")
+        vals[k] = float(v)
+    geo = Geometry(**vals)
+    geo.validate("geometry", path)
+    return geo
+
+
+def load_vbmm(path: str | Path, cfg: VBMMConfig | None = None) -> VBMM:
+    """A :class:`VBMM` from a ``bpmid.vbmm/1`` file (``--params``). Keys of CLI.md suffice; ``history``
+    and ``window_s`` come from the config section ``model`` unless the file has a ``model`` block."""
+    from bpmid.io.results import read_result
+
+    path = Path(path)
+    data = read_result(path, "bpmid.vbmm/")
+    cfg = cfg or VBMMConfig()
+    material = material_from_yaml(data, path)
+    geometry = geometry_from_yaml(data.get("geometry"), path) if "geometry" in data else cfg.geometry
+    closure = data.get("closure", cfg.closure)
+    if closure not in _CLOSURES:
+        raise InputError(f"unknown closure {closure!r} (paper or consistent)", path=path, key="closure")
+    return VBMM(material=material, geometry=geometry, closure=closure, history=cfg.history, window_s=cfg.window_s)
+
+
+def vbmm_yaml_body(model: VBMM, stderr: dict | None = None) -> dict:
+    """The model part of a ``bpmid.vbmm/1`` file (geometry, closure, material, history settings)."""
+    return {"geometry": model.geometry.to_yaml(), "closure": model.closure,
+            "material": model.material.to_yaml(stderr),
+            "model": {"history": model.history, "window_s": model.window_s}}
+
+
+def triangle_pressure(t: np.ndarray, p_lo: float, p_hi: float, rate: float) -> np.ndarray:
+    """A symmetric triangle wave between p_lo and p_hi at +-rate (units of p per s), starting at p_lo."""
+    period = 2.0 * (p_hi - p_lo) / rate
+    ph = np.mod(np.asarray(t, float), period)
+    up = ph < period / 2
+    return np.where(up, p_lo + rate * ph, p_hi - rate * (ph - period / 2))
+
+
+__all__: Sequence[str] = ["Geometry", "Material", "VBMM", "VBMMConfig", "kinematics", "u3_from_beta",
+                          "closure_pressure", "load_vbmm", "vbmm_yaml_body", "material_from_yaml"]
