@@ -1,0 +1,122 @@
+"""The effect interface: one catalogue entry = one physical effect the plain VBMM lacks.
+
+An effect has a fixed id (../shared/spec/DISCOVER.md), parameters with units, bounds and a default
+(the "moderate size" the twin injects), a value that means "absent", and up to four *model terms*
+that compose with the VBMM (:class:`AugmentedVBMM`):
+
+1. ``transform_pressure``: the muscle sees a different pressure than the log (pressure_lag,
+   braid_friction as a pressure dead band)
+2. ``vbmm_changes``: keyword changes to the :class:`~bpmid.models.vbmm.VBMM` (an extra Prony branch,
+   fall_ratio, stiffening)
+3. ``modulus_scale``: a per-step scale of all moduli (thermal_softening)
+4. ``transform_angle``: the sensor reads something else (angle_offset)
+
+and a *signature* for screening (``signature_columns``): regressors whose projection explains the
+residual when the effect is present (used by :mod:`bpmid.discover`). Adding an effect to the
+catalogue is one new class plus one line in :data:`bpmid.effects.CATALOGUE`.
+
+Units: pressure in Pa (gauge), angle in degrees, time in s.
+"""
+from __future__ import annotations
+
+import abc
+import dataclasses
+from typing import ClassVar, Sequence
+
+import numpy as np
+
+from bpmid.io.motion_logs import MotionLog
+from bpmid.models.vbmm import VBMM
+from bpmid.params import ParamSet
+
+
+class Effect(abc.ABC):
+    """A catalogue effect. Constructors store settings only (e.g. the twin's variant of the physics)."""
+
+    id: ClassVar[str] = ""
+    meaning: ClassVar[str] = ""
+    where_it_shows: ClassVar[str] = ""
+
+    @abc.abstractmethod
+    def default_params(self) -> ParamSet:
+        """Parameters (names prefixed ``<id>.``), default = the moderate size the twin injects; with bounds."""
+
+    def null_values(self) -> dict[str, float]:
+        """Parameter values at which the effect is absent (the augmented model equals the base)."""
+        return {}
+
+    # -- model terms (identity by default) ----------------------------------------------------
+    def transform_pressure(self, t: np.ndarray, p: np.ndarray, params: ParamSet) -> np.ndarray:
+        return p
+
+    def vbmm_changes(self, base: VBMM, params: ParamSet) -> dict:
+        return {}
+
+    def modulus_scale(self, t: np.ndarray, params: ParamSet) -> np.ndarray | None:
+        return None
+
+    def transform_angle(self, t: np.ndarray, beta_deg: np.ndarray, params: ParamSet) -> np.ndarray:
+        return beta_deg
+
+    # -- screening signature (discover) -------------------------------------------------------
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        """(N, q) regressors of this effect's signature on ``log`` given the base model's prediction.
+        Default: none (the effect is screened only by its refit)."""
+        return np.zeros((log.n, 0))
+
+    def describe(self, params: ParamSet) -> str:
+        vals = ", ".join(f"{p.name.split('.', 1)[-1]} = {p.value:.4g} {p.unit}" for p in params
+                         if p.name.startswith(self.id + "."))
+        return f"{self.id} ({vals})"
+
+
+@dataclasses.dataclass(frozen=True)
+class AugmentedVBMM:
+    """The VBMM plus effects, each with its parameters. With no effects it is the VBMM itself.
+
+    Attributes
+    ----------
+    base : the VBMM
+    effects : the effects in the order they act
+    params : one ParamSet holding every effect's parameters (names ``<id>.<name>``)
+    """
+
+    base: VBMM
+    effects: tuple[Effect, ...] = ()
+    params: ParamSet = dataclasses.field(default_factory=lambda: ParamSet([]))
+
+    def model(self) -> VBMM:
+        """The VBMM with the effects' structural changes applied."""
+        m = self.base
+        for e in self.effects:
+            changes = e.vbmm_changes(m, self.params)
+            if changes:
+                m = m.replace(**changes)
+        return m
+
+    def simulate_deg(self, t: np.ndarray, p_gauge_pa: np.ndarray, *, name: str = "log", path=None) -> np.ndarray:
+        """Angle (deg) for a gauge-pressure history (Pa)."""
+        t = np.asarray(t, float)
+        p = np.asarray(p_gauge_pa, float)
+        for e in self.effects:
+            p = e.transform_pressure(t, p, self.params)
+        scale = None
+        for e in self.effects:
+            s = e.modulus_scale(t, self.params)
+            if s is not None:
+                scale = s if scale is None else scale * s
+        beta = np.degrees(self.model().forward(t, p, scale=scale, name=name, path=path))
+        for e in self.effects:
+            beta = e.transform_angle(t, beta, self.params)
+        return beta
+
+    def simulate_log(self, log: MotionLog) -> np.ndarray:
+        return self.simulate_deg(log.time_s, log.pressure_pa, name=log.name, path=log.path)
+
+
+def effect_params(effects: Sequence[Effect]) -> ParamSet:
+    """The default parameters of several effects in one set."""
+    out: list = []
+    for e in effects:
+        out.extend(e.default_params())
+    return ParamSet(out)
