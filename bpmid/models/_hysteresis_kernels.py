@@ -1,0 +1,172 @@
+"""Compiled step-by-step recursions of the baseline models (numba, ``cache=True``).
+
+Only the recursions live here; envelopes, dead-time shifts, designs and fits are vectorised numpy in
+the model modules. Every kernel takes and returns float64 numpy arrays and is generic in its input
+signal (pressure in bar for the muscle, displacement in mm for the friction check): units are the
+caller's.
+
+- :func:`play_bank`: a bank of generalized play operators (GPI; classical PI for identity envelopes)
+- :func:`stop_bank`: a bank of stop operators = Maxwell-slip elastoplastic elements (element deflections)
+- :func:`first_order_exact`: exact exponential stepping of ``b dy/dt + k y = f`` with piecewise-constant
+  coefficients (three-element model; the dead time is applied to the input before the call)
+- :func:`direction_with_deadband`: rising/falling flag of a noisy input with a dead band (two-branch and
+  three-element models switch on it)
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def play_bank(gamma_l, gamma_r, r, z_init):  # pragma: no cover - compiled
+    """Generalized play operators ``z_k = max(gamma_l_k - r, min(gamma_r_k + r, z_{k-1}))``.
+
+    Parameters
+    ----------
+    gamma_l, gamma_r : (N,) float
+        Rising (gamma_l) and falling (gamma_r) envelopes evaluated at the input samples, in envelope
+        units (the input's unit for the classical PI, where both equal the input).
+    r : (m,) float
+        Thresholds (envelope units), >= 0.
+    z_init : (m,) float
+        Operator states before the first sample.
+
+    Returns
+    -------
+    z : (N, m) float
+        Operator outputs (envelope units).
+    """
+    n = gamma_l.shape[0]
+    m = r.shape[0]
+    out = np.empty((n, m))
+    z = z_init.copy()
+    for k in range(n):
+        gl = gamma_l[k]
+        gr = gamma_r[k]
+        for i in range(m):
+            zi = z[i]
+            hi = gr + r[i]
+            if zi > hi:
+                zi = hi
+            lo = gl - r[i]
+            if zi < lo:  # max() applied last, as in the definition
+                zi = lo
+            z[i] = zi
+            out[k, i] = zi
+    return out
+
+
+@njit(cache=True)
+def stop_bank(u, slip, d_init):  # pragma: no cover - compiled
+    """Maxwell-slip elements (stop operators): ``d_k = sat_D(u_k - u_{k-1} + d_{k-1})``.
+
+    Element i is a spring of stiffness k_i in series with a slip block that holds up to the force
+    w_i = k_i D_i; its deflection d_i follows the input increment until |d_i| reaches the slip limit
+    D_i, then the block slides. The element force is ``k_i * d_i`` (saturates at +-w_i).
+
+    Parameters
+    ----------
+    u : (N,) float
+        Input (any unit; the first sample is taken as the previous one, no jump at k = 0).
+    slip : (n,) float
+        Slip limits D_i (input unit), >= 0.
+    d_init : (n,) float
+        Deflections before the first sample (input unit), |d_init| <= D.
+
+    Returns
+    -------
+    d : (N, n) float
+        Element deflections (input unit).
+    """
+    n = u.shape[0]
+    m = slip.shape[0]
+    out = np.empty((n, m))
+    d = d_init.copy()
+    prev = u[0] if n > 0 else 0.0
+    for k in range(n):
+        du = u[k] - prev
+        prev = u[k]
+        for i in range(m):
+            x = d[i] + du
+            lim = slip[i]
+            if x > lim:
+                x = lim
+            elif x < -lim:
+                x = -lim
+            d[i] = x
+            out[k, i] = x
+    return out
+
+
+@njit(cache=True)
+def first_order_exact(y_eq, decay, y0):  # pragma: no cover - compiled
+    """Exact step of ``b dy/dt + k y = f`` for coefficients held constant over each step.
+
+    With y_eq = f/k and decay = exp(-k dt / b) for the step ending at sample k:
+    ``y_k = y_eq_k + (y_{k-1} - y_eq_k) * decay_k``. Stable for any dt (0 <= decay <= 1).
+
+    Parameters
+    ----------
+    y_eq : (N,) float
+        Equilibrium value for each step (output unit).
+    decay : (N,) float
+        exp(-dt_k k_k / b_k), in [0, 1]; ``decay[0]`` is not used (y_0 = y0).
+    y0 : float
+        Output at the first sample.
+
+    Returns
+    -------
+    y : (N,) float
+    """
+    n = y_eq.shape[0]
+    y = np.empty(n)
+    if n == 0:
+        return y
+    y[0] = y0
+    prev = y0
+    for k in range(1, n):
+        prev = y_eq[k] + (prev - y_eq[k]) * decay[k]
+        y[k] = prev
+    return y
+
+
+@njit(cache=True)
+def direction_with_deadband(u, tol):  # pragma: no cover - compiled
+    """+1 while the input rises, -1 while it falls; a reversal counts once u has left the last extremum by tol.
+
+    Sensor noise smaller than ``tol`` therefore does not flip a branch (a plain sign of the difference
+    would chatter on every noisy hold).
+
+    Parameters
+    ----------
+    u : (N,) float
+    tol : float
+        Dead band, in the unit of u (>= 0).
+
+    Returns
+    -------
+    direction : (N,) float, +1.0 or -1.0 (starts rising)
+    """
+    n = u.shape[0]
+    out = np.empty(n)
+    if n == 0:
+        return out
+    direction = 1.0
+    ext = u[0]
+    for k in range(n):
+        x = u[k]
+        if direction > 0:
+            if x > ext:
+                ext = x
+            elif x < ext - tol:
+                direction = -1.0
+                ext = x
+        else:
+            if x < ext:
+                ext = x
+            elif x > ext + tol:
+                direction = 1.0
+                ext = x
+        out[k] = direction
+    return out

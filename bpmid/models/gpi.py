@@ -1,0 +1,329 @@
+"""Generalized Prandtl-Ishlinskii (GPI) model: a weighted bank of generalized play operators.
+
+Model (BASELINES.md; Al Janaideh, Rakheja, Su 2009/2011), with the input v in ``input_unit``
+(bar of gauge pressure for a muscle log):
+
+    z_i,k = max(gamma_l(v_k) - r_i, min(gamma_r(v_k) + r_i, z_i,k-1))      i = 1..m
+    y_k   = p0 v_k + c + sum_i w_i z_i,k,          w_i >= 0
+
+``gamma_l`` (rising branch) and ``gamma_r`` (falling branch) are increasing envelopes:
+
+- ``envelope="tanh"``: gamma(v) = amp tanh(slope v + shift) (+ offset for gamma_r only: a common offset
+  of both envelopes shifts every z_i alike and is absorbed by c, so gamma_l carries none);
+- ``envelope="linear"``: gamma_l(v) = v, gamma_r(v) = slope v + offset (gamma_l fixes the scale);
+- ``envelope="identity"``: gamma_l = gamma_r = v, the classical PI model (no envelope parameters).
+
+Identification (variable projection): thresholds r_i = (i/m) * half the input span of the training
+data (fixed); for given envelopes the output is linear in (p0, c, w_i), solved by bounded linear least
+squares (w_i >= 0); the envelope parameters are fitted by the shared nonlinear least-squares driver
+around that inner solve. :func:`fit_variable_projection` (used by Maxwell-slip too) turns the result
+into an ordinary :class:`bpmid.fitting.FitResult` with standard errors from the joint Jacobian.
+
+The model is rate-independent: it cannot show creep (that is the point of the comparison).
+
+Every method works on a generic input signal (``*_arrays``): the friction check of
+:mod:`bpmid.external.friction` feeds displacement in mm and fits force in N.
+"""
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+import numpy as np
+from scipy.optimize import lsq_linear
+
+from bpmid.errors import InputError
+from bpmid.fitting import (FitResult, correlation, covariance_from_jacobian, effective_sample_size,
+                           fit_least_squares)
+from bpmid.io.motion_logs import MotionLog
+from bpmid.models._hysteresis_kernels import play_bank
+from bpmid.models.base import ModelFamily, check_fit_logs
+from bpmid.params import Param, ParamSet
+
+#: Pa per bar: muscle logs carry gauge pressure in Pa, the baselines work in bar (well-conditioned)
+PA_PER_BAR = 1e5
+
+ENVELOPES = ("tanh", "linear", "identity")
+
+
+# --------------------------------------------------------------------------------------------------
+# variable projection: outer nonlinear parameters, inner bounded linear least squares
+# --------------------------------------------------------------------------------------------------
+def solve_linear(design: np.ndarray, y: np.ndarray, nonneg: np.ndarray) -> np.ndarray:
+    """Least-squares coefficients of ``design @ theta ~ y`` with ``theta[nonneg] >= 0``.
+
+    Parameters
+    ----------
+    design : (N, q) float
+    y : (N,) float
+    nonneg : (q,) bool
+
+    Returns
+    -------
+    theta : (q,) float
+    """
+    lo = np.where(nonneg, 0.0, -np.inf)
+    hi = np.full(nonneg.shape, np.inf)
+    # columns differ by orders of magnitude (1, v, v^2, deflections): scale them so BVLS is well posed
+    norm = np.linalg.norm(design, axis=0)
+    norm[norm == 0] = 1.0
+    sol = lsq_linear(design / norm, y, bounds=(lo, hi), method="bvls", tol=1e-12)
+    return sol.x / norm
+
+
+def fit_variable_projection(design_fn: Callable[[ParamSet], np.ndarray], y: np.ndarray, params: ParamSet,
+                            linear: Sequence[str], nonneg: Sequence[bool], *,
+                            segments: Sequence[int] | None = None, **fit_kw) -> FitResult:
+    """Fit outer (nonlinear) parameters by least squares with the linear ones solved inside.
+
+    Parameters
+    ----------
+    design_fn : ParamSet -> (N, q) design matrix (all logs stacked); column j multiplies ``linear[j]``
+    y : (N,) measured output (stacked)
+    params : every parameter; the free ones not named in ``linear`` are the outer parameters
+    linear : names of the q linear coefficients (in column order)
+    nonneg : (q,) which linear coefficients are constrained >= 0
+    segments : per-log lengths (effective sample size)
+    **fit_kw : passed to :func:`bpmid.fitting.fit_least_squares` for the outer fit
+
+    Returns
+    -------
+    FitResult
+        All estimated parameters (outer and linear) with standard errors from the joint Jacobian
+        [d residual / d outer, design] at the optimum (covariance_from_jacobian, N_eff inflation).
+        Linear coefficients at their zero bound are reported as not identifiable (``held``).
+    """
+    y = np.asarray(y, float)
+    nonneg = np.asarray(nonneg, bool)
+    linear = list(linear)
+    outer_start = ParamSet(p.replace(fixed=True) if p.name in linear else p for p in params)
+
+    def residual(p: ParamSet) -> np.ndarray:
+        a = design_fn(p)
+        return a @ solve_linear(a, y, nonneg) - y
+
+    res = fit_least_squares(residual, outer_start, segments=segments, **fit_kw)
+    fitted = res.params
+    a = design_fn(fitted)
+    theta = solve_linear(a, y, nonneg)
+    r = a @ theta - y
+    outer_names = list(res.free_names)
+
+    # joint Jacobian in value space: central differences for the outer parameters, the design for the rest
+    cols = []
+    for name in outer_names:
+        v = fitted.value(name)
+        h = 1e-6 * max(abs(v), 1e-3)
+        up = design_fn(fitted.replace(name, value=v + h)) @ theta
+        dn = design_fn(fitted.replace(name, value=v - h)) @ theta
+        cols.append((up - dn) / (2 * h))
+    scale_tol = 1e-12 * max(np.abs(theta).max(initial=0.0), 1.0)
+    active = ~(nonneg & (theta <= scale_tol))
+    active_idx = np.flatnonzero(active)
+    jac = np.column_stack(cols + [a[:, j] for j in active_idx]) if (cols or active_idx.size) else np.zeros((y.size, 0))
+    n_eff = effective_sample_size(r, segments)
+    norm = np.linalg.norm(jac, axis=0)
+    norm[norm == 0] = 1.0
+    cov = covariance_from_jacobian(jac / norm, r, n_eff) / np.outer(norm, norm)
+    se = np.sqrt(np.abs(np.diag(cov)))
+    names = outer_names + [linear[j] for j in active_idx]
+
+    out = fitted
+    for i, name in enumerate(names):
+        out = out.replace(name, stderr=float(se[i]) if np.isfinite(se[i]) else None, identifiable=True)
+    held = dict(res.held)
+    for j, name in enumerate(linear):
+        if active[j]:
+            out = out.replace(name, value=float(theta[j]), fixed=False)
+        else:
+            why = "at its non-negativity bound 0 (the data give it no weight)"
+            out = out.replace(name, value=0.0, fixed=False, stderr=None, identifiable=False, note=why)
+            held[name] = why
+    return FitResult(out, names, cov, correlation(cov), r, r.size, n_eff, bool(res.success),
+                     str(res.message), int(res.nfev), held)
+
+
+def check_arrays(model: ModelFamily, us: Sequence[np.ndarray], ys: Sequence[np.ndarray], n_params: int) -> None:
+    """Refuse signal pairs a model cannot be identified from (shapes, NaNs, too few samples)."""
+    if not us or len(us) != len(ys):
+        raise InputError(f"{model.name}: need as many output signals as input signals (got {len(us)} and {len(ys)})")
+    total = 0
+    for u, y in zip(us, ys):
+        if u.shape != y.shape or u.ndim != 1:
+            raise InputError(f"{model.name}: input and output must be 1-D of equal length, found {u.shape} and {y.shape}")
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(y))):
+            raise InputError(f"{model.name}: the signals contain NaN or inf")
+        total += u.size
+    need = max(model.min_samples, 3 * n_params)
+    if total < need:
+        raise InputError(f"{model.name}: {total} samples are too few to identify the model "
+                         f"({n_params} parameters; needs at least {need})")
+
+
+# --------------------------------------------------------------------------------------------------
+# envelopes
+# --------------------------------------------------------------------------------------------------
+def envelopes(params: ParamSet, v: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """Rising and falling envelopes (gamma_l, gamma_r) at the inputs ``v`` (N,), in envelope units."""
+    if kind == "identity":
+        return v, v
+    if kind == "linear":
+        return v, params.value("gr_slope") * v + params.value("gr_offset")
+    gl = params.value("gl_amp") * np.tanh(params.value("gl_slope") * v + params.value("gl_shift"))
+    gr = (params.value("gr_amp") * np.tanh(params.value("gr_slope") * v + params.value("gr_shift"))
+          + params.value("gr_offset"))
+    return gl, gr
+
+
+class GPIModel(ModelFamily):
+    """Generalized Prandtl-Ishlinskii model (rate-independent hysteresis, no creep).
+
+    Parameters
+    ----------
+    n_operators : int
+        Number m of play operators (thresholds on a grid over the input range).
+    envelope : {"tanh", "linear", "identity"}
+        Envelope family; "identity" is the classical PI model.
+    input_unit, output_unit : str
+        Units of the generic signals (``"bar"``/``"deg"`` for muscle logs, whose Pa are divided by 1e5).
+    """
+
+    name = "gpi"
+    label = "GPI"
+    min_samples = 40
+
+    def __init__(self, n_operators: int = 10, envelope: str = "tanh", *, input_unit: str = "bar",
+                 output_unit: str = "deg"):
+        if envelope not in ENVELOPES:
+            raise InputError(f"unknown GPI envelope {envelope!r} (known: {', '.join(ENVELOPES)})", key="envelope")
+        if int(n_operators) < 1:
+            raise InputError(f"n_operators must be >= 1, found {n_operators}", key="n_operators")
+        self.n_operators = int(n_operators)
+        self.envelope = envelope
+        self.input_unit = input_unit
+        self.output_unit = output_unit
+
+    # -- parameters -------------------------------------------------------------------------------
+    @property
+    def weight_names(self) -> list[str]:
+        return [f"w{i + 1}" for i in range(self.n_operators)]
+
+    @property
+    def threshold_names(self) -> list[str]:
+        return [f"r{i + 1}" for i in range(self.n_operators)]
+
+    @property
+    def linear_names(self) -> list[str]:
+        return ["p0", "c"] + self.weight_names
+
+    def _envelope_params(self, center: float, half_span: float) -> list[Param]:
+        iu = self.input_unit
+        if self.envelope == "identity":
+            return []
+        if self.envelope == "linear":
+            return [Param("gr_slope", 1.0, "1", 0.05, 20.0),
+                    Param("gr_offset", 0.0, iu, -10 * half_span, 10 * half_span)]
+        # argument of tanh spans about +-0.5 over the input range: nearly linear start, room to saturate
+        slope = 0.5 / half_span
+        amp = half_span / np.tanh(0.5)
+        out = []
+        for side in ("gl", "gr"):
+            out += [Param(f"{side}_amp", amp, iu, 1e-3 * half_span, 1e3 * half_span),
+                    Param(f"{side}_slope", slope, f"1/{iu}", 1e-3 / half_span, 50.0 / half_span),
+                    Param(f"{side}_shift", -slope * center, "1", -20.0, 20.0)]
+        out.append(Param("gr_offset", 0.0, iu, -10 * half_span, 10 * half_span))
+        return out
+
+    def _params_for_range(self, lo: float, hi: float, weights: np.ndarray, p0: float, c: float) -> ParamSet:
+        iu, ou = self.input_unit, self.output_unit
+        center, half = 0.5 * (lo + hi), max(0.5 * (hi - lo), 1e-12)
+        ps = [Param("p0", p0, f"{ou}/{iu}"), Param("c", c, ou)]
+        ps += [Param(n, float(w), f"{ou}/{iu}", 0.0, np.inf) for n, w in zip(self.weight_names, weights)]
+        ps += [Param(n, half * (i + 1) / self.n_operators, iu, 0.0, np.inf, fixed=True)
+               for i, n in enumerate(self.threshold_names)]
+        return ParamSet(ps + self._envelope_params(center, half))
+
+    def default_params(self) -> ParamSet:
+        """Start for a muscle log (0.2-1.2 bar gauge, 10-80 deg): decreasing weights, mild tanh envelopes."""
+        m = self.n_operators
+        weights = 60.0 / m * np.exp(-np.arange(m) / max(m / 3.0, 1.0))
+        return self._params_for_range(0.2, 1.2, weights, p0=40.0, c=25.0)
+
+    # -- simulation -------------------------------------------------------------------------------
+    def operator_outputs(self, params: ParamSet, u: np.ndarray) -> np.ndarray:
+        """Play operator outputs z (N, m) for the input ``u`` (N,) in ``input_unit``.
+
+        The operators start at the mid-point of the envelopes at the first sample (0 for the
+        classical PI started at u = 0), i.e. relaxed.
+        """
+        v = np.ascontiguousarray(u, float)
+        gl, gr = envelopes(params, v, self.envelope)
+        r = np.array([params.value(n) for n in self.threshold_names], float)
+        z0 = np.full(r.size, 0.5 * (gl[0] + gr[0]) if v.size else 0.0)
+        return play_bank(np.ascontiguousarray(gl, float), np.ascontiguousarray(gr, float), r, z0)
+
+    def design(self, params: ParamSet, u: np.ndarray) -> np.ndarray:
+        """Design matrix (N, m + 2) with columns [v, 1, z_1..z_m] for the linear coefficients (p0, c, w)."""
+        v = np.asarray(u, float)
+        return np.column_stack([v, np.ones_like(v), self.operator_outputs(params, v)])
+
+    def simulate_arrays(self, params: ParamSet, u: np.ndarray) -> np.ndarray:
+        """Output (N,) in ``output_unit`` for the input ``u`` (N,) in ``input_unit``."""
+        theta = np.array([params.value(n) for n in self.linear_names], float)
+        return self.design(params, u) @ theta
+
+    def simulate(self, params: ParamSet, log: MotionLog) -> np.ndarray:
+        """Bending angle (deg), shape (log.n,), from the gauge pressure (Pa -> bar)."""
+        return self.simulate_arrays(params, log.pressure_pa / PA_PER_BAR)
+
+    # -- identification ---------------------------------------------------------------------------
+    def initial_guess_arrays(self, us: Sequence[np.ndarray], params: ParamSet) -> ParamSet:
+        """Thresholds and envelope start from the input range; linear coefficients from one NNLS solve."""
+        lo = min(float(np.min(u)) for u in us)
+        hi = max(float(np.max(u)) for u in us)
+        if not hi > lo:
+            raise InputError(f"{self.name}: the input is constant; a hysteresis model cannot be identified")
+        fresh = self._params_for_range(lo, hi, np.zeros(self.n_operators), 0.0, 0.0)
+        keep = {p.name: p for p in params}
+        # settings of the given set survive (fixed flags), the data-dependent grid is recomputed
+        out = []
+        for p in fresh:
+            q = keep.get(p.name)
+            out.append(p if q is None or not q.fixed or p.name in self.threshold_names else q)
+        return ParamSet(out)
+
+    def initial_guess(self, logs: Sequence[MotionLog], params: ParamSet) -> ParamSet:
+        return self.initial_guess_arrays([lg.pressure_pa / PA_PER_BAR for lg in logs], params)
+
+    def fit_arrays(self, us: Sequence[np.ndarray], ys: Sequence[np.ndarray], params: ParamSet | None = None,
+                   **fit_kw) -> FitResult:
+        """Variable projection fit on generic signals (see module docstring).
+
+        Parameters
+        ----------
+        us, ys : sequences of (N_j,) input (``input_unit``) and output (``output_unit``) signals; each
+            pair is simulated from a relaxed start.
+        params : optional start (settings such as fixed flags); thresholds follow the data range.
+        """
+        us = [np.asarray(u, float) for u in us]
+        ys = [np.asarray(y, float) for y in ys]
+        start = self.initial_guess_arrays(us, self.default_params() if params is None else params)
+        check_arrays(self, us, ys, len(start.free()))
+
+        def design_fn(p: ParamSet) -> np.ndarray:
+            return np.vstack([self.design(p, u) for u in us])
+
+        nonneg = [False, False] + [True] * self.n_operators
+        return fit_variable_projection(design_fn, np.concatenate(ys), start, self.linear_names, nonneg,
+                                       segments=[u.size for u in us], **fit_kw)
+
+    def fit(self, logs: Sequence[MotionLog], params: ParamSet | None = None, **fit_kw) -> FitResult:
+        """Fit on motion logs (gauge pressure -> angle), all at once; see :meth:`fit_arrays`."""
+        check_fit_logs(self, logs)
+        return self.fit_arrays([lg.pressure_pa / PA_PER_BAR for lg in logs], [lg.angle_deg for lg in logs],
+                               params, **fit_kw)
+
+    def describe(self, params: ParamSet) -> dict:
+        out = super().describe(params)
+        out["settings"] = {"n_operators": self.n_operators, "envelope": self.envelope,
+                           "input_unit": self.input_unit, "output_unit": self.output_unit}
+        return out
