@@ -99,6 +99,59 @@ def _history_const(mode, k, t, x, Minf, M, tau, h, a, window):  # pragma: no cov
 
 
 @numba.njit(cache=True)
+def _history_consts_sum(k, start, lumped, t, e1, e2, Ginf, Gj, tauG, Kinf, Kj, tauK, shared):  # pragma: no cover
+    """c_k of all four operators (G on e1, e2; K on e1, e2) for the full sum or the sliding window, in
+    one pass over the history: the kernel values at each age are computed once and serve both strains
+    (and both moduli when the time constants are shared).
+
+    ``start``: first increment summed one by one; ``lumped``: index of the lumped point (eq. 19), or -1.
+    """
+    G0 = Ginf
+    for j in range(Gj.size):
+        G0 += Gj[j]
+    K0 = Kinf
+    for j in range(Kj.size):
+        K0 += Kj[j]
+    aG1 = Ginf * e1[0]
+    aG2 = Ginf * e2[0]
+    aK1 = Kinf * e1[0]
+    aK2 = Kinf * e2[0]
+    if lumped >= 1:
+        age = t[k] - t[lumped]
+        mg = Ginf
+        for j in range(Gj.size):
+            mg += Gj[j] * math.exp(-age / tauG[j])
+        mk = Kinf
+        for j in range(Kj.size):
+            mk += Kj[j] * math.exp(-age / tauK[j])
+        aG1 += mg * (e1[lumped] - e1[0])
+        aG2 += mg * (e2[lumped] - e2[0])
+        aK1 += mk * (e1[lumped] - e1[0])
+        aK2 += mk * (e2[lumped] - e2[0])
+    for i in range(start, k):
+        age = t[k] - t[i]
+        mg = Ginf
+        mk = Kinf
+        if shared:
+            for j in range(Gj.size):
+                w = math.exp(-age / tauG[j])
+                mg += Gj[j] * w
+                mk += Kj[j] * w
+        else:
+            for j in range(Gj.size):
+                mg += Gj[j] * math.exp(-age / tauG[j])
+            for j in range(Kj.size):
+                mk += Kj[j] * math.exp(-age / tauK[j])
+        d1 = e1[i] - e1[i - 1]
+        d2 = e2[i] - e2[i - 1]
+        aG1 += mg * d1
+        aG2 += mg * d2
+        aK1 += mk * d1
+        aK2 += mk * d2
+    return aG1 - G0 * e1[k - 1], aG2 - G0 * e2[k - 1], aK1 - K0 * e1[k - 1], aK2 - K0 * e2[k - 1]
+
+
+@numba.njit(cache=True)
 def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, window,
                    fall_ratio, stiff, scale):  # pragma: no cover - compiled
     """beta (rad) for gauge pressures ``p`` (Pa) at times ``t`` (s).
@@ -126,6 +179,12 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
     K0full = Kinf
     for j in range(Kj.size):
         K0full += Kj[j]
+    shared = Gj.size == Kj.size
+    if shared:
+        for j in range(Gj.size):
+            if tauG[j] != tauK[j]:
+                shared = False
+    ls = -1  # window: last sample older than the window so far
     b_prev = 0.0
     for k in range(n):
         if k == 0:
@@ -139,10 +198,22 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
                 aG[j] = math.exp(-dt / (tauG[j] * r))
             for j in range(Kj.size):
                 aK[j] = math.exp(-dt / (tauK[j] * r))
-            cG1 = _history_const(mode, k, t, e1, Ginf, Gj, tauG, hG1, aG, window)
-            cG2 = _history_const(mode, k, t, e2, Ginf, Gj, tauG, hG2, aG, window)
-            cK1 = _history_const(mode, k, t, e1, Kinf, Kj, tauK, hK1, aK, window)
-            cK2 = _history_const(mode, k, t, e2, Kinf, Kj, tauK, hK2, aK, window)
+            if mode == 0:
+                cG1 = _history_const(mode, k, t, e1, Ginf, Gj, tauG, hG1, aG, window)
+                cG2 = _history_const(mode, k, t, e2, Ginf, Gj, tauG, hG2, aG, window)
+                cK1 = _history_const(mode, k, t, e1, Kinf, Kj, tauK, hK1, aK, window)
+                cK2 = _history_const(mode, k, t, e2, Kinf, Kj, tauK, hK2, aK, window)
+            else:
+                # full or window: one fused pass over the stored history (the lumped point of the
+                # window only moves forward, so it is tracked, not searched for)
+                lumped = -1
+                if mode == 1:
+                    while ls + 1 < k and t[k] - t[ls + 1] > window:
+                        ls += 1
+                    lumped = ls
+                start = lumped + 1 if lumped >= 1 else 1
+                cG1, cG2, cK1, cK2 = _history_consts_sum(k, start, lumped, t, e1, e2, Ginf, Gj, tauG,
+                                                         Kinf, Kj, tauK, shared)
         sc = scale[k]
         f0 = pressure_at(0.0, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p[k]
         b = 0.0
