@@ -1,0 +1,134 @@
+"""Relaxation-test logs: stress/strain, load/extension, or a pre-reduced modulus curve.
+
+Accepted columns (any header dialect :mod:`bpmid.io.tables` reads, units converted):
+
+- ``time_s``, ``strain``, ``stress_mpa``: a stress-strain log (ramp and hold)
+- ``time_s``, ``extension_mm``, ``load_n``: a machine log; strain and nominal stress follow from the
+  specimen's gauge length and cross-section, taken from the config (``relax.specimen``) or from
+  ``# gauge_length_mm: 50`` / ``# cross_section_mm2: 12`` lines in the file (they must agree when
+  both are given)
+- ``time_s``, ``modulus_mpa``: a relaxation-modulus curve E(t) of an (ideal) step test, for example
+  pyvisco's ``t,E_relax`` / ``s,MPa``. It has no strain history, so it can only be fitted in step mode.
+
+Every error names the file and the line (or the config key).
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from bpmid.errors import InputError
+from bpmid.io.tables import check_time, read_table
+
+KIND = "relaxation log"
+
+
+@dataclasses.dataclass
+class RelaxLog:
+    """One relaxation test or modulus curve, in canonical units.
+
+    Attributes
+    ----------
+    name : file stem
+    time_s : (N,) s, strictly increasing
+    strain : (N,) engineering strain, or None for a modulus curve
+    stress_mpa : (N,) nominal stress (MPa), or None for a modulus curve
+    modulus_mpa : (N,) relaxation modulus (MPa) for a modulus curve, else None
+    source : ``"stress-strain"``, ``"load-extension"`` or ``"modulus"``
+    path : the file, or None for an in-memory log
+    meta : ``# key: value`` lines of the file
+    first_data_line : file line of the first sample (for messages)
+    """
+
+    name: str
+    time_s: np.ndarray
+    strain: np.ndarray | None = None
+    stress_mpa: np.ndarray | None = None
+    modulus_mpa: np.ndarray | None = None
+    source: str = "stress-strain"
+    path: Path | None = None
+    meta: dict = dataclasses.field(default_factory=dict)
+    first_data_line: int = 2
+
+    @property
+    def is_modulus_curve(self) -> bool:
+        return self.modulus_mpa is not None
+
+    @property
+    def n(self) -> int:
+        return int(self.time_s.size)
+
+
+def _specimen_value(name: str, cfg_value: float | None, meta: dict, path: Path) -> float:
+    file_value = meta.get(name)
+    if file_value is not None:
+        try:
+            file_value = float(file_value)
+        except ValueError:
+            raise InputError(f"'# {name}:' must be a number, found {file_value!r}", path=path, key=name) from None
+        if not (np.isfinite(file_value) and file_value > 0):
+            raise InputError(f"'# {name}:' must be positive, found {file_value:g}", path=path, key=name)
+    if cfg_value is not None and file_value is not None and not np.isclose(cfg_value, file_value, rtol=1e-9):
+        raise InputError(f"the file says {name} = {file_value:g}, the config relax.specimen.{name} says "
+                         f"{cfg_value:g}", path=path, key=name)
+    value = cfg_value if cfg_value is not None else file_value
+    if value is None:
+        raise InputError(f"a load/extension log needs the specimen's {name}: set relax.specimen.{name} in the "
+                         f"config or add a line '# {name}: <value>' to the file", path=path,
+                         key=f"relax.specimen.{name}")
+    return float(value)
+
+
+def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = None,
+                   gauge_length_mm: float | None = None, cross_section_mm2: float | None = None) -> RelaxLog:
+    """Read one relaxation log (see the module docstring).
+
+    Parameters
+    ----------
+    path : the CSV file
+    column_map : file header -> bpmid name, from the config (``relax.columns``)
+    gauge_length_mm, cross_section_mm2 : specimen geometry for load/extension logs (mm, mm^2)
+    """
+    path = Path(path)
+    table = read_table(path, column_map=column_map, kind=KIND)
+    if table.has("modulus"):
+        need = ("time", "modulus")
+    elif table.has("strain") or table.has("stress"):
+        need = ("time", "strain", "stress")
+    elif table.has("load") or table.has("extension"):
+        need = ("time", "extension", "load")
+    else:
+        found = ", ".join(repr(h) for h in table.headers.values()) or "none bpmid knows"
+        raise InputError("no relaxation columns: expected time_s with strain and stress_mpa, or extension_mm and "
+                         f"load_n, or modulus_mpa (recognised columns: {found})", path=path,
+                         line=max(table.first_data_line - 1, 1))
+    if any(not table.has(q) for q in need):
+        table = read_table(path, column_map=column_map, required=need, kind=KIND)  # raises, naming the column
+    t = check_time(table, kind=KIND)
+    common = dict(name=path.stem, time_s=t, path=path, meta=dict(table.meta), first_data_line=table.first_data_line)
+    if need[1] == "modulus":
+        E = table.columns["modulus"]
+        bad = np.flatnonzero(E < 0)
+        if bad.size:
+            raise InputError(f"negative relaxation modulus {E[bad[0]]:g} MPa (a modulus curve must be >= 0)",
+                             path=path, line=table.line_of(int(bad[0])))
+        return RelaxLog(modulus_mpa=E, source="modulus", **common)
+    if need[1] == "strain":
+        return RelaxLog(strain=table.columns["strain"], stress_mpa=table.columns["stress"], source="stress-strain",
+                        **common)
+    L0 = _specimen_value("gauge_length_mm", gauge_length_mm, table.meta, path)
+    A0 = _specimen_value("cross_section_mm2", cross_section_mm2, table.meta, path)
+    return RelaxLog(strain=table.columns["extension"] / L0, stress_mpa=table.columns["load"] / A0,
+                    source="load-extension", **common)
+
+
+def read_relax_logs(paths: Sequence[str | Path], *, column_map: Mapping[str, str] | None = None,
+                    gauge_length_mm: float | None = None, cross_section_mm2: float | None = None) -> list[RelaxLog]:
+    """Read several relaxation logs (same options for each)."""
+    if not paths:
+        raise InputError("no relaxation logs given")
+    return [read_relax_log(p, column_map=column_map, gauge_length_mm=gauge_length_mm,
+                           cross_section_mm2=cross_section_mm2) for p in paths]
