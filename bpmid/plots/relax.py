@@ -33,13 +33,18 @@ def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
         t = lg.t
         ax_a.plot(t, lg.y * scale, ".", ms=1.5, color=c, alpha=0.5)
         ax_a.plot(t, lg.y_fit * scale, "-", lw=1.0, color=c, label=lg.name if len(logs) <= 12 else None)
-        ax_c.plot(t, (lg.y - lg.y_fit) * scale, "-", lw=0.6, color=c)
+        ax_c.plot(t, (lg.y - lg.y_fit) * scale, "-", lw=0.5, color=c, alpha=0.6)
     what = "stress" if fit.quantity == "stress" else "relaxation modulus"
     ax_a.set(xlabel="time (s)", ylabel=f"{what} ({unit})",
              title=f"(a) {what}: data (dots) and {fit.mode}-mode fit")
     if log_time:
         ax_a.set_xscale("log")
         ax_c.set_xscale("log")
+    if fit.mode == "ramp":  # the ramp and the first 10 s of the hold carry the information
+        t_end = max(float(lg.t[lg.hold.start]) for lg in fit.logs) + 10.0
+        if t_end < max(float(lg.t[-1]) for lg in fit.logs):
+            ax_a.set_xlim(float(min(lg.t[0] for lg in fit.logs)), t_end)
+            ax_a.set_title(f"(a) {what}: data (dots) and ramp-mode fit (first {t_end:.0f} s)")
     if len(logs) <= 12:
         ax_a.legend(fontsize=6, ncol=2, loc="best")
     for lg, c in zip(fit.logs, [f"C{i % 10}" for i in range(len(fit.logs))]):
@@ -53,7 +58,7 @@ def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
     if fit.mode == "ramp":
         ax_b.text(0.98, 0.80, "curves: sigma/eps of each hold\n(biased low early on by the ramp)",
                   transform=ax_b.transAxes, ha="right", va="top", fontsize=7, color="0.3")
-    ax_b.set(xlabel="time since the hold started (s)", ylabel=f"E(t) ({unit})",
+    ax_b.set(xlabel="time since the step / hold start (s)", ylabel=f"E(t) ({unit})",
              title="(b) relaxation modulus of every log")
     if log_time:
         ax_b.set_xscale("log")
