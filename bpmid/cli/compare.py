@@ -1,0 +1,87 @@
+"""``bpmid compare``: fit every model on training logs, score it free-running on test logs
+(the science is in :mod:`bpmid.compare`)."""
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from typer.core import TyperCommand
+
+from bpmid.cli._app import app, command
+
+EPILOG = ("Example (shipped synthetic data):  bpmid compare --train datasets/fitting/*.csv "
+          "--test datasets/variable_amplitude/*.csv datasets/variable_rate/*.csv "
+          "--models vbmm-fit,gpi,maxwell-slip --out out/compare  |  the paper's comparison as a config:  "
+          "bpmid compare --config configs/compare_paper.yaml --out out/compare")
+
+#: options that take several values in a row (``--train a.csv b.csv --test c.csv``)
+MULTI = ("--train", "--test")
+
+
+def spread_multi(args: list[str]) -> list[str]:
+    """``--train a b --test c`` -> ``--train a --train b --test c`` (click options take one value each)."""
+    out, current = [], None
+    for tok in args:
+        if tok == "--":
+            current = None
+            out.append(tok)
+        elif tok in MULTI:
+            current = tok
+        elif tok.startswith("-") and tok != "-":
+            current = None
+            out.append(tok)
+        elif current is not None:
+            out.extend([current, tok])
+        else:
+            out.append(tok)
+    return out
+
+
+class MultiValueCommand(TyperCommand):
+    """A command whose ``--train``/``--test`` take every following value up to the next option."""
+
+    def parse_args(self, ctx, args):
+        return super().parse_args(ctx, spread_multi(list(args)))
+
+
+@command(app, "compare", epilog=EPILOG, cls=MultiValueCommand)
+def compare(
+    train: Optional[List[Path]] = typer.Option(None, "--train", metavar="LOG...",
+                                               help="Training motion logs (every model is fitted on these only)."),
+    test: Optional[List[Path]] = typer.Option(None, "--test", metavar="LOG...",
+                                              help="Test motion logs (every model runs free on each; needs angle_deg)."),
+    models: Optional[str] = typer.Option(None, "--models", help="Comma list of: vbmm-mat, vbmm-fit, gpi, "
+                                         "maxwell-slip, three-element, two-branch. Default: compare.models of the "
+                                         "config, else all."),
+    relax: Optional[Path] = typer.Option(None, "--relax", help="Relaxation fit (bpmid.relax/1) for vbmm-mat. "
+                                         "Default: compare.relax of the config."),
+    config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (sections io, compare; "
+                                          "compare.train/test_sets name the logs when --train/--test are not given)."),
+    out: Path = typer.Option(..., "--out", help="Output folder: metrics.csv, summary.csv, summary_by_set.csv, "
+                             "compare.yaml, predictions/, figures."),
+):
+    """Fit every model on the training logs only, simulate each free-running on every test log, score it."""
+    from bpmid.compare import CompareWarning, resolve_inputs, run_compare, verdicts
+    from bpmid.config import load_config
+    from bpmid.models import parse_model_list
+
+    cfg = load_config(config)
+    names = parse_model_list(models) if models is not None else None
+    train_paths, test_sets, relax_path = resolve_inputs(cfg.section("compare"), cfg, train=train, test=test,
+                                                        relax=relax)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", CompareWarning)
+        result = run_compare(train_paths, test_sets, out, models=names, config=cfg, relax_fit=relax_path)
+    for w in caught:
+        if issubclass(w.category, CompareWarning):
+            typer.echo(f"warning: {w.message}", err=True)
+    s = result.summary
+    typer.echo(f"{'rank':>4}  {'model':<14}{'rmse_deg':>9}{'mape_pct':>9}{'r2':>8}{'us/step':>9}{'params':>7}")
+    for r in s.itertuples():
+        typer.echo(f"{r.rank:>4}  {r.model:<14}{r.rmse_deg:>9.3f}{r.mape_pct:>9.3f}{r.r2:>8.3f}"
+                   f"{r.us_per_step:>9.3g}{r.n_params:>7d}")
+    for line in verdicts(result)[1:]:
+        typer.echo(line)
+    typer.echo(f"wrote {Path(out) / 'metrics.csv'}, {Path(out) / 'summary.csv'} and figures")

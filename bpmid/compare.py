@@ -1,0 +1,526 @@
+"""Compare model families on the same logs: fit on training logs only, simulate free-running on test logs.
+
+Works for every family in :data:`bpmid.models.REGISTRY` through the :class:`~bpmid.models.base.ModelFamily`
+interface alone (``fit``, ``simulate``, ``n_params``, ``describe``); adding a family needs no change here.
+Per-family constructor settings come from the config (``compare.options.<name>``); a family whose
+constructor takes a relaxation fit (``vbmm-mat``) gets the one named by ``--relax`` or ``compare.relax``.
+
+Outputs (CLI.md): ``metrics.csv`` (one row per model and test log) and ``summary.csv`` (one row per model,
+pooled over all test logs, ``log = ALL``), with ``model, log, rmse_deg, mape_pct, r2, fit_pct,
+max_abs_err_deg, us_per_step, n_params``. Extra files: ``summary_by_set.csv`` (pooled per named test set),
+``compare.yaml`` (fitted constants of every model, fit diagnostics, provenance), ``predictions/<log>.csv``
+and the figures.
+
+``us_per_step`` is a wall-clock measurement (best of ``timing_repeats`` free-running simulations of the
+log after one warm-up run, divided by the number of samples); it is the only column that differs between
+two runs of the same inputs. ``compare.timing: false`` leaves it empty for byte-identical files.
+"""
+from __future__ import annotations
+
+import dataclasses
+import glob
+import inspect
+import time
+import warnings
+from pathlib import Path
+from typing import Any, Mapping, Optional, Sequence
+
+import numpy as np
+import pandas as pd
+
+from bpmid import metrics as M
+from bpmid.errors import InputError
+from bpmid.fitting import FitResult
+from bpmid.io.motion_logs import MotionLog
+from bpmid.models import REGISTRY, model_class
+from bpmid.progress import Progress, note
+
+#: metrics.csv / summary.csv columns fixed by CLI.md, in this order
+COLUMNS = ("model", "log", "rmse_deg", "mape_pct", "r2", "fit_pct", "max_abs_err_deg", "us_per_step", "n_params")
+#: constructor keywords through which a family may receive a relaxation fit (a ``bpmid.relax/1`` path)
+RELAX_KEYWORDS = ("relax_fit", "relax", "relax_path", "init")
+
+
+class CompareWarning(UserWarning):
+    """A comparison that runs but deserves a second look (e.g. a log in both the training and test sets)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class CompareConfig:
+    """Config section ``compare``.
+
+    Attributes
+    ----------
+    models : registry names to compare (default: all registered families)
+    train : training logs (paths or glob patterns, relative to the config file)
+    test : test logs, or
+    test_sets : named groups of test logs (``{variable_amplitude: [...], variable_rate: [...]}``); their
+        metrics are also pooled per group in ``summary_by_set.csv``
+    relax : relaxation fit (``bpmid.relax/1``) for families that start from one (vbmm-mat)
+    options : per-family constructor settings, ``{gpi: {n_operators: 10}}``
+    timing : measure ``us_per_step`` (false leaves it empty: byte-identical reruns)
+    timing_repeats : timed free-running simulations per model and test log (best one counts)
+    figure_logs : test logs drawn in the per-log figures (spread over the test sets)
+    """
+
+    models: tuple[str, ...] = ()
+    train: tuple[str, ...] = ()
+    test: tuple[str, ...] = ()
+    test_sets: Mapping[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
+    relax: Optional[str] = None
+    options: Mapping[str, Mapping[str, Any]] = dataclasses.field(default_factory=dict)
+    timing: bool = True
+    timing_repeats: int = 3
+    figure_logs: int = 4
+
+    def validate(self, where, path):
+        for i, name in enumerate(self.models):
+            if name not in REGISTRY:
+                raise InputError(f"unknown model {name!r} (known: {', '.join(REGISTRY)})", path=path,
+                                 key=f"{where}.models[{i}]")
+        for name in self.options:
+            if name not in REGISTRY:
+                raise InputError(f"options for an unknown model (known: {', '.join(REGISTRY)})", path=path,
+                                 key=f"{where}.options.{name}")
+        if self.test and self.test_sets:
+            raise InputError("give either test or test_sets, not both", path=path, key=f"{where}.test_sets")
+        if self.timing_repeats < 1:
+            raise InputError("timing_repeats must be at least 1", path=path, key=f"{where}.timing_repeats")
+        if self.figure_logs < 0:
+            raise InputError("figure_logs must be >= 0", path=path, key=f"{where}.figure_logs")
+
+
+# --------------------------------------------------------------------------------------------------
+# inputs
+# --------------------------------------------------------------------------------------------------
+def expand_paths(patterns: Sequence[str | Path], *, base: Path | None = None, key: str | None = None,
+                 config_path: Path | None = None) -> list[Path]:
+    """Paths and glob patterns (relative to ``base``) -> sorted existing files; a pattern that matches
+    nothing is an InputError naming ``key`` and the pattern."""
+    out: list[Path] = []
+    for i, pat in enumerate(patterns):
+        p = Path(pat)
+        if base is not None and not p.is_absolute():
+            p = base / p
+        k = f"{key}[{i}]" if key else None
+        if any(ch in str(pat) for ch in "*?["):
+            hits = sorted(Path(h) for h in glob.glob(str(p)))
+            hits = [h for h in hits if h.is_file()]
+            if not hits:
+                raise InputError(f"no file matches {p}", path=config_path, key=k)
+            out.extend(hits)
+        else:
+            if not p.is_file():
+                raise InputError(f"file not found: {p}", path=config_path, key=k)
+            out.append(p)
+    seen, uniq = set(), []
+    for p in out:
+        r = p.resolve()
+        if r not in seen:
+            seen.add(r)
+            uniq.append(p)
+    return uniq
+
+
+def overlap_warnings(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> list[str]:
+    """Messages for test logs that are also training logs (same file, or identical content)."""
+    def key(lg: MotionLog):
+        return (lg.n, hash(np.asarray(lg.time_s).tobytes()), hash(np.asarray(lg.pressure_pa).tobytes()),
+                hash(b"" if lg.angle_deg is None else np.asarray(lg.angle_deg).tobytes()))
+
+    train_paths = {Path(lg.path).resolve(): lg.name for lg in train if lg.path is not None}
+    train_keys = {key(lg): lg.name for lg in train}
+    msgs = []
+    for lg in test:
+        if lg.path is not None and Path(lg.path).resolve() in train_paths:
+            msgs.append(f"test log {lg.path} is also a training log: its score is not a test of prediction")
+        elif key(lg) in train_keys:
+            msgs.append(f"test log {lg.name} has the same data as training log {train_keys[key(lg)]}: "
+                        "its score is not a test of prediction")
+    return msgs
+
+
+def check_test_logs(test: Sequence[MotionLog]) -> None:
+    if not test:
+        raise InputError("no test logs", key="--test")
+    for lg in test:
+        if lg.angle_deg is None:
+            raise InputError("a test log needs an angle_deg column to be scored", path=lg.path)
+        if lg.n < 3:
+            raise InputError(f"a test log needs at least 3 samples, found {lg.n}", path=lg.path)
+
+
+def build_model(name: str, options: Mapping[str, Any] | None = None, relax_fit: str | Path | None = None):
+    """An instance of the family ``name`` with its constructor settings; a family that takes a
+    relaxation fit gets ``relax_fit`` (InputError when it needs one and none was given)."""
+    cls = model_class(name)
+    kw = dict(options or {})
+    try:
+        sig = inspect.signature(cls)
+    except (TypeError, ValueError):  # pragma: no cover - builtins only
+        sig = None
+    if sig is not None:
+        for word in RELAX_KEYWORDS:
+            if word in sig.parameters and word not in kw:
+                par = sig.parameters[word]
+                if relax_fit is not None:
+                    kw[word] = Path(relax_fit)
+                elif par.default is inspect.Parameter.empty:
+                    raise InputError(f"model {name} starts from a relaxation fit: give --relax FIT.yaml "
+                                     "(or compare.relax in the config)", key="--relax")
+                break
+        unknown = [k for k in kw if k not in sig.parameters
+                   and not any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values())]
+        if unknown:
+            known = [p for p in sig.parameters if p not in ("self",)]
+            raise InputError(f"model {name} has no setting {unknown[0]!r} (known: {', '.join(known)})",
+                             key=f"compare.options.{name}.{unknown[0]}")
+    try:
+        return cls(**kw)
+    except InputError:
+        raise
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"model {name}: {exc}", key=f"compare.options.{name}") from exc
+
+
+# --------------------------------------------------------------------------------------------------
+# the comparison
+# --------------------------------------------------------------------------------------------------
+@dataclasses.dataclass
+class ModelOutcome:
+    """One family fitted on the training logs and run on every test log."""
+
+    name: str
+    label: str
+    model: Any
+    fit: FitResult
+    fit_seconds: float
+    predictions: dict[str, np.ndarray]
+    us_per_step: dict[str, float]
+
+    @property
+    def n_params(self) -> int:
+        return int(self.model.n_params(self.fit.params))
+
+
+@dataclasses.dataclass
+class CompareResult:
+    """Everything a comparison produced (tables are pandas DataFrames with the CLI.md columns first)."""
+
+    outcomes: list[ModelOutcome]
+    train: list[MotionLog]
+    test: list[MotionLog]
+    sets: dict[str, list[str]]
+    metrics: pd.DataFrame
+    summary: pd.DataFrame
+    by_set: pd.DataFrame
+    warnings: list[str]
+
+    def outcome(self, name: str) -> ModelOutcome:
+        for o in self.outcomes:
+            if o.name == name:
+                return o
+        raise KeyError(name)
+
+
+def time_simulation(model, params, log: MotionLog, repeats: int) -> float:
+    """Best wall-clock seconds of ``repeats`` simulations of ``log`` (after the caller's warm-up run)."""
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        model.simulate(params, log)
+        best = min(best, time.perf_counter() - t0)
+    return float(best)
+
+
+def _metric_row(model: str, log: str, y, y_hat, us: float, n_params: int) -> dict:
+    s = M.summary(y, y_hat, unit="deg")
+    return {"model": model, "log": log, "rmse_deg": s["rmse_deg"], "mape_pct": s["mape_pct"], "r2": s["r2"],
+            "fit_pct": s["fit_pct"], "max_abs_err_deg": s["max_abs_err_deg"], "us_per_step": us,
+            "n_params": int(n_params)}
+
+
+def _pooled(outcomes, logs, names, label, timing) -> list[dict]:
+    rows = []
+    by_name = {lg.name: lg for lg in logs}
+    for o in outcomes:
+        y = np.concatenate([by_name[n].angle_deg for n in names])
+        yh = np.concatenate([o.predictions[n] for n in names])
+        if timing:
+            steps = sum(by_name[n].n for n in names)
+            us = sum(o.us_per_step[n] * by_name[n].n for n in names) / steps
+        else:
+            us = float("nan")
+        rows.append(_metric_row(o.name, label, y, yh, us, o.n_params))
+    return rows
+
+
+def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models: Sequence[str], *,
+                   sets: Mapping[str, Sequence[str]] | None = None, options: Mapping[str, Mapping] | None = None,
+                   relax_fit: str | Path | None = None, timing: bool = True, timing_repeats: int = 3,
+                   fit_kw: Mapping[str, Any] | None = None) -> CompareResult:
+    """Fit every family in ``models`` on ``train`` only and simulate it free-running on every ``test`` log.
+
+    Parameters
+    ----------
+    train, test : motion logs (test logs need ``angle_deg``)
+    models : registry names (checked)
+    sets : test-set name -> test log names (default: one set ``test`` with every test log)
+    options : registry name -> constructor settings
+    relax_fit : ``bpmid.relax/1`` file for families that start from a relaxation fit
+    timing : measure the cost per simulated step (``us_per_step``)
+    timing_repeats : timed runs per model and log (the fastest counts)
+
+    Returns
+    -------
+    CompareResult ; overlapping train/test logs are reported in ``warnings`` and as a
+    :class:`CompareWarning`.
+    """
+    models = list(models)
+    if not models:
+        raise InputError("no models to compare", key="--models")
+    for n in models:
+        model_class(n)  # unknown names fail before any work
+    check_test_logs(test)
+    names = [lg.name for lg in test]
+    if len(set(names)) != len(names):
+        dup = sorted({n for n in names if names.count(n) > 1})[0]
+        raise InputError(f"two test logs share the file name {dup!r}; outputs are named by it", key="--test")
+    sets = {k: list(v) for k, v in (sets or {"test": names}).items()}
+    warn = overlap_warnings(train, test)
+    for w in warn:
+        warnings.warn(w, CompareWarning, stacklevel=2)
+    options = options or {}
+    outcomes: list[ModelOutcome] = []
+    for name in models:
+        model = build_model(name, options.get(name), relax_fit)
+        note(f"compare: fitting {name} on {len(train)} training log(s)")
+        t0 = time.perf_counter()
+        fit = model.fit(list(train), **dict(fit_kw or {}))
+        fit_s = time.perf_counter() - t0
+        preds, cost = {}, {}
+        with Progress(len(test), f"compare: {name} on test logs") as pr:
+            for lg in test:
+                y_hat = np.asarray(model.simulate(fit.params, lg), float)
+                if y_hat.shape != (lg.n,):
+                    raise RuntimeError(f"{name}.simulate returned shape {y_hat.shape} for {lg.n} samples")
+                preds[lg.name] = y_hat
+                cost[lg.name] = (1e6 * time_simulation(model, fit.params, lg, timing_repeats) / lg.n
+                                 if timing else float("nan"))
+                pr.advance(detail=lg.name)
+        outcomes.append(ModelOutcome(name, getattr(model, "label", "") or name, model, fit, fit_s, preds, cost))
+    rows = [_metric_row(o.name, lg.name, lg.angle_deg, o.predictions[lg.name], o.us_per_step[lg.name], o.n_params)
+            for o in outcomes for lg in test]
+    metrics = pd.DataFrame(rows, columns=list(COLUMNS))
+    set_of = {n: s for s, ns in sets.items() for n in ns}
+    metrics["set"] = [set_of.get(lg, "") for lg in metrics["log"]]
+    summary = pd.DataFrame(_pooled(outcomes, test, names, "ALL", timing), columns=list(COLUMNS))
+    summary = summary.sort_values(["rmse_deg", "model"], kind="mergesort").reset_index(drop=True)
+    summary["rank"] = np.arange(1, len(summary) + 1)
+    by_set = []
+    for s, ns in sets.items():
+        for r in _pooled(outcomes, test, ns, s, timing):
+            r["set"] = s
+            by_set.append(r)
+    by_set = pd.DataFrame(by_set, columns=list(COLUMNS) + ["set"])
+    return CompareResult(outcomes, list(train), list(test), sets, metrics, summary, by_set, warn)
+
+
+# --------------------------------------------------------------------------------------------------
+# verdicts a person reads
+# --------------------------------------------------------------------------------------------------
+def is_vbmm(name: str) -> bool:
+    return name.startswith("vbmm")
+
+
+def rate_independent(name: str) -> bool | None:
+    """Whether the family is rate-independent (class attribute ``rate_independent``), None if unknown."""
+    cls = model_class(name)
+    val = getattr(cls, "rate_independent", None)
+    return None if val is None else bool(val)
+
+
+def verdicts(result_or_tables) -> list[str]:
+    """Plain sentences: the ranking, and for every test set where a baseline beats the best VBMM, that it does."""
+    if isinstance(result_or_tables, CompareResult):
+        summary, by_set = result_or_tables.summary, result_or_tables.by_set
+    else:
+        summary, by_set = result_or_tables
+    out = []
+    ranked = summary.sort_values("rmse_deg", kind="mergesort")
+    out.append("Ranking by pooled test RMSE: " + ", ".join(
+        f"{i + 1}. {r.model} ({r.rmse_deg:.3f} deg)" for i, r in enumerate(ranked.itertuples())))
+    groups = [("all test logs", ranked)]
+    if by_set is not None and len(by_set):
+        groups += [(s, g.sort_values("rmse_deg", kind="mergesort")) for s, g in by_set.groupby("set", sort=False)]
+    for label, g in groups:
+        vb = g[[is_vbmm(m) for m in g["model"]]]
+        base = g[[not is_vbmm(m) for m in g["model"]]]
+        if vb.empty or base.empty:
+            continue
+        best_vb, best_base = vb.iloc[0], base.iloc[0]
+        if best_base.rmse_deg < best_vb.rmse_deg:
+            out.append(f"On {label}, the baseline {best_base.model} ({best_base.rmse_deg:.3f} deg) beats the best "
+                       f"VBMM variant {best_vb.model} ({best_vb.rmse_deg:.3f} deg).")
+        else:
+            out.append(f"On {label}, the best VBMM variant {best_vb.model} ({best_vb.rmse_deg:.3f} deg) is not beaten "
+                       f"by any baseline (best: {best_base.model}, {best_base.rmse_deg:.3f} deg).")
+    return out
+
+
+# --------------------------------------------------------------------------------------------------
+# writing
+# --------------------------------------------------------------------------------------------------
+def _csv(df: pd.DataFrame) -> str:
+    return df.to_csv(index=False, lineterminator="\n", float_format="%.10g", na_rep="")
+
+
+def predictions_frame(result: CompareResult, log: MotionLog) -> pd.DataFrame:
+    df = pd.DataFrame({"time_s": log.time_s, "pressure_pa_gauge": log.pressure_pa, "angle_deg": log.angle_deg})
+    for o in result.outcomes:
+        df[f"pred_{o.name}_deg"] = o.predictions[log.name]
+    return df
+
+
+def figure_logs(result: CompareResult, n: int) -> list[MotionLog]:
+    """Up to ``n`` test logs spread over the test sets (round robin, first of each set first)."""
+    by_name = {lg.name: lg for lg in result.test}
+    queues = [list(v) for v in result.sets.values()]
+    chosen: list[str] = []
+    while len(chosen) < n and any(queues):
+        for q in queues:
+            if q and len(chosen) < n:
+                chosen.append(q.pop(0))
+    return [by_name[c] for c in chosen]
+
+
+def compare_yaml_body(result: CompareResult, relax_fit=None) -> dict:
+    models = {}
+    for o in result.outcomes:
+        d = o.model.describe(o.fit.params)
+        d["fit"] = o.fit.uncertainty_yaml()
+        d["fit"]["rmse_train_deg"] = o.fit.rmse
+        d["fit_seconds"] = round(o.fit_seconds, 3)
+        models[o.name] = d
+    return {
+        "train": [str(lg.path or lg.name) for lg in result.train],
+        "test_sets": {s: list(v) for s, v in result.sets.items()},
+        "relax_fit": None if relax_fit is None else str(relax_fit),
+        "warnings": list(result.warnings),
+        "verdicts": verdicts(result),
+        "models": models,
+    }
+
+
+def write_compare(result: CompareResult, out_dir: str | Path, prov: dict, *, relax_fit=None,
+                  n_figure_logs: int = 4, synthetic: bool = True) -> Path:
+    """Write the tables, ``compare.yaml``, predictions and figures into ``out_dir`` (staged: all or nothing)."""
+    from bpmid.io.atomic import staged_dir, write_text
+    from bpmid.io.results import write_result
+    from bpmid.plots import compare as P
+    from bpmid.plots.common import save_figure
+
+    out_dir = Path(out_dir)
+    with staged_dir(out_dir) as tmp:
+        write_text(tmp / "metrics.csv", _csv(result.metrics))
+        write_text(tmp / "summary.csv", _csv(result.summary))
+        write_text(tmp / "summary_by_set.csv", _csv(result.by_set))
+        for lg in result.test:
+            write_text(tmp / "predictions" / f"{lg.name}.csv", _csv(predictions_frame(result, lg)))
+        write_result(tmp / "compare.yaml", "bpmid.compare/1", compare_yaml_body(result, relax_fit), prov)
+        logs = figure_logs(result, n_figure_logs)
+        if logs:
+            save_figure(P.time_series(result, logs, synthetic=synthetic), tmp / "compare_timeseries.png")
+            save_figure(P.loops(result, logs, synthetic=synthetic), tmp / "compare_loops.png")
+            save_figure(P.errors(result, logs, synthetic=synthetic), tmp / "compare_errors.png")
+        save_figure(P.summary_bars(result.summary, result.by_set, synthetic=synthetic), tmp / "compare_summary.png")
+    return out_dir
+
+
+def is_synthetic(logs: Sequence[MotionLog]) -> bool:
+    """True when every log says it is synthetic (a ``# synthetic: true`` line, or a ``# source:``/``# generator:``
+    line naming bpmid's twin) or lives under a ``datasets`` folder of bpmid's shipped data (not ``reference``)."""
+    def one(lg: MotionLog) -> bool:
+        meta = {str(k).strip().lower(): str(v).strip().lower() for k, v in (lg.meta or {}).items()}
+        if "synthetic" in meta:
+            return meta["synthetic"] in ("true", "yes", "1")
+        if any(("twin" in meta.get(k, "") or "synthetic" in meta.get(k, "")) for k in ("source", "generator")):
+            return True
+        return lg.path is not None and "datasets" in Path(lg.path).parts and "reference" not in Path(lg.path).parts
+    return bool(logs) and all(one(lg) for lg in logs)
+
+
+# --------------------------------------------------------------------------------------------------
+# the whole command
+# --------------------------------------------------------------------------------------------------
+def resolve_inputs(cfg: CompareConfig, config=None, *, train=None, test=None, relax=None):
+    """Training paths, named test sets (``{name: [paths]}``) and the relaxation fit, from the command line
+    where given, else from the config section ``compare`` (paths relative to the config file)."""
+    base = None if config is None or config.path is None else config.base_dir
+    cpath = None if config is None else config.path
+    if train:
+        train_paths = expand_paths(train, key="--train")
+    elif cfg.train:
+        train_paths = expand_paths(cfg.train, base=base, key="compare.train", config_path=cpath)
+    else:
+        raise InputError("no training logs: give --train LOG... (or compare.train in the config)", key="--train")
+    if test:
+        test_sets = {"test": expand_paths(test, key="--test")}
+    elif cfg.test_sets:
+        test_sets = {s: expand_paths(v, base=base, key=f"compare.test_sets.{s}", config_path=cpath)
+                     for s, v in cfg.test_sets.items()}
+    elif cfg.test:
+        test_sets = {"test": expand_paths(cfg.test, base=base, key="compare.test", config_path=cpath)}
+    else:
+        raise InputError("no test logs: give --test LOG... (or compare.test in the config)", key="--test")
+    if relax is not None:
+        relax_path = Path(relax)
+        if not relax_path.is_file():
+            raise InputError("relaxation fit not found", path=relax_path, key="--relax")
+    elif cfg.relax is not None:
+        relax_path = config.resolve_path(cfg.relax) if config is not None else Path(cfg.relax)
+        if not relax_path.is_file():
+            raise InputError(f"relaxation fit not found: {relax_path}", path=cpath, key="compare.relax")
+    else:
+        relax_path = None
+    return train_paths, test_sets, relax_path
+
+
+def run_compare(train_paths: Sequence[Path], test_sets: Mapping[str, Sequence[Path]], out_dir: str | Path, *,
+                models: Sequence[str] | None = None, config=None, relax_fit: str | Path | None = None,
+                prov_command: str | None = None) -> CompareResult:
+    """What ``bpmid compare`` does (and the compare stage of ``bpmid run``): read the logs, compare, write.
+
+    Parameters
+    ----------
+    train_paths : training motion logs
+    test_sets : test-set name -> motion logs
+    out_dir : folder for metrics.csv, summary.csv, compare.yaml, predictions/ and figures
+    models : registry names; default ``compare.models`` of the config, else every registered family
+    config : a loaded :class:`bpmid.config.Config` (sections ``io`` and ``compare``) or None
+    relax_fit : relaxation fit for families that start from one
+    """
+    from bpmid.config import load_config
+    from bpmid.io.motion_logs import read_motion_logs
+    from bpmid.io.results import provenance
+
+    config = config if config is not None else load_config(None)
+    cfg: CompareConfig = config.section("compare")
+    io_cfg = config.section("io")
+    models = list(models or cfg.models or REGISTRY)
+    for n in models:
+        model_class(n)
+    train = read_motion_logs(list(train_paths), io_cfg, require_angle=True)
+    all_test_paths = [p for v in test_sets.values() for p in v]
+    test = read_motion_logs(all_test_paths, io_cfg, require_angle=True)
+    by_path = {}
+    for p, lg in zip(all_test_paths, test):
+        by_path[str(p)] = lg.name
+    sets = {s: [by_path[str(p)] for p in v] for s, v in test_sets.items()}
+    result = compare_models(train, test, models, sets=sets, options=cfg.options, relax_fit=relax_fit,
+                            timing=cfg.timing, timing_repeats=cfg.timing_repeats)
+    inputs = list(train_paths) + all_test_paths + ([Path(relax_fit)] if relax_fit is not None else [])
+    prov = provenance(inputs, config=config, command=prov_command)
+    write_compare(result, out_dir, prov, relax_fit=relax_fit, n_figure_logs=cfg.figure_logs,
+                  synthetic=is_synthetic(train + test))
+    return result
