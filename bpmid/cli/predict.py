@@ -1,0 +1,40 @@
+"""``bpmid predict``: run a fitted VBMM on new pressure logs (library: :mod:`bpmid.predict`)."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+
+from bpmid.cli._app import app, command, existing_files
+from bpmid.config import load_config
+from bpmid.io.motion_logs import read_motion_logs
+from bpmid.io.results import provenance
+from bpmid.models.vbmm import load_vbmm
+from bpmid.predict import predict, write_predictions
+
+
+@command(app, "predict", epilog="Example: bpmid predict va_2.csv --params VBMM.yaml --out pred/   "
+                                "(writes pred/va_2.csv with angle_pred_deg)")
+def predict_command(
+    logs: List[Path] = typer.Argument(..., help="Motion logs (time_s, pressure_bar|kpa|pa, optional angle_deg)."),
+    params: Path = typer.Option(..., "--params", help="Fitted VBMM (bpmid fit motion output, bpmid.vbmm/1)."),
+    out: Path = typer.Option(..., "--out", help="Output folder: one <log stem>.csv per log, plus predict.yaml."),
+    config: Optional[Path] = typer.Option(None, "--config", help="Config file (sections io, model)."),
+):
+    """Predict the bending angle of new pressure logs with a fitted VBMM."""
+    cfg = load_config(config)
+    paths = existing_files(logs, "motion log")
+    existing_files([params], "params")
+    model = load_vbmm(params, cfg.model)
+    motion = read_motion_logs(paths, cfg.io)
+    preds = predict(motion, model)
+    prov = provenance(paths + [params], config=cfg)
+    written = write_predictions(out, preds, prov=prov, params=params, model=model)
+    for p in preds:
+        if p.metrics is not None:
+            m = p.metrics
+            typer.echo(f"{p.log.name}: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, R^2 {m['r2']:.4f}")
+        else:
+            typer.echo(f"{p.log.name}: {p.log.n} samples predicted (no measured angle)")
+    typer.echo(f"wrote {len(written)} files to {out}")

@@ -1,0 +1,86 @@
+"""Run a fitted VBMM on new pressure logs (``bpmid predict``).
+
+Output per log (CLI.md): ``<log stem>.csv`` with ``time_s``, the pressure column exactly as given
+(``pressure_bar``, ``pressure_kpa`` or ``pressure_pa``, same reference as the input), ``angle_pred_deg``, and
+``angle_deg`` when the log had one. When angles are present the metrics are returned too.
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from bpmid.io.atomic import staged_dir
+from bpmid.io.motion_logs import MotionLog, pressure_column_name
+from bpmid.models.vbmm import VBMM
+from bpmid.motion_fit import check_pressure_range, log_metrics
+
+
+@dataclasses.dataclass
+class Prediction:
+    """One log's prediction.
+
+    Attributes
+    ----------
+    log : the input log
+    angle_pred_deg : (N,) predicted bending angle (deg)
+    metrics : rmse_deg, mape_pct, r2, fit_pct, max_abs_err_deg when the log has angles, else None
+    """
+
+    log: MotionLog
+    angle_pred_deg: np.ndarray
+    metrics: dict | None
+
+    def frame(self, decimals: int = 6) -> pd.DataFrame:
+        lg = self.log
+        given = lg.pressure_as_given if lg.pressure_as_given is not None else lg.pressure_pa
+        df = pd.DataFrame({"time_s": lg.time_s, pressure_column_name(lg.pressure_unit): np.round(given, 9),
+                           "angle_pred_deg": np.round(self.angle_pred_deg, decimals)})
+        if lg.angle_deg is not None:
+            df["angle_deg"] = lg.angle_deg
+        return df
+
+
+def predict(logs: Sequence[MotionLog], model: VBMM) -> list[Prediction]:
+    """Forward model on each log (free-running, from the pressure only).
+
+    Raises InputError naming the log when a pressure is below vacuum or beyond the model's range.
+    """
+    out = []
+    for lg in logs:
+        check_pressure_range(lg)
+        pred = model.forward_deg(lg.time_s, lg.pressure_pa, name=lg.name, path=lg.path)
+        met = None if lg.angle_deg is None else log_metrics(lg.angle_deg, pred)
+        out.append(Prediction(lg, pred, met))
+    return out
+
+
+def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov: dict | None = None,
+                      params: str | Path | None = None, model: VBMM | None = None) -> list[Path]:
+    """Write ``DIR/<log stem>.csv`` for every prediction, and ``DIR/predict.yaml`` (schema
+    ``bpmid.predict/1``: model settings, per-log metrics, provenance) when ``prov`` is given; all or nothing."""
+    from bpmid.io.results import dump_yaml
+
+    out_dir = Path(out_dir)
+    names = []
+    with staged_dir(out_dir) as tmp:
+        for p in preds:
+            name = f"{p.log.name}.csv"
+            p.frame().to_csv(tmp / name, index=False, lineterminator="\n")
+            names.append(out_dir / name)
+        if prov is not None:
+            body = {"schema": "bpmid.predict/1", "params": None if params is None else str(params)}
+            if model is not None:
+                body["model"] = {"closure": model.closure, "history": model.history, "window_s": model.window_s}
+            body["logs"] = {p.log.name: {"samples": p.log.n, "file": f"{p.log.name}.csv",
+                                         "metrics": None if p.metrics is None else
+                                         {k: float(v) for k, v in p.metrics.items()}} for p in preds}
+            body["provenance"] = prov
+            (tmp / "predict.yaml").write_text(dump_yaml(body), encoding="utf-8")
+            names.append(out_dir / "predict.yaml")
+    return names
+
+__all__ = ["Prediction", "predict", "write_predictions"]
