@@ -1,0 +1,282 @@
+"""The catalogue effects, each as the physics it names (ids fixed by ../shared/spec/DISCOVER.md).
+
+| id | parameters (unit, default, null) | physics (model term) |
+|---|---|---|
+| second_relaxation | weight (1, 0.25, 0), tau (s, 10) | a second, slower Prony branch G_2 = weight G_inf, K_2 = weight K_inf |
+| braid_friction | r (Pa, 2500, 0) | dry friction as a play operator (dead band +-r) on the pressure |
+| pressure_lag | tau (s, 0.25, 0) | first-order lag of the muscle pressure behind the logged one |
+| asymmetric_relaxation | fall_ratio (1, 0.4, 1) | time constants times fall_ratio while the pressure falls |
+| strain_stiffening | c (1, 10, 0) | moduli scale by 1 + c eps1^2 (hyperelastic stiffening) |
+| angle_offset | offset (deg, 2, 0) | the angle sensor adds a constant |
+| thermal_softening | amount (1, 0.1, 0), T (s, 300) | moduli scale by 1 - amount (1 - exp(-(t - t0)/T)) |
+
+Defaults are the "moderate size" the digital twin injects: on a paper-sized log each raises the plain
+VBMM's error to a few times the sensor-noise floor. Null values give the plain VBMM exactly.
+
+Settings (constructor keywords) choose the twin's variant of the physics, so that discovery is tested
+on effects in a form different from its own model term:
+
+- ``braid_friction(elements=N)``: N play operators (a Maxwell-slip / Prandtl-Ishlinskii sum, seeds
+  001 and 003) with slip limits spread evenly over (0, 2r], equal weights: same mean dead band, a
+  rounder loop
+- ``pressure_lag(dead_time=d)``: a pure dead time d (s) before the lag (seed 004: 0.23 s)
+
+Units: pressure Pa (gauge), angle deg, time s.
+"""
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import numpy as np
+
+from bpmid.effects import _kernels
+from bpmid.effects.base import Effect
+from bpmid.errors import InputError
+from bpmid.io.motion_logs import MotionLog
+from bpmid.models.vbmm import VBMM
+from bpmid.params import Param, ParamSet
+
+
+def _rate(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    return np.gradient(x, t) if x.size > 1 else np.zeros_like(x)
+
+
+def _lowpass(t: np.ndarray, x: np.ndarray, T: float) -> np.ndarray:
+    return _kernels.lag(t, x, T)
+
+
+class _Setting:
+    """Checks a constructor setting (name, type and range) with an error naming it."""
+
+    @staticmethod
+    def number(effect_id: str, name: str, value, lo: float, hi: float, integer: bool = False):
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+        if integer:
+            ok = ok and float(value).is_integer()
+        if not ok or not (lo <= value <= hi):
+            kind = "a whole number" if integer else "a number"
+            raise InputError(f"expected {kind} in [{lo:g}, {hi:g}], found {value!r}", key=f"{effect_id}.{name}")
+        return int(value) if integer else float(value)
+
+
+class SecondRelaxation(Effect):
+    """A second, slower Prony branch of the rubber.
+
+    The VBMM gets one more branch G_2 = weight * G_inf, K_2 = weight * K_inf with time constant tau
+    (shared by G and K): creep that goes on after the first time constant has died out.
+    """
+
+    id = "second_relaxation"
+    meaning = "a second, slower Prony branch of the rubber (seconds to tens of seconds)"
+    where_it_shows = "creep that continues after the first time constant has died out; long holds"
+    SETTINGS: ClassVar[tuple[str, ...]] = ()
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([
+            Param(f"{self.id}.weight", 0.25, "1", 0.0, 5.0, note="branch modulus / long-term modulus"),
+            Param(f"{self.id}.tau", 10.0, "s", 1.0, 200.0, log_scale=True, note="branch time constant"),
+        ])
+
+    def null_values(self):
+        return {f"{self.id}.weight": 0.0}
+
+    def vbmm_changes(self, base: VBMM, params: ParamSet) -> dict:
+        w = params.value(f"{self.id}.weight")
+        if w == 0.0:
+            return {}
+        tau = params.value(f"{self.id}.tau")
+        m = base.material
+        tauK = None if m.tauK is None else m.tauK + (tau,)
+        mat = type(m)(m.G_inf, m.K_inf, m.G + (w * m.G_inf,), m.K + (w * m.K_inf,), m.tauG + (tau,), tauK)
+        return {"material": mat}
+
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        # the extra branch relaxes the strain rate with a slower time constant
+        t = log.time_s
+        return (_lowpass(t, _rate(t, base_angle_deg), 10.0) * 10.0)[:, None]
+
+
+class BraidFriction(Effect):
+    """Rate-independent dry friction between braid and bladder (seeds 001, 003).
+
+    Model term: the muscle sees the logged pressure through a play operator of half-width r (Pa): a
+    pressure reversal must overcome 2r before the muscle moves back. The loop this leaves does not
+    shrink as the rate goes to zero. Setting ``elements=N`` (twin): N play operators with slip limits
+    r_i = 2 r i / (N + 1), equal weights (a Maxwell-slip sum with the same mean dead band).
+    """
+
+    id = "braid_friction"
+    meaning = "rate-independent dry friction between braid and bladder or between threads"
+    where_it_shows = "a loop that does not shrink at slow rates; residual tracks the sign of the pressure rate"
+    SETTINGS: ClassVar[tuple[str, ...]] = ("elements",)
+
+    def __init__(self, elements: int = 1):
+        self.elements = _Setting.number(self.id, "elements", elements, 1, 100, integer=True)
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([Param(f"{self.id}.r", 2500.0, "Pa", 0.0, 50000.0, note="dead band half-width")])
+
+    def null_values(self):
+        return {f"{self.id}.r": 0.0}
+
+    def radii(self, r: float) -> np.ndarray:
+        n = self.elements
+        return np.array([r]) if n == 1 else 2.0 * r * np.arange(1, n + 1) / (n + 1)
+
+    def transform_pressure(self, t, p, params):
+        r = params.value(f"{self.id}.r")
+        if r == 0.0:
+            return p
+        radii = self.radii(r)
+        return sum(_kernels.play(p, ri) for ri in radii) / radii.size
+
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        # (play(p) - p) / r in [-1, 1]: the sign of the pressure rate with memory of the last reversal
+        r = self.default_params().value(f"{self.id}.r")
+        p = log.pressure_pa
+        return ((_kernels.play(p, r) - p) / r)[:, None]
+
+
+class PressureLag(Effect):
+    """The muscle's internal pressure lags the logged pressure (valve, tubing; seeds 003, 004).
+
+    Model term: a first-order lag tau (s). Setting ``dead_time`` (s, twin): a pure delay before the lag.
+    The loop widens with the pressure rate.
+    """
+
+    id = "pressure_lag"
+    meaning = "the muscle's internal pressure lags the logged pressure: valve, tubing, dead time"
+    where_it_shows = "residual correlates with the pressure rate at positive lag; loops widen with rate"
+    SETTINGS: ClassVar[tuple[str, ...]] = ("dead_time",)
+
+    def __init__(self, dead_time: float = 0.0):
+        self.dead_time = _Setting.number(self.id, "dead_time", dead_time, 0.0, 10.0)
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([Param(f"{self.id}.tau", 0.25, "s", 0.0, 10.0, note="lag time constant")])
+
+    def null_values(self):
+        return {f"{self.id}.tau": 0.0}
+
+    def transform_pressure(self, t, p, params):
+        tau = params.value(f"{self.id}.tau")
+        if tau == 0.0 and self.dead_time == 0.0:
+            return p
+        return _kernels.lag(t, _kernels.delay(t, p, self.dead_time), tau)
+
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        # beta(p(t - tau)) ~ beta - tau dbeta/dt
+        return (-_rate(log.time_s, base_angle_deg))[:, None]
+
+
+class AsymmetricRelaxation(Effect):
+    """The muscle relaxes at a different rate while deflating than while inflating (seed 004).
+
+    Model term: every time constant is multiplied by fall_ratio on steps where the pressure falls
+    (fall_ratio < 1: faster relaxation while deflating).
+    """
+
+    id = "asymmetric_relaxation"
+    meaning = "the muscle relaxes at a different rate while deflating than while inflating"
+    where_it_shows = "residual differs between rising and falling pressure beyond what one time constant fits"
+    SETTINGS: ClassVar[tuple[str, ...]] = ()
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([Param(f"{self.id}.fall_ratio", 0.4, "1", 0.05, 20.0, log_scale=True,
+                               note="tau while falling / tau while rising")])
+
+    def null_values(self):
+        return {f"{self.id}.fall_ratio": 1.0}
+
+    def vbmm_changes(self, base: VBMM, params: ParamSet) -> dict:
+        r = params.value(f"{self.id}.fall_ratio")
+        return {} if r == 1.0 else {"fall_ratio": base.fall_ratio * r}
+
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        rate = _rate(log.time_s, base_angle_deg)
+        dp = np.diff(log.pressure_pa, prepend=log.pressure_pa[0])
+        return np.column_stack([np.where(dp > 0, rate, 0.0), np.where(dp < 0, rate, 0.0)])
+
+
+class StrainStiffening(Effect):
+    """The rubber stiffens at large strain (hyperelastic, beyond linear viscoelasticity).
+
+    Model term: all stresses scale by 1 + c eps1^2 (eps1 the axial strain, about 0.1 at 75 deg).
+    """
+
+    id = "strain_stiffening"
+    meaning = "the rubber stiffens at large strain (hyperelastic, beyond linear viscoelasticity)"
+    where_it_shows = "residual grows with amplitude; high-pressure peaks over-predicted"
+    SETTINGS: ClassVar[tuple[str, ...]] = ()
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([Param(f"{self.id}.c", 10.0, "1", 0.0, 500.0, note="stiffening coefficient")])
+
+    def null_values(self):
+        return {f"{self.id}.c": 0.0}
+
+    def vbmm_changes(self, base: VBMM, params: ParamSet) -> dict:
+        c = params.value(f"{self.id}.c")
+        return {} if c == 0.0 else {"stiffening": base.stiffening + c}
+
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        b = np.radians(base_angle_deg)
+        return np.column_stack([b**2, b**3])
+
+
+class AngleOffset(Effect):
+    """The angle sensor reads with a constant zero offset (deg)."""
+
+    id = "angle_offset"
+    meaning = "the angle sensor reads with a constant zero offset"
+    where_it_shows = "constant residual component that no material parameter can produce"
+    SETTINGS: ClassVar[tuple[str, ...]] = ()
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([Param(f"{self.id}.offset", 2.0, "deg", -30.0, 30.0, note="sensor zero offset")])
+
+    def null_values(self):
+        return {f"{self.id}.offset": 0.0}
+
+    def transform_angle(self, t, beta_deg, params):
+        off = params.value(f"{self.id}.offset")
+        return beta_deg if off == 0.0 else beta_deg + off
+
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        return np.ones((log.n, 1))
+
+
+class ThermalSoftening(Effect):
+    """The muscle softens slowly as it warms over a long run (seed 001: loop drift over ~50 cycles).
+
+    Model term: all moduli scale by 1 - amount (1 - exp(-(t - t0)/T)), t0 the start of the log.
+    """
+
+    id = "thermal_softening"
+    meaning = "the muscle softens slowly over a long run as it warms"
+    where_it_shows = "residual drifts with elapsed time over long logs"
+    SETTINGS: ClassVar[tuple[str, ...]] = ()
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([
+            Param(f"{self.id}.amount", 0.1, "1", 0.0, 0.9, note="final fractional loss of stiffness"),
+            Param(f"{self.id}.T", 300.0, "s", 1.0, 1e5, log_scale=True, note="warm-up time constant"),
+        ])
+
+    def null_values(self):
+        return {f"{self.id}.amount": 0.0}
+
+    def modulus_scale(self, t, params):
+        a = params.value(f"{self.id}.amount")
+        if a == 0.0:
+            return None
+        T = params.value(f"{self.id}.T")
+        t = np.asarray(t, float)
+        return 1.0 - a * (1.0 - np.exp(-(t - t[0]) / T))
+
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        # softening raises the angle in proportion to the angle itself, growing with elapsed time
+        t = log.time_s
+        el = 1.0 - np.exp(-(t - t[0]) / self.default_params().value(f"{self.id}.T"))
+        return (el * base_angle_deg)[:, None]
