@@ -1,0 +1,459 @@
+"""Protocol files: what the test rig does, in the experimenter's terms (schema ``bpmid.protocol/1``).
+
+A protocol is a YAML mapping. Unknown keys are refused with their dotted path (``logs[0].program[2].
+triangle.rat``); so are negative rates or durations and levels outside the model's range.
+
+Top level
+---------
+- ``schema``: ``bpmid.protocol/1`` (optional)
+- ``kind``: ``motion`` (pressure program -> motion logs), ``reference`` (angle program -> reference
+  signals ``time_s, angle_deg`` for control), ``relaxation`` (ramp-and-hold tensile tests; the block
+  ``relaxation`` is :class:`bpmid.twin.relaxation_protocol.RelaxationSpec`)
+- ``name``, ``description``: text for the manifest
+- ``seed`` (int, default 0): the seed when ``--seed`` is not given
+- ``sampling_hz`` (default 10): logging rate
+- ``unit``: ``bar`` (motion, default) or ``kpa``; ``deg`` for reference signals. Every level, limit and rate in
+  the programs is in this unit (rates in unit/s)
+- ``pressure_reference``: ``absolute`` (default) or ``gauge``; ``atmosphere_bar`` (default 1.01325)
+- ``replicates`` (default 1): every log is run this many times (files ``<name>_r<k>.csv``), each replicate with
+  its own draw of the constants (``plant.variation``) and of the sensor errors
+- ``logs``: a list of ``{name, start, program, replicates}``; ``start`` is the level at t = 0 (the muscle is
+  relaxed there); ``program`` a list of segments, each a one-key mapping:
+
+  - ``hold: {duration_s, level}``: stay (or jump to ``level``) for ``duration_s``
+  - ``ramp: {to, rate | duration_s}``: linear change to ``to``
+  - ``step: {to, hold_s, slew}``: change to ``to`` at the slew limit ``slew`` (unit/s; omitted: a jump), then
+    hold for ``hold_s``
+  - ``triangle: {low, high, rate, cycles}``: ramp to ``low`` at ``rate`` if not there, then ``cycles`` times
+    low -> high -> low at +-``rate``
+  - ``sawtooth: {low, high, period_s, cycles, fall_s}``: rise low -> high over ``period_s``, fall back over
+    ``fall_s`` (default 0: a jump)
+  - ``sine: {mean, amplitude, frequency_hz, cycles}``: mean + amplitude sin(2 pi f t)
+  - ``repeat: {times, program}``: a sub-program run ``times`` times
+- ``plant`` (motion): ``material`` (``paper_fit`` or ``paper_mat``; ``--params`` overrides), ``closure``,
+  ``effects`` (the rig's own physics: ``{id: {parameter or setting: value}}``), ``variation``
+  (``modulus_cv``, ``tau_cv``: replicate-to-replicate log-normal spread of the constants)
+- ``sensors`` (motion): see :class:`bpmid.twin.sensors.Sensors`
+- ``effects`` (motion): catalogue effects to inject, ``{id: {parameter or setting: value}}`` (``--effect`` adds)
+- ``blind`` (default false): the injected effects go to a separate answer, not the manifest (discovery demo)
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any, Literal, Mapping, Optional
+
+import numpy as np
+import yaml
+
+from bpmid.config import build_dataclass
+from bpmid.errors import InputError
+from bpmid.twin.relaxation_protocol import RelaxationSpec
+from bpmid.twin.sensors import Sensors
+
+SCHEMA = "bpmid.protocol/1"
+
+
+def _positive(where, path, **values):
+    for k, v in values.items():
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise InputError(f"must be positive, found {v!r}", path=path, key=f"{where}.{k}")
+
+
+def _non_negative(where, path, **values):
+    for k, v in values.items():
+        if v is not None and not (math.isfinite(v) and v >= 0):
+            raise InputError(f"must not be negative, found {v!r}", path=path, key=f"{where}.{k}")
+
+
+# ---------------------------------------------------------------------------------------------
+# program segments (levels in the protocol's unit, rates in unit/s)
+# ---------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Hold:
+    duration_s: float
+    level: Optional[float] = None
+
+    def validate(self, where, path):
+        _non_negative(where, path, duration_s=self.duration_s)
+
+    def levels(self):
+        return {} if self.level is None else {"level": self.level}
+
+    def pieces(self, t0, x0):
+        x = x0 if self.level is None else self.level
+        return [("lin", t0, t0 + self.duration_s, x, x)], t0 + self.duration_s, x
+
+
+@dataclasses.dataclass(frozen=True)
+class Ramp:
+    to: float
+    rate: Optional[float] = None
+    duration_s: Optional[float] = None
+
+    def validate(self, where, path):
+        if (self.rate is None) == (self.duration_s is None):
+            raise InputError("give exactly one of rate and duration_s", path=path, key=f"{where}.rate")
+        _positive(where, path, rate=self.rate)
+        _non_negative(where, path, duration_s=self.duration_s)
+
+    def levels(self):
+        return {"to": self.to}
+
+    def pieces(self, t0, x0):
+        d = self.duration_s if self.duration_s is not None else abs(self.to - x0) / self.rate
+        return [("lin", t0, t0 + d, x0, self.to)], t0 + d, self.to
+
+
+@dataclasses.dataclass(frozen=True)
+class Step:
+    to: float
+    hold_s: float
+    slew: Optional[float] = None
+
+    def validate(self, where, path):
+        _non_negative(where, path, hold_s=self.hold_s)
+        _positive(where, path, slew=self.slew)
+
+    def levels(self):
+        return {"to": self.to}
+
+    def pieces(self, t0, x0):
+        out = []
+        if self.slew is not None and self.to != x0:
+            d = abs(self.to - x0) / self.slew
+            out.append(("lin", t0, t0 + d, x0, self.to))
+            t0 += d
+        out.append(("lin", t0, t0 + self.hold_s, self.to, self.to))
+        return out, t0 + self.hold_s, self.to
+
+
+@dataclasses.dataclass(frozen=True)
+class Triangle:
+    low: float
+    high: float
+    rate: float
+    cycles: int = 1
+
+    def validate(self, where, path):
+        _positive(where, path, rate=self.rate, cycles=self.cycles)
+        if not self.high > self.low:
+            raise InputError(f"high ({self.high:g}) must be above low ({self.low:g})", path=path, key=f"{where}.high")
+
+    def levels(self):
+        return {"low": self.low, "high": self.high}
+
+    def pieces(self, t0, x0):
+        out = []
+        if x0 != self.low:
+            d = abs(x0 - self.low) / self.rate
+            out.append(("lin", t0, t0 + d, x0, self.low))
+            t0 += d
+        half = (self.high - self.low) / self.rate
+        for _ in range(self.cycles):
+            out.append(("lin", t0, t0 + half, self.low, self.high))
+            out.append(("lin", t0 + half, t0 + 2 * half, self.high, self.low))
+            t0 += 2 * half
+        return out, t0, self.low
+
+
+@dataclasses.dataclass(frozen=True)
+class Sawtooth:
+    low: float
+    high: float
+    period_s: float
+    cycles: int = 1
+    fall_s: float = 0.0
+
+    def validate(self, where, path):
+        _positive(where, path, period_s=self.period_s, cycles=self.cycles)
+        _non_negative(where, path, fall_s=self.fall_s)
+        if not self.high > self.low:
+            raise InputError(f"high ({self.high:g}) must be above low ({self.low:g})", path=path, key=f"{where}.high")
+
+    def levels(self):
+        return {"low": self.low, "high": self.high}
+
+    def pieces(self, t0, x0):
+        out = []
+        for _ in range(self.cycles):
+            out.append(("lin", t0, t0 + self.period_s, self.low, self.high))
+            t0 += self.period_s
+            if self.fall_s > 0:
+                out.append(("lin", t0, t0 + self.fall_s, self.high, self.low))
+                t0 += self.fall_s
+        return out, t0, (self.low if self.fall_s > 0 else self.high)
+
+
+@dataclasses.dataclass(frozen=True)
+class Sine:
+    mean: float
+    amplitude: float
+    frequency_hz: float
+    cycles: float = 1.0
+
+    def validate(self, where, path):
+        _positive(where, path, frequency_hz=self.frequency_hz, cycles=self.cycles)
+        _non_negative(where, path, amplitude=self.amplitude)
+
+    def levels(self):
+        return {"mean": self.mean}
+
+    def pieces(self, t0, x0):
+        d = self.cycles / self.frequency_hz
+        end = self.mean + self.amplitude * math.sin(2 * math.pi * self.cycles)
+        return [("sine", t0, t0 + d, self.mean, self.amplitude, self.frequency_hz)], t0 + d, end
+
+
+@dataclasses.dataclass(frozen=True)
+class Repeat:
+    times: int
+    program: tuple[Any, ...]
+
+    def validate(self, where, path):
+        _positive(where, path, times=self.times)
+
+    def levels(self):
+        return {}
+
+    def pieces(self, t0, x0):
+        out = []
+        for _ in range(self.times):
+            for seg in self.program:
+                p, t0, x0 = seg.pieces(t0, x0)
+                out.extend(p)
+        return out, t0, x0
+
+
+SEGMENTS: dict[str, type] = {"hold": Hold, "ramp": Ramp, "step": Step, "triangle": Triangle,
+                             "sawtooth": Sawtooth, "sine": Sine, "repeat": Repeat}
+
+
+def parse_program(raw, where: str, path) -> tuple:
+    """A list of one-key mappings -> segment objects (``repeat`` recursively)."""
+    if not isinstance(raw, (list, tuple)) or not raw:
+        raise InputError("expected a non-empty list of segments", path=path, key=where)
+    out = []
+    for j, item in enumerate(raw):
+        w = f"{where}[{j}]"
+        if not isinstance(item, dict) or len(item) != 1:
+            raise InputError(f"each segment is a one-key mapping ({', '.join(SEGMENTS)})", path=path, key=w)
+        (kind, body), = item.items()
+        if kind not in SEGMENTS:
+            raise InputError(f"unknown segment type (known: {', '.join(SEGMENTS)})", path=path, key=f"{w}.{kind}")
+        seg = build_dataclass(SEGMENTS[kind], body, f"{w}.{kind}", path)
+        if kind == "repeat":
+            seg = dataclasses.replace(seg, program=parse_program(seg.program, f"{w}.repeat.program", path))
+        out.append((f"{w}.{kind}", seg))
+    return tuple(out)
+
+
+def _walk(program):
+    """(key, segment) pairs, descending into repeats."""
+    for key, seg in program:
+        yield key, seg
+        if isinstance(seg, Repeat):
+            yield from _walk(seg.program)
+
+
+def _strip(program):
+    return tuple(dataclasses.replace(s, program=_strip(s.program)) if isinstance(s, Repeat) else s
+                 for _k, s in program)
+
+
+def render(program: tuple, start: float, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """Sample a program at ``fs`` Hz from t = 0: times (s) and levels (the protocol's unit), shape (N,)."""
+    pieces, t_end, _x = Repeat(1, program).pieces(0.0, float(start))
+    n = int(math.floor(t_end * fs + 1e-9)) + 1
+    t = np.arange(n) / fs
+    x = np.full(n, float(start))
+    if not pieces:
+        return t, x
+    starts = np.array([p[1] for p in pieces])
+    idx = np.clip(np.searchsorted(starts, t + 1e-9, side="right") - 1, 0, len(pieces) - 1)
+    for i in np.unique(idx):
+        kind, t0, t1, *args = pieces[i]
+        sel = idx == i
+        tl = np.minimum(t[sel], t1) - t0
+        if kind == "lin":
+            a, b = args
+            x[sel] = a if t1 == t0 else a + (b - a) * tl / (t1 - t0)
+        else:
+            mean, amp, f = args
+            x[sel] = mean + amp * np.sin(2 * math.pi * f * tl)
+    return t, x
+
+
+# ---------------------------------------------------------------------------------------------
+# the protocol
+# ---------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class LogSpec:
+    """One log (or ``replicates`` of it): a program started relaxed at ``start``."""
+
+    name: str
+    program: tuple[Any, ...]
+    start: Optional[float] = None
+    replicates: Optional[int] = None
+
+    def validate(self, where, path):
+        _positive(where, path, replicates=self.replicates)
+        if not self.name or any(c in self.name for c in "/\\ "):
+            raise InputError(f"a log name is a file stem without spaces or slashes, found {self.name!r}",
+                             path=path, key=f"{where}.name")
+
+
+@dataclasses.dataclass(frozen=True)
+class Variation:
+    """Replicate-to-replicate spread of the constants: each replicate's moduli are multiplied by
+    exp(modulus_cv z1) and its time constants by exp(tau_cv z2), z standard normal from the seed."""
+
+    modulus_cv: float = 0.0
+    tau_cv: float = 0.0
+
+    def validate(self, where, path):
+        _non_negative(where, path, modulus_cv=self.modulus_cv, tau_cv=self.tau_cv)
+        for k in ("modulus_cv", "tau_cv"):
+            if getattr(self, k) > 0.5:
+                raise InputError(f"a spread above 0.5 is not a replicate of one muscle, found {getattr(self, k)}",
+                                 path=path, key=f"{where}.{k}")
+
+
+@dataclasses.dataclass(frozen=True)
+class PlantSpec:
+    """The muscle on the rig: VBMM constants (unless ``--params``), the rig's own effects, variation."""
+
+    material: Literal["paper_fit", "paper_mat"] = "paper_fit"
+    closure: Literal["paper", "consistent"] = "paper"
+    effects: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    variation: Variation = dataclasses.field(default_factory=Variation)
+
+
+@dataclasses.dataclass(frozen=True)
+class Protocol:
+    kind: Literal["motion", "reference", "relaxation"]
+    name: str = "protocol"
+    description: str = ""
+    schema: str = SCHEMA
+    seed: int = 0
+    sampling_hz: float = 10.0
+    unit: Literal["bar", "kpa", "deg"] = "bar"
+    pressure_reference: Literal["absolute", "gauge"] = "absolute"
+    atmosphere_bar: float = 1.01325
+    replicates: int = 1
+    logs: tuple[LogSpec, ...] = ()
+    plant: PlantSpec = dataclasses.field(default_factory=PlantSpec)
+    sensors: Sensors = dataclasses.field(default_factory=Sensors)
+    effects: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    blind: bool = False
+    relaxation: Optional[RelaxationSpec] = None
+    path: Optional[str] = None
+    sha256: Optional[str] = None
+
+    def validate(self, where, path):
+        if self.schema != SCHEMA:
+            raise InputError(f"expected {SCHEMA}, found {self.schema!r}", path=path, key="schema")
+        _positive("", path, sampling_hz=self.sampling_hz, replicates=self.replicates)
+        if self.seed < 0:
+            raise InputError(f"a seed is a non-negative whole number, found {self.seed}", path=path, key="seed")
+        if not (0.5 <= self.atmosphere_bar <= 1.2):
+            raise InputError(f"not an ambient pressure: {self.atmosphere_bar} bar", path=path, key="atmosphere_bar")
+        if self.kind == "reference" and self.unit != "deg":
+            raise InputError("reference signals are angles: unit must be deg", path=path, key="unit")
+        if (self.kind == "relaxation") != (self.relaxation is not None):
+            raise InputError("a relaxation protocol needs the block relaxation (and only it has one)", path=path,
+                             key="relaxation")
+        if self.kind == "motion" and self.unit == "deg":
+            raise InputError("motion programs are pressures: unit bar or kpa", path=path, key="unit")
+
+    # -- units -------------------------------------------------------------------------------
+    @property
+    def unit_pa(self) -> float:
+        return {"bar": 1e5, "kpa": 1e3, "deg": 1.0}[self.unit]
+
+    def to_gauge_pa(self, level):
+        """A program level (the protocol's unit and reference) as gauge Pa."""
+        pa = np.asarray(level, float) * self.unit_pa
+        return pa - self.atmosphere_bar * 1e5 if self.pressure_reference == "absolute" else pa
+
+    def runs(self):
+        """(file stem, log spec, replicate index) for every log file this protocol writes."""
+        for spec in self.logs:
+            n = spec.replicates or self.replicates
+            for k in range(n):
+                yield (spec.name if n == 1 else f"{spec.name}_r{k + 1}"), spec, k
+
+    def render(self, spec: LogSpec):
+        start = spec.start if spec.start is not None else _first_level(spec.program)
+        return render(spec.program, start, self.sampling_hz)
+
+
+def _first_level(program) -> float:
+    for _k, seg in _walk(program):
+        lv = seg.levels()
+        if lv:
+            return float(next(iter(lv.values())))
+    return 0.0
+
+
+def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Protocol:
+    """Read and check a protocol file (errors name the file and the key)."""
+    import hashlib
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("protocol file not found", path=path)
+    raw = path.read_bytes()
+    try:
+        data = yaml.safe_load(raw.decode("utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        mark = getattr(exc, "problem_mark", None)
+        raise InputError(f"not valid YAML: {getattr(exc, 'problem', exc)}", path=path,
+                         line=None if mark is None else mark.line + 1) from exc
+    if not isinstance(data, dict):
+        raise InputError("a protocol file is a YAML mapping", path=path)
+    for k in ("path", "sha256"):
+        if k in data:
+            raise InputError("unknown key", path=path, key=k)
+    if "kind" not in data:
+        raise InputError("missing key (motion, reference or relaxation)", path=path, key="kind")
+    proto = build_dataclass(Protocol, data, "", path)
+    logs = []
+    for i, spec in enumerate(proto.logs):
+        logs.append(dataclasses.replace(spec, program=parse_program(spec.program, f"logs[{i}].program", path)))
+    proto = dataclasses.replace(proto, logs=tuple(logs), path=str(path), sha256=hashlib.sha256(raw).hexdigest())
+    if proto.kind in ("motion", "reference") and not proto.logs:
+        raise InputError("a motion or reference protocol needs at least one log", path=path, key="logs")
+    names = [n for n, _s, _k in proto.runs()]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InputError(f"two logs would share the file name {dup[0]!r}", path=path, key="logs")
+    if proto.kind == "motion":
+        _check_levels(proto, path, max_gauge_pa)
+    # the segment keys were only needed for the messages above
+    return dataclasses.replace(proto, logs=tuple(dataclasses.replace(s, program=_strip(s.program)) for s in proto.logs))
+
+
+def _check_levels(proto: Protocol, path, max_gauge_pa):
+    """Pressures must stay in the model's range: at or above atmosphere, below ``max_gauge_pa``."""
+    for i, spec in enumerate(proto.logs):
+        checks = []
+        if spec.start is not None:
+            checks.append((f"logs[{i}].start", spec.start))
+        for key, seg in _walk(spec.program):
+            if isinstance(seg, Sine):
+                checks += [(f"{key}.mean", seg.mean - seg.amplitude), (f"{key}.amplitude", seg.mean + seg.amplitude)]
+            else:
+                checks += [(f"{key}.{k}", v) for k, v in seg.levels().items()]
+        for key, level in checks:
+            g = float(proto.to_gauge_pa(level))
+            if g < -1e-9:
+                raise InputError(f"pressure {level:g} {proto.unit} ({proto.pressure_reference}) is below atmosphere: "
+                                 f"outside the model's range (the VBMM takes gauge pressure >= 0)", path=path, key=key)
+            if max_gauge_pa is not None and g > max_gauge_pa:
+                top = max_gauge_pa / proto.unit_pa + (proto.atmosphere_bar * 1e5 / proto.unit_pa
+                                                       if proto.pressure_reference == "absolute" else 0.0)
+                raise InputError(f"pressure {level:g} {proto.unit} ({proto.pressure_reference}) is above the model's "
+                                 f"range (at most {top:.3g} {proto.unit}: beyond it the muscle would bend past the "
+                                 f"model's limit)", path=path, key=key)
