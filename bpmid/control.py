@@ -1,0 +1,573 @@
+"""Closed-loop control of a bending pneumatic muscle: PI, VBMM-PI (seed 000 eq. 20) and Maxwell-slip-PI
+(seed 003), simulated at the control rate on a plant (the twin: a VBMM with optional catalogue effects,
+sensor noise and valve-and-volume pressure dynamics, :mod:`bpmid.pneumatics`).
+
+The controllers (eq. 20, one command per control period, applied at the next sample)::
+
+    P_out(k+1) = FF(beta_in(k)) + P e(k) + I sum_{i<=k} e(i),    e = beta_in - beta_measured
+
+- ``pi``: FF = 0 (the integrator carries the whole pressure; it starts at the resting pressure)
+- ``vbmm-pi``: FF = the inverse VBMM of the controller's model (eq. 18, recursive history: the exact
+  O(1) form of the long-term VBMM) run incrementally on the reference
+- ``ms-pi``: FF = the Maxwell-slip model written from angle to pressure (seed 003's inverse form),
+  identified on open-loop data of the controller's model (a training set of pressure triangles)
+
+Units of the paper's gains (seed 000 gives none): e in degrees (the flex sensor's reading, the unit of every
+angle in the paper), P_out in bar (the pressure of eq. 20, the same unit as the inverse VBMM's output it is
+added to), and the integral gain per second, as a Simulink discrete PI integrates (I Ts sum e): P = 0.04
+bar/deg, I = 0.01 bar/(deg s), i.e. 0.001 bar/deg per step at 10 Hz. Reading eq. (20)'s sum literally
+(0.01 bar/deg per step) is ``--ki 0.1``; on the twin that makes the PI alone track to about 1 deg RMSE,
+far better than the paper's 5.1 deg, so the per-second reading is the default. Pressures are absolute, clipped to the
+rig's range [p_min, p_max] with conditional integration (anti-windup); saturation and oscillation are
+reported per run.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from bpmid import control_kernels as CK
+from bpmid import metrics
+from bpmid.errors import InputError
+from bpmid.models.vbmm import VBMM, _CLOSURES, triangle_pressure
+from bpmid.pneumatics import ValveVolumeParams
+from bpmid.twin.sensors import Sensors, read_angle
+
+PA_PER_BAR = 1e5
+CONTROLLERS = ("pi", "vbmm-pi", "ms-pi")
+_KIND = {"pi": CK.CTRL_PI, "vbmm-pi": CK.CTRL_VBMM, "ms-pi": CK.CTRL_MS}
+#: built-in references (used when datasets/control/ does not hold a file of that name)
+BUILTIN_REFERENCES = ("steps", "sawtooth", "sines")
+
+
+@dataclasses.dataclass(frozen=True)
+class ControlConfig:
+    """Config section ``control``.
+
+    Attributes
+    ----------
+    kp_bar_per_deg : proportional gain P of eq. (20), bar per degree of error (paper 0.04)
+    ki_bar_per_deg_s : integral gain I of eq. (20), bar per degree of error per second (paper 0.01; the
+        sum of eq. 20 is taken times the control period 1/rate_hz)
+    rate_hz : sampling and control rate (paper 10 Hz)
+    p_min_bar_abs, p_max_bar_abs : pressure limits of the valve command, bar absolute (1.0, 2.4)
+    atmosphere_bar : absolute pressure of the atmosphere (gauge = absolute - this)
+    preview : feedforward on the next reference sample beta_in(k+1) instead of the paper's beta_in(k)
+    controllers : controllers run by default
+    sensors : the plant's angle sensor (:class:`bpmid.twin.sensors.Sensors`: white noise, drift,
+        resolution; the pressure fields are not used); default 0.1 deg white noise
+    seed : seed of the sensor draws
+    plant_modulus_scale, plant_tau_scale : the plant's moduli and time constants times these (a plant a few
+        percent off the controller's model without a second parameter file)
+    pressure_dynamics : plant option: valve and muscle-volume dynamics (seed 003 eqs. 12-17)
+    pneumatics : their constants (:class:`bpmid.pneumatics.ValveVolumeParams`)
+    ms_elements, ms_poly_degree : size of the Maxwell-slip inverse feedforward
+    ms_train_bar_abs : pressure range of the open-loop training triangles of the Maxwell-slip feedforward
+    oscillation_limit_pct : a run whose command reverses (by > 0.01 bar) on more than this share of the
+        steps is reported as oscillating (a lightly damped loop ringing near the Nyquist frequency); a run
+        whose command swings between both limits (3 or more switches), or asks for a bend beyond the
+        model's range, is reported as unstable
+    """
+
+    kp_bar_per_deg: float = 0.04
+    ki_bar_per_deg_s: float = 0.01
+    rate_hz: float = 10.0
+    p_min_bar_abs: float = 1.0
+    p_max_bar_abs: float = 2.4
+    atmosphere_bar: float = 1.01325
+    preview: bool = False
+    controllers: tuple[str, ...] = CONTROLLERS
+    sensors: Sensors = dataclasses.field(default_factory=lambda: Sensors(angle_noise_deg=0.1))
+    seed: int = 0
+    plant_modulus_scale: float = 1.0
+    plant_tau_scale: float = 1.0
+    pressure_dynamics: bool = False
+    pneumatics: ValveVolumeParams = dataclasses.field(default_factory=ValveVolumeParams)
+    ms_elements: int = 4
+    ms_poly_degree: int = 3
+    ms_train_bar_abs: tuple[float, ...] = (1.1, 2.4)
+    oscillation_limit_pct: float = 50.0
+
+    def validate(self, where="control", path=None):
+        def bad(key, msg):
+            raise InputError(msg, path=path, key=f"{where}.{key}")
+
+        for key in ("kp_bar_per_deg", "ki_bar_per_deg_s"):
+            v = getattr(self, key)
+            if not (np.isfinite(v) and v >= 0):
+                bad(key, f"must be finite and >= 0, found {v!r}")
+        if not self.rate_hz > 0:
+            bad("rate_hz", f"must be positive, found {self.rate_hz!r}")
+        if not 0 < self.p_min_bar_abs < self.p_max_bar_abs:
+            bad("p_max_bar_abs", f"need 0 < p_min < p_max, found {self.p_min_bar_abs!r}, {self.p_max_bar_abs!r}")
+        for c in self.controllers:
+            if c not in CONTROLLERS:
+                bad("controllers", f"unknown controller {c!r} (known: {', '.join(CONTROLLERS)})")
+        for key in ("plant_modulus_scale", "plant_tau_scale"):
+            if not getattr(self, key) > 0:
+                bad(key, f"must be positive, found {getattr(self, key)!r}")
+        if len(self.ms_train_bar_abs) != 2 or not self.ms_train_bar_abs[0] < self.ms_train_bar_abs[1]:
+            bad("ms_train_bar_abs", "expected [low, high] in bar absolute")
+        self.pneumatics.validate(f"{where}.pneumatics", path)
+
+
+# ---------------------------------------------------------------------------------------------
+# references
+# ---------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Reference:
+    """A reference angle signal on the control grid: time_s (N,) s, angle_deg (N,) deg."""
+
+    name: str
+    time_s: np.ndarray
+    angle_deg: np.ndarray
+    path: Path | None = None
+
+
+def shipped_dir() -> Path:
+    return Path(__file__).resolve().parents[1] / "datasets" / "control"
+
+
+def builtin_reference(name: str, rate_hz: float = 10.0) -> Reference:
+    """The paper's reference kinds (Fig. 18), generated: ``steps`` 45-60-75-60-45 deg held 10 s each;
+    ``sawtooth`` triangles of 15 then 30 deg amplitude about 45 deg (two 20 s periods each); ``sines``
+    about 45 deg, amplitude 20 deg, one period at 0.042 Hz then two at 0.083 Hz. Each starts with 5 s at
+    its first value."""
+    dt = 1.0 / rate_hz
+    if name == "steps":
+        levels = [45.0, 60.0, 75.0, 60.0, 45.0]
+        t = np.arange(0.0, 5.0 + 10.0 * len(levels) - 0.5 * dt, dt)
+        a = np.full(t.size, levels[0])
+        for i, lv in enumerate(levels):
+            a[t >= 5.0 + 10.0 * i] = lv
+        return Reference(name, t, a)
+    if name == "sawtooth":
+        t = np.arange(0.0, 85.0 - 0.5 * dt, dt)
+        tt = np.clip(t - 5.0, 0.0, None)
+        amp = np.where(tt < 40.0, 15.0, 30.0)
+        ph = np.mod(tt, 20.0) / 20.0
+        tri = np.where(ph < 0.25, 4 * ph, np.where(ph < 0.75, 2 - 4 * ph, 4 * ph - 4))
+        return Reference(name, t, 45.0 + amp * tri)
+    if name == "sines":
+        T1, T2 = 1 / 0.042, 2 / 0.083
+        t = np.arange(0.0, 5.0 + T1 + T2, dt)
+        tt = np.clip(t - 5.0, 0.0, None)
+        phase = np.where(tt < T1, 2 * np.pi * 0.042 * tt, 2 * np.pi + 2 * np.pi * 0.083 * (tt - T1))
+        return Reference(name, t, 45.0 + 20.0 * np.sin(phase))
+    raise InputError(f"unknown reference {name!r}")
+
+
+def read_reference(path: Path, rate_hz: float, name: str | None = None) -> Reference:
+    """A reference CSV (``time_s``, ``angle_deg``), resampled (linear) onto the control grid if needed."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("reference file not found", path=path)
+    try:
+        df = pd.read_csv(path, comment="#")
+    except Exception as exc:  # pandas raises many kinds
+        raise InputError(f"not a readable CSV: {exc}", path=path) from exc
+    for col in ("time_s", "angle_deg"):
+        if col not in df.columns:
+            raise InputError(f"missing column {col!r} (found: {', '.join(map(str, df.columns))})", path=path, key=col)
+    t = pd.to_numeric(df["time_s"], errors="coerce").to_numpy(float)
+    a = pd.to_numeric(df["angle_deg"], errors="coerce").to_numpy(float)
+    bad = np.flatnonzero(~(np.isfinite(t) & np.isfinite(a)))
+    if bad.size:
+        raise InputError("not a number", path=path, line=int(bad[0]) + 2)
+    if t.size < 2:
+        raise InputError("a reference needs at least two samples", path=path)
+    step = np.flatnonzero(np.diff(t) <= 0)
+    if step.size:
+        raise InputError("time_s must increase strictly", path=path, line=int(step[0]) + 3, key="time_s")
+    if np.any(a < 0) or np.any(a > 180):
+        k = int(np.flatnonzero((a < 0) | (a > 180))[0])
+        raise InputError(f"angle {a[k]:g} deg is outside 0..180 deg", path=path, line=k + 2, key="angle_deg")
+    dt = 1.0 / rate_hz
+    if not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-9):
+        grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) / dt + 1e-9)) + 1) * dt
+        a = np.interp(grid, t, a)
+        t = grid
+    return Reference(name or path.stem, t - t[0], a, path)
+
+
+def load_references(spec: str, rate_hz: float = 10.0) -> list[Reference]:
+    """``spec``: a comma list of CSV paths or names (a shipped reference in datasets/control/, else a
+    built-in one); ``all`` = every shipped reference (the built-in ones when none is shipped)."""
+    out = []
+    for item in [s.strip() for s in spec.split(",") if s.strip()]:
+        p = Path(item)
+        if p.suffix.lower() == ".csv" or p.is_file():
+            out.append(read_reference(p, rate_hz))
+            continue
+        shipped = sorted(shipped_dir().glob("*.csv")) if shipped_dir().is_dir() else []
+        if item == "all":
+            out += [read_reference(f, rate_hz) for f in shipped] or [builtin_reference(n, rate_hz)
+                                                                    for n in BUILTIN_REFERENCES]
+            continue
+        match = [f for f in shipped if f.stem == item]
+        if match:
+            out.append(read_reference(match[0], rate_hz))
+        elif item in BUILTIN_REFERENCES:
+            out.append(builtin_reference(item, rate_hz))
+        else:
+            known = [f.stem for f in shipped] + list(BUILTIN_REFERENCES) + ["all"]
+            raise InputError(f"unknown reference {item!r}: not a CSV file, known names: {', '.join(known)}",
+                             key="--reference")
+    if not out:
+        raise InputError("no reference given", key="--reference")
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# plant
+# ---------------------------------------------------------------------------------------------
+def pack_model(model: VBMM) -> tuple:
+    """The VBMM as the kernel's argument tuple (geo, closure, G_inf, G, tauG, K_inf, K, tauK, fall, stiff)."""
+    if model.history != "recursive":
+        model = model.replace(history="recursive")  # the exact O(1) form (window: the same to 1e-3 deg)
+    m = model.material
+    return (model.geometry.vector(), _CLOSURES[model.closure], float(m.G_inf), np.asarray(m.G, float),
+            np.asarray(m.tauG, float), float(m.K_inf), np.asarray(m.K, float), np.asarray(m.tau_K, float),
+            float(model.fall_ratio), float(model.stiffening))
+
+
+@dataclasses.dataclass(frozen=True)
+class PlantTerms:
+    """The plant's causal per-sample terms: what the catalogue effects become inside the loop.
+
+    ops : ((op, values), ...) pressure terms in order (:func:`bpmid.control_kernels.pressure_chain`)
+    offset_deg : angle sensor offset; scale : (N,) modulus scale or None (thermal softening)
+    """
+
+    ops: tuple = ()
+    offset_deg: float = 0.0
+    scale: np.ndarray | None = None
+
+    def arrays(self):
+        """(ch_op (m,), ch_par (m, R), ch_cnt (m,)) for the kernel."""
+        m = len(self.ops)
+        width = max([len(v) for _op, v in self.ops] + [1])
+        par = np.zeros((m, width))
+        for i, (_op, v) in enumerate(self.ops):
+            par[i, : len(v)] = v
+        return (np.array([op for op, _v in self.ops], np.int64), par,
+                np.array([len(v) for _op, v in self.ops], np.int64))
+
+
+def causal_terms(aug, t: np.ndarray) -> tuple[VBMM, PlantTerms]:
+    """Split an :class:`~bpmid.effects.base.AugmentedVBMM` into its VBMM (structural changes applied:
+    extra branch, fall_ratio, stiffening) and the per-sample terms the loop steps causally: the pressure
+    terms (pressure_lag: dead time then first-order lag; braid_friction: mean of play operators), the
+    modulus scale (a function of time only) and the angle offset. An effect with a pressure or angle term
+    this function does not know is refused (it could not be stepped causally)."""
+    from bpmid.effects.base import Effect
+
+    ops, offset, scale = [], 0.0, None
+    p = aug.params
+    for e in aug.effects:
+        if e.id == "pressure_lag":
+            tau = p.value(f"{e.id}.tau")
+            if tau != 0.0 or e.dead_time != 0.0:
+                ops += [(CK.OP_DELAY, [e.dead_time]), (CK.OP_LAG, [tau])]
+        elif e.id == "braid_friction":
+            r = p.value(f"{e.id}.r")
+            if r != 0.0:
+                ops.append((CK.OP_PLAYS, list(e.radii(r))))
+        elif type(e).transform_pressure is not Effect.transform_pressure:
+            raise InputError(f"effect {e.id} changes the pressure in a way the closed loop cannot step", key=e.id)
+        if e.id == "angle_offset":
+            offset += p.value(f"{e.id}.offset")
+        elif type(e).transform_angle is not Effect.transform_angle:
+            raise InputError(f"effect {e.id} changes the angle in a way the closed loop cannot step", key=e.id)
+        s = e.modulus_scale(np.asarray(t, float), p)
+        if s is not None:
+            scale = s if scale is None else scale * s
+    return aug.model(), PlantTerms(tuple(ops), offset, scale)
+
+
+@dataclasses.dataclass(frozen=True)
+class Plant:
+    """The simulated muscle: a VBMM, catalogue effects (``effects`` with their ``effect_params``), the
+    angle sensor, and optionally the valve-and-volume pressure dynamics."""
+
+    model: VBMM
+    effects: tuple = ()
+    effect_params: object = None
+    sensors: Sensors = dataclasses.field(default_factory=Sensors)
+    pressure_dynamics: bool = False
+    pneumatics: ValveVolumeParams = dataclasses.field(default_factory=ValveVolumeParams)
+
+    def augmented(self):
+        from bpmid.effects.base import AugmentedVBMM
+        from bpmid.params import ParamSet
+
+        return AugmentedVBMM(self.model, tuple(self.effects), self.effect_params or ParamSet([]))
+
+    def terms(self, t: np.ndarray) -> tuple[VBMM, PlantTerms]:
+        if not self.effects:
+            return self.model, PlantTerms()
+        return causal_terms(self.augmented(), t)
+
+    def sensor_error(self, t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Additive sensor error (deg, (N,)): drift and white noise (quantisation acts in the loop)."""
+        return read_angle(np.asarray(t, float), np.zeros(len(t)), dataclasses.replace(self.sensors, angle_resolution_deg=0.0),
+                          rng)
+
+
+def build_plant(model: VBMM, effect_args: Sequence[str] = (), cfg: "ControlConfig | None" = None) -> Plant:
+    """The plant from ``--plant-effect ID[:key=value,...]`` texts (the twin's parser and catalogue), in the
+    twin's signal-path order, with the config's sensors and pressure dynamics."""
+    from bpmid.params import ParamSet
+    from bpmid.twin.simulate import ORDER, build_effect, parse_effect_arg
+
+    cfg = cfg or ControlConfig()
+    chain = [build_effect(*parse_effect_arg(text), where="--plant-effect") for text in effect_args]
+    ids = [e.id for e, _p in chain]
+    dup = sorted({i for i in ids if ids.count(i) > 1})
+    if dup:
+        raise InputError(f"effect {dup[0]} is given twice", key="--plant-effect")
+    chain.sort(key=lambda ep: ORDER.index(ep[0].id))
+    return Plant(model, tuple(e for e, _p in chain), ParamSet([p for _e, ps in chain for p in ps]), cfg.sensors,
+                 cfg.pressure_dynamics, cfg.pneumatics)
+
+
+def scaled_plant_model(model: VBMM, modulus_scale: float = 1.0, tau_scale: float = 1.0) -> VBMM:
+    """The model with all moduli and time constants scaled (a plant a few percent off)."""
+    m = model.material.scaled(modulus_scale)
+    m = dataclasses.replace(m, tauG=tuple(v * tau_scale for v in m.tauG),
+                            tauK=None if m.tauK is None else tuple(v * tau_scale for v in m.tauK))
+    return model.replace(material=m)
+
+
+# ---------------------------------------------------------------------------------------------
+# Maxwell-slip inverse feedforward (seed 003)
+# ---------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class MSFeedforward:
+    """Pressure (bar gauge) as Maxwell-slip function of the angle (deg): s(beta) + sum k_i d_i(beta).
+
+    poly (deg + 1,) bar/deg^j; k (n,) bar/deg; D (n,) deg; train_rmse_bar on its training data."""
+
+    poly: np.ndarray
+    k: np.ndarray
+    D: np.ndarray
+    train_rmse_bar: float
+
+    def pressure_bar(self, beta_deg: np.ndarray) -> np.ndarray:
+        from bpmid.models._hysteresis_kernels import stop_bank
+
+        b = np.ascontiguousarray(beta_deg, float)
+        d = stop_bank(b, self.D, np.zeros_like(self.D))
+        return (b[:, None] ** np.arange(self.poly.size)) @ self.poly + d @ self.k
+
+
+def fit_ms_feedforward(model: VBMM, cfg: ControlConfig) -> MSFeedforward:
+    """Identify the inverse Maxwell-slip feedforward on open-loop data of the controller's model: the
+    VBMM driven by triangles of growing amplitude (+-0.2 bar/s, as experiment 1a) over ``ms_train_bar_abs``."""
+    from bpmid.models.maxwell_slip import MaxwellSlipModel
+
+    lo, hi = cfg.ms_train_bar_abs
+    dt = 1.0 / cfg.rate_hz
+    parts = []
+    for top in np.linspace(lo + 0.4 * (hi - lo), hi, 3):
+        tt = np.arange(0.0, 2 * (top - lo) / 0.2, dt)
+        parts.append(triangle_pressure(tt, lo, top, 0.2))
+    p_abs = np.concatenate(parts)
+    t = np.arange(p_abs.size) * dt
+    p_gauge_bar = p_abs - cfg.atmosphere_bar
+    beta = model.replace(history="recursive").forward_deg(t, p_gauge_bar * PA_PER_BAR)
+    ms = MaxwellSlipModel(cfg.ms_elements, cfg.ms_poly_degree, input_unit="deg", output_unit="bar")
+    res = ms.fit_arrays([beta], [p_gauge_bar])
+    pr = res.params
+    ff = MSFeedforward(np.array([pr.value(n) for n in ms.poly_names]), np.array([pr.value(n) for n in ms.stiffness_names]),
+                       np.array([pr.value(n) for n in ms.slip_names]), 0.0)
+    rms = float(np.sqrt(np.mean((ff.pressure_bar(beta) - p_gauge_bar) ** 2)))
+    return dataclasses.replace(ff, train_rmse_bar=rms)
+
+
+# ---------------------------------------------------------------------------------------------
+# the loop
+# ---------------------------------------------------------------------------------------------
+@dataclasses.dataclass
+class Run:
+    """One closed-loop run: signals (N,) and its verdicts."""
+
+    controller: str
+    reference: str
+    time_s: np.ndarray
+    reference_deg: np.ndarray
+    angle_deg: np.ndarray  # measured
+    true_angle_deg: np.ndarray
+    command_bar_abs: np.ndarray
+    muscle_bar_abs: np.ndarray
+    feedforward_bar_abs: np.ndarray
+    saturated: np.ndarray  # +1 high, -1 low, 0 inside
+    status: np.ndarray
+    wall_s: float = 0.0
+
+    @property
+    def error_deg(self) -> np.ndarray:
+        return self.reference_deg - self.angle_deg
+
+    def metrics(self, cfg: ControlConfig) -> dict:
+        du = np.diff(self.command_bar_abs)
+        rev = (du[1:] * du[:-1] < 0) & (np.abs(du[1:]) > 0.01) & (np.abs(du[:-1]) > 0.01)
+        osc_pct = 100.0 * float(np.mean(rev)) if rev.size else 0.0
+        sat_pct = 100.0 * float(np.mean(self.saturated != 0))
+        out_of_range = bool(np.any(self.status == 1))
+        hits = self.saturated[self.saturated != 0]
+        bang = int(np.sum(hits[1:] != hits[:-1]))  # switches between the two limits
+        flags = []
+        if out_of_range or bang >= 3:
+            flags.append("unstable")
+        if osc_pct > cfg.oscillation_limit_pct:
+            flags.append("oscillating")
+        if sat_pct > 0:
+            flags.append("saturated")
+        return {
+            "rmse_deg": metrics.rmse(self.reference_deg, self.true_angle_deg),
+            "max_abs_err_deg": metrics.max_abs_err(self.reference_deg, self.true_angle_deg),
+            "rmse_measured_deg": metrics.rmse(self.reference_deg, self.angle_deg),
+            "saturated_pct": sat_pct,
+            "saturated_high_steps": int(np.sum(self.saturated > 0)),
+            "saturated_low_steps": int(np.sum(self.saturated < 0)),
+            "reversal_pct": osc_pct,
+            "limit_switches": bang,
+            "status": ",".join(flags) if flags else "ok",
+            "us_per_step": 1e6 * self.wall_s / max(self.time_s.size, 1),
+        }
+
+
+def simulate_loop(controller: str, ref: Reference, model: VBMM, plant: Plant, cfg: ControlConfig, *,
+                  ms_ff: MSFeedforward | None = None, kp: float | None = None, ki: float | None = None,
+                  noise: np.ndarray | None = None) -> Run:
+    """Run ``controller`` on ``plant`` tracking ``ref``; ``model`` is the controller's VBMM."""
+    if controller not in _KIND:
+        raise InputError(f"unknown controller {controller!r} (known: {', '.join(CONTROLLERS)})", key="--controller")
+    kp = cfg.kp_bar_per_deg if kp is None else kp
+    ki = cfg.ki_bar_per_deg_s if ki is None else ki
+    t = np.ascontiguousarray(ref.time_s, float)
+    n = t.size
+    ref_rad = np.radians(np.ascontiguousarray(ref.angle_deg, float))
+    atm = cfg.atmosphere_bar * PA_PER_BAR
+    lo, hi = cfg.p_min_bar_abs * PA_PER_BAR, cfg.p_max_bar_abs * PA_PER_BAR
+    # at rest at the start: the controller model's relaxed pressure for the first reference sample
+    p_start = float(np.clip(atm + model.equilibrium_pressure(ref_rad[0])[0], lo, hi))
+    pmodel, terms = plant.terms(t)
+    if noise is None:
+        noise = plant.sensor_error(t, np.random.default_rng(cfg.seed))
+    scale = np.ones(n) if terms.scale is None else np.ascontiguousarray(terms.scale, float)
+    if ms_ff is None:
+        ms_ff = MSFeedforward(np.zeros(1), np.zeros(0), np.zeros(0), 0.0)
+        if controller == "ms-pi":
+            ms_ff = fit_ms_feedforward(model, cfg)
+    t0 = time.perf_counter()
+    u, pm, pe, beta, y, ff, sat, status = CK.closed_loop(
+        t, ref_rad, _KIND[controller], kp * PA_PER_BAR, ki * PA_PER_BAR / cfg.rate_hz, lo, hi, atm, p_start, bool(cfg.preview),
+        *pack_model(model), ms_ff.poly, ms_ff.k, ms_ff.D,
+        *pack_model(pmodel), scale, *terms.arrays(), float(terms.offset_deg),
+        np.ascontiguousarray(noise, float), float(plant.sensors.angle_resolution_deg), bool(plant.pressure_dynamics),
+        plant.pneumatics.vector(atm))
+    wall = time.perf_counter() - t0
+    return Run(controller, ref.name, t, np.asarray(ref.angle_deg, float), y, np.degrees(beta), u / PA_PER_BAR,
+               pm / PA_PER_BAR, ff / PA_PER_BAR, sat, status, wall)
+
+
+@dataclasses.dataclass
+class ControlResult:
+    runs: list[Run]
+    table: pd.DataFrame  # summary rows
+    feedforward_cost: dict
+    ms_feedforward: MSFeedforward | None
+    warnings: list[str]
+
+
+def summary_table(runs: Sequence[Run], cfg: ControlConfig) -> pd.DataFrame:
+    """One row per (controller, reference) plus ``ALL`` (pooled over references); reduction_pct = RMSE
+    reduction against ``pi`` on the same reference (NaN when pi was not run)."""
+    rows = []
+    for r in runs:
+        rows.append({"controller": r.controller, "reference": r.reference, **r.metrics(cfg)})
+    for c in dict.fromkeys(r.controller for r in runs):
+        mine = [r for r in runs if r.controller == c]
+        ref = np.concatenate([r.reference_deg for r in mine])
+        ang = np.concatenate([r.true_angle_deg for r in mine])
+        sat = np.concatenate([r.saturated for r in mine])
+        st = sorted({f for r in mine for f in r.metrics(cfg)["status"].split(",") if f != "ok"})
+        rows.append({"controller": c, "reference": "ALL", "rmse_deg": metrics.rmse(ref, ang),
+                     "max_abs_err_deg": metrics.max_abs_err(ref, ang),
+                     "rmse_measured_deg": metrics.rmse(ref, np.concatenate([r.angle_deg for r in mine])),
+                     "saturated_pct": 100.0 * float(np.mean(sat != 0)),
+                     "saturated_high_steps": int(np.sum(sat > 0)), "saturated_low_steps": int(np.sum(sat < 0)),
+                     "reversal_pct": float(np.mean([r.metrics(cfg)["reversal_pct"] for r in mine])),
+                     "status": ",".join(st) if st else "ok",
+                     "us_per_step": float(np.mean([r.metrics(cfg)["us_per_step"] for r in mine]))})
+    df = pd.DataFrame(rows)
+    base = df[df.controller == "pi"].set_index("reference")["rmse_deg"]
+    df["reduction_pct"] = [100.0 * (1.0 - row.rmse_deg / base[row.reference]) if row.reference in base.index
+                           else float("nan") for row in df.itertuples()]
+    cols = ["controller", "reference", "rmse_deg", "max_abs_err_deg", "reduction_pct", "rmse_measured_deg",
+            "saturated_pct", "saturated_high_steps", "saturated_low_steps", "reversal_pct", "status", "us_per_step"]
+    return df[cols]
+
+
+def feedforward_cost(model: VBMM, n_steps: int = 200_000, repeats: int = 3) -> dict:
+    """Measured cost of the feedforward per control step (us): the incremental inverse VBMM kernel the loop
+    runs, and the vectorised :meth:`VBMM.inverse` per sample; against the control period."""
+    dt = 0.1
+    t = np.arange(n_steps) * dt
+    beta = np.radians(45.0 + 20.0 * np.sin(2 * np.pi * 0.083 * t))
+    args = pack_model(model)
+    CK.inverse_incremental(t[:10], beta[:10], *args)  # compile / load the cache
+    best_k = min(_timed(lambda: CK.inverse_incremental(t, beta, *args)) for _ in range(repeats))
+    m = 20_000
+    rec = model.replace(history="recursive")
+    best_v = min(_timed(lambda: rec.inverse(t[:m], beta[:m])) for _ in range(repeats))
+    us_k = 1e6 * best_k / n_steps
+    return {"incremental_kernel_us_per_step": us_k, "vectorised_inverse_us_per_sample": 1e6 * best_v / m,
+            "control_period_us": 1e5, "share_of_period_pct": 100.0 * us_k / 1e5, "n_steps": n_steps}
+
+
+def _timed(fn) -> float:
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
+
+
+def run_control(model: VBMM, plant: Plant, references: Sequence[Reference], cfg: ControlConfig, *,
+                controllers: Sequence[str] | None = None, kp: float | None = None, ki: float | None = None,
+                measure_cost: bool = True) -> ControlResult:
+    """Every controller on every reference; the summary table; warnings for saturated or unstable runs."""
+    controllers = list(controllers or cfg.controllers)
+    for c in controllers:
+        if c not in _KIND:
+            raise InputError(f"unknown controller {c!r} (known: {', '.join(CONTROLLERS)})", key="--controller")
+    ms_ff = fit_ms_feedforward(model, cfg) if "ms-pi" in controllers else None
+    if references:  # load the compiled kernels before anything is timed
+        r0 = references[0]
+        simulate_loop("vbmm-pi", Reference("warm-up", r0.time_s[:5], r0.angle_deg[:5]), model, plant, cfg, kp=kp, ki=ki)
+    runs = []
+    for i, ref in enumerate(references):
+        noise = plant.sensor_error(ref.time_s, np.random.default_rng([cfg.seed, i]))
+        for c in controllers:  # the same noise for every controller on a reference
+            runs.append(simulate_loop(c, ref, model, plant, cfg, ms_ff=ms_ff, kp=kp, ki=ki, noise=noise))
+    table = summary_table(runs, cfg)
+    warnings = []
+    for row in table.itertuples():
+        if row.reference != "ALL" and row.status != "ok":
+            warnings.append(f"{row.controller} on {row.reference}: {row.status} (command at a pressure limit on "
+                            f"{row.saturated_pct:.1f} % of the steps: {row.saturated_high_steps} high, "
+                            f"{row.saturated_low_steps} low; command reversals {row.reversal_pct:.0f} %)")
+    cost = feedforward_cost(model) if measure_cost else {}
+    return ControlResult(runs, table, cost, ms_ff, warnings)
+
+
+__all__ = ["ControlConfig", "Reference", "Plant", "PlantTerms", "MSFeedforward", "Run", "ControlResult",
+           "builtin_reference", "read_reference", "load_references", "fit_ms_feedforward", "simulate_loop",
+           "run_control", "summary_table", "feedforward_cost", "scaled_plant_model", "CONTROLLERS"]
