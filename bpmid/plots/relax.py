@@ -26,7 +26,8 @@ def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
     logs = fit.logs[:max_logs]
     colors = [f"C{i % 10}" for i in range(len(logs))]
     unit, scale = ("kPa", 1e3) if fit.E_inf + fit.E.sum() < 1.0 else ("MPa", 1.0)
-    span = max(float(np.ptp(np.concatenate([lg.hold.t for lg in fit.logs]))), 1e-12)
+    all_t = np.concatenate([lg.hold.t for lg in fit.logs])
+    span = max(float(np.ptp(all_t)), 1e-12) if all_t.size else 10.0
     pos = np.concatenate([lg.hold.t[lg.hold.t > 0] for lg in fit.logs])
     log_time = pos.size > 0 and span / max(float(pos.min()), 1e-300) > 1e4
     for lg, c in zip(logs, colors):
@@ -41,7 +42,8 @@ def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
         ax_a.set_xscale("log")
         ax_c.set_xscale("log")
     if fit.mode == "ramp":  # the ramp and the first 10 s of the hold carry the information
-        t_end = max(float(lg.t[lg.hold.start]) for lg in fit.logs) + 10.0
+        t_end = max(float(lg.t[lg.hold.start]) for lg in fit.logs if lg.hold.t.size) + 10.0 \
+            if any(lg.hold.t.size for lg in fit.logs) else np.inf
         if t_end < max(float(lg.t[-1]) for lg in fit.logs):
             ax_a.set_xlim(float(min(lg.t[0] for lg in fit.logs)), t_end)
             ax_a.set_title(f"(a) {what}: data (dots) and ramp-mode fit (first {t_end:.0f} s)")
@@ -52,6 +54,8 @@ def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
         tt = h.t[h.t > 0] if log_time else h.t
         ee = h.modulus_mpa[h.t > 0] if log_time else h.modulus_mpa
         ax_b.plot(tt, ee * scale, "-", lw=0.7, color=c, alpha=0.7)
+    if pos.size == 0:
+        pos = np.array([1e-3, span])
     grid = (np.logspace(np.log10(pos.min()), np.log10(pos.max()), 400) if log_time
             else np.linspace(0.0, min(span, 10.0), 400))
     ax_b.plot(grid, fit.modulus(grid) * scale, "k-", lw=2.0, label=f"fitted E(t), {fit.m} term(s)")

@@ -222,7 +222,15 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
             raise InputError(f"terms must be a whole number from 1 to 200 or auto, found {terms!r}", key="terms")
         terms = int(terms)
     t0 = time.perf_counter()
-    holds = [hold_curve(lg, cfg.hold_window_s if mode == "step" else None) for lg in logs]
+    if mode == "step":
+        holds = [hold_curve(lg, cfg.hold_window_s) for lg in logs]
+    else:  # ramp mode needs no hold; the hold curve is only drawn (a log without one draws nothing)
+        holds = []
+        for lg in logs:
+            try:
+                holds.append(hold_curve(lg))
+            except InputError:
+                holds.append(HoldCurve(np.zeros(0), np.zeros(0), math.nan, math.nan, 0))
     if mode == "ramp":
         times = [lg.time_s for lg in logs]
         basis = RampBasis(times, [lg.strain for lg in logs])
