@@ -1,0 +1,10 @@
+"""Discrepancy discovery: find where the VBMM and the measurement disagree, name the missing catalogue effect,
+add it, and show the held-out gap shrink (../shared/spec/DISCOVER.md).
+
+Modules: :mod:`.diagnose` (residual diagnostics, noise floor), :mod:`.screen` (rank every catalogue effect by
+its signature), :mod:`.confirm` (refit, held-out score, penalised criteria, identifiability),
+:mod:`.workflow` (the loop, config, verdict), :mod:`.calibrate` (thresholds from simulated data).
+"""
+from bpmid.discover.workflow import DiscoverConfig, DiscoveryResult, discover
+
+__all__ = ["DiscoverConfig", "DiscoveryResult", "discover"]

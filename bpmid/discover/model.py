@@ -1,0 +1,145 @@
+"""The model the discovery loop grows: the VBMM's fitted constants plus the effects added so far.
+
+A :class:`ModelState` holds the base :class:`~bpmid.models.vbmm.VBMM`, the effects in the order they were
+added and one :class:`~bpmid.params.ParamSet` with every free constant: the base material constants
+(``vbmm.K_inf``, ``vbmm.K_<j>``, ``vbmm.tau_<j>``; moduli in Pa, time constants in s) and each effect's
+``<id>.<name>`` parameters. Everything here is shared by screening and confirmation: simulation on a
+set of logs, the least-squares fit, and finite-difference sensitivities.
+
+Units: angles in degrees, pressure gauge Pa, time s.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Sequence
+
+import numpy as np
+
+from bpmid.effects.base import AugmentedVBMM, Effect
+from bpmid.errors import InputError
+from bpmid.fitting import FitResult, fit_least_squares
+from bpmid.io.motion_logs import MotionLog
+from bpmid.models.vbmm import VBMM, Material
+from bpmid.params import Param, ParamSet
+
+#: residual (deg) used where the model cannot be evaluated (pressure beyond its range)
+FAIL_RESIDUAL_DEG = 1e3
+
+
+def base_params(model: VBMM) -> ParamSet:
+    """The base constants the discovery fits: K_inf and every branch's K and tau (G is held: it barely moves
+    the angle next to K, VBMM.md)."""
+    m = model.material
+    ps = [Param("vbmm.K_inf", m.K_inf, "Pa", lower=m.K_inf / 20, upper=m.K_inf * 20, log_scale=True)]
+    for j, (k, tau) in enumerate(zip(m.K, m.tau_K), start=1):
+        ps.append(Param(f"vbmm.K_{j}", max(k, 1e3), "Pa", lower=max(k, 1e3) / 50, upper=max(k, 1e3) * 50,
+                        log_scale=True))
+        ps.append(Param(f"vbmm.tau_{j}", tau, "s", lower=0.01, upper=100.0, log_scale=True))
+    return ParamSet(ps)
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelState:
+    """Base VBMM + effects + all their constants.
+
+    Attributes
+    ----------
+    base : the VBMM whose material the ``vbmm.*`` parameters overwrite
+    effects : effects in the order added
+    params : ``vbmm.*`` and ``<id>.*`` parameters
+    """
+
+    base: VBMM
+    effects: tuple[Effect, ...] = ()
+    params: ParamSet = dataclasses.field(default_factory=lambda: ParamSet([]))
+
+    @classmethod
+    def start(cls, base: VBMM) -> "ModelState":
+        return cls(base, (), base_params(base))
+
+    @property
+    def ids(self) -> list[str]:
+        return [e.id for e in self.effects]
+
+    def material(self, params: ParamSet | None = None) -> Material:
+        p = self.params if params is None else params
+        m = self.base.material
+        nb = m.n_branches
+        K = tuple(p.value(f"vbmm.K_{j}") for j in range(1, nb + 1))
+        tau = tuple(p.value(f"vbmm.tau_{j}") for j in range(1, nb + 1))
+        return Material(m.G_inf, p.value("vbmm.K_inf"), m.G, K, tau if m.tauK is None else m.tauG,
+                        None if m.tauK is None else tau)
+
+    def augmented(self, params: ParamSet | None = None) -> AugmentedVBMM:
+        p = self.params if params is None else params
+        return AugmentedVBMM(self.base.replace(material=self.material(p)), tuple(self.effects), p)
+
+    def with_effect(self, effect: Effect, effect_params: ParamSet | None = None) -> "ModelState":
+        extra = effect.default_params() if effect_params is None else effect_params
+        return ModelState(self.base, self.effects + (effect,), self.params.added(extra))
+
+    def fitted_vbmm(self) -> VBMM:
+        return self.base.replace(material=self.material())
+
+
+def simulate(state: ModelState, logs: Sequence[MotionLog], params: ParamSet | None = None) -> list[np.ndarray]:
+    """Predicted angle (deg) per log; NaN where the model refuses the pressure (beyond its range)."""
+    aug = state.augmented(params)
+    out = []
+    for lg in logs:
+        try:
+            out.append(np.asarray(aug.simulate_log(lg), float))
+        except (InputError, RuntimeError, FloatingPointError, ValueError):
+            out.append(np.full(lg.n, np.nan))
+    return out
+
+
+def residuals(state: ModelState, logs: Sequence[MotionLog], params: ParamSet | None = None) -> list[np.ndarray]:
+    """Model minus measurement (deg) per log."""
+    return [s - lg.angle_deg for s, lg in zip(simulate(state, logs, params), logs)]
+
+
+def stacked(parts: Sequence[np.ndarray]) -> np.ndarray:
+    r = np.concatenate([np.asarray(p, float) for p in parts]) if parts else np.zeros(0)
+    return np.where(np.isfinite(r), r, FAIL_RESIDUAL_DEG)
+
+
+def rmse_deg(parts: Sequence[np.ndarray]) -> float:
+    r = stacked(parts)
+    return float(np.sqrt(np.mean(r**2))) if r.size else float("nan")
+
+
+def fit_state(state: ModelState, logs: Sequence[MotionLog], *, max_nfev: int | None = None,
+              check_identifiability: bool = True) -> tuple[ModelState, FitResult]:
+    """Least-squares fit of every free constant of ``state`` on ``logs`` (angle error, deg)."""
+    segments = [lg.n for lg in logs]
+
+    def fn(p: ParamSet) -> np.ndarray:
+        return stacked(residuals(state, logs, p))
+
+    res = fit_least_squares(fn, state.params, segments=segments, check_identifiability=check_identifiability,
+                            max_nfev=max_nfev, xtol=1e-8, ftol=1e-8)
+    return dataclasses.replace(state, params=res.params), res
+
+
+def sensitivities(state: ModelState, logs: Sequence[MotionLog], names: Sequence[str] | None = None,
+                  base_sim: Sequence[np.ndarray] | None = None, rel_step: float = 1e-3) -> np.ndarray:
+    """(N, k) forward-difference derivatives of the stacked predicted angle (deg) with respect to the
+    parameters ``names`` (default: every free one), per unit of the optimiser variable (log for log-scaled)."""
+    names = state.params.free_names() if names is None else list(names)
+    y0 = stacked(simulate(state, logs) if base_sim is None else base_sim)
+    cols = []
+    for n in names:
+        p = state.params[n]
+        if p.log_scale:
+            h = rel_step
+            v = p.value * math.exp(h)
+        else:
+            h = rel_step * max(abs(p.value), abs(p.upper - p.lower) * 1e-2 if np.isfinite(p.upper - p.lower) else 1.0,
+                               1e-6)
+            v = p.value + h if p.value + h <= p.upper else p.value - h
+            h = v - p.value
+        y1 = stacked(simulate(state, logs, state.params.replace(n, value=v)))
+        cols.append((y1 - y0) / h)
+    return np.column_stack(cols) if cols else np.zeros((y0.size, 0))
