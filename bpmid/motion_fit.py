@@ -87,10 +87,11 @@ class MotionFitConfig:
     def validate(self, where="motion", path=None):
         if self.branches is not None and not 1 <= self.branches <= 8:
             raise InputError(f"branches must be 1..8, found {self.branches}", path=path, key=f"{where}.branches")
-        for name in list(self.start) + list(self.fixed) + list(self.bounds):
-            if not _NAME.match(name):
-                raise InputError("unknown parameter name (G_inf, K_inf, G_j, K_j, tau_j or tauG_j/tauK_j)",
-                                 path=path, key=f"{where}.{name}")
+        for what, names in (("start", self.start), ("fixed", self.fixed), ("bounds", self.bounds)):
+            for name in names:
+                if not _NAME.match(name):
+                    raise InputError(f"unknown parameter name {name!r} (G_inf, K_inf, G_j, K_j, tau_j or "
+                                     "tauG_j/tauK_j)", path=path, key=f"{where}.{what}")
         for name, v in self.start.items():
             if not (np.isfinite(v) and v >= 0):
                 raise InputError(f"start values must be finite and non-negative (SI), found {v!r}", path=path,
