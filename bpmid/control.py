@@ -568,6 +568,68 @@ def run_control(model: VBMM, plant: Plant, references: Sequence[Reference], cfg:
     return ControlResult(runs, table, cost, ms_ff, warnings)
 
 
-__all__ = ["ControlConfig", "Reference", "Plant", "PlantTerms", "MSFeedforward", "Run", "ControlResult",
+def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig, prov: dict, *,
+                  model: VBMM, plant: Plant, figure: bool = True) -> list[Path]:
+    """Write DIR/summary.csv, DIR/control.yaml (schema bpmid.control/1), DIR/traces/<reference>.csv and
+    DIR/fig18.png, all at once (nothing half-written on failure)."""
+    from bpmid.io.atomic import staged_dir
+    from bpmid.io.results import write_result
+    from bpmid.models.vbmm import vbmm_yaml_body
+
+    out_dir = Path(out_dir)
+    written = []
+    with staged_dir(out_dir) as tmp:
+        result.table.to_csv(tmp / "summary.csv", index=False, float_format="%.6g")
+        written.append(out_dir / "summary.csv")
+        (tmp / "traces").mkdir()
+        for name in dict.fromkeys(r.reference for r in result.runs):
+            mine = [r for r in result.runs if r.reference == name]
+            cols = {"time_s": mine[0].time_s, "reference_deg": mine[0].reference_deg}
+            for r in mine:
+                cols[f"angle_deg_{r.controller}"] = r.angle_deg
+                cols[f"true_angle_deg_{r.controller}"] = r.true_angle_deg
+                cols[f"command_bar_abs_{r.controller}"] = r.command_bar_abs
+                cols[f"muscle_bar_abs_{r.controller}"] = r.muscle_bar_abs
+                cols[f"feedforward_bar_abs_{r.controller}"] = r.feedforward_bar_abs
+            safe = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name)
+            pd.DataFrame(cols).to_csv(tmp / "traces" / f"{safe}.csv", index=False, float_format="%.6f")
+            written.append(out_dir / "traces" / f"{safe}.csv")
+        body = {
+            "gains": {"kp": {"value": cfg.kp_bar_per_deg, "unit": "bar/deg"},
+                      "ki": {"value": cfg.ki_bar_per_deg_s, "unit": "bar/(deg s)",
+                             "per_step": cfg.ki_bar_per_deg_s / cfg.rate_hz},
+                      "acts_on": "error in deg (reference - measured angle) -> command pressure in bar absolute"},
+            "rate_hz": cfg.rate_hz,
+            "pressure_limits_bar_abs": [cfg.p_min_bar_abs, cfg.p_max_bar_abs],
+            "anti_windup": "conditional integration (integrator frozen while the command is clipped and the error "
+                           "pushes further out)",
+            "feedforward": {"vbmm-pi": "inverse VBMM (eq. 18) of the controller's model, recursive history, stepped "
+                                       "incrementally on the reference",
+                            "preview": cfg.preview, "cost": result.feedforward_cost},
+            "controller_model": vbmm_yaml_body(model),
+            "plant": {"model": vbmm_yaml_body(plant.model),
+                      "effects": [e.describe(plant.effect_params) for e in plant.effects],
+                      "sensors": dataclasses.asdict(plant.sensors),
+                      "pressure_dynamics": plant.pressure_dynamics,
+                      "pneumatics": dataclasses.asdict(plant.pneumatics) if plant.pressure_dynamics else None},
+            "summary": result.table.to_dict(orient="records"),
+            "warnings": result.warnings,
+        }
+        if result.ms_feedforward is not None:
+            ms = result.ms_feedforward
+            body["ms_feedforward"] = {"poly_bar_per_deg_j": ms.poly, "k_bar_per_deg": ms.k, "D_deg": ms.D,
+                                      "train_rmse_bar": ms.train_rmse_bar}
+        write_result(tmp / "control.yaml", "bpmid.control/1", body, prov)
+        written.append(out_dir / "control.yaml")
+        if figure:
+            from bpmid.plots.common import save_figure
+            from bpmid.plots.control import fig18
+
+            save_figure(fig18(result.runs, limits_bar=(cfg.p_min_bar_abs, cfg.p_max_bar_abs)), tmp / "fig18.png")
+            written.append(out_dir / "fig18.png")
+    return written
+
+
+__all__ = ["ControlConfig", "write_control", "build_plant", "causal_terms", "Reference", "Plant", "PlantTerms", "MSFeedforward", "Run", "ControlResult",
            "builtin_reference", "read_reference", "load_references", "fit_ms_feedforward", "simulate_loop",
            "run_control", "summary_table", "feedforward_cost", "scaled_plant_model", "CONTROLLERS"]

@@ -142,8 +142,13 @@ def pressure_period(p0, p_cmd, V, dVdt, dt, prm):  # pragma: no cover - compiled
     c, T = prm[IDX_POLY], prm[IDX_T]
     p = p0
     for _ in range(n):
-        dp = c / V * (valve_flow(p, p_cmd, prm) * R_AIR * T - p * dVdt)
-        p = p + h * dp
+        q = valve_flow(p, p_cmd, prm)
+        p = p + h * c / V * (q * R_AIR * T - p * dVdt)
+        # the flow stops where the pressures meet (psi -> 0 with infinite slope there: no Euler overshoot)
+        if q > 0.0 and p > prm[IDX_SUPPLY]:
+            p = prm[IDX_SUPPLY]
+        elif q < 0.0 and p < prm[IDX_ATM]:
+            p = prm[IDX_ATM]
         if p < 1.0:
             p = 1.0
     return p

@@ -1,0 +1,146 @@
+"""bpmid control: the closed loop, its feedforward, the plant's effects, pressure dynamics and the CLI."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from bpmid import control_kernels as CK
+from bpmid import pneumatics as PN
+from bpmid.control import (ControlConfig, Reference, build_plant, builtin_reference, fit_ms_feedforward, pack_model,
+                           run_control, scaled_plant_model, simulate_loop)
+from bpmid.models.vbmm import VBMM, Material, vbmm_yaml_body
+from bpmid.twin.sensors import Sensors
+
+MODEL = VBMM(Material.paper_fit())
+QUIET = ControlConfig(sensors=Sensors())
+
+
+@pytest.fixture(scope="module")
+def paper_run():
+    """The paper's gains and references on a plant 5 % stiffer with 10 % faster relaxation, 0.1 deg noise."""
+    cfg = ControlConfig()
+    plant = build_plant(scaled_plant_model(MODEL, 1.05, 0.9), [], cfg)
+    refs = [builtin_reference(n) for n in ("steps", "sawtooth", "sines")]
+    return run_control(MODEL, plant, refs, cfg, measure_cost=False)
+
+
+def test_vbmm_pi_cuts_rmse_by_40_pct_on_the_papers_references(paper_run):
+    tab = paper_run.table.set_index(["controller", "reference"])
+    assert tab.loc[("vbmm-pi", "ALL"), "reduction_pct"] >= 40.0
+    assert tab.loc[("vbmm-pi", "ALL"), "rmse_deg"] < tab.loc[("ms-pi", "ALL"), "rmse_deg"] < tab.loc[("pi", "ALL"), "rmse_deg"]
+    for ref in ("sawtooth", "sines"):
+        assert tab.loc[("vbmm-pi", ref), "reduction_pct"] >= 40.0
+    # the step itself cannot be followed within one sample: the largest error is the step height
+    assert 14.0 < tab.loc[("pi", "steps"), "max_abs_err_deg"] < 17.0
+
+
+def test_incremental_inverse_equals_vectorised_inverse():
+    t = np.arange(400) * 0.1
+    beta = np.radians(45 + 20 * np.sin(2 * np.pi * 0.083 * t) + 5 * (t > 20))
+    p = CK.inverse_incremental(t, beta, *pack_model(MODEL))
+    np.testing.assert_allclose(p, MODEL.inverse(t, beta), rtol=1e-10, atol=1e-6)
+
+
+EFFECTS = ["pressure_lag:tau=0.3,dead_time=0.15", "braid_friction:r=3000,elements=3", "angle_offset",
+           "thermal_softening:T=20", "asymmetric_relaxation", "strain_stiffening", "second_relaxation"]
+
+
+@pytest.mark.parametrize("effects", [[], EFFECTS[:2], EFFECTS])
+def test_open_loop_stepped_plant_equals_augmented_vbmm(effects):
+    cfg = dataclasses.replace(QUIET, p_min_bar_abs=0.5, p_max_bar_abs=5.0)
+    plant = build_plant(MODEL, effects, cfg)
+    run = simulate_loop("vbmm-pi", builtin_reference("sines"), MODEL, plant, cfg, kp=0.0, ki=0.0)
+    expected = plant.augmented().simulate_deg(run.time_s, (run.command_bar_abs - cfg.atmosphere_bar) * 1e5)
+    np.testing.assert_allclose(run.angle_deg, expected, rtol=0, atol=1e-9)
+
+
+def test_exact_plant_and_feedforward_only_tracks_to_the_one_step_delay():
+    ref = builtin_reference("sines")
+    run = simulate_loop("vbmm-pi", ref, MODEL, build_plant(MODEL, [], QUIET), dataclasses.replace(QUIET, preview=True),
+                        kp=0.0, ki=0.0)
+    assert np.max(np.abs(run.error_deg)) < 1e-6
+
+
+def test_saturation_is_reported_and_integrator_does_not_wind_up():
+    cfg = dataclasses.replace(QUIET, p_max_bar_abs=1.8)  # 75 deg needs about 2.1 bar
+    res = run_control(MODEL, build_plant(MODEL, [], cfg), [builtin_reference("steps")], cfg, controllers=["pi"],
+                      measure_cost=False)
+    row = res.table.iloc[0]
+    assert "saturated" in row.status and row.saturated_high_steps > 50
+    assert res.warnings and "saturated" in res.warnings[0]
+    run = res.runs[0]
+    # anti-windup: once the reference drops back below reach, the command leaves the limit within a few steps
+    k = np.searchsorted(run.time_s, 35.0)
+    leave = np.flatnonzero(run.command_bar_abs[k:] < 1.8 - 1e-9)[0]
+    assert leave <= 5
+
+
+def test_gains_too_high_are_reported_unstable():
+    cfg = dataclasses.replace(QUIET, kp_bar_per_deg=0.3)
+    res = run_control(MODEL, build_plant(MODEL, [], cfg), [builtin_reference("steps")], cfg, controllers=["pi"],
+                      measure_cost=False)
+    assert "unstable" in res.table.iloc[0].status or "oscillating" in res.table.iloc[0].status
+    assert res.warnings
+
+
+def test_ms_feedforward_fits_the_controllers_model():
+    ff = fit_ms_feedforward(MODEL, ControlConfig())
+    assert ff.train_rmse_bar < 0.03 and np.all(ff.k >= 0) and np.all(ff.D > 0)
+
+
+def test_pneumatics_choked_flow_and_filling():
+    b = 0.3
+    assert PN.flow_function(0.1, b) == 1.0 and PN.flow_function(b, b) == 1.0  # sonic below the critical ratio
+    assert 0 < PN.flow_function(0.6, b) < 1.0 and PN.flow_function(1.0, b) == 0.0
+    # choked: mass flow proportional to the upstream pressure, independent of the downstream one
+    assert PN.mass_flow(3e5, 0.5e5, 1e-8, b, 293.15) == pytest.approx(PN.mass_flow(3e5, 0.8e5, 1e-8, b, 293.15))
+    assert PN.mass_flow(3e5, 2.5e5, 1e-8, b, 293.15) < PN.mass_flow(3e5, 0.8e5, 1e-8, b, 293.15)
+    t = np.arange(0, 3.0, 0.1)
+    prm = PN.ValveVolumeParams()
+    p = PN.fill(t, np.full(t.size, 2.0), params=prm)
+    assert np.all(np.diff(p) >= -1e-12) and abs(p[-1] - 2.0) < 0.01  # fills monotonically to the command
+    slow = PN.fill(t, np.full(t.size, 2.0), params=dataclasses.replace(prm, conductance_l_per_s_bar=0.05))
+    assert slow[2] < p[2]  # a smaller valve fills slower
+    vent = PN.fill(t, np.full(t.size, 1.0), p0_bar_abs=2.0, params=prm)
+    assert vent[-1] >= 1.01325 - 1e-6 and vent[-1] < 1.05  # vents to the atmosphere, never below it
+    sup = PN.fill(t, np.full(t.size, 5.0), params=prm)
+    assert sup[-1] <= prm.supply_bar_abs + 1e-9 and sup[-1] > prm.supply_bar_abs - 0.05  # approaches the supply
+
+
+def test_pressure_dynamics_in_the_loop_lag_the_command():
+    cfg = dataclasses.replace(QUIET, pressure_dynamics=True,
+                              pneumatics=dataclasses.replace(QUIET.pneumatics, conductance_l_per_s_bar=0.05))
+    run = simulate_loop("vbmm-pi", builtin_reference("steps"), MODEL, build_plant(MODEL, [], cfg), cfg)
+    k = np.searchsorted(run.time_s, 15.0)
+    assert run.muscle_bar_abs[k + 1] < run.command_bar_abs[k + 1] - 0.05  # the muscle lags the command
+    assert abs(run.true_angle_deg[k + 80] - 60.0) < 1.0  # and the loop still settles
+
+
+def test_cli_control(tmp_path):
+    from bpmid.cli import app
+    from bpmid.io.results import provenance, write_result
+
+    params = tmp_path / "vbmm.yaml"
+    write_result(params, "bpmid.vbmm/1", vbmm_yaml_body(MODEL), provenance(timestamp=False))
+    ref = builtin_reference("sines")
+    pd.DataFrame({"time_s": ref.time_s[:300], "angle_deg": ref.angle_deg[:300]}).to_csv(tmp_path / "r.csv", index=False)
+    runner = CliRunner()
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["control", "--params", str(params), "--reference", f"{tmp_path / 'r.csv'},steps",
+                              "--controller", "pi,vbmm-pi", "--plant-modulus-scale", "1.03", "--out", str(out),
+                              "--no-figure"])
+    assert res.exit_code == 0, res.output
+    summ = pd.read_csv(out / "summary.csv")
+    assert {"controller", "reference", "rmse_deg", "max_abs_err_deg", "reduction_pct"} <= set(summ.columns)
+    assert set(summ.reference) == {"r", "steps", "ALL"} and (out / "control.yaml").is_file()
+    assert "us per step" in res.output
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time_s,angle\n0,1\n0.1,2\n")
+    for args in (["--reference", str(bad)], ["--reference", "nosuch"], ["--reference", "steps", "--controller", "pid"],
+                 ["--reference", "steps", "--kp", "-1"], ["--reference", "steps", "--plant-effect", "nosuch:x=1"]):
+        r = runner.invoke(app, ["control", "--params", str(params), "--out", str(tmp_path / "o2"), *args])
+        assert r.exit_code == 2, (args, r.output)
