@@ -1,0 +1,160 @@
+"""``bpmid fit motion`` and ``bpmid predict`` through the CLI (CliRunner): outputs, keys, bad input -> exit 2."""
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+from bpmid.io.motion_logs import from_arrays, write_motion_log
+from bpmid.models.vbmm import VBMM, Material, triangle_pressure
+
+runner = CliRunner()
+
+
+def write_log(path, hi=1.6, dur=30.0, seed=0, unit="bar", reference="absolute", with_angle=True):
+    rng = np.random.default_rng(seed)
+    t = np.round(np.arange(0.0, dur, 0.1), 10)
+    p = (triangle_pressure(t, 1.2, hi, 0.2) - 1.01325) * 1e5
+    angle = VBMM(material=Material.paper_fit()).forward_deg(t, p) + rng.normal(0, 0.5, t.size) if with_angle else None
+    log = from_arrays(path.stem, t, p, angle, pressure_reference=reference)
+    write_motion_log(path, log, unit=unit, reference=reference)
+    return path
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory):
+    d = tmp_path_factory.mktemp("logs")
+    return {"fit": write_log(d / "fitting.csv", 1.6, 60.0, seed=1),
+            "tri20": write_log(d / "tri20.csv", 2.0, 30.0, seed=2),
+            "tri22_kpa": write_log(d / "tri22.csv", 2.2, 30.0, seed=3, unit="kpa", reference="gauge"),
+            "noangle": write_log(d / "pressure_only.csv", 1.8, 20.0, with_angle=False)}
+
+
+@pytest.fixture(scope="module")
+def fitted(data, tmp_path_factory):
+    out = tmp_path_factory.mktemp("fit") / "VBMM.yaml"
+    res = runner.invoke(app, ["fit", "motion", str(data["fit"]), str(data["tri20"]), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    return out, res.output
+
+
+def test_fit_motion_writes_contract_keys_and_figure(fitted):
+    out, text = fitted
+    d = yaml.safe_load(out.read_text())
+    assert d["schema"] == "bpmid.vbmm/1"
+    assert set(d["geometry"]) >= {"th", "alpha0", "R0", "l0", "n"}
+    assert d["closure"] == "paper"
+    assert d["material"]["K_inf"]["unit"] == "Pa" and d["material"]["K_inf"]["stderr"] > 0
+    assert d["material"]["K_inf"]["value"] == pytest.approx(6.434e6, rel=0.05)
+    assert set(d["material"]["branches"][0]) == {"G", "K", "tau"}
+    assert d["material"]["G_inf"]["identifiable"] is False and d["material"]["G_inf"]["stderr"] is None
+    assert d["metrics"]["rmse_deg"] == pytest.approx(0.5, rel=0.1)
+    assert {"mape_pct", "r2", "fit_pct", "per_log"} <= set(d["metrics"])
+    assert d["uncertainty"]["identifiability"]["K_1"] == "estimated"
+    assert "fitting.csv" in " ".join(d["provenance"]["inputs"])
+    assert out.with_suffix(".png").stat().st_size > 10_000
+    assert "not identifiable" in text and "RMSE" in text
+
+
+def test_predict_writes_one_csv_per_log(fitted, data, tmp_path):
+    out, _ = fitted
+    res = runner.invoke(app, ["predict", str(data["tri22_kpa"]), str(data["noangle"]), "--params", str(out),
+                              "--out", str(tmp_path / "pred")])
+    assert res.exit_code == 0, res.output
+    df = pd.read_csv(tmp_path / "pred" / "tri22.csv")
+    assert list(df.columns) == ["time_s", "pressure_kpa", "angle_pred_deg", "angle_deg"]
+    given = pd.read_csv(data["tri22_kpa"], comment="#")
+    np.testing.assert_allclose(df["pressure_kpa"], given["pressure_kpa"])  # as given: kPa, gauge
+    assert np.sqrt(np.mean((df["angle_pred_deg"] - df["angle_deg"]) ** 2)) < 0.7
+    df2 = pd.read_csv(tmp_path / "pred" / "pressure_only.csv")
+    assert list(df2.columns) == ["time_s", "pressure_bar", "angle_pred_deg"]
+    meta = yaml.safe_load((tmp_path / "pred" / "predict.yaml").read_text())
+    assert meta["schema"] == "bpmid.predict/1" and meta["logs"]["pressure_only"]["metrics"] is None
+
+
+def test_params_with_only_contract_keys(fitted, data, tmp_path):
+    d = yaml.safe_load(fitted[0].read_text())
+    slim = {"schema": "bpmid.vbmm/1", "geometry": d["geometry"], "closure": "paper",
+            "material": {"G_inf": d["material"]["G_inf"], "K_inf": d["material"]["K_inf"],
+                         "branches": [{k: {kk: b[k][kk] for kk in ("value", "stderr", "unit")} for k in ("G", "K", "tau")}
+                                      for b in d["material"]["branches"]]},
+            "metrics": {k: d["metrics"][k] for k in ("rmse_deg", "mape_pct", "r2")}}
+    p = tmp_path / "slim.yaml"
+    p.write_text(yaml.safe_dump(slim))
+    res = runner.invoke(app, ["predict", str(data["tri20"]), "--params", str(p), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+
+
+def test_help_has_examples():
+    for args in (["fit", "motion", "--help"], ["predict", "--help"]):
+        res = runner.invoke(app, args)
+        assert res.exit_code == 0 and "Example" in res.output
+
+
+# ---------------------------------------------------------------------------------------------
+# bad input: exit 2, a message naming the file and the problem, nothing written
+# ---------------------------------------------------------------------------------------------
+def _bad_log(tmp_path, name, edit):
+    src = write_log(tmp_path / "src.csv", 1.8, 20.0, seed=5)
+    lines = src.read_text().splitlines()
+    path = tmp_path / name
+    path.write_text("\n".join(edit(lines)) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("name,edit,problem", [
+    ("dup.csv", lambda L: L[:10] + [L[9]] + L[10:], "repeats"),
+    ("gap.csv", lambda L: L[:10] + L[60:], "gap"),
+    ("negangle.csv", lambda L: L[:10] + [L[10].rsplit(",", 1)[0] + ",-40.0"] + L[11:], "outside the model's range"),
+    ("noref.csv", lambda L: L[1:], "pressure reference"),
+])
+def test_fit_motion_bad_log(tmp_path, name, edit, problem):
+    bad = _bad_log(tmp_path, name, edit)
+    out = tmp_path / "out" / "VBMM.yaml"
+    res = runner.invoke(app, ["fit", "motion", str(bad), "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    assert name in res.output and problem in res.output
+    assert not out.exists() and not out.with_suffix(".png").exists()
+
+
+@pytest.mark.parametrize("edit,problem", [
+    (lambda d: d["material"].pop("K_inf"), "material.K_inf"),
+    (lambda d: d["material"]["branches"][0]["K"].update(unit="MPa"), "material.branches[0].K"),
+    (lambda d: d["geometry"].update(R0=16.73), "millimetres"),
+    (lambda d: d.update(schema="bpmid.relax/1"), "schema"),
+])
+def test_predict_bad_params(fitted, data, tmp_path, edit, problem):
+    d = yaml.safe_load(fitted[0].read_text())
+    edit(d)
+    p = tmp_path / "bad_params.yaml"
+    p.write_text(yaml.safe_dump(d))
+    out = tmp_path / "pred"
+    res = runner.invoke(app, ["predict", str(data["tri20"]), "--params", str(p), "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    assert "bad_params.yaml" in res.output and problem in res.output
+    assert not out.exists()
+
+
+def test_predict_pressure_out_of_range(fitted, tmp_path):
+    t = np.round(np.arange(0.0, 5.0, 0.1), 10)
+    p = np.where(t < 2.5, 0.5e5, 60e5)  # 60 bar gauge: beyond 4 pi rad
+    ok = tmp_path / "ok.csv"
+    write_log(ok, 1.8, 10.0, seed=9)
+    bad = tmp_path / "burst.csv"
+    write_motion_log(bad, from_arrays("burst", t, p, None, pressure_reference="gauge"), unit="bar", reference="gauge")
+    out = tmp_path / "pred"
+    res = runner.invoke(app, ["predict", str(ok), str(bad), "--params", str(fitted[0]), "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    assert "burst.csv" in res.output and "above the model's range" in res.output
+    assert not out.exists()  # not even ok.csv: all or nothing
+
+
+def test_missing_files_and_bad_out(data, tmp_path):
+    res = runner.invoke(app, ["fit", "motion", str(tmp_path / "nope.csv"), "--out", str(tmp_path / "v.yaml")])
+    assert res.exit_code == 2 and "nope.csv" in res.output
+    res = runner.invoke(app, ["fit", "motion", str(data["fit"]), "--out", str(tmp_path / "v.txt")])
+    assert res.exit_code == 2 and "v.txt" in res.output
+    res = runner.invoke(app, ["predict", str(data["fit"]), "--params", str(tmp_path / "none.yaml"),
+                              "--out", str(tmp_path / "p")])
+    assert res.exit_code == 2 and "none.yaml" in res.output and not (tmp_path / "p").exists()
