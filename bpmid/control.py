@@ -71,8 +71,8 @@ class ControlConfig:
     ms_train_bar_abs : pressure range of the open-loop training triangles of the Maxwell-slip feedforward
     oscillation_limit_pct : a run whose command reverses (by > 0.01 bar) on more than this share of the
         steps is reported as oscillating (a lightly damped loop ringing near the Nyquist frequency); a run
-        whose command swings between both limits (3 or more switches), or asks for a bend beyond the
-        model's range, is reported as unstable
+        whose command swings between both limits (three switches within 2 s), or asks for a bend beyond
+        the model's range, is reported as unstable
     """
 
     kp_bar_per_deg: float = 0.04
@@ -421,8 +421,11 @@ class Run:
         osc_pct = 100.0 * float(np.mean(rev)) if rev.size else 0.0
         sat_pct = 100.0 * float(np.mean(self.saturated != 0))
         out_of_range = bool(np.any(self.status == 1))
-        hits = self.saturated[self.saturated != 0]
-        bang = int(np.sum(hits[1:] != hits[:-1]))  # switches between the two limits
+        at = np.flatnonzero(self.saturated != 0)
+        sw = at[1:][self.saturated[at[1:]] != self.saturated[at[:-1]]]  # steps where the command switches limits
+        # bang-bang: three switches between the limits within 2 s (a reference jump gives one)
+        win = int(round(2.0 * cfg.rate_hz))
+        bang = int(np.sum(sw[2:] - sw[:-2] <= win)) if sw.size >= 3 else 0
         flags = []
         if out_of_range or bang >= 3:
             flags.append("unstable")
