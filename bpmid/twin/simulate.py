@@ -260,7 +260,7 @@ def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov:
             bar.advance()
     plant_block = {"family": "VBMM", **base_info, **vbmm_yaml_body(base),
                    "rig_effects": _effects_block(sorted(rig, key=lambda ep: ORDER.index(ep[0].id))),
-                   "effect_order": [e.id for e in effects],
+                   "effect_order": [e.id for e in effects if not proto.blind or any(e is r for r, _p in rig)],
                    "variation": dataclasses.asdict(var)}
     injected_block = _effects_block(injected)
     manifest = {"schema": SCHEMA, "synthetic": True, "note": SYNTHETIC_NOTE, **_protocol_block(proto),

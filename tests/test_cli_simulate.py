@@ -1,0 +1,56 @@
+"""bpmid simulate through the command line: outputs, exit codes, nothing half-written."""
+import os
+
+import yaml
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+
+runner = CliRunner()
+PROTO = """kind: motion
+name: cli
+seed: 4
+logs:
+  - name: tri
+    start: 1.2
+    program:
+      - triangle: {low: 1.2, high: 1.8, rate: 0.2, cycles: 2}
+sensors: {angle_noise_deg: 0.2}
+"""
+
+
+def test_help_has_an_example():
+    r = runner.invoke(app, ["simulate", "--help"])
+    assert r.exit_code == 0 and "Example: bpmid simulate" in r.output
+
+
+def test_simulate_writes_logs_and_a_manifest(tmp_path):
+    p = tmp_path / "p.yaml"
+    p.write_text(PROTO)
+    out = tmp_path / "out"
+    r = runner.invoke(app, ["simulate", str(p), "--out", str(out), "--effect", "braid_friction:r=2000,elements=3",
+                            "--seed", "9"])
+    assert r.exit_code == 0, r.output
+    m = yaml.safe_load((out / "manifest.yaml").read_text())
+    assert m["seed"] == 9 and m["effects"][0]["id"] == "braid_friction"
+    assert m["effects"][0]["settings"] == {"elements": 3} and m["effects"][0]["params"]["r"]["value"] == 2000
+    assert m["provenance"]["seed"] == 9 and "created" in m["provenance"]
+    assert "braid" not in (out / "tri.csv").read_text()
+
+
+def test_bad_input_exits_2_naming_the_key_and_writes_nothing(tmp_path):
+    out = tmp_path / "out"
+    cases = [(PROTO.replace("rate: 0.2", "rate: -0.2"), [], "logs[0].program[0].triangle.rate"),
+             (PROTO.replace("cycles: 2}", "cycles: 2, colour: red}"), [], "logs[0].program[0].triangle.colour"),
+             (PROTO.replace("high: 1.8", "high: 99"), [], "logs[0].program[0].triangle.high"),
+             (PROTO, ["--effect", "gremlins"], "gremlins"),
+             (PROTO, ["--effect", "pressure_lag:tau=0.1,lag=2"], "pressure_lag.lag"),
+             (PROTO, ["--effect", "pressure_lag:tau=-1"], "pressure_lag.tau")]
+    for i, (text, extra, key) in enumerate(cases):
+        p = tmp_path / f"p{i}.yaml"
+        p.write_text(text)
+        r = runner.invoke(app, ["simulate", str(p), "--out", str(out)] + extra)
+        assert r.exit_code == 2, (key, r.output)
+        assert key in r.output, r.output
+        assert not out.exists() or not os.listdir(out)
+    assert not [f for f in os.listdir(tmp_path) if f.startswith(".out")]

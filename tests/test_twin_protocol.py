@@ -1,0 +1,138 @@
+"""Protocol files: rendering of the experimenter's segments, seeds, sensors, the manifest, bad files refused."""
+import io
+import textwrap
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from bpmid.errors import InputError
+from bpmid.io.motion_logs import read_motion_log
+from bpmid.twin.protocol import load_protocol
+from bpmid.twin.simulate import simulate
+
+MOTION = """
+kind: motion
+name: t
+seed: 5
+replicates: 2
+logs:
+  - name: a
+    start: 1.2
+    program:
+      - hold: {duration_s: 1}
+      - triangle: {low: 1.2, high: 1.6, rate: 0.2, cycles: 2}
+      - step: {to: 1.5, slew: 1.0, hold_s: 2}
+      - repeat: {times: 2, program: [{ramp: {to: 1.3, duration_s: 1}}, {ramp: {to: 1.5, rate: 0.4}}]}
+plant:
+  effects: {braid_friction: {r: 1000, elements: 3}}
+  variation: {modulus_cv: 0.05, tau_cv: 0.1}
+sensors: {angle_noise_deg: 0.2, angle_resolution_deg: 0.05, angle_drift_deg: 0.3,
+          pressure_noise_bar: 0.002, pressure_resolution_bar: 0.001}
+"""
+
+
+def write(tmp_path, text, name="p.yaml"):
+    p = tmp_path / name
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def test_segments_render_as_an_experimenter_means_them(tmp_path):
+    proto = load_protocol(write(tmp_path, MOTION))
+    t, x = proto.render(proto.logs[0])
+    assert np.allclose(np.diff(t), 0.1)
+    at = lambda s: x[int(round(s * 10))]
+    assert at(0.5) == pytest.approx(1.2)
+    assert at(1 + 2) == pytest.approx(1.6) and at(1 + 4) == pytest.approx(1.2) and at(1 + 6) == pytest.approx(1.6)
+    assert at(9 + 0.3) == pytest.approx(1.5)               # slew 1 bar/s: 0.3 s from 1.2 to 1.5
+    assert at(9 + 0.1) == pytest.approx(1.3)
+    assert at(9.3 + 2 + 1) == pytest.approx(1.3)           # ramp over 1 s
+    assert at(9.3 + 2 + 1 + 0.5) == pytest.approx(1.5)     # ramp at 0.4 bar/s
+    assert t[-1] == pytest.approx(9.3 + 2 + 2 * 1.5)
+
+
+def test_sine_and_sawtooth(tmp_path):
+    proto = load_protocol(write(tmp_path, """
+        kind: reference
+        unit: deg
+        logs:
+          - {name: s, start: 60, program: [{sine: {mean: 60, amplitude: 15, frequency_hz: 0.25, cycles: 2}}]}
+          - {name: w, start: 45, program: [{sawtooth: {low: 45, high: 75, period_s: 10, cycles: 2}}]}
+        """))
+    t, x = proto.render(proto.logs[0])
+    assert np.allclose(x, 60 + 15 * np.sin(2 * np.pi * 0.25 * t), atol=1e-9) and t[-1] == pytest.approx(8.0)
+    t, x = proto.render(proto.logs[1])
+    assert x[0] == 45 and x[50] == pytest.approx(60) and x[99] == pytest.approx(74.7) and x[100] == pytest.approx(45)
+
+
+def test_motion_simulation_is_seeded_labelled_and_reads_back(tmp_path):
+    path = write(tmp_path, MOTION)
+    a = simulate(path, effects=["pressure_lag:tau=0.2"], timestamp=False, command="x")
+    b = simulate(path, effects=["pressure_lag:tau=0.2"], timestamp=False, command="x")
+    c = simulate(path, effects=["pressure_lag:tau=0.2"], seed=6, timestamp=False, command="x")
+    assert a.files == b.files and a.files != c.files
+    assert set(a.files) == {"a_r1.csv", "a_r2.csv"}
+    m = a.manifest
+    assert m["seed"] == 5 and m["synthetic"] is True and c.manifest["seed"] == 6
+    assert [e["id"] for e in m["effects"]] == ["pressure_lag"]
+    assert m["plant"]["effect_order"] == ["pressure_lag", "braid_friction"]
+    f1, f2 = m["logs"][0]["modulus_factor"], m["logs"][1]["modulus_factor"]
+    assert f1 != f2 and 0.7 < f1 < 1.3                     # replicate variation, recorded
+    text = a.files["a_r1.csv"].decode()
+    assert "synthetic" in text and "pressure_lag" not in text and "friction" not in text
+    out = tmp_path / "out"
+    a.write(out)
+    log = read_motion_log(out / "a_r1.csv")
+    assert log.pressure_reference == "absolute" and log.angle_deg is not None
+    assert np.allclose(log.pressure_pa + 101325, np.round(log.pressure_as_given * 1e5))
+    # sensors: quantised to their resolution
+    df = pd.read_csv(io.StringIO(text), comment="#")
+    assert np.allclose(df.angle_deg / 0.05, np.round(df.angle_deg / 0.05), atol=1e-6)
+    assert np.allclose(df.pressure_bar / 0.001, np.round(df.pressure_bar / 0.001), atol=1e-6)
+
+
+def test_sensor_noise_is_what_the_protocol_says(tmp_path):
+    text = MOTION.replace("angle_drift_deg: 0.3", "angle_drift_deg: 0.0").replace("angle_resolution_deg: 0.05",
+                                                                                   "angle_resolution_deg: 0.0")
+    noisy = simulate(write(tmp_path, text), timestamp=False, command="x")
+    clean = simulate(write(tmp_path, text.replace("angle_noise_deg: 0.2", "angle_noise_deg: 0.0"), "c.yaml"),
+                     timestamp=False, command="x")
+    d = [pd.read_csv(io.BytesIO(s.files["a_r1.csv"]), comment="#").angle_deg.values for s in (noisy, clean)]
+    assert np.std(d[0] - d[1]) == pytest.approx(0.2, rel=0.2)
+
+
+def test_blind_protocols_keep_the_effect_out_of_the_manifest(tmp_path):
+    sim = simulate(write(tmp_path, MOTION + "blind: true\neffects: {angle_offset: {offset: 1.0}}\n"),
+                   timestamp=False, command="x")
+    assert "angle_offset" not in yaml.safe_dump(sim.manifest)
+    assert sim.answer["effects"][0]["id"] == "angle_offset"
+
+
+@pytest.mark.parametrize("edit,key", [
+    (("rate: 0.2", "rat: 0.2"), "logs[0].program[1].triangle.rat"),
+    (("rate: 0.2", "rate: -0.2"), "logs[0].program[1].triangle.rate"),
+    (("high: 1.6", "high: 40.0"), "logs[0].program[1].triangle.high"),
+    (("to: 1.5, slew", "to: 0.9, slew"), "logs[0].program[2].step.to"),
+    (("replicates: 2", "replicate: 2"), "replicate"),
+    (("braid_friction: {r: 1000", "backlash: {r: 1000"), "plant.effects.backlash"),
+    (("braid_friction: {r: 1000", "braid_friction: {rr: 1000"), "plant.effects.braid_friction.rr"),
+    (("angle_noise_deg: 0.2", "angle_noise_deg: -0.2"), "sensors.angle_noise_deg"),
+    (("{duration_s: 1}", "{duration_s: -1}"), "logs[0].program[0].hold.duration_s"),
+])
+def test_bad_protocols_are_refused_naming_the_key(tmp_path, edit, key):
+    with pytest.raises(InputError) as exc:
+        simulate(write(tmp_path, MOTION.replace(*edit)), timestamp=False)
+    assert exc.value.key == key, exc.value.format()
+
+
+def test_bad_effect_arguments_name_the_key(tmp_path):
+    path = write(tmp_path, MOTION)
+    with pytest.raises(InputError, match="unknown effect id"):
+        simulate(path, effects=["warp_drive"])
+    with pytest.raises(InputError) as exc:
+        simulate(path, effects=["pressure_lag:tua=0.1"])
+    assert exc.value.key == "--effect.pressure_lag.tua"
+    with pytest.raises(InputError, match="given twice"):
+        simulate(path, effects=["braid_friction:r=10"])
