@@ -204,7 +204,8 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
                 if not np.isfinite(se[i]):
                     bad[name] = "the data do not determine it (singular Jacobian)"
                 elif rel > rel_se_max:
-                    bad[name] = f"relative standard error {rel:.0%} > {rel_se_max:.0%}"
+                    shown = f"{rel:.0%}" if rel < 10 else ">1000%"
+                    bad[name] = f"relative standard error {shown} > {rel_se_max:.0%}"
                 elif at_bound:
                     bad[name] = "the fit ran onto a bound"
             if not bad and len(names) > 1:

@@ -448,8 +448,10 @@ def geometry_from_yaml(data: dict | None, path=None) -> Geometry:
 
 
 def load_vbmm(path: str | Path, cfg: VBMMConfig | None = None) -> VBMM:
-    """A :class:`VBMM` from a ``bpmid.vbmm/1`` file (``--params``). Keys of CLI.md suffice; ``history``
-    and ``window_s`` come from the config section ``model`` unless the file has a ``model`` block."""
+    """A :class:`VBMM` from a ``bpmid.vbmm/1`` file (``--params``). Keys of CLI.md suffice.
+
+    ``history`` and ``window_s`` are evaluation settings, not constants: they come from the config
+    section ``model`` (the file's own ``model`` block only records how it was fitted)."""
     from bpmid.io.results import read_result
 
     path = Path(path)
