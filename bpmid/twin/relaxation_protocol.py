@@ -17,7 +17,7 @@ Block ``relaxation`` of a protocol file::
               extension_resolution_mm: 0.001}
 
 Random draws: one numpy Generator ``default_rng(seed)``; per test in file order the modulus factor, the
-time-constant factor, then the load noise (the same stream as ``bpmid.twin.make_relaxation_dataset``).
+time-constant factor, then the load noise.
 """
 from __future__ import annotations
 
