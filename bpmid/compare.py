@@ -97,6 +97,8 @@ def expand_paths(patterns: Sequence[str | Path], *, base: Path | None = None, ke
                  config_path: Path | None = None) -> list[Path]:
     """Paths and glob patterns (relative to ``base``) -> sorted existing files; a pattern that matches
     nothing is an InputError naming ``key`` and the pattern."""
+    if isinstance(patterns, (str, Path)):
+        patterns = [patterns]
     out: list[Path] = []
     for i, pat in enumerate(patterns):
         p = Path(pat)
@@ -150,9 +152,14 @@ def check_test_logs(test: Sequence[MotionLog]) -> None:
             raise InputError(f"a test log needs at least 3 samples, found {lg.n}", path=lg.path)
 
 
-def build_model(name: str, options: Mapping[str, Any] | None = None, relax_fit: str | Path | None = None):
-    """An instance of the family ``name`` with its constructor settings; a family that takes a
-    relaxation fit gets ``relax_fit`` (InputError when it needs one and none was given)."""
+def build_model(name: str, options: Mapping[str, Any] | None = None, relax_fit: str | Path | None = None,
+                config=None):
+    """An instance of the family ``name`` with its constructor settings (``compare.options.<name>``).
+
+    Shared context reaches a family only through constructor keywords it declares: a relaxation fit
+    (``relax_fit``, for vbmm-mat and vbmm-fit; InputError when a family requires one and none was given)
+    and the loaded ``config`` (for families with config sections of their own).
+    """
     cls = model_class(name)
     kw = dict(options or {})
     try:
@@ -169,11 +176,13 @@ def build_model(name: str, options: Mapping[str, Any] | None = None, relax_fit: 
                     raise InputError(f"model {name} starts from a relaxation fit: give --relax FIT.yaml "
                                      "(or compare.relax in the config)", key="--relax")
                 break
+        if "config" in sig.parameters and "config" not in kw and config is not None:
+            kw["config"] = config
         unknown = [k for k in kw if k not in sig.parameters
                    and not any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values())]
         if unknown:
-            known = [p for p in sig.parameters if p not in ("self",)]
-            raise InputError(f"model {name} has no setting {unknown[0]!r} (known: {', '.join(known)})",
+            known = [p for p in sig.parameters if p not in ("self", "config") + RELAX_KEYWORDS]
+            raise InputError(f"model {name} has no setting {unknown[0]!r} (known: {', '.join(known) or 'none'})",
                              key=f"compare.options.{name}.{unknown[0]}")
     try:
         return cls(**kw)
@@ -257,7 +266,7 @@ def _pooled(outcomes, logs, names, label, timing) -> list[dict]:
 
 def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models: Sequence[str], *,
                    sets: Mapping[str, Sequence[str]] | None = None, options: Mapping[str, Mapping] | None = None,
-                   relax_fit: str | Path | None = None, timing: bool = True, timing_repeats: int = 3,
+                   relax_fit: str | Path | None = None, config=None, timing: bool = True, timing_repeats: int = 3,
                    fit_kw: Mapping[str, Any] | None = None) -> CompareResult:
     """Fit every family in ``models`` on ``train`` only and simulate it free-running on every ``test`` log.
 
@@ -268,6 +277,7 @@ def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models
     sets : test-set name -> test log names (default: one set ``test`` with every test log)
     options : registry name -> constructor settings
     relax_fit : ``bpmid.relax/1`` file for families that start from a relaxation fit
+    config : the loaded :class:`bpmid.config.Config`, for families whose constructor takes one
     timing : measure the cost per simulated step (``us_per_step``)
     timing_repeats : timed runs per model and log (the fastest counts)
 
@@ -293,7 +303,7 @@ def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models
     options = options or {}
     outcomes: list[ModelOutcome] = []
     for name in models:
-        model = build_model(name, options.get(name), relax_fit)
+        model = build_model(name, options.get(name), relax_fit, config)
         note(f"compare: fitting {name} on {len(train)} training log(s)")
         t0 = time.perf_counter()
         fit = model.fit(list(train), **dict(fit_kw or {}))
@@ -351,7 +361,7 @@ def verdicts(result_or_tables) -> list[str]:
     out.append("Ranking by pooled test RMSE: " + ", ".join(
         f"{i + 1}. {r.model} ({r.rmse_deg:.3f} deg)" for i, r in enumerate(ranked.itertuples())))
     groups = [("all test logs", ranked)]
-    if by_set is not None and len(by_set):
+    if by_set is not None and by_set["set"].nunique() > 1:
         groups += [(s, g.sort_values("rmse_deg", kind="mergesort")) for s, g in by_set.groupby("set", sort=False)]
     for label, g in groups:
         vb = g[[is_vbmm(m) for m in g["model"]]]
@@ -427,7 +437,9 @@ def write_compare(result: CompareResult, out_dir: str | Path, prov: dict, *, rel
         write_text(tmp / "summary_by_set.csv", _csv(result.by_set))
         for lg in result.test:
             write_text(tmp / "predictions" / f"{lg.name}.csv", _csv(predictions_frame(result, lg)))
-        write_result(tmp / "compare.yaml", "bpmid.compare/1", compare_yaml_body(result, relax_fit), prov)
+        body = compare_yaml_body(result, relax_fit)
+        body["synthetic"] = bool(synthetic)
+        write_result(tmp / "compare.yaml", "bpmid.compare/1", body, prov)
         logs = figure_logs(result, n_figure_logs)
         if logs:
             save_figure(P.time_series(result, logs, synthetic=synthetic), tmp / "compare_timeseries.png")
@@ -442,8 +454,9 @@ def is_synthetic(logs: Sequence[MotionLog]) -> bool:
     line naming bpmid's twin) or lives under a ``datasets`` folder of bpmid's shipped data (not ``reference``)."""
     def one(lg: MotionLog) -> bool:
         meta = {str(k).strip().lower(): str(v).strip().lower() for k, v in (lg.meta or {}).items()}
-        if "synthetic" in meta:
-            return meta["synthetic"] in ("true", "yes", "1")
+        if "synthetic" in meta:  # "# synthetic: true (bpmid digital twin; not a measurement)"
+            words = meta["synthetic"].replace("(", " ").split()
+            return bool(words) and words[0] in ("true", "yes", "1")
         if any(("twin" in meta.get(k, "") or "synthetic" in meta.get(k, "")) for k in ("source", "generator")):
             return True
         return lg.path is not None and "datasets" in Path(lg.path).parts and "reference" not in Path(lg.path).parts
@@ -518,7 +531,7 @@ def run_compare(train_paths: Sequence[Path], test_sets: Mapping[str, Sequence[Pa
         by_path[str(p)] = lg.name
     sets = {s: [by_path[str(p)] for p in v] for s, v in test_sets.items()}
     result = compare_models(train, test, models, sets=sets, options=cfg.options, relax_fit=relax_fit,
-                            timing=cfg.timing, timing_repeats=cfg.timing_repeats)
+                            config=config, timing=cfg.timing, timing_repeats=cfg.timing_repeats)
     inputs = list(train_paths) + all_test_paths + ([Path(relax_fit)] if relax_fit is not None else [])
     prov = provenance(inputs, config=config, command=prov_command)
     write_compare(result, out_dir, prov, relax_fit=relax_fit, n_figure_logs=cfg.figure_logs,

@@ -1,0 +1,332 @@
+"""``bpmid run``: the whole study, one stage after another, each through its library function.
+
+Stages (each writes into DIR with the names of CLI.md; a stage whose inputs the config does not give is
+skipped and says so in ``run.yaml``):
+
+============  =========================================================  ==========================================
+stage         library call                                               files in DIR
+============  =========================================================  ==========================================
+relax         :func:`bpmid.relax.run_fit_relax`                          relax_fit.yaml, relax_fit.png
+motion        :func:`bpmid.motion_fit.fit_motion` +                      vbmm_fit.yaml, vbmm_fit.png, vbmm_mat.yaml
+              :func:`bpmid.motion_fit.write_motion_fit`
+compare       :func:`bpmid.compare.run_compare`                          compare/metrics.csv, summary.csv, ...
+history       :func:`bpmid.history_modes.history_mode_study` +           history_modes.csv, .yaml, .png
+              :func:`bpmid.history_modes.write_history_study`
+discover      :func:`bpmid.discover.discover`                            discover/discovery.yaml, verdict.txt, figures
+report        :func:`bpmid.report.write_report`                          report.html, report.md, report_figures/
+============  =========================================================  ==========================================
+
+Every input path of the config is checked before any work starts (a missing one is an InputError naming the
+config key and the path). Every file is written atomically; ``run.yaml`` (schema ``bpmid.run/1``: stages,
+status, wall time, provenance with the sha256 of every input and of the config, and the seed) is written
+last, so a folder with a ``run.yaml`` holds a complete run.
+
+Determinism: no stage draws random numbers except where a seed is recorded (``run.seed``); two runs of the
+same config give identical tables except the wall-clock columns (``us_per_step``, ``seconds``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+from typing import Mapping, Optional
+
+from bpmid.errors import InputError
+from bpmid.progress import note
+
+STAGES = ("relax", "motion", "compare", "history", "discover", "report")
+SCHEMA = "bpmid.run/1"
+DEFAULT_CONFIG = Path("configs") / "paper.yaml"
+
+
+@dataclasses.dataclass(frozen=True)
+class RunConfig:
+    """Config section ``run``: the inputs of every stage (paths or glob patterns, relative to the config file).
+
+    Attributes
+    ----------
+    relax_logs : relaxation tests (stage relax)
+    fitting_set : motion logs the models are fitted on (stages motion and compare)
+    test_sets : named groups of test logs (stage compare), e.g. ``{variable_amplitude: [...], variable_rate: [...]}``
+    long_term : the long-term log for the history-mode comparison (stage history)
+    discover_logs : logs the discovery workflow fits on (stage discover)
+    discover_holdout : its held-out logs (default: the workflow's own split of ``discover_logs``)
+    stages : stages to run, in the fixed order of :data:`STAGES`
+    history_durations_s : prefix durations of the long-term log for the cost-per-step curve (s)
+    history_repeats : timed runs per point in the recursive and window modes (the fastest counts)
+    seed : recorded in every output's provenance (no stage draws random numbers without it)
+    out : default output folder (relative to the working directory) when ``--out`` is not given
+    """
+
+    relax_logs: tuple[str, ...] = ()
+    fitting_set: tuple[str, ...] = ()
+    test_sets: Mapping[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
+    long_term: Optional[str] = None
+    discover_logs: tuple[str, ...] = ()
+    discover_holdout: tuple[str, ...] = ()
+    stages: tuple[str, ...] = STAGES
+    history_durations_s: tuple[float, ...] = (100.0, 200.0, 450.0, 900.0, 1800.0)
+    history_repeats: int = 3
+    seed: int = 0
+    out: Optional[str] = None
+
+    def validate(self, where, path):
+        for i, s in enumerate(self.stages):
+            if s not in STAGES:
+                raise InputError(f"unknown stage {s!r} (known: {', '.join(STAGES)})", path=path,
+                                 key=f"{where}.stages[{i}]")
+        if self.history_repeats < 1:
+            raise InputError("must be at least 1", path=path, key=f"{where}.history_repeats")
+        if any(d <= 0 for d in self.history_durations_s):
+            raise InputError("durations must be positive", path=path, key=f"{where}.history_durations_s")
+
+
+def default_config_path() -> Path:
+    """``configs/paper.yaml`` of the source tree bpmid was installed from (``pip install -e .``), else of the
+    working directory; InputError when neither exists."""
+    import bpmid
+
+    candidates = [Path(bpmid.__file__).resolve().parent.parent / DEFAULT_CONFIG, Path.cwd() / DEFAULT_CONFIG]
+    for c in candidates:
+        if c.is_file():
+            return c
+    raise InputError("no CONFIG given and the default configs/paper.yaml was not found (looked in "
+                     + " and ".join(str(c) for c in candidates)
+                     + "); it ships with the source tree: install with `pip install -e .` from a checkout, or give "
+                     "the config path: bpmid run path/to/config.yaml")
+
+
+@dataclasses.dataclass
+class StageRecord:
+    name: str
+    status: str  # done, skipped
+    seconds: float = 0.0
+    outputs: list = dataclasses.field(default_factory=list)
+    note: str = ""
+
+    def to_yaml(self) -> dict:
+        out = {"name": self.name, "status": self.status, "seconds": round(self.seconds, 3),
+               "outputs": list(self.outputs)}
+        if self.note:
+            out["note"] = self.note
+        return out
+
+
+@dataclasses.dataclass
+class RunInputs:
+    relax_logs: list
+    fitting_set: list
+    test_sets: dict
+    long_term: Optional[Path]
+    discover_logs: list
+    discover_holdout: list
+
+    def all(self) -> list[Path]:
+        out = list(self.relax_logs) + list(self.fitting_set) + [p for v in self.test_sets.values() for p in v]
+        out += ([self.long_term] if self.long_term else []) + list(self.discover_logs) + list(self.discover_holdout)
+        seen, uniq = set(), []
+        for p in out:
+            if str(p) not in seen:
+                seen.add(str(p))
+                uniq.append(p)
+        return uniq
+
+
+def resolve_run_inputs(config) -> RunInputs:
+    """Every input path of the ``run`` section, expanded and checked (InputError: config key and path)."""
+    from bpmid.compare import expand_paths
+
+    rc: RunConfig = config.section("run")
+    base = config.base_dir
+    cpath = config.path
+
+    def many(key, pats):
+        return expand_paths(pats, base=base, key=f"run.{key}", config_path=cpath) if pats else []
+
+    long_term = None
+    if rc.long_term:
+        long_term = expand_paths([rc.long_term], base=base, key="run.long_term", config_path=cpath)[0]
+    return RunInputs(
+        relax_logs=many("relax_logs", rc.relax_logs), fitting_set=many("fitting_set", rc.fitting_set),
+        test_sets={s: many(f"test_sets.{s}", v) for s, v in rc.test_sets.items()}, long_term=long_term,
+        discover_logs=many("discover_logs", rc.discover_logs),
+        discover_holdout=many("discover_holdout", rc.discover_holdout))
+
+
+def _prov(inputs, config, seed, command):
+    from bpmid.io.results import provenance
+
+    return provenance([p for p in inputs if p is not None], config=config, seed=seed, command=command)
+
+
+# --------------------------------------------------------------------------------------------------
+# stages (each returns the files it wrote, relative to DIR)
+# --------------------------------------------------------------------------------------------------
+def stage_relax(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
+    from bpmid.relax import run_fit_relax
+
+    yaml_path, fig, _fit = run_fit_relax(inp.relax_logs, out / "relax_fit.yaml", config=config, figure=True)
+    ctx["relax_fit"] = yaml_path
+    return ["relax_fit.yaml"] + (["relax_fit.png"] if fig else [])
+
+
+def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
+    import numpy as np
+
+    from bpmid import metrics as M
+    from bpmid.io.motion_logs import read_motion_logs
+    from bpmid.io.results import write_result
+    from bpmid.models.vbmm import VBMM, vbmm_yaml_body
+    from bpmid.motion_fit import fit_motion, initial_material, write_motion_fit
+
+    logs = read_motion_logs(inp.fitting_set, config.section("io"), require_angle=True)
+    relax = ctx.get("relax_fit")
+    prov = _prov(inp.fitting_set + ([relax] if relax else []), config, ctx["seed"], ctx["command"])
+    mf = fit_motion(logs, config=config, init=relax)
+    write_motion_fit(out / "vbmm_fit.yaml", mf, prov, figure=out / "vbmm_fit.png", synthetic=ctx["synthetic"])
+    ctx["vbmm_fit"] = out / "vbmm_fit.yaml"
+    # VBMM-mat.: the relaxation constants as they are, scored on the same fitting set
+    mat, source = initial_material(config.section("motion"), relax, base_dir=config.base_dir)
+    model = VBMM.from_config(mat, config.section("model"))
+    y = np.concatenate([lg.angle_deg for lg in logs])
+    yh = np.concatenate([model.forward_deg(lg.time_s, lg.pressure_pa, name=lg.name, path=lg.path) for lg in logs])
+    body = vbmm_yaml_body(model)
+    body["metrics"] = M.summary(y, yh)
+    body["source"] = f"relaxation constants, not refitted ({source})"
+    write_result(out / "vbmm_mat.yaml", "bpmid.vbmm/1", body, prov)
+    return ["vbmm_fit.yaml", "vbmm_fit.png", "vbmm_mat.yaml"]
+
+
+def stage_compare(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
+    from bpmid.compare import run_compare
+
+    relax = ctx.get("relax_fit")
+    if relax is None and config.section("compare").relax is not None:
+        relax = config.resolve_path(config.section("compare").relax)
+    run_compare(inp.fitting_set, inp.test_sets, out / "compare", config=config, relax_fit=relax,
+                prov_command=ctx["command"])
+    return ["compare/metrics.csv", "compare/summary.csv", "compare/summary_by_set.csv", "compare/compare.yaml"]
+
+
+def stage_history(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
+    from bpmid.history_modes import history_mode_study, write_history_study
+    from bpmid.io.motion_logs import read_motion_log
+    from bpmid.models.vbmm import VBMM, Material, load_vbmm
+
+    mcfg = config.section("model")
+    if ctx.get("vbmm_fit") is not None:
+        model, source = load_vbmm(ctx["vbmm_fit"], mcfg), "VBMM-fit of this run (vbmm_fit.yaml)"
+    else:
+        model, source = VBMM.from_config(Material.paper_fit(), mcfg), "the paper's VBMM-fit constants"
+    log = read_motion_log(inp.long_term, config.section("io"), require_angle=True)
+    rc: RunConfig = config.section("run")
+    study = history_mode_study(model, log, durations_s=rc.history_durations_s, repeats=rc.history_repeats)
+    inputs = [inp.long_term] + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
+    write_history_study(study, out, _prov(inputs, config, ctx["seed"], ctx["command"]), params_source=source,
+                        synthetic=ctx["synthetic"])
+    return ["history_modes.csv", "history_modes.yaml", "history_modes.png"]
+
+
+def stage_discover(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
+    from bpmid.discover import discover
+    from bpmid.io.atomic import staged_dir, write_text
+    from bpmid.io.motion_logs import read_motion_logs
+    from bpmid.io.results import write_result
+    from bpmid.models.vbmm import VBMM, Material, load_vbmm
+    from bpmid.plots import discover as P
+    from bpmid.plots.common import save_figure
+
+    io_cfg = config.section("io")
+    fit_logs = read_motion_logs(inp.discover_logs, io_cfg, require_angle=True)
+    ho = read_motion_logs(inp.discover_holdout, io_cfg, require_angle=True) if inp.discover_holdout else None
+    if ctx.get("vbmm_fit") is not None:
+        base, base_from = load_vbmm(ctx["vbmm_fit"], config.section("model")), "vbmm_fit.yaml (motion fit of this run)"
+    else:
+        base, base_from = VBMM.from_config(Material.paper_fit(), config.section("model")), "paper VBMM-fit constants"
+    result = discover(fit_logs, base, holdout=ho, cfg=config.section("discover"))
+    body = result.to_yaml()
+    body["base_from"] = base_from
+    inputs = inp.discover_logs + inp.discover_holdout + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
+    with staged_dir(out / "discover") as tmp:
+        write_result(tmp / "discovery.yaml", "bpmid.discovery/1", body,
+                     _prov(inputs, config, ctx["seed"], ctx["command"]))
+        write_text(tmp / "verdict.txt", result.verdict + "\n")
+        save_figure(P.residual_figure(result), tmp / "residual_before_after.png")
+        save_figure(P.ranking_figure(result), tmp / "screening_ranking.png")
+        save_figure(P.heldout_figure(result), tmp / "heldout_error.png")
+    return ["discover/discovery.yaml", "discover/verdict.txt"]
+
+
+def stage_report(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
+    from bpmid.report import write_report
+
+    write_report(out)
+    return ["report.html", "report.md"]
+
+
+STAGE_FUNCTIONS = {"relax": stage_relax, "motion": stage_motion, "compare": stage_compare,
+                   "history": stage_history, "discover": stage_discover, "report": stage_report}
+
+
+def _missing_inputs(stage: str, inp: RunInputs) -> str | None:
+    need = {"relax": (inp.relax_logs, "run.relax_logs"), "motion": (inp.fitting_set, "run.fitting_set"),
+            "compare": (inp.fitting_set and inp.test_sets, "run.fitting_set and run.test_sets"),
+            "history": (inp.long_term, "run.long_term"), "discover": (inp.discover_logs, "run.discover_logs")}
+    if stage in need and not need[stage][0]:
+        return f"skipped: the config gives no {need[stage][1]}"
+    return None
+
+
+def run_study(config, out_dir: str | Path, *, command: str | None = None) -> list[StageRecord]:
+    """Run every stage of ``config.run.stages`` into ``out_dir`` (see module docstring); returns the records.
+
+    Parameters
+    ----------
+    config : a loaded :class:`bpmid.config.Config`
+    out_dir : output folder (created)
+    command : the command line to record (default: ``sys.argv``)
+    """
+    from bpmid.compare import is_synthetic
+    from bpmid.io.motion_logs import read_motion_logs
+    from bpmid.io.results import command_line, write_result
+
+    rc: RunConfig = config.section("run")
+    inp = resolve_run_inputs(config)  # every path checked before any work
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError("--out must be a folder, found a file", path=out)
+    out.mkdir(parents=True, exist_ok=True)
+    stale = out / "run.yaml"
+    if stale.is_file():
+        stale.unlink()  # a folder with run.yaml holds a complete run; this one is about to be replaced
+    motion_paths = inp.fitting_set + [p for v in inp.test_sets.values() for p in v]
+    motion_logs = read_motion_logs(motion_paths, config.section("io")) if motion_paths else []
+    ctx = {"seed": rc.seed, "command": command or command_line(),
+           "synthetic": is_synthetic(motion_logs) if motion_logs else True}
+    records: list[StageRecord] = []
+    for stage in STAGES:
+        if stage not in rc.stages:
+            records.append(StageRecord(stage, "skipped", note="not in run.stages"))
+            continue
+        why = _missing_inputs(stage, inp)
+        if why:
+            note(f"{stage}: {why}")
+            records.append(StageRecord(stage, "skipped", note=why))
+            continue
+        if stage == "report":  # run.yaml first, so the report can show the stages
+            _write_run_yaml(out, records + [StageRecord("report", "running")], inp, config, ctx, write_result)
+        note(f"stage {stage} ...")
+        t0 = time.perf_counter()
+        outputs = STAGE_FUNCTIONS[stage](inp, out, config, ctx)
+        dt = time.perf_counter() - t0
+        note(f"stage {stage} done in {dt:.1f} s")
+        records.append(StageRecord(stage, "done", dt, outputs))
+    _write_run_yaml(out, records, inp, config, ctx, write_result)
+    return records
+
+
+def _write_run_yaml(out, records, inp, config, ctx, write_result) -> None:
+    body = {"stages": [r.to_yaml() for r in records], "synthetic": bool(ctx["synthetic"]),
+            "test_sets": {s: [str(p) for p in v] for s, v in inp.test_sets.items()},
+            "note": "seconds are wall-clock times on this machine; every other number is reproducible from the inputs"}
+    write_result(out / "run.yaml", SCHEMA, body, _prov(inp.all(), config, ctx["seed"], ctx["command"]))
