@@ -9,6 +9,24 @@ import typer
 from bpmid.cli._app import app, command, existing_files
 from bpmid.cli.compare import MultiValueCommand
 
+
+class HoldoutCommand(MultiValueCommand):
+    """``--holdout a.csv b.csv`` takes every following value up to the next option."""
+
+    def parse_args(self, ctx, args):
+        out, current = [], None
+        for tok in args:
+            if tok == "--holdout":
+                current = tok
+            elif tok.startswith("-") and tok != "-":
+                current = None
+                out.append(tok)
+            elif current is not None:
+                out.extend([current, tok])
+            else:
+                out.append(tok)
+        return super().parse_args(ctx, out)
+
 EPILOG = ("Example:  bpmid discover datasets/discovery/seed_01/*.csv --out out/discover   |   with held-out logs: "
           "bpmid discover fit1.csv fit2.csv --holdout test1.csv --init relax_fit.yaml --out out/discover")
 
@@ -34,7 +52,7 @@ def load_base(init: Optional[Path], cfg):
                      key="schema")
 
 
-@command(app, "discover", epilog=EPILOG, cls=MultiValueCommand)
+@command(app, "discover", epilog=EPILOG, cls=HoldoutCommand)
 def discover_cmd(
     logs: List[Path] = typer.Argument(..., metavar="LOG...", help="Motion logs with measured angles."),
     holdout: Optional[List[Path]] = typer.Option(None, "--holdout", metavar="LOG...",

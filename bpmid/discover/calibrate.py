@@ -193,10 +193,10 @@ def thresholds_from_records(records: Sequence[Record]) -> dict:
     pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate == r.truth]
     neg = [r for r in records if r.truth == "none" or r.truth_in_model]
     gain = _split(np.array([r.gain_sigma for r in pos]), np.array([r.gain_sigma for r in neg]), True)
-    # delta BIC: the held-out gain does the separating; BIC only has to keep (nearly) every true effect
+    # delta BIC: the held-out gain does the separating; BIC has to keep every true effect with a margin (half the
+    # weakest true effect's delta BIC) and at least ask for "very strong" evidence (delta BIC <= -10, Kass-Raftery)
     pos_bic = np.array([r.delta_bic for r in pos])
-    bic = float(np.max(pos_bic)) + 1.0 if pos_bic.size else 0.0
-    bic = min(bic, 0.0)
+    bic = min(-10.0, 0.5 * float(np.max(pos_bic))) if pos_bic.size else -10.0
     return {"heldout_gain_min_sigma": float(gain), "delta_bic_max": float(bic),
             "n_positive": len(pos), "n_negative": len(neg),
             "positive_gain_min": float(min((r.gain_sigma for r in pos), default=float("nan"))),

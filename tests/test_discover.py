@@ -1,0 +1,144 @@
+"""bpmid discover: noise floor, diagnostics, screening against parameter error, CLI and the inputs it cannot judge."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+from bpmid.discover.calibrate import paper_sized_set, start_model, truth_model
+from bpmid.discover.diagnose import cross_correlation, noise_floor, whiteness
+from bpmid.discover.model import ModelState, fit_state, residuals, simulate, stacked
+from bpmid.discover.screen import screen
+from bpmid.effects import CATALOGUE, get_effect
+from bpmid.io.motion_logs import from_arrays, write_motion_log
+
+runner = CliRunner()
+
+
+@pytest.mark.parametrize("sigma, rel", [(0.05, 0.25), (0.15, 0.1), (0.4, 0.1)])
+def test_noise_floor_recovers_white_noise_on_model_output(sigma, rel):
+    # at very low noise the signal's own curvature at the profile corners adds a little (never subtracts)
+    fit, ho = paper_sized_set(None, seed=5, noise_deg=sigma)
+    est = noise_floor(fit + ho)["sigma_deg"]
+    assert est == pytest.approx(sigma, rel=rel)
+
+
+def test_whiteness_and_cross_correlation_tell_white_from_structured():
+    rng = np.random.default_rng(0)
+    white = rng.normal(size=2000)
+    ar = np.zeros(2000)
+    for k in range(1, 2000):
+        ar[k] = 0.9 * ar[k - 1] + white[k]
+    assert whiteness([white])["white"]
+    assert not whiteness([ar])["white"]
+    u = rng.normal(size=2000)
+    r = np.roll(u, 3) + 0.5 * rng.normal(size=2000)   # residual follows the input 3 samples later
+    cc = cross_correlation([r], [u], max_lag=6)
+    assert cc["significant"] and cc["peak_lag_samples"] == 3
+    assert not cross_correlation([white], [u])["significant"]
+
+
+def test_screening_does_not_mistake_parameter_error_for_an_effect():
+    fit, _ = paper_sized_set(None, seed=2, noise_deg=0.1)
+    # the model is the truth with its stiffness and time constant a little off: pure parameter error
+    state = ModelState.start(truth_model())
+    p = state.params.with_values({"vbmm.K_inf": state.params.value("vbmm.K_inf") * 1.04,
+                                  "vbmm.tau_1": state.params.value("vbmm.tau_1") * 1.3})
+    state = ModelState(state.base, (), p)
+    effects = [get_effect(i) for i in CATALOGUE]
+    sim = simulate(state, fit)
+    r = stacked([s - lg.angle_deg for s, lg in zip(sim, fit)])
+    assert np.sqrt(np.mean(r**2)) > 2 * 0.1          # the error is far above the noise
+    with_nuisance = screen(state, effects, fit, base_sim=sim)
+    without = screen(state, effects, fit, base_sim=sim, nuisance=np.zeros((r.size, 0)))
+    # with the sensitivities in the regression, what is left is noise: no candidate earns a positive penalised score
+    assert max(s.score for s in with_nuisance) < 0
+    # without them, plain parameter error would be credited to an effect
+    assert max(s.explained for s in without) > 0.9 and max(s.score for s in without) > 100
+
+
+def test_screening_ranks_the_hidden_effect_first():
+    fit, _ = paper_sized_set(get_effect("strain_stiffening"), seed=3)
+    state, res = fit_state(ModelState.start(start_model()), fit, check_identifiability=False)
+    ranking = screen(state, [get_effect(i) for i in CATALOGUE], fit)
+    assert ranking[0].effect_id == "strain_stiffening"
+    assert ranking[0].explained > 0.8
+
+
+def _write_set(tmp_path, effect=None, seed=0, names=None):
+    fit, ho = paper_sized_set(effect, seed=seed)
+    paths = {}
+    for lg in fit + ho:
+        if names is None or lg.name in names:
+            p = tmp_path / f"{lg.name}.csv"
+            write_motion_log(p, lg, reference="gauge")
+            paths[lg.name] = p
+    return paths
+
+
+def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
+    paths = _write_set(tmp_path, get_effect("angle_offset"), seed=7)
+    ho = [str(paths[n]) for n in ("ho_va_2.0", "ho_vr_0.16", "ho_mixed", "ho_long_2.0")]
+    fit = [str(p) for n, p in paths.items() if not n.startswith("ho_")]
+    out = tmp_path / "out"
+    r = runner.invoke(app, ["--quiet", "discover", *fit, "--holdout", *ho, "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    d = yaml.safe_load((out / "discovery.yaml").read_text())
+    assert d["schema"] == "bpmid.discovery/1"
+    assert d["named_effects"] == ["angle_offset"]
+    assert len(d["steps"]) == 1 and d["steps"][0]["evidence"]["identifiable"]
+    g = d["gap"]
+    assert g["after_rmse_deg"] < g["before_rmse_deg"]
+    assert g["after_rmse_deg"] - g["noise_floor_deg"] <= 0.5 * (g["before_rmse_deg"] - g["noise_floor_deg"])
+    assert d["unexplained"] is False
+    assert d["split"]["heldout_logs"] == ["ho_va_2.0", "ho_vr_0.16", "ho_mixed", "ho_long_2.0"]
+    assert "provenance" in d and d["provenance"]["inputs"]
+    for f in ("residual_before_after.png", "screening_ranking.png", "heldout_error.png", "verdict.txt"):
+        assert (out / f).stat().st_size > 0
+    assert "angle_offset" in r.output and "held-out error from" in r.output
+
+
+def test_cli_one_log_cannot_be_judged(tmp_path):
+    paths = _write_set(tmp_path, seed=1, names={"va_1.8"})
+    out = tmp_path / "out"
+    r = runner.invoke(app, ["discover", str(paths["va_1.8"]), "--out", str(out)])
+    assert r.exit_code == 2
+    assert "cannot judge" in r.output and "hold out" in r.output
+    assert not out.exists()
+
+
+def test_cli_short_log_cannot_be_judged(tmp_path):
+    t = np.arange(20) * 0.1
+    p = 0.3e5 + 0.2e5 * np.sin(t)
+    logs = []
+    for k in range(2):
+        lg = from_arrays(f"short{k}", t, p, 30 + np.random.default_rng(k).normal(0, 0.1, t.size))
+        path = tmp_path / f"short{k}.csv"
+        write_motion_log(path, lg, reference="gauge")
+        logs.append(str(path))
+    r = runner.invoke(app, ["discover", *logs, "--out", str(tmp_path / "out")])
+    assert r.exit_code == 2
+    assert "cannot judge" in r.output and "20 samples" in r.output
+
+
+def test_cli_base_fit_not_converged_gets_a_message_not_a_verdict(tmp_path):
+    paths = _write_set(tmp_path, get_effect("angle_offset"), seed=2,
+                       names={"va_1.8", "va_2.2", "vr_0.114", "ho_va_2.0"})
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text("discover:\n  base_max_nfev: 2\n")
+    r = runner.invoke(app, ["discover", *[str(p) for p in paths.values()], "--config", str(cfg),
+                            "--out", str(tmp_path / "out")])
+    assert r.exit_code == 2
+    assert "did not converge" in r.output and "cannot judge" in r.output
+    assert "named effects" not in r.output
+
+
+def test_cli_rejects_unknown_candidate_in_config(tmp_path):
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text("discover:\n  candidates: [braid_friction, magic]\n")
+    paths = _write_set(tmp_path, seed=1, names={"va_1.8", "va_2.2"})
+    r = runner.invoke(app, ["discover", *[str(p) for p in paths.values()], "--config", str(cfg),
+                            "--out", str(tmp_path / "out")])
+    assert r.exit_code == 2 and "magic" in r.output
