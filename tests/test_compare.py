@@ -1,0 +1,284 @@
+"""bpmid compare: generic over the registry, CLI.md columns, cost per step, verdicts, bad input."""
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+from bpmid.compare import (COLUMNS, CompareWarning, compare_models, overlap_warnings, verdicts, write_compare)
+from bpmid.io.motion_logs import from_arrays, write_motion_log
+from bpmid.models import REGISTRY
+from bpmid.models.base import ModelFamily
+from bpmid.models.vbmm import VBMM, Material
+from bpmid.params import Param, ParamSet
+
+ATM = 101325.0
+runner = CliRunner()
+
+
+# ------------------------------------------------------------------------------------------------
+# a plant with creep (the VBMM's viscoelasticity) and rate-independent hysteresis (a play operator)
+# ------------------------------------------------------------------------------------------------
+def pressure(rate, lo=1.2, hi=1.8, cycles=2, hold=5.0, dt=0.1):
+    """Absolute pressure (bar): hold, triangles lo-hi at +-rate with holds at the top, hold."""
+    seg = [np.full(int(hold / dt), lo)]
+    up, down = np.arange(lo, hi, rate * dt), np.arange(hi, lo, -rate * dt)
+    for _ in range(cycles):
+        seg += [up, np.full(int(hold / dt), hi), down]
+    seg.append(np.full(int(hold / dt), lo))
+    p = np.concatenate(seg)
+    return np.arange(p.size) * dt, p
+
+
+def play(x, r):
+    z, prev = np.empty_like(x), x[0]
+    for k, v in enumerate(x):
+        prev = max(v - r, min(v + r, prev))
+        z[k] = prev
+    return z
+
+
+def plant_log(name, rate, seed, friction_deg=2.0, **kw):
+    t, p_bar = pressure(rate, **kw)
+    pg = p_bar * 1e5 - ATM
+    ang = VBMM(material=Material.paper_fit()).forward_deg(t, pg) + friction_deg * play(p_bar, 0.05)
+    ang = ang + np.random.default_rng(seed).normal(0.0, 0.2, t.size)
+    return from_arrays(name, t, pg, ang, pressure_reference="absolute", pressure_unit="bar")
+
+
+def write_logs(folder: Path, logs) -> list[Path]:
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    for lg in logs:
+        out.append(write_motion_log(folder / f"{lg.name}.csv", lg, reference="absolute",
+                                    comments={"synthetic": "true (test plant)"}))
+    return out
+
+
+@pytest.fixture(scope="module")
+def rate_logs():
+    train = [plant_log("train_0p2", 0.2, 1)]
+    test = [plant_log("rate_0p114", 0.114, 2), plant_log("rate_0p267", 0.267, 3)]
+    return train, test
+
+
+# ------------------------------------------------------------------------------------------------
+# a family registered by this test only: compare must handle it without any change
+# ------------------------------------------------------------------------------------------------
+class StaticLinearModel(ModelFamily):
+    """angle = a + b (P - 0.6 bar): the simplest family, to show compare is generic over the registry."""
+
+    name = "static-linear"
+    label = "Static linear"
+    min_samples = 5
+
+    def __init__(self, offset_deg: float = 0.0):
+        self.offset_deg = float(offset_deg)
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([Param("a", 0.0, "deg"), Param("b", 10.0, "deg/bar")])
+
+    def simulate(self, params, log):
+        return params.value("a") + self.offset_deg + params.value("b") * (log.pressure_pa / 1e5 - 0.6)
+
+
+def test_compare_is_generic_over_a_new_family(monkeypatch, rate_logs):
+    monkeypatch.setitem(REGISTRY, "static-linear", f"{__name__}:StaticLinearModel")
+    train, test = rate_logs
+    res = compare_models(train, test, ["static-linear", "two-branch"], timing_repeats=1)
+    assert list(res.metrics.columns[:len(COLUMNS)]) == list(COLUMNS)
+    assert len(res.metrics) == 2 * len(test)
+    assert set(res.summary["model"]) == {"static-linear", "two-branch"}
+    assert (res.summary["log"] == "ALL").all()
+    # the new family's fit is a real least-squares fit: it beats its own starting guess
+    lin = res.outcome("static-linear")
+    start = StaticLinearModel().default_params()
+    y = np.concatenate([lg.angle_deg for lg in test])
+    y0 = np.concatenate([StaticLinearModel().simulate(start, lg) for lg in test])
+    assert res.summary.set_index("model").loc["static-linear", "rmse_deg"] < np.sqrt(np.mean((y - y0) ** 2))
+    assert lin.n_params == 2
+    # constructor settings come from options, per family
+    res2 = compare_models(train, test, ["static-linear"], options={"static-linear": {"offset_deg": 5.0}},
+                          timing=False)
+    p = res2.outcome("static-linear").fit.params
+    assert p.value("a") == pytest.approx(res.outcome("static-linear").fit.params.value("a") - 5.0, abs=1e-3)
+
+
+def test_metrics_and_summary_are_the_pooled_metrics(rate_logs):
+    from bpmid import metrics as M
+
+    train, test = rate_logs
+    res = compare_models(train, test, ["maxwell-slip", "two-branch"], sets={"a": ["rate_0p114"], "b": ["rate_0p267"]},
+                         timing_repeats=2)
+    for o in res.outcomes:
+        for lg in test:
+            row = res.metrics[(res.metrics.model == o.name) & (res.metrics.log == lg.name)].iloc[0]
+            assert row.rmse_deg == pytest.approx(M.rmse(lg.angle_deg, o.predictions[lg.name]))
+            assert row.r2 == pytest.approx(M.r2(lg.angle_deg, o.predictions[lg.name]))
+            assert row.us_per_step > 0 and np.isfinite(row.us_per_step)
+            assert row.set == ("a" if lg.name == "rate_0p114" else "b")
+        y = np.concatenate([lg.angle_deg for lg in test])
+        yh = np.concatenate([o.predictions[lg.name] for lg in test])
+        srow = res.summary.set_index("model").loc[o.name]
+        assert srow.rmse_deg == pytest.approx(M.rmse(y, yh))
+        assert srow.max_abs_err_deg == pytest.approx(M.max_abs_err(y, yh))
+        # pooled cost per step: time-weighted mean of the per-log costs
+        m = res.metrics[res.metrics.model == o.name]
+        n = np.array([lg.n for lg in test])
+        assert srow.us_per_step == pytest.approx(np.sum(m.us_per_step.to_numpy() * n) / n.sum())
+    assert list(res.summary["rmse_deg"]) == sorted(res.summary["rmse_deg"])
+    assert list(res.summary["rank"]) == [1, 2]
+    assert set(res.by_set["set"]) == {"a", "b"}
+
+
+@pytest.mark.slow
+def test_vbmm_not_beaten_by_rate_independent_models_on_rate_experiments(rate_logs):
+    """Plant with creep and hysteresis; trained at one rate, tested at two others."""
+    train, test = rate_logs
+    res = compare_models(train, test, ["vbmm-fit", "gpi", "maxwell-slip", "two-branch"], timing_repeats=1)
+    s = res.summary.set_index("model")
+    for baseline in ("gpi", "maxwell-slip", "two-branch"):  # rate-independent (BASELINES.md)
+        assert s.loc["vbmm-fit", "rmse_deg"] < s.loc[baseline, "rmse_deg"], baseline
+    assert "is not beaten" in verdicts(res)[1]
+    # every model has its cost per step
+    assert (s["us_per_step"] > 0).all()
+
+
+def test_verdicts_say_when_a_baseline_wins():
+    summary = pd.DataFrame({"model": ["gpi", "vbmm-fit"], "log": ["ALL", "ALL"], "rmse_deg": [1.0, 2.0]})
+    by_set = pd.DataFrame({"model": ["gpi", "vbmm-fit", "gpi", "vbmm-fit"], "log": ["amp", "amp", "rate", "rate"],
+                           "rmse_deg": [0.5, 2.5, 3.0, 1.5], "set": ["amp", "amp", "rate", "rate"]})
+    lines = verdicts((summary, by_set))
+    assert lines[0].startswith("Ranking by pooled test RMSE: 1. gpi")
+    assert any("On all test logs, the baseline gpi (1.000 deg) beats the best VBMM variant vbmm-fit" in x for x in lines)
+    assert any("On amp, the baseline gpi" in x and "beats" in x for x in lines)
+    assert any("On rate, the best VBMM variant vbmm-fit" in x and "not beaten" in x for x in lines)
+
+
+def test_overlap_is_detected_by_path_and_by_content(rate_logs, tmp_path):
+    train, test = rate_logs
+    paths = write_logs(tmp_path, train)
+    from bpmid.io.motion_logs import read_motion_logs
+
+    on_disk = read_motion_logs(paths)
+    assert overlap_warnings(on_disk, on_disk) and "also a training log" in overlap_warnings(on_disk, on_disk)[0]
+    copy = dict(vars(train[0]))
+    copy["name"] = "renamed"
+    from bpmid.io.motion_logs import MotionLog
+
+    msgs = overlap_warnings(train, [MotionLog(**copy)])
+    assert msgs and "same data as training log train_0p2" in msgs[0]
+    assert overlap_warnings(train, test) == []
+    with pytest.warns(CompareWarning):
+        compare_models(train, [MotionLog(**copy)], ["two-branch"], timing=False)
+
+
+# ------------------------------------------------------------------------------------------------
+# the command
+# ------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def log_files(rate_logs, tmp_path_factory):
+    d = tmp_path_factory.mktemp("logs")
+    train, test = rate_logs
+    return write_logs(d, train), write_logs(d, test)
+
+
+def test_cli_writes_contract_files_and_figures(log_files, tmp_path):
+    train, test = log_files
+    out = tmp_path / "cmp"
+    r = runner.invoke(app, ["compare", "--train", *map(str, train), "--test", *map(str, test),
+                            "--models", "two-branch,maxwell-slip", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    m = pd.read_csv(out / "metrics.csv")
+    s = pd.read_csv(out / "summary.csv")
+    assert list(m.columns[:9]) == list(COLUMNS) and list(s.columns[:9]) == list(COLUMNS)
+    assert len(m) == 4 and set(m["log"]) == {"rate_0p114", "rate_0p267"}
+    assert len(s) == 2 and set(s["log"]) == {"ALL"}
+    assert (s["us_per_step"] > 0).all() and (s["n_params"] > 0).all()
+    for f in ("compare_timeseries.png", "compare_loops.png", "compare_errors.png", "compare_summary.png",
+              "compare.yaml", "predictions/rate_0p114.csv"):
+        assert (out / f).is_file(), f
+    import yaml
+
+    cy = yaml.safe_load((out / "compare.yaml").read_text())
+    assert cy["schema"] == "bpmid.compare/1" and cy["synthetic"] is True
+    assert set(cy["models"]) == {"two-branch", "maxwell-slip"}
+    assert len(cy["provenance"]["inputs"]) == 3
+    assert "rank" in r.output and "two-branch" in r.output
+
+
+def test_cli_unknown_model_exit_2(log_files, tmp_path):
+    train, test = log_files
+    r = runner.invoke(app, ["compare", "--train", str(train[0]), "--test", str(test[0]), "--models", "gpi,lstm",
+                            "--out", str(tmp_path / "x")])
+    assert r.exit_code == 2
+    assert "unknown model 'lstm'" in r.output and "vbmm-fit" in r.output
+    assert not (tmp_path / "x").exists()
+
+
+def test_cli_overlap_warns_but_runs(log_files, tmp_path):
+    train, test = log_files
+    r = runner.invoke(app, ["compare", "--train", str(train[0]), "--test", str(train[0]), str(test[0]),
+                            "--models", "two-branch", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert "warning:" in r.output and "also a training log" in r.output
+    import yaml
+
+    assert yaml.safe_load((tmp_path / "o" / "compare.yaml").read_text())["warnings"]
+
+
+def test_cli_log_too_short_exit_2(tmp_path, log_files):
+    _train, test = log_files
+    short = plant_log("short", 0.2, 5).slice(0, 12)
+    (p,) = write_logs(tmp_path, [short])
+    r = runner.invoke(app, ["compare", "--train", str(p), "--test", str(test[0]), "--models", "maxwell-slip",
+                            "--out", str(tmp_path / "s")])
+    assert r.exit_code == 2
+    assert "too few to identify" in r.output and "maxwell-slip" in r.output
+    assert not (tmp_path / "s").exists()
+
+
+def test_cli_missing_files_and_relax_exit_2(log_files, tmp_path):
+    train, test = log_files
+    r = runner.invoke(app, ["compare", "--train", str(tmp_path / "nope.csv"), "--test", str(test[0]),
+                            "--out", str(tmp_path / "m")])
+    assert r.exit_code == 2 and "nope.csv" in r.output
+    r = runner.invoke(app, ["compare", "--train", str(train[0]), "--test", str(test[0]), "--models", "vbmm-mat",
+                            "--relax", str(tmp_path / "relax.yaml"), "--out", str(tmp_path / "m")])
+    assert r.exit_code == 2 and "relax.yaml" in r.output and "--relax" in r.output
+
+
+def test_cli_config_names_the_logs(log_files, tmp_path):
+    train, test = log_files
+    cfg = tmp_path / "cmp.yaml"
+    cfg.write_text("compare:\n  models: [two-branch]\n  timing: false\n"
+                   f"  train: [{train[0]}]\n  test_sets:\n    rates: ['{test[0].parent}/rate_*.csv']\n")
+    r = runner.invoke(app, ["compare", "--config", str(cfg), "--out", str(tmp_path / "c")])
+    assert r.exit_code == 0, r.output
+    by_set = pd.read_csv(tmp_path / "c" / "summary_by_set.csv")
+    assert list(by_set["set"]) == ["rates"]
+    m = pd.read_csv(tmp_path / "c" / "metrics.csv")
+    assert m["us_per_step"].isna().all()  # timing: false leaves the wall-clock column empty
+    cfg.write_text("compare:\n  models: [two-branch]\n  test_sets:\n    rates: ['nothing_*.csv']\n"
+                   f"  train: [{train[0]}]\n")
+    r = runner.invoke(app, ["compare", "--config", str(cfg), "--out", str(tmp_path / "d")])
+    assert r.exit_code == 2 and "compare.test_sets.rates[0]" in r.output and "nothing_" in r.output
+
+
+def test_write_compare_is_all_or_nothing(rate_logs, tmp_path, monkeypatch):
+    train, test = rate_logs
+    res = compare_models(train, test, ["two-branch"], timing=False)
+    import bpmid.plots.compare as P
+
+    def boom(*a, **k):
+        raise RuntimeError("figure failed")
+
+    monkeypatch.setattr(P, "summary_bars", boom)
+    with pytest.raises(RuntimeError):
+        write_compare(res, tmp_path / "w", {"command": "test"})
+    assert not (tmp_path / "w" / "metrics.csv").exists()
