@@ -1,0 +1,204 @@
+"""bpmid run: every stage on a small config, reproducible numbers, config errors naming key and path."""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+from bpmid.errors import InputError
+from bpmid.io.motion_logs import from_arrays, write_motion_log
+from bpmid.models.vbmm import VBMM, Material
+
+REPO = Path(__file__).resolve().parents[1]
+ATM = 101325.0
+runner = CliRunner()
+
+
+def _pressure(rate, lo, hi, cycles, hold, dt=0.1):
+    seg = [np.full(int(hold / dt), lo)]
+    up, down = np.arange(lo, hi, rate * dt), np.arange(hi, lo, -rate * dt)
+    for _ in range(cycles):
+        seg += [up, np.full(int(hold / dt), hi), down]
+    seg.append(np.full(int(hold / dt), lo))
+    p = np.concatenate(seg)
+    return np.arange(p.size) * dt, p
+
+
+def _log(folder: Path, name, rate, seed, lo=1.2, hi=1.7, cycles=2, hold=3.0) -> Path:
+    t, p_bar = _pressure(rate, lo, hi, cycles, hold)
+    pg = p_bar * 1e5 - ATM
+    ang = VBMM(material=Material.paper_fit()).forward_deg(t, pg)
+    ang = ang + np.random.default_rng(seed).normal(0.0, 0.2, t.size)
+    lg = from_arrays(name, t, pg, ang, pressure_reference="absolute", pressure_unit="bar")
+    return write_motion_log(folder / f"{name}.csv", lg, reference="absolute",
+                            comments={"synthetic": "true (test twin)"})
+
+
+SMALL_CONFIG = """
+run:
+  relax_logs: ["{relax}/relax_300mmmin_20pct.csv", "{relax}/relax_400mmmin_30pct.csv"]
+  fitting_set: ["logs/fit_*.csv"]
+  test_sets:
+    variable_amplitude: ["logs/amp_*.csv"]
+    variable_rate: ["logs/rate_*.csv"]
+  long_term: logs/long.csv
+  discover_logs: ["logs/fit_*.csv", "logs/amp_*.csv"]
+  discover_holdout: ["logs/rate_*.csv"]
+  history_durations_s: [20, 40]
+  history_repeats: 1
+  seed: 7
+compare:
+  models: [vbmm-mat, vbmm-fit, two-branch, maxwell-slip]
+  timing: {timing}
+  timing_repeats: 1
+  figure_logs: 2
+"""
+
+
+def make_study(root: Path, timing: bool = False) -> Path:
+    logs = root / "logs"
+    logs.mkdir(parents=True, exist_ok=True)
+    _log(logs, "fit_a", 0.2, 1)
+    _log(logs, "fit_b", 0.2, 2)
+    _log(logs, "amp_1p9", 0.2, 3, hi=1.9)
+    _log(logs, "rate_0p114", 0.114, 4, cycles=1)
+    _log(logs, "rate_0p267", 0.267, 5, cycles=2)
+    _log(logs, "long", 0.2, 6, cycles=8, hold=2.0)
+    cfg = root / "study.yaml"
+    cfg.write_text(SMALL_CONFIG.format(relax=REPO / "datasets" / "relaxation", timing=str(timing).lower()))
+    return cfg
+
+
+@pytest.fixture(scope="module")
+def study_runs(tmp_path_factory):
+    """The small study run twice into two folders (same config)."""
+    root = tmp_path_factory.mktemp("study")
+    cfg = make_study(root)
+    outs = []
+    for name in ("run1", "run2"):
+        r = runner.invoke(app, ["run", str(cfg), "--out", str(root / name)])
+        assert r.exit_code == 0, r.output
+        outs.append(root / name)
+    return cfg, outs
+
+
+def test_run_writes_every_stage_file_with_cli_names(study_runs):
+    _cfg, (out, _) = study_runs
+    for f in ("relax_fit.yaml", "relax_fit.png", "vbmm_fit.yaml", "vbmm_fit.png", "vbmm_mat.yaml",
+              "compare/metrics.csv", "compare/summary.csv", "compare/compare.yaml", "history_modes.csv",
+              "history_modes.yaml", "history_modes.png", "discover/discovery.yaml", "report.html", "report.md",
+              "run.yaml"):
+        assert (out / f).is_file(), f
+    relax = yaml.safe_load((out / "relax_fit.yaml").read_text())
+    assert relax["schema"] == "bpmid.relax/1" and "E_inf" in relax["prony"]
+    fit = yaml.safe_load((out / "vbmm_fit.yaml").read_text())
+    assert fit["schema"] == "bpmid.vbmm/1"
+    for k in ("rmse_deg", "mape_pct", "r2"):
+        assert k in fit["metrics"]
+    mat = yaml.safe_load((out / "vbmm_mat.yaml").read_text())
+    # VBMM-mat. is the relaxation fit's K, nothing refitted
+    assert mat["material"]["K_inf"]["value"] == pytest.approx(relax["bulk"]["K_inf"]["value"], rel=1e-9)
+    disc = yaml.safe_load((out / "discover" / "discovery.yaml").read_text())
+    assert disc["schema"] == "bpmid.discovery/1" and "named_effects" in disc and "unexplained" in disc
+    run = yaml.safe_load((out / "run.yaml").read_text())
+    assert [s["name"] for s in run["stages"]] == ["relax", "motion", "compare", "history", "discover", "report"]
+    assert all(s["status"] == "done" for s in run["stages"])
+    prov = run["provenance"]
+    assert prov["seed"] == 7 and prov["config"]["sha256"] and len(prov["inputs"]) == 8
+    summary = pd.read_csv(out / "compare" / "summary.csv")
+    assert set(summary["model"]) == {"vbmm-mat", "vbmm-fit", "two-branch", "maxwell-slip"}
+    hist = pd.read_csv(out / "history_modes.csv")
+    assert set(hist["mode"]) == {"recursive", "window", "full"}
+    h = yaml.safe_load((out / "history_modes.yaml").read_text())
+    assert h["window_vs_full"]["max_abs_diff_deg"] < 0.05  # T_win = 20 s: many time constants
+
+
+def test_two_runs_give_identical_metrics_files(study_runs):
+    _cfg, (a, b) = study_runs
+    for f in ("compare/metrics.csv", "compare/summary.csv", "compare/summary_by_set.csv",
+              "compare/predictions/rate_0p114.csv"):
+        assert (a / f).read_bytes() == (b / f).read_bytes(), f
+    numbers = {"relax_fit.yaml": ("prony", "shear", "bulk", "metrics"),
+               "vbmm_fit.yaml": ("material", "metrics"), "vbmm_mat.yaml": ("material", "metrics"),
+               "history_modes.yaml": ("accuracy", "window_vs_full"),
+               "discover/discovery.yaml": ("named_effects", "gap", "unexplained")}
+    for f, keys in numbers.items():
+        da, db = yaml.safe_load((a / f).read_text()), yaml.safe_load((b / f).read_text())
+        for k in keys:
+            assert da[k] == db[k], f"{f}: {k}"
+
+
+def test_timing_is_measured_when_on(tmp_path):
+    """With timing on (the default) every model has a cost per step; the other columns match a run without."""
+    from bpmid.compare import compare_models
+    from bpmid.io.motion_logs import read_motion_logs
+
+    make_study(tmp_path)
+    logs = read_motion_logs(sorted((tmp_path / "logs").glob("fit_*.csv")))
+    test = read_motion_logs(sorted((tmp_path / "logs").glob("rate_*.csv")))
+    on = compare_models(logs, test, ["two-branch"], timing=True, timing_repeats=1)
+    off = compare_models(logs, test, ["two-branch"], timing=False)
+    assert (on.metrics["us_per_step"] > 0).all() and off.metrics["us_per_step"].isna().all()
+    pd.testing.assert_frame_equal(on.metrics.drop(columns="us_per_step"), off.metrics.drop(columns="us_per_step"))
+
+
+def test_missing_input_names_key_and_path(tmp_path):
+    cfg = make_study(tmp_path)
+    text = cfg.read_text().replace("long_term: logs/long.csv", "long_term: logs/missing_long.csv")
+    cfg.write_text(text)
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2
+    assert "run.long_term" in r.output and "missing_long.csv" in r.output and str(cfg) in r.output
+    assert not (tmp_path / "o").exists()  # checked before any work
+    cfg.write_text(text.replace("logs/missing_long.csv", "logs/long.csv").replace('["logs/amp_*.csv"]',
+                                                                                  '["logs/nothing_*.csv"]'))
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and "run.test_sets.variable_amplitude[0]" in r.output and "nothing_" in r.output
+
+
+def test_bad_config_keys_and_stage_names_exit_2(tmp_path):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("run:\n  stages: [relax, fly]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and "run.stages[1]" in r.output and "fly" in r.output
+    cfg.write_text("run:\n  fitting_sets: [a.csv]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and "run.fitting_sets" in r.output
+    r = runner.invoke(app, ["run", str(tmp_path / "absent.yaml")])
+    assert r.exit_code == 2 and "absent.yaml" in r.output
+
+
+def test_stage_without_inputs_is_skipped_and_said_so(tmp_path):
+    cfg = make_study(tmp_path)
+    cfg.write_text("run:\n  long_term: logs/long.csv\n  history_durations_s: [20]\n  history_repeats: 1\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    run = yaml.safe_load((tmp_path / "o" / "run.yaml").read_text())
+    status = {s["name"]: s for s in run["stages"]}
+    assert status["history"]["status"] == "done" and status["report"]["status"] == "done"
+    assert status["relax"]["status"] == "skipped" and "run.relax_logs" in status["relax"]["note"]
+    md = (tmp_path / "o" / "report.md").read_text()
+    assert "Not run (no relax_fit.yaml" in md and "History modes on the long-term run" in md
+
+
+def test_default_config_is_found_from_any_working_directory(tmp_path, monkeypatch):
+    import bpmid.run as R
+
+    monkeypatch.chdir(tmp_path)
+    path = R.default_config_path()
+    assert path == REPO / "configs" / "paper.yaml"
+    from bpmid.config import load_config
+
+    cfg = load_config(path)
+    inp = R.resolve_run_inputs(cfg)  # every shipped input the paper config names exists
+    assert len(inp.fitting_set) >= 1 and set(inp.test_sets) == {"variable_amplitude", "variable_rate"}
+    assert inp.long_term is not None and inp.relax_logs
+    monkeypatch.setattr(R, "DEFAULT_CONFIG", Path("configs") / "no_such.yaml")
+    with pytest.raises(InputError, match="default configs/paper.yaml was not found"):
+        R.default_config_path()
