@@ -282,3 +282,17 @@ def test_write_compare_is_all_or_nothing(rate_logs, tmp_path, monkeypatch):
     with pytest.raises(RuntimeError):
         write_compare(res, tmp_path / "w", {"command": "test"})
     assert not (tmp_path / "w" / "metrics.csv").exists()
+
+
+def test_paper_comparison_config_names_the_shipped_sets():
+    from bpmid.compare import resolve_inputs
+    from bpmid.config import load_config
+
+    repo = Path(__file__).resolve().parents[1]
+    cfg = load_config(repo / "configs" / "compare_paper.yaml")
+    train, sets, relax = resolve_inputs(cfg.section("compare"), cfg)
+    assert train and all("fitting_set" in str(p) for p in train)
+    assert set(sets) == {"variable_amplitude", "variable_rate"} and all(len(v) >= 3 for v in sets.values())
+    assert not {p.resolve() for p in train} & {p.resolve() for v in sets.values() for p in v}
+    assert set(cfg.section("compare").models) == set(REGISTRY)
+    assert relax is None
