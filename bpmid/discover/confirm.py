@@ -117,15 +117,16 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     own = [p.name for p in effect.default_params() if not p.fixed]
     fitted, res = fit_state(cand, fit_logs, max_nfev=max_nfev, check_identifiability=False)
     bad = own_identifiability(res, own, rel_se_max=rel_se_max, corr_max=corr_max)
-    if bad and len(bad) < len(own):
-        # hold the ones the data do not determine at their default and refit the rest
-        held_params = cand.params
-        for name in bad:
-            held_params = held_params.replace(name, fixed=True)
-        cand = dataclasses.replace(cand, params=held_params)
+    held: dict[str, str] = {}
+    while bad and len(held) < len(own) - 1:
+        # hold one parameter the data do not determine at its default and refit the rest: the last declared
+        # first (a catalogue entry lists its size first, shape parameters such as time constants after it)
+        name = [n for n in own if n in bad and n not in held][-1]
+        held[name] = bad[name]
+        cand = dataclasses.replace(cand, params=cand.params.replace(name, fixed=True))
         fitted, res = fit_state(cand, fit_logs, max_nfev=max_nfev, check_identifiability=False)
-        bad2 = own_identifiability(res, [n for n in own if n not in bad], rel_se_max=rel_se_max, corr_max=corr_max)
-        bad = {**bad, **bad2}
+        bad = own_identifiability(res, [n for n in own if n not in held], rel_se_max=rel_se_max, corr_max=corr_max)
+    bad = {**held, **bad}
     estimated = [nm for nm in own if nm not in bad]
     for nm in own:
         if nm in bad:
