@@ -393,14 +393,21 @@ def predictions_frame(result: CompareResult, log: MotionLog) -> pd.DataFrame:
 
 
 def figure_logs(result: CompareResult, n: int) -> list[MotionLog]:
-    """Up to ``n`` test logs spread over the test sets (round robin, first of each set first)."""
+    """Up to ``n`` test logs for the per-log figures: shared out over the test sets, and within a set spread
+    evenly over its (sorted) logs, so that different protocols of a set are shown rather than replicates."""
     by_name = {lg.name: lg for lg in result.test}
-    queues = [list(v) for v in result.sets.values()]
+    sets = [list(v) for v in result.sets.values() if v]
+    quota = [0] * len(sets)
+    k = 0
+    while sum(quota) < n and any(q < len(v) for q, v in zip(quota, sets)):
+        if quota[k % len(sets)] < len(sets[k % len(sets)]):
+            quota[k % len(sets)] += 1
+        k += 1
     chosen: list[str] = []
-    while len(chosen) < n and any(queues):
-        for q in queues:
-            if q and len(chosen) < n:
-                chosen.append(q.pop(0))
+    for q, names in zip(quota, sets):
+        if q:
+            idx = np.unique(np.round(np.linspace(0, len(names) - 1, q)).astype(int))
+            chosen += [names[i] for i in idx]
     return [by_name[c] for c in chosen]
 
 

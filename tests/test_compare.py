@@ -296,3 +296,17 @@ def test_paper_comparison_config_names_the_shipped_sets():
     assert not {p.resolve() for p in train} & {p.resolve() for v in sets.values() for p in v}
     assert set(cfg.section("compare").models) == set(REGISTRY)
     assert relax is None
+
+
+def test_figure_logs_show_different_protocols_of_each_set():
+    from types import SimpleNamespace
+
+    from bpmid.compare import figure_logs
+
+    names = {"amp": [f"amp_{a}_r{r}" for a in ("1p8", "2p0", "2p2") for r in (1, 2)],
+             "rate": [f"rate_{a}_r{r}" for a in ("slow", "fast") for r in (1, 2)]}
+    logs = [SimpleNamespace(name=n) for v in names.values() for n in v]
+    res = SimpleNamespace(test=logs, sets=names)
+    assert [lg.name for lg in figure_logs(res, 4)] == ["amp_1p8_r1", "amp_2p2_r2", "rate_slow_r1", "rate_fast_r2"]
+    assert [lg.name for lg in figure_logs(res, 3)] == ["amp_1p8_r1", "amp_2p2_r2", "rate_slow_r1"]
+    assert len(figure_logs(res, 50)) == 10 and figure_logs(res, 0) == []
