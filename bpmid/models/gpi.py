@@ -4,7 +4,7 @@ Model (BASELINES.md; Al Janaideh, Rakheja, Su 2009/2011), with the input v in ``
 (bar of gauge pressure for a muscle log):
 
     z_i,k = max(gamma_l(v_k) - r_i, min(gamma_r(v_k) + r_i, z_i,k-1))      i = 1..m
-    y_k   = p0 v_k + c + sum_i w_i z_i,k,          w_i >= 0
+    y_k   = p0 v_k + c + sigma sum_i w_i z_i,k,          w_i >= 0,  sigma = +1 or -1
 
 ``gamma_l`` (rising branch) and ``gamma_r`` (falling branch) are increasing envelopes:
 
@@ -13,8 +13,15 @@ Model (BASELINES.md; Al Janaideh, Rakheja, Su 2009/2011), with the input v in ``
 - ``envelope="linear"``: gamma_l(v) = v, gamma_r(v) = slope v + offset (gamma_l fixes the scale);
 - ``envelope="identity"``: gamma_l = gamma_r = v, the classical PI model (no envelope parameters).
 
-Identification (variable projection): thresholds r_i = (i/m) * half the input span of the training
-data (fixed); for given envelopes the output is linear in (p0, c, w_i), solved by bounded linear least
+The loop orientation sigma (fixed parameter ``loop_sign``) is +1 when the output lags the input
+(anticlockwise loop in the input-output plane, the usual PI case and the muscle's angle under
+pressure) and -1 when it leads (clockwise, e.g. a friction force against displacement); with
+non-negative weights one sign cannot make the other loop. ``orientation="auto"`` picks it from the
+data by the better of the two starting solves.
+
+Identification (variable projection): thresholds on a grid over half the input span of the training
+data (fixed; ``threshold_grid="uniform"``: r_i = (i/m) h, ``"quadratic"``: r_i = (i/m)^2 h, finer near
+the reversals where dry friction switches); for given envelopes the output is linear in (p0, c, w_i), solved by bounded linear least
 squares (w_i >= 0); the envelope parameters are fitted by the shared nonlinear least-squares driver
 around that inner solve. :func:`fit_variable_projection` (used by Maxwell-slip too) turns the result
 into an ordinary :class:`bpmid.fitting.FitResult` with standard errors from the joint Jacobian.
@@ -43,6 +50,8 @@ from bpmid.params import Param, ParamSet
 PA_PER_BAR = 1e5
 
 ENVELOPES = ("tanh", "linear", "identity")
+ORIENTATIONS = ("auto", "lag", "lead")
+GRIDS = ("uniform", "quadratic")
 
 
 # --------------------------------------------------------------------------------------------------
@@ -183,6 +192,10 @@ class GPIModel(ModelFamily):
         Number m of play operators (thresholds on a grid over the input range).
     envelope : {"tanh", "linear", "identity"}
         Envelope family; "identity" is the classical PI model.
+    orientation : {"auto", "lag", "lead"}
+        Loop orientation (module docstring); "auto" decides from the data at fit time.
+    threshold_grid : {"uniform", "quadratic"}
+        Spacing of the thresholds over half the input span.
     input_unit, output_unit : str
         Units of the generic signals (``"bar"``/``"deg"`` for muscle logs, whose Pa are divided by 1e5).
     """
@@ -191,10 +204,18 @@ class GPIModel(ModelFamily):
     label = "GPI"
     min_samples = 40
 
-    def __init__(self, n_operators: int = 10, envelope: str = "tanh", *, input_unit: str = "bar",
-                 output_unit: str = "deg"):
+    def __init__(self, n_operators: int = 10, envelope: str = "tanh", *, orientation: str = "auto",
+                 threshold_grid: str = "uniform", input_unit: str = "bar", output_unit: str = "deg"):
         if envelope not in ENVELOPES:
             raise InputError(f"unknown GPI envelope {envelope!r} (known: {', '.join(ENVELOPES)})", key="envelope")
+        if orientation not in ORIENTATIONS:
+            raise InputError(f"unknown orientation {orientation!r} (known: {', '.join(ORIENTATIONS)})",
+                             key="orientation")
+        if threshold_grid not in GRIDS:
+            raise InputError(f"unknown threshold grid {threshold_grid!r} (known: {', '.join(GRIDS)})",
+                             key="threshold_grid")
+        self.orientation = orientation
+        self.threshold_grid = threshold_grid
         if int(n_operators) < 1:
             raise InputError(f"n_operators must be >= 1, found {n_operators}", key="n_operators")
         self.n_operators = int(n_operators)
@@ -233,20 +254,28 @@ class GPIModel(ModelFamily):
         out.append(Param("gr_offset", 0.0, iu, -10 * half_span, 10 * half_span))
         return out
 
-    def _params_for_range(self, lo: float, hi: float, weights: np.ndarray, p0: float, c: float) -> ParamSet:
+    def thresholds(self, half_span: float) -> np.ndarray:
+        """Threshold grid (m,) over ``half_span`` (input unit)."""
+        frac = np.arange(1, self.n_operators + 1) / self.n_operators
+        return half_span * (frac if self.threshold_grid == "uniform" else frac ** 2)
+
+    def _params_for_range(self, lo: float, hi: float, weights: np.ndarray, p0: float, c: float,
+                          sign: float = 1.0) -> ParamSet:
         iu, ou = self.input_unit, self.output_unit
         center, half = 0.5 * (lo + hi), max(0.5 * (hi - lo), 1e-12)
         ps = [Param("p0", p0, f"{ou}/{iu}"), Param("c", c, ou)]
         ps += [Param(n, float(w), f"{ou}/{iu}", 0.0, np.inf) for n, w in zip(self.weight_names, weights)]
-        ps += [Param(n, half * (i + 1) / self.n_operators, iu, 0.0, np.inf, fixed=True)
-               for i, n in enumerate(self.threshold_names)]
+        ps += [Param(n, float(r), iu, 0.0, np.inf, fixed=True) for n, r in zip(self.threshold_names,
+                                                                                self.thresholds(half))]
+        ps.append(Param("loop_sign", sign, "1", -1.0, 1.0, fixed=True))
         return ParamSet(ps + self._envelope_params(center, half))
 
     def default_params(self) -> ParamSet:
         """Start for a muscle log (0.2-1.2 bar gauge, 10-80 deg): decreasing weights, mild tanh envelopes."""
         m = self.n_operators
         weights = 60.0 / m * np.exp(-np.arange(m) / max(m / 3.0, 1.0))
-        return self._params_for_range(0.2, 1.2, weights, p0=40.0, c=25.0)
+        return self._params_for_range(0.2, 1.2, weights, p0=40.0, c=25.0,
+                                      sign=-1.0 if self.orientation == "lead" else 1.0)
 
     # -- simulation -------------------------------------------------------------------------------
     def operator_outputs(self, params: ParamSet, u: np.ndarray) -> np.ndarray:
@@ -262,9 +291,9 @@ class GPIModel(ModelFamily):
         return play_bank(np.ascontiguousarray(gl, float), np.ascontiguousarray(gr, float), r, z0)
 
     def design(self, params: ParamSet, u: np.ndarray) -> np.ndarray:
-        """Design matrix (N, m + 2) with columns [v, 1, z_1..z_m] for the linear coefficients (p0, c, w)."""
+        """Design matrix (N, m + 2) with columns [v, 1, sigma z_1..sigma z_m] for the linear coefficients (p0, c, w)."""
         v = np.asarray(u, float)
-        return np.column_stack([v, np.ones_like(v), self.operator_outputs(params, v)])
+        return np.column_stack([v, np.ones_like(v), params.value("loop_sign") * self.operator_outputs(params, v)])
 
     def simulate_arrays(self, params: ParamSet, u: np.ndarray) -> np.ndarray:
         """Output (N,) in ``output_unit`` for the input ``u`` (N,) in ``input_unit``."""
@@ -276,23 +305,36 @@ class GPIModel(ModelFamily):
         return self.simulate_arrays(params, log.pressure_pa / PA_PER_BAR)
 
     # -- identification ---------------------------------------------------------------------------
-    def initial_guess_arrays(self, us: Sequence[np.ndarray], params: ParamSet) -> ParamSet:
-        """Thresholds and envelope start from the input range; linear coefficients from one NNLS solve."""
+    def initial_guess_arrays(self, us: Sequence[np.ndarray], params: ParamSet,
+                             ys: Sequence[np.ndarray] | None = None) -> ParamSet:
+        """Thresholds and envelope start from the input range; with ``orientation="auto"`` and outputs
+        ``ys`` given, the loop sign whose NNLS solve fits better (the linear coefficients themselves are
+        solved inside the fit)."""
         lo = min(float(np.min(u)) for u in us)
         hi = max(float(np.max(u)) for u in us)
         if not hi > lo:
             raise InputError(f"{self.name}: the input is constant; a hysteresis model cannot be identified")
-        fresh = self._params_for_range(lo, hi, np.zeros(self.n_operators), 0.0, 0.0)
+        sign = -1.0 if self.orientation == "lead" else 1.0
+        fresh = self._params_for_range(lo, hi, np.zeros(self.n_operators), 0.0, 0.0, sign)
+        if self.orientation == "auto" and ys is not None:
+            y = np.concatenate(ys)
+            nonneg = np.arange(self.n_operators + 2) >= 2
+            sse = {}
+            for s in (1.0, -1.0):
+                a = np.vstack([self.design(fresh.replace("loop_sign", value=s), u) for u in us])
+                sse[s] = float(np.sum((a @ solve_linear(a, y, nonneg) - y) ** 2))
+            fresh = fresh.replace("loop_sign", value=min(sse, key=sse.get))
         keep = {p.name: p for p in params}
         # settings of the given set survive (fixed flags), the data-dependent grid is recomputed
         out = []
         for p in fresh:
             q = keep.get(p.name)
-            out.append(p if q is None or not q.fixed or p.name in self.threshold_names else q)
+            out.append(p if q is None or not q.fixed or p.name in self.threshold_names + ["loop_sign"] else q)
         return ParamSet(out)
 
     def initial_guess(self, logs: Sequence[MotionLog], params: ParamSet) -> ParamSet:
-        return self.initial_guess_arrays([lg.pressure_pa / PA_PER_BAR for lg in logs], params)
+        ys = [lg.angle_deg for lg in logs] if all(lg.angle_deg is not None for lg in logs) else None
+        return self.initial_guess_arrays([lg.pressure_pa / PA_PER_BAR for lg in logs], params, ys)
 
     def fit_arrays(self, us: Sequence[np.ndarray], ys: Sequence[np.ndarray], params: ParamSet | None = None,
                    **fit_kw) -> FitResult:
@@ -306,13 +348,15 @@ class GPIModel(ModelFamily):
         """
         us = [np.asarray(u, float) for u in us]
         ys = [np.asarray(y, float) for y in ys]
-        start = self.initial_guess_arrays(us, self.default_params() if params is None else params)
-        check_arrays(self, us, ys, len(start.free()))
+        check_arrays(self, us, ys, 2 * self.n_operators + 2)
+        start = self.initial_guess_arrays(us, self.default_params() if params is None else params, ys)
 
         def design_fn(p: ParamSet) -> np.ndarray:
             return np.vstack([self.design(p, u) for u in us])
 
         nonneg = [False, False] + [True] * self.n_operators
+        # each outer evaluation is a full simulation plus a BVLS solve: bound the cost on long real logs
+        fit_kw.setdefault("max_nfev", 60 * (len(start.free()) - self.n_operators - 2 + 1))
         return fit_variable_projection(design_fn, np.concatenate(ys), start, self.linear_names, nonneg,
                                        segments=[u.size for u in us], **fit_kw)
 
@@ -325,5 +369,6 @@ class GPIModel(ModelFamily):
     def describe(self, params: ParamSet) -> dict:
         out = super().describe(params)
         out["settings"] = {"n_operators": self.n_operators, "envelope": self.envelope,
+                           "orientation": self.orientation, "threshold_grid": self.threshold_grid,
                            "input_unit": self.input_unit, "output_unit": self.output_unit}
         return out
