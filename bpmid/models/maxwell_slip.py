@@ -160,7 +160,7 @@ class MaxwellSlipModel(ModelFamily):
         slip = self.slip_grid(span)
         k = np.zeros(self.n_elements)
         if ys is not None:
-            grid = np.geomspace(1e-3 * span, 0.5 * span, 48)
+            grid = np.geomspace(1e-3 * span, 0.45 * span, 48)
             a = np.vstack([np.column_stack([np.asarray(u)[:, None] ** np.arange(self.poly_degree + 1),
                                             stop_bank(np.ascontiguousarray(u, float), grid, np.zeros_like(grid))])
                            for u in us])
@@ -315,7 +315,8 @@ def fit_linear_segments(x: np.ndarray, v: np.ndarray, n: int):
         return a @ solve_linear(a, v, np.array([False] + [True] * n)) - v
 
     # start: NNLS over a dense grid of breakpoints, merged to n (a coarse start falls into local minima)
-    grid = np.geomspace(1e-3 * xmax, xmax, 48)
+    # below the branch end: a breakpoint at its end would duplicate the final-slope column
+    grid = np.geomspace(1e-3 * xmax, 0.9 * xmax, 48)
     dense = np.column_stack([x] + [np.minimum(x, g) for g in grid])
     theta = solve_linear(dense, v, np.arange(grid.size + 1) > 0)
     b0, _k0 = merge_elements(grid, theta[1:], n)

@@ -1,0 +1,152 @@
+"""The four baseline families: contract, self-recovery, bad input, external friction check."""
+import numpy as np
+import pytest
+
+from bpmid.errors import InputError
+from bpmid.external import friction
+from bpmid.io.motion_logs import from_arrays
+from bpmid.models import model_class
+from bpmid.models.gpi import GPIModel
+from bpmid.models.maxwell_slip import MaxwellSlipModel
+from bpmid.models.three_element import ThreeElementModel
+from bpmid.models.two_branch import TwoBranchModel
+
+FAMILIES = ["gpi", "maxwell-slip", "three-element", "two-branch"]
+
+
+def excitation(seed=0, dt=0.01, duration=40.0):
+    """Trapezoids between random levels with holds (creep) and an inner loop; gauge Pa."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0, duration, dt)
+    levels = [0.2, 1.1, 0.5, 0.9, 0.3, 1.2, 0.6, 0.8, 0.25] + list(rng.uniform(0.25, 1.15, 4)) + [0.2]
+    knots_t = np.cumsum([0.0] + [1.0 if i % 2 else 2.0 for i in range(2 * len(levels) - 1)])
+    knots_t *= duration / knots_t[-1]
+    knots_p = np.repeat(levels, 2)
+    return from_arrays(f"excitation{seed}", t, np.interp(t, knots_t, knots_p) * 1e5)
+
+
+@pytest.mark.parametrize("name", FAMILIES)
+def test_contract_defaults_simulate_and_fit_recovers(name):
+    model = model_class(name)()
+    assert model.name == name
+    log = excitation()
+    params = model.default_params()
+    y = model.simulate(params, log)
+    assert y.shape == (log.n,) and np.all(np.isfinite(y))
+    assert 5.0 < np.ptp(y) < 120.0  # a plausible bending angle range
+    res = model.fit([log.with_angle(y)])
+    # recovery: the refit reproduces its own truth to a small fraction of the stroke
+    assert res.rmse < 0.01 * np.ptp(y)
+    assert np.all(np.isfinite(model.simulate(res.params, log)))
+    # one result shape for every family: free parameters with units, YAML-able
+    desc = model.describe(res.params)
+    assert desc["model"] == name and set(desc["parameters"]) == set(res.params.names())
+    assert res.uncertainty_yaml()["n_obs"] == log.n
+
+
+def test_gpi_recovers_tanh_envelopes_and_weights():
+    model = GPIModel(n_operators=6, envelope="tanh")
+    log = excitation(1)
+    u = log.pressure_pa / 1e5
+    grid = model.initial_guess_arrays([u], model.default_params())  # same threshold grid as the fit
+    truth = grid.with_values({"p0": 10.0, "c": 30.0, "w1": 8.0, "w2": 0.0, "w3": 5.0, "w4": 3.0, "w5": 2.0,
+                              "w6": 1.0, "gl_amp": 0.8, "gl_slope": 1.8, "gl_shift": -1.2,
+                              "gr_amp": 0.6, "gr_slope": 2.4, "gr_shift": -1.5, "gr_offset": 0.05})
+    y = model.simulate(truth, log)
+    res = model.fit([log.with_angle(y)])
+    # output-level recovery (weights of neighbouring thresholds trade against the envelope shape)
+    assert res.rmse < 2e-3 * np.ptp(y)
+    assert res.params.value("loop_sign") == 1.0
+    assert res.params.value("p0") == pytest.approx(truth.value("p0"), rel=0.05)
+    for n in ("gl_slope", "gr_slope"):
+        assert res.params.value(n) == pytest.approx(truth.value(n), rel=0.25)
+    # a pressure path never seen in the fit is predicted as well
+    other = excitation(4)
+    assert np.sqrt(np.mean((model.simulate(res.params, other) - model.simulate(truth, other)) ** 2)) < 5e-3 * np.ptp(y)
+
+
+def test_maxwell_slip_lsq_recovers_elements_from_noisy_log():
+    model = MaxwellSlipModel(n_elements=3, poly_degree=2)
+    log = excitation(2, dt=0.002)
+    truth = model.default_params().with_values({"s0": 4.0, "s1": 50.0, "s2": 6.0, "k1": 20.0, "k2": 10.0,
+                                                "k3": 5.0, "D1": 0.02, "D2": 0.08, "D3": 0.25})
+    rng = np.random.default_rng(5)
+    y = model.simulate(truth, log) + rng.normal(0, 0.05, log.n)
+    res = model.fit([log.with_angle(y)])
+    assert res.rmse < 0.06
+    tab = model.element_table(res.params)
+    np.testing.assert_allclose(tab["k"], [20.0, 10.0, 5.0], rtol=0.1)
+    np.testing.assert_allclose(tab["D"], [0.02, 0.08, 0.25], rtol=0.1)
+    assert all(res.params[n].stderr is not None for n in model.stiffness_names)
+
+
+def test_three_element_recovers_damping_and_dead_time():
+    model = ThreeElementModel()
+    log = excitation(3)
+    truth = model.default_params().with_values({"k1": 0.3, "f0": 3.0, "f1": 75.0, "f2": -8.0, "b0_in": 0.6,
+                                                "b1_in": 0.4, "b0_de": 0.15, "b1_de": 0.05, "dead_time": 0.2})
+    y = model.simulate(truth, log)
+    res = model.fit([log.with_angle(y)])
+    assert res.rmse < 0.05
+    assert res.params.value("dead_time") == pytest.approx(0.2, abs=0.02)
+    assert res.params.value("b0_in") == pytest.approx(0.6, rel=0.1)
+    # deflation damping far smaller than inflation damping, as built in
+    assert res.params.value("b0_de") < 0.5 * res.params.value("b0_in")
+
+
+def test_three_element_exact_step_is_stable_for_large_dt():
+    model = ThreeElementModel(dead_time=False)
+    params = model.default_params()
+    t = np.array([0.0, 100.0, 200.0])  # steps far longer than the time constant
+    y = model.simulate_arrays(params, t, np.array([0.2, 1.2, 1.2]))
+    v = params.values()
+    eq = (v["f0"] + v["f1"] * 1.2 + v["f2"] * 1.44) / (1 + v["k1"] * 1.2)
+    np.testing.assert_allclose(y[1:], eq, rtol=1e-9)
+
+
+def test_two_branch_switches_branch_with_direction():
+    model = TwoBranchModel()
+    p = model.default_params()
+    u = np.concatenate([np.linspace(0.2, 1.2, 50), np.linspace(1.2, 0.2, 50)])
+    y = model.simulate_arrays(p, u)
+    np.testing.assert_allclose(y[:50], model.branch_curve(p, "up", u[:50]))
+    np.testing.assert_allclose(y[60:], model.branch_curve(p, "dn", u[60:]))
+
+
+@pytest.mark.parametrize("name", FAMILIES)
+def test_too_short_log_is_an_input_error(name):
+    model = model_class(name)()
+    short = excitation().slice(0, 8)
+    short = short.with_angle(np.linspace(10, 20, short.n))
+    with pytest.raises(InputError, match="too few"):
+        model.fit([short])
+
+
+def test_virgin_method_without_a_full_loop_is_an_input_error():
+    model = MaxwellSlipModel(method="virgin")
+    u = np.linspace(0.0, 1.0, 200)  # one rise from the start: no reversal
+    with pytest.raises(InputError, match="full loop"):
+        model.fit_arrays([u], [3 * u])
+
+
+def test_friction_reader_and_strokes():
+    log = friction.read_friction_log(friction.friction_files()[3])
+    assert log.name == "Kidney_lc_4bar" and log.n == 6407
+    assert 3.8 < np.median(log.pressure_bar) < 4.1
+    pieces = friction.strokes(log.displacement_mm)
+    assert 15 <= len(pieces) <= 25  # about 10 back-and-forth strokes
+    # strokes alternate direction and each covers most of the 0-37 mm travel
+    travel = [log.displacement_mm[b - 1] - log.displacement_mm[a] for a, b in pieces[:-1]]
+    assert all(np.sign(travel[i]) != np.sign(travel[i + 1]) for i in range(len(travel) - 1))
+    assert np.median(np.abs(travel)) > 20
+
+
+def test_external_check_fits_held_out_stroke():
+    out = friction.external_check(friction.friction_files()[3])
+    height = out["loop_height_n"]
+    assert 15 < height < 40  # the README's 218 N vs 194 N
+    for name in ("maxwell-slip", "gpi"):
+        m = out["models"][name]
+        # a rate-independent friction model predicts the unseen stroke far inside the loop height
+        assert m["rmse_n"] < 0.1 * height, (name, m)
+        assert m["r2"] > 0.9
