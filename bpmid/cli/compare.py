@@ -11,8 +11,8 @@ from typer.core import TyperCommand
 
 from bpmid.cli._app import app, command
 
-EPILOG = ("Example (shipped synthetic data):  bpmid compare --train datasets/fitting/*.csv "
-          "--test datasets/variable_amplitude/*.csv datasets/variable_rate/*.csv "
+EPILOG = ("Example (shipped synthetic data):  bpmid compare --train datasets/motion/fitting_set/*.csv "
+          "--test datasets/motion/variable_amplitude/*.csv datasets/motion/variable_rate/*.csv "
           "--models vbmm-fit,gpi,maxwell-slip --out out/compare  |  the paper's comparison as a config:  "
           "bpmid compare --config configs/compare_paper.yaml --out out/compare")
 

@@ -27,8 +27,9 @@ class HoldoutCommand(MultiValueCommand):
                 out.append(tok)
         return super().parse_args(ctx, out)
 
-EPILOG = ("Example:  bpmid discover datasets/discovery/seed_01/*.csv --out out/discover   |   with held-out logs: "
-          "bpmid discover fit1.csv fit2.csv --holdout test1.csv --init relax_fit.yaml --out out/discover")
+EPILOG = ("Example (a shipped blind case; its answer is in datasets/discovery/ANSWERS.yaml):  bpmid discover "
+          "datasets/discovery/case_01/train_*.csv --holdout datasets/discovery/case_01/holdout_mixed.csv "
+          "--out out/discover   |   without --holdout, whole logs are held out in turn")
 
 
 def load_base(init: Optional[Path], cfg):

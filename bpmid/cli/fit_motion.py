@@ -14,8 +14,9 @@ from bpmid.io.results import provenance
 from bpmid.motion_fit import fit_motion, write_motion_fit
 
 
-@command(fit_app, "motion", epilog="Example: bpmid fit motion fitting.csv va_1.csv --init RELAX_FIT.yaml "
-                                   "--out VBMM.yaml   (writes VBMM.yaml and the figure VBMM.png)")
+@command(fit_app, "motion", epilog="Example (shipped synthetic logs): bpmid fit relax datasets/relaxation/*.csv "
+                                   "--out relax_fit.yaml  then  bpmid fit motion datasets/motion/fitting_set/*.csv "
+                                   "--init relax_fit.yaml --out VBMM.yaml   (writes VBMM.yaml and the figure VBMM.png)")
 def fit_motion_command(
     logs: List[Path] = typer.Argument(..., help="Motion logs (time_s, pressure_bar|kpa|pa, angle_deg), fitted at once."),
     out: Path = typer.Option(..., "--out", help="Output parameter file (schema bpmid.vbmm/1)."),

@@ -14,8 +14,9 @@ from bpmid.models.vbmm import load_vbmm
 from bpmid.predict import predict, write_predictions
 
 
-@command(app, "predict", epilog="Example: bpmid predict va_2.csv --params VBMM.yaml --out pred/   "
-                                "(writes pred/va_2.csv with angle_pred_deg)")
+@command(app, "predict", epilog="Example (after bpmid fit motion ... --out VBMM.yaml): bpmid predict "
+                                "datasets/motion/variable_amplitude/amp_2p0_r2.csv --params VBMM.yaml --out pred/   "
+                                "(writes pred/amp_2p0_r2.csv with angle_pred_deg)")
 def predict_command(
     logs: List[Path] = typer.Argument(..., help="Motion logs (time_s, pressure_bar|kpa|pa, optional angle_deg)."),
     params: Path = typer.Option(..., "--params", help="Fitted VBMM (bpmid fit motion output, bpmid.vbmm/1)."),

@@ -20,8 +20,8 @@ def run(
     out: Optional[Path] = typer.Option(None, "--out", help="Output folder (default: run.out of the config, else "
                                        "out/<config name>)."),
 ):
-    """Relaxation fit -> motion fit (VBMM-mat. and VBMM-fit) -> comparison of all models -> history modes ->
-    discovery -> report; every stage's files in the output folder, progress on stderr."""
+    """The whole study in one command: relaxation fit, motion fit (VBMM-mat and VBMM-fit), comparison of all
+    models, history modes, discovery and the report; every stage's files in the output folder, progress on stderr."""
     from bpmid.config import load_config
     from bpmid.run import default_config_path, run_study
 

@@ -11,7 +11,8 @@ from bpmid.twin.simulate import simulate
 
 
 @command(app, "simulate", epilog="Example: bpmid simulate configs/datasets/variable_amplitude.yaml "
-                                 "--effect braid_friction:r=3000,elements=4 --seed 7 --out sim/")
+                                 "--effect thermal_softening:amount=0.1,T=300 --seed 7 --out sim/   (an effect "
+                                 "the protocol's rig does not already have; ids: see datasets/README.md)")
 def simulate_cmd(
     protocol: Path = typer.Argument(..., help="Protocol file (YAML, schema bpmid.protocol/1; see datasets/README.md)."),
     out: Path = typer.Option(..., "--out", help="Folder for the logs (CSV) and manifest.yaml."),
