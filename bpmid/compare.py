@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import glob
+import os
 import inspect
 import time
 import warnings
@@ -103,7 +104,7 @@ def expand_paths(patterns: Sequence[str | Path], *, base: Path | None = None, ke
     for i, pat in enumerate(patterns):
         p = Path(pat)
         if base is not None and not p.is_absolute():
-            p = base / p
+            p = Path(os.path.normpath(base / p))  # "configs/../datasets" -> "datasets" in messages and provenance
         k = f"{key}[{i}]" if key else None
         if any(ch in str(pat) for ch in "*?["):
             hits = sorted(Path(h) for h in glob.glob(str(p)))

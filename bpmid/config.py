@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import os
 import importlib
 import types
 import typing
@@ -68,7 +69,8 @@ class Config:
     def resolve_path(self, p: str | Path) -> Path:
         """A path from the config, relative to the config file's folder."""
         p = Path(p)
-        return p if p.is_absolute() else (self.base_dir / p)
+        # normpath folds "configs/../datasets" so reports and provenance show the path a person would type
+        return Path(os.path.normpath(p if p.is_absolute() else (self.base_dir / p)))
 
 
 def _is_dataclass_type(tp) -> bool:

@@ -376,7 +376,9 @@ def _provenance_section(doc: Doc, st: StudyFiles) -> None:
     if run.get("stages"):
         doc.p("Stages of the run (wall time on this machine):")
         doc.table(["stage", "status", "seconds", "outputs"],
-                  [[s.get("name"), s.get("status"), fmt(s.get("seconds")), ", ".join(s.get("outputs") or []) or "-"]
+                  [[s.get("name"),
+                    "this report" if (s.get("name"), s.get("status")) == ("report", "running") else s.get("status"),
+                    fmt(s.get("seconds")), ", ".join(s.get("outputs") or []) or "-"]
                    for s in run["stages"]])
     inputs: dict[str, str] = {}
     for d in (st.run, st.relax, st.vbmm_fit, st.compare_yaml, st.history, st.discovery):
