@@ -17,62 +17,16 @@ import math
 import numba
 import numpy as np
 
-from bpmid.models._vbmm_kernels import BETA_MAX, STATUS_ABOVE_RANGE, STATUS_NO_CONVERGENCE, STATUS_OK
+from bpmid.models._vbmm_kernels import commit as _commit
+from bpmid.models._vbmm_kernels import decay as _decay
 from bpmid.models._vbmm_kernels import pressure_at, stretch, u3_from_beta
+from bpmid.models._vbmm_kernels import recursion_const as _hist
+from bpmid.models._vbmm_kernels import solve_beta as _solve_beta
 from bpmid.pneumatics import muscle_volume, pressure_period, IDX_DEAD
 
 CTRL_PI, CTRL_VBMM, CTRL_MS = 0, 1, 2
 
 SAT_NONE, SAT_HIGH, SAT_LOW = 0, 1, -1
-
-
-@numba.njit(cache=True)
-def _solve_beta(p, b_prev, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff):  # pragma: no cover
-    """beta (rad) with pressure_at(beta) = p (gauge Pa), bracketed Newton from b_prev; (beta, status)."""
-    f0 = pressure_at(0.0, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p
-    if f0 >= 0.0:
-        return 0.0, STATUS_OK  # at or below the pressure that holds u3 = 0: no backwards bending
-    lo, hi = 0.0, BETA_MAX
-    fhi = pressure_at(hi, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p
-    if fhi < 0.0:
-        return BETA_MAX, STATUS_ABOVE_RANGE
-    x = min(max(b_prev, 1e-9), BETA_MAX - 1e-9)
-    for _ in range(100):
-        fx = pressure_at(x, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p
-        if fx > 0.0:
-            hi = x
-        else:
-            lo = x
-        hstep = 1e-7 * max(x, 1e-3)
-        d = (pressure_at(x + hstep, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p - fx) / hstep
-        xn = x - fx / d if d > 0.0 else 0.5 * (lo + hi)
-        if not (lo < xn < hi):
-            xn = 0.5 * (lo + hi)
-        if abs(xn - x) < 1e-13 or hi - lo < 1e-14:
-            return xn, STATUS_OK
-        x = xn
-    return x, STATUS_NO_CONVERGENCE
-
-
-@numba.njit(cache=True)
-def _decay(a, dt, tau, r):  # pragma: no cover - compiled
-    for j in range(tau.size):
-        a[j] = math.exp(-dt / (tau[j] * r))
-
-
-@numba.njit(cache=True)
-def _hist(M, a, h, xprev):  # pragma: no cover - compiled
-    """c_k of M-hat[x]_k = M0 x_k + c_k for the recursion (VBMM.md section 3)."""
-    c = 0.0
-    for j in range(M.size):
-        c += M[j] * (a[j] * h[j] - xprev)
-    return c
-
-
-@numba.njit(cache=True)
-def _commit(a, h, dx):  # pragma: no cover - compiled
-    for j in range(h.size):
-        h[j] = a[j] * h[j] + dx
 
 
 class _State:  # documentation only: the state arrays every stepper carries

@@ -61,41 +61,57 @@ def pressure_at(beta, geo, closure, G0, K0, cG1, cG2, cK1, cK2, scale, stiff):  
 
 
 @numba.njit(cache=True)
-def _history_const(mode, k, t, x, Minf, M, tau, h, a, window):  # pragma: no cover
-    """c_k of M-hat[x]_k = M0 x_k + c_k (x[k] is not used)."""
-    if k == 0:
-        return 0.0
-    m0 = Minf
+def decay(a, dt, tau, r):  # pragma: no cover - compiled
+    """a_j = exp(-dt / (tau_j r)): the decay of each branch over this step (r: fall ratio, 1 = symmetric)."""
+    for j in range(tau.size):
+        a[j] = math.exp(-dt / (tau[j] * r))
+
+
+@numba.njit(cache=True)
+def recursion_const(M, a, h, xprev):  # pragma: no cover - compiled
+    """c_k of M-hat[x]_k = M0 x_k + c_k for the exact recursion (VBMM.md section 3), from the branch
+    states h of the previous step and this step's decays a."""
+    c = 0.0
     for j in range(M.size):
-        m0 += M[j]
-    if mode == 0:
-        c = 0.0
-        for j in range(M.size):
-            c += M[j] * (a[j] * h[j] - x[k - 1])
-        return c
-    acc = Minf * x[0]
-    start = 1
-    if mode == 1:
-        # last sample older than the window: lump everything up to it
-        ls = -1
-        for i in range(k, -1, -1):
-            if t[k] - t[i] > window:
-                ls = i
-                break
-        if ls >= 1:
-            age = t[k] - t[ls]
-            mk = Minf
-            for j in range(M.size):
-                mk += M[j] * math.exp(-age / tau[j])
-            acc += mk * (x[ls] - x[0])
-            start = ls + 1
-    for i in range(start, k):
-        age = t[k] - t[i]
-        mk = Minf
-        for j in range(M.size):
-            mk += M[j] * math.exp(-age / tau[j])
-        acc += mk * (x[i] - x[i - 1])
-    return acc - m0 * x[k - 1]
+        c += M[j] * (a[j] * h[j] - xprev)
+    return c
+
+
+@numba.njit(cache=True)
+def commit(a, h, dx):  # pragma: no cover - compiled
+    """Commit this step's strain increment dx to the branch states: h_j = a_j h_j + dx."""
+    for j in range(h.size):
+        h[j] = a[j] * h[j] + dx
+
+
+@numba.njit(cache=True)
+def solve_beta(p, b_prev, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff):  # pragma: no cover
+    """beta (rad) with pressure_at(beta) = p (gauge Pa): bracketed Newton on [0, 4 pi] warm-started at
+    b_prev. Returns (beta, status). At or below the pressure that holds u3 = 0 the answer is 0 (the
+    muscle does not bend backwards)."""
+    f0 = pressure_at(0.0, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p
+    if f0 >= 0.0:
+        return 0.0, STATUS_OK
+    lo, hi = 0.0, BETA_MAX
+    fhi = pressure_at(hi, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p
+    if fhi < 0.0:
+        return BETA_MAX, STATUS_ABOVE_RANGE
+    x = min(max(b_prev, 1e-9), BETA_MAX - 1e-9)
+    for _ in range(100):
+        fx = pressure_at(x, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p
+        if fx > 0.0:
+            hi = x
+        else:
+            lo = x
+        hstep = 1e-7 * max(x, 1e-3)
+        d = (pressure_at(x + hstep, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p - fx) / hstep
+        xn = x - fx / d if d > 0.0 else 0.5 * (lo + hi)
+        if not (lo < xn < hi):
+            xn = 0.5 * (lo + hi)
+        if abs(xn - x) < 1e-13 or hi - lo < 1e-14:
+            return xn, STATUS_OK
+        x = xn
+    return x, STATUS_NO_CONVERGENCE
 
 
 @numba.njit(cache=True)
@@ -194,15 +210,13 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
             G0, K0 = G0full, K0full
             dt = t[k] - t[k - 1]
             r = fall_ratio if (mode == 0 and p[k] < p[k - 1]) else 1.0
-            for j in range(Gj.size):
-                aG[j] = math.exp(-dt / (tauG[j] * r))
-            for j in range(Kj.size):
-                aK[j] = math.exp(-dt / (tauK[j] * r))
+            decay(aG, dt, tauG, r)
+            decay(aK, dt, tauK, r)
             if mode == 0:
-                cG1 = _history_const(mode, k, t, e1, Ginf, Gj, tauG, hG1, aG, window)
-                cG2 = _history_const(mode, k, t, e2, Ginf, Gj, tauG, hG2, aG, window)
-                cK1 = _history_const(mode, k, t, e1, Kinf, Kj, tauK, hK1, aK, window)
-                cK2 = _history_const(mode, k, t, e2, Kinf, Kj, tauK, hK2, aK, window)
+                cG1 = recursion_const(Gj, aG, hG1, e1[k - 1])
+                cG2 = recursion_const(Gj, aG, hG2, e2[k - 1])
+                cK1 = recursion_const(Kj, aK, hK1, e1[k - 1])
+                cK2 = recursion_const(Kj, aK, hK2, e2[k - 1])
             else:
                 # full or window: one fused pass over the stored history (the lumped point of the
                 # window only moves forward, so it is tracked, not searched for)
@@ -214,48 +228,15 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
                 start = lumped + 1 if lumped >= 1 else 1
                 cG1, cG2, cK1, cK2 = _history_consts_sum(k, start, lumped, t, e1, e2, Ginf, Gj, tauG,
                                                          Kinf, Kj, tauK, shared)
-        sc = scale[k]
-        f0 = pressure_at(0.0, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p[k]
-        b = 0.0
-        if f0 < 0.0:
-            lo, hi = 0.0, BETA_MAX
-            fhi = pressure_at(hi, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p[k]
-            if fhi < 0.0:
-                status[k] = STATUS_ABOVE_RANGE
-                b = BETA_MAX
-            else:
-                x = min(max(b_prev, 1e-9), BETA_MAX - 1e-9)
-                ok = False
-                for it in range(100):
-                    fx = pressure_at(x, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff) - p[k]
-                    if fx > 0.0:
-                        hi = x
-                    else:
-                        lo = x
-                    hstep = 1e-7 * max(x, 1e-3)
-                    d = (pressure_at(x + hstep, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)
-                         - p[k] - fx) / hstep
-                    xn = x - fx / d if d > 0.0 else 0.5 * (lo + hi)
-                    if not (lo < xn < hi):
-                        xn = 0.5 * (lo + hi)
-                    if abs(xn - x) < 1e-13 or hi - lo < 1e-14:
-                        x = xn
-                        ok = True
-                        break
-                    x = xn
-                if not ok:
-                    status[k] = STATUS_NO_CONVERGENCE
-                b = x
+        b, status[k] = solve_beta(p[k], b_prev, geo, closure, G0, K0, cG1, cG2, cK1, cK2, scale[k], stiff)
         beta[k] = b
         u3 = u3_from_beta(b, R0, l0, nn)
         e1[k] = stretch(u3, R0, l0, nn) - 1.0
         e2[k] = u3 / R0
         if k > 0:
-            for j in range(Gj.size):
-                hG1[j] = aG[j] * hG1[j] + (e1[k] - e1[k - 1])
-                hG2[j] = aG[j] * hG2[j] + (e2[k] - e2[k - 1])
-            for j in range(Kj.size):
-                hK1[j] = aK[j] * hK1[j] + (e1[k] - e1[k - 1])
-                hK2[j] = aK[j] * hK2[j] + (e2[k] - e2[k - 1])
+            commit(aG, hG1, e1[k] - e1[k - 1])
+            commit(aG, hG2, e2[k] - e2[k - 1])
+            commit(aK, hK1, e1[k] - e1[k - 1])
+            commit(aK, hK2, e2[k] - e2[k - 1])
         b_prev = b
     return beta, e1, e2, status
