@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Optional
 
 import typer
+from typer.core import TyperCommand
 
 from bpmid import __version__
 from bpmid.errors import InputError
@@ -75,3 +76,34 @@ def existing_files(paths: list[Path], what: str = "log") -> list[Path]:
         if not Path(p).is_file():
             raise InputError(f"{what} file not found", path=p)
     return [Path(p) for p in paths]
+
+
+def spread_multi(args: list[str], options: tuple[str, ...]) -> list[str]:
+    """``--train a b --test c`` -> ``--train a --train b --test c`` for the names in ``options``
+    (click options take one value each; these take every value up to the next option)."""
+    out, current = [], None
+    for tok in args:
+        if tok == "--":
+            current = None
+            out.append(tok)
+        elif tok in options:
+            current = tok
+        elif tok.startswith("-") and tok != "-":
+            current = None
+            out.append(tok)
+        elif current is not None:
+            out.extend([current, tok])
+        else:
+            out.append(tok)
+    return out
+
+
+def multi_value_command(*options: str) -> type:
+    """A Typer command class whose ``options`` each take every following value up to the next option."""
+
+    class MultiValueCommand(TyperCommand):
+        def parse_args(self, ctx, args):
+            return super().parse_args(ctx, spread_multi(list(args), options))
+
+    MultiValueCommand.__doc__ = f"A command whose {', '.join(options)} take several values in a row."
+    return MultiValueCommand

@@ -7,9 +7,8 @@ from pathlib import Path
 from typing import List, Optional
 
 import typer
-from typer.core import TyperCommand
 
-from bpmid.cli._app import app, command
+from bpmid.cli._app import app, command, multi_value_command
 
 EPILOG = ("Example (shipped synthetic data):  bpmid compare --train datasets/motion/fitting_set/*.csv "
           "--test datasets/motion/variable_amplitude/*.csv datasets/motion/variable_rate/*.csv "
@@ -17,33 +16,7 @@ EPILOG = ("Example (shipped synthetic data):  bpmid compare --train datasets/mot
           "bpmid compare --config configs/compare_paper.yaml --out out/compare")
 
 #: options that take several values in a row (``--train a.csv b.csv --test c.csv``)
-MULTI = ("--train", "--test")
-
-
-def spread_multi(args: list[str]) -> list[str]:
-    """``--train a b --test c`` -> ``--train a --train b --test c`` (click options take one value each)."""
-    out, current = [], None
-    for tok in args:
-        if tok == "--":
-            current = None
-            out.append(tok)
-        elif tok in MULTI:
-            current = tok
-        elif tok.startswith("-") and tok != "-":
-            current = None
-            out.append(tok)
-        elif current is not None:
-            out.extend([current, tok])
-        else:
-            out.append(tok)
-    return out
-
-
-class MultiValueCommand(TyperCommand):
-    """A command whose ``--train``/``--test`` take every following value up to the next option."""
-
-    def parse_args(self, ctx, args):
-        return super().parse_args(ctx, spread_multi(list(args)))
+MultiValueCommand = multi_value_command("--train", "--test")
 
 
 @command(app, "compare", epilog=EPILOG, cls=MultiValueCommand)

@@ -6,26 +6,11 @@ from typing import List, Optional
 
 import typer
 
-from bpmid.cli._app import app, command, existing_files
-from bpmid.cli.compare import MultiValueCommand
+from bpmid.cli._app import app, command, existing_files, multi_value_command
 
 
-class HoldoutCommand(MultiValueCommand):
-    """``--holdout a.csv b.csv`` takes every following value up to the next option."""
-
-    def parse_args(self, ctx, args):
-        out, current = [], None
-        for tok in args:
-            if tok == "--holdout":
-                current = tok
-            elif tok.startswith("-") and tok != "-":
-                current = None
-                out.append(tok)
-            elif current is not None:
-                out.extend([current, tok])
-            else:
-                out.append(tok)
-        return super().parse_args(ctx, out)
+#: ``--holdout a.csv b.csv`` takes every following value up to the next option
+HoldoutCommand = multi_value_command("--holdout")
 
 EPILOG = ("Example (a shipped blind case; its answer is in datasets/discovery/ANSWERS.yaml):  bpmid discover "
           "datasets/discovery/case_01/train_*.csv --holdout datasets/discovery/case_01/holdout_mixed.csv "
