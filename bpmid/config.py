@@ -173,20 +173,31 @@ def parse_config(data: Any, path: Path | None = None, sha256: str | None = None)
     return Config(types.MappingProxyType(sections), path, sha256)
 
 
-def load_config(path: str | Path | None) -> Config:
-    """Load a YAML config file; ``None`` gives all defaults."""
-    if path is None:
-        return Config(types.MappingProxyType({}))
+def read_yaml(path: str | Path, what: str = "file") -> tuple[Any, str]:
+    """Parse a YAML file; errors name the file and the line. Returns (data, sha256 of the bytes).
+
+    Parameters
+    ----------
+    what : words for the not-found message ("config file", "protocol file", ...)
+    """
     path = Path(path)
     if not path.is_file():
-        raise InputError("config file not found", path=path)
+        raise InputError(f"{what} not found", path=path)
     raw = path.read_bytes()
     try:
         data = yaml.safe_load(raw.decode("utf-8"))
     except yaml.YAMLError as exc:
-        line = getattr(getattr(exc, "problem_mark", None), "line", None)
+        mark = getattr(exc, "problem_mark", None)
         raise InputError(f"not valid YAML: {getattr(exc, 'problem', exc)}", path=path,
-                         line=None if line is None else line + 1) from exc
+                         line=None if mark is None else mark.line + 1) from exc
     except UnicodeDecodeError as exc:
         raise InputError("not a UTF-8 text file", path=path) from exc
-    return parse_config(data, path, hashlib.sha256(raw).hexdigest())
+    return data, hashlib.sha256(raw).hexdigest()
+
+
+def load_config(path: str | Path | None) -> Config:
+    """Load a YAML config file; ``None`` gives all defaults."""
+    if path is None:
+        return Config(types.MappingProxyType({}))
+    data, sha = read_yaml(path, "config file")
+    return parse_config(data, Path(path), sha)

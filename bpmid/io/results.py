@@ -100,15 +100,10 @@ def write_result(path: str | Path, schema: str, body: dict, prov: dict) -> Path:
 
 def read_result(path: str | Path, schema_prefix: str) -> dict:
     """Read a result YAML and check its schema (``bpmid.vbmm/`` etc.)."""
+    from bpmid.config import read_yaml
+
     path = Path(path)
-    if not path.is_file():
-        raise InputError("file not found", path=path)
-    try:
-        data = yaml.safe_load(path.read_text("utf-8"))
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        raise InputError(f"not valid YAML: {getattr(exc, 'problem', exc)}", path=path,
-                         line=None if mark is None else mark.line + 1) from exc
+    data, _sha = read_yaml(path)
     if not isinstance(data, dict):
         raise InputError("expected a YAML mapping", path=path)
     schema = data.get("schema")

@@ -45,9 +45,8 @@ from pathlib import Path
 from typing import Any, Literal, Mapping, Optional
 
 import numpy as np
-import yaml
 
-from bpmid.config import build_dataclass
+from bpmid.config import build_dataclass, read_yaml
 from bpmid.errors import InputError
 from bpmid.twin.relaxation_protocol import RelaxationSpec
 from bpmid.twin.sensors import Sensors
@@ -399,18 +398,8 @@ def _first_level(program) -> float:
 
 def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Protocol:
     """Read and check a protocol file (errors name the file and the key)."""
-    import hashlib
-
     path = Path(path)
-    if not path.is_file():
-        raise InputError("protocol file not found", path=path)
-    raw = path.read_bytes()
-    try:
-        data = yaml.safe_load(raw.decode("utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        mark = getattr(exc, "problem_mark", None)
-        raise InputError(f"not valid YAML: {getattr(exc, 'problem', exc)}", path=path,
-                         line=None if mark is None else mark.line + 1) from exc
+    data, sha = read_yaml(path, "protocol file")
     if not isinstance(data, dict):
         raise InputError("a protocol file is a YAML mapping", path=path)
     for k in ("path", "sha256"):
@@ -422,7 +411,7 @@ def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Pro
     logs = []
     for i, spec in enumerate(proto.logs):
         logs.append(dataclasses.replace(spec, program=parse_program(spec.program, f"logs[{i}].program", path)))
-    proto = dataclasses.replace(proto, logs=tuple(logs), path=str(path), sha256=hashlib.sha256(raw).hexdigest())
+    proto = dataclasses.replace(proto, logs=tuple(logs), path=str(path), sha256=sha)
     if proto.kind in ("motion", "reference") and not proto.logs:
         raise InputError("a motion or reference protocol needs at least one log", path=path, key="logs")
     names = [n for n, _s, _k in proto.runs()]
