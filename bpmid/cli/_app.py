@@ -54,6 +54,11 @@ def command(typer_app: typer.Typer, name: str, **kw):
                 fail(exc.format(), 2)
             except (typer.Exit, typer.Abort, SystemExit):
                 raise
+            except BrokenPipeError:
+                # the reader of our stdout went away (``bpmid ... | head``): the work is done, stay quiet
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, 1)
+                raise typer.Exit(0)
             except KeyboardInterrupt:
                 fail("interrupted", 130)
             except Exception as exc:  # an internal failure: say so, keep the traceback one variable away
