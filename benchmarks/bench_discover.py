@@ -89,7 +89,7 @@ def evaluate(jobs):
         M[labels.index(r["truth"]), labels.index(first)] += 1
     short = {lab: lab[:10] for lab in labels}
     print("\nConfusion matrix (rows: hidden effect, columns: effect named first), fresh seeds:")
-    print(f"| hidden \\ named | " + " | ".join(short[lab] for lab in labels) + " |")
+    print("| hidden \\ named | " + " | ".join(short[lab] for lab in labels) + " |")
     print("|---" * (len(labels) + 1) + "|")
     for i, lab in enumerate(labels):
         print(f"| {lab} | " + " | ".join(str(v) for v in M[i]) + " |")

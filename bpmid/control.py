@@ -24,7 +24,6 @@ reported per run.
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from pathlib import Path
 from typing import Sequence

@@ -26,7 +26,7 @@ import math
 import re
 import time
 from pathlib import Path
-from typing import Any, Literal, Mapping, Optional, Sequence
+from typing import Literal, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -266,7 +266,7 @@ def material_from_params(params: ParamSet) -> Material:
     m = 0
     while f"G_{m + 1}" in v:
         m += 1
-    split = m > 0 and f"tauG_1" in v
+    split = m > 0 and "tauG_1" in v
     G = tuple(v[f"G_{i}"] for i in range(1, m + 1))
     Kk = tuple(v[f"K_{i}"] for i in range(1, m + 1))
     if split:

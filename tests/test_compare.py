@@ -1,7 +1,6 @@
 """bpmid compare: generic over the registry, CLI.md columns, cost per step, verdicts, bad input."""
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np

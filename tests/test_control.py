@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from bpmid import control_kernels as CK
 from bpmid import pneumatics as PN
-from bpmid.control import (ControlConfig, Reference, build_plant, builtin_reference, fit_ms_feedforward, pack_model,
+from bpmid.control import (ControlConfig, build_plant, builtin_reference, fit_ms_feedforward, pack_model,
                            run_control, scaled_plant_model, simulate_loop)
 from bpmid.models.vbmm import VBMM, Material, vbmm_yaml_body
 from bpmid.twin.sensors import Sensors

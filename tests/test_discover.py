@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 from bpmid.cli import app
 from bpmid.discover.calibrate import paper_sized_set, start_model, truth_model
 from bpmid.discover.diagnose import cross_correlation, noise_floor, whiteness
-from bpmid.discover.model import ModelState, fit_state, residuals, simulate, stacked
+from bpmid.discover.model import ModelState, fit_state, simulate, stacked
 from bpmid.discover.screen import screen
 from bpmid.effects import CATALOGUE, get_effect
 from bpmid.io.motion_logs import from_arrays, write_motion_log

@@ -32,7 +32,7 @@ def sim(eid, t, p, **values):
 def loop_width(t, p, beta, level_pa, last_cycle_from):
     """Falling minus rising angle at ``level_pa`` within the last cycle (deg)."""
     sel = t >= last_cycle_from
-    tt, pp, bb = t[sel], p[sel], beta[sel]
+    pp, bb = p[sel], beta[sel]
     k = int(np.argmax(pp))
     up = np.interp(level_pa, pp[:k + 1], bb[:k + 1])
     down = np.interp(level_pa, pp[k:][::-1], bb[k:][::-1])

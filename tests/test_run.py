@@ -1,7 +1,6 @@
 """bpmid run: every stage on a small config, reproducible numbers, config errors naming key and path."""
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np

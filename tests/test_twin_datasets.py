@@ -4,7 +4,6 @@ import glob
 import os
 
 import numpy as np
-import pytest
 import yaml
 
 from bpmid.fitting import fit_least_squares

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from bpmid.models.vbmm import VBMM, Geometry, Material, kinematics, u3_from_beta
+from bpmid.models.vbmm import VBMM, kinematics, u3_from_beta
 
 EQUILIBRIUM = [  # beta deg, u3 mm, eps1, eps2, P gauge Pa
     (5, -0.015743, 0.007449, -0.000941, 6345.526),

@@ -23,7 +23,7 @@ from typing import Sequence
 import numpy as np
 from scipy.stats import chi2
 
-from bpmid.discover.model import ModelState, fit_state, residuals, rmse_deg, stacked
+from bpmid.discover.model import ModelState, fit_state, residuals, rmse_deg
 from bpmid.effects.base import Effect
 from bpmid.fitting import FitResult, effective_sample_size
 from bpmid.io.motion_logs import MotionLog

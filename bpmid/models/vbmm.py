@@ -25,7 +25,7 @@ import numpy as np
 
 from bpmid.errors import InputError
 from bpmid.models import _vbmm_kernels as K
-from bpmid.viscoelastic import hereditary_full, hereditary_recursive, hereditary_states, hereditary_window
+from bpmid.viscoelastic import hereditary_full, hereditary_recursive, hereditary_window
 
 MPa = 1e6
 
