@@ -2,8 +2,10 @@
 
 Works for every family in :data:`bpmid.models.REGISTRY` through the :class:`~bpmid.models.base.ModelFamily`
 interface alone (``fit``, ``simulate``, ``n_params``, ``describe``); adding a family needs no change here.
-Per-family constructor settings come from the config (``compare.options.<name>``); a family whose
-constructor takes a relaxation fit (``vbmm-mat``) gets the one named by ``--relax`` or ``compare.relax``.
+Per-family constructor settings start from :data:`DEFAULT_OPTIONS` (baseline settings whose static parts
+extrapolate sanely for a bending muscle, chosen on training data: see ``configs/compare_paper.yaml``) and are
+overridden key by key by the config (``compare.options.<name>``); a family whose constructor takes a relaxation
+fit (``vbmm-mat``) gets the one named by ``--relax`` or ``compare.relax``.
 
 Outputs (CLI.md): ``metrics.csv`` (one row per model and test log) and ``summary.csv`` (one row per model,
 pooled over all test logs, ``log = ALL``), with ``model, log, rmse_deg, mape_pct, r2, fit_pct,
@@ -58,7 +60,7 @@ class CompareConfig:
     test_sets : named groups of test logs (``{variable_amplitude: [...], variable_rate: [...]}``); their
         metrics are also pooled per group in ``summary_by_set.csv``
     relax : relaxation fit (``bpmid.relax/1``) for families that start from one (vbmm-mat)
-    options : per-family constructor settings, ``{gpi: {n_operators: 10}}``
+    options : per-family constructor settings, ``{gpi: {n_operators: 10}}``, over :data:`DEFAULT_OPTIONS`
     timing : measure ``us_per_step`` (false leaves it empty: byte-identical reruns)
     timing_repeats : timed free-running simulations per model and test log (best one counts)
     figure_logs : test logs drawn in the per-log figures (spread over the test sets)
@@ -151,6 +153,25 @@ def check_test_logs(test: Sequence[MotionLog]) -> None:
             raise InputError("a test log needs an angle_deg column to be scored", path=lg.path)
         if lg.n < 3:
             raise InputError(f"a test log needs at least 3 samples, found {lg.n}", path=lg.path)
+
+
+#: compare's per-family settings unless the config says otherwise. The library defaults of the baselines
+#: follow their papers (contracting McKibben muscles, friction); for pressure in, bending angle out and test
+#: logs beyond the training pressures, these give each a static part that extrapolates sanely and the loop
+#: orientation of a lagging angle. Reasons and the training-set numbers: configs/compare_paper.yaml.
+DEFAULT_OPTIONS: dict[str, dict[str, Any]] = {
+    "gpi": {"envelope": "linear", "monotone": True},
+    "maxwell-slip": {"orientation": "lag", "poly_degree": 1, "monotone": True},
+    "three-element": {"static": "linear"},
+    "two-branch": {"branch": "linear"},
+}
+
+
+def effective_options(name: str, options: Mapping[str, Any] | None) -> dict[str, Any]:
+    """:data:`DEFAULT_OPTIONS` of ``name`` overridden key by key by ``options`` (the config's)."""
+    out = dict(DEFAULT_OPTIONS.get(name, {}))
+    out.update(dict(options or {}))
+    return out
 
 
 def build_model(name: str, options: Mapping[str, Any] | None = None, relax_fit: str | Path | None = None,
@@ -304,7 +325,7 @@ def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models
     options = options or {}
     outcomes: list[ModelOutcome] = []
     for name in models:
-        model = build_model(name, options.get(name), relax_fit, config)
+        model = build_model(name, effective_options(name, options.get(name)), relax_fit, config)
         note(f"compare: fitting {name} on {len(train)} training log(s)")
         t0 = time.perf_counter()
         fit = model.fit(list(train), **dict(fit_kw or {}))

@@ -59,3 +59,13 @@ def test_fitted_baseline_static_response_is_monotone_and_plausible(shipped, name
     assert rise[-1] - rise[0] > 30.0, (name, rise[0], rise[-1])
     # the fitting set itself is still fitted (a sane static part is not bought with a useless model)
     assert res.rmse < 3.0, (name, res.rmse)
+
+
+def test_compare_defaults_are_the_shipped_settings_and_the_config_overrides_them(shipped):
+    from bpmid.compare import DEFAULT_OPTIONS, effective_options
+
+    options, _train = shipped
+    for name in BASELINES:
+        assert effective_options(name, None) == options[name]  # `bpmid compare` without a config is fair too
+    assert effective_options("maxwell-slip", {"poly_degree": 2})["poly_degree"] == 2
+    assert effective_options("maxwell-slip", {"poly_degree": 2})["orientation"] == DEFAULT_OPTIONS["maxwell-slip"]["orientation"]
