@@ -397,6 +397,10 @@ def verdicts(result_or_tables) -> list[str]:
         else:
             out.append(f"On {label}, the best VBMM variant {best_vb.model} ({best_vb.rmse_deg:.3f} deg) is not beaten "
                        f"by any baseline (best: {best_base.model}, {best_base.rmse_deg:.3f} deg).")
+        for other in vb.iloc[1:].itertuples():
+            if best_base.rmse_deg < other.rmse_deg:
+                out.append(f"On {label}, the baseline {best_base.model} ({best_base.rmse_deg:.3f} deg) beats the VBMM "
+                           f"variant {other.model} ({other.rmse_deg:.3f} deg).")
     return out
 
 

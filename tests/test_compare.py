@@ -159,6 +159,15 @@ def test_verdicts_say_when_a_baseline_wins():
     assert any("On rate, the best VBMM variant vbmm-fit" in x and "not beaten" in x for x in lines)
 
 
+def test_verdicts_say_when_a_baseline_beats_the_weaker_vbmm_variant():
+    summary = pd.DataFrame({"model": ["vbmm-fit", "three-element", "vbmm-mat", "gpi"], "log": ["ALL"] * 4,
+                            "rmse_deg": [2.3, 2.8, 2.9, 4.2]})
+    lines = verdicts((summary, None))
+    assert any("vbmm-fit" in x and "not beaten" in x for x in lines)
+    assert any("the baseline three-element (2.800 deg) beats the VBMM variant vbmm-mat (2.900 deg)" in x for x in lines)
+    assert not any("beats the VBMM variant vbmm-fit" in x for x in lines)
+
+
 def test_overlap_is_detected_by_path_and_by_content(rate_logs, tmp_path):
     train, test = rate_logs
     paths = write_logs(tmp_path, train)
