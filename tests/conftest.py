@@ -7,14 +7,8 @@ matplotlib.use("Agg")
 os.environ.setdefault("NUMBA_CACHE_DIR", os.path.join(os.path.dirname(__file__), "..", ".numba_cache"))
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
-SHARED = os.path.abspath(os.path.join(REPO, "..", "shared"))
 
 
 @pytest.fixture
 def repo_root():
     return REPO
-
-
-@pytest.fixture
-def shared_dir():
-    return SHARED
