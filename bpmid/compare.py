@@ -34,7 +34,7 @@ import pandas as pd
 from bpmid import metrics as M
 from bpmid.errors import InputError
 from bpmid.fitting import FitResult
-from bpmid.io.motion_logs import MotionLog
+from bpmid.io.motion_logs import MotionLog, is_synthetic
 from bpmid.models import REGISTRY, model_class
 from bpmid.progress import Progress, note
 
@@ -480,20 +480,6 @@ def write_compare(result: CompareResult, out_dir: str | Path, prov: dict, *, rel
             save_figure(P.errors(result, logs, synthetic=synthetic), tmp / "compare_errors.png")
         save_figure(P.summary_bars(result.summary, result.by_set, synthetic=synthetic), tmp / "compare_summary.png")
     return out_dir
-
-
-def is_synthetic(logs: Sequence[MotionLog]) -> bool:
-    """True when every log says it is synthetic (a ``# synthetic: true`` line, or a ``# source:``/``# generator:``
-    line naming bpmid's twin) or lives under a ``datasets`` folder of bpmid's shipped data (not ``reference``)."""
-    def one(lg: MotionLog) -> bool:
-        meta = {str(k).strip().lower(): str(v).strip().lower() for k, v in (lg.meta or {}).items()}
-        if "synthetic" in meta:  # "# synthetic: true (bpmid digital twin; not a measurement)"
-            words = meta["synthetic"].replace("(", " ").split()
-            return bool(words) and words[0] in ("true", "yes", "1")
-        if any(("twin" in meta.get(k, "") or "synthetic" in meta.get(k, "")) for k in ("source", "generator")):
-            return True
-        return lg.path is not None and "datasets" in Path(lg.path).parts and "reference" not in Path(lg.path).parts
-    return bool(logs) and all(one(lg) for lg in logs)
 
 
 # --------------------------------------------------------------------------------------------------

@@ -229,12 +229,9 @@ def stage_history(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
 
 def stage_discover(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     from bpmid.discover import discover
-    from bpmid.io.atomic import staged_dir, write_text
+    from bpmid.discover.output import write_discovery
     from bpmid.io.motion_logs import read_motion_logs
-    from bpmid.io.results import write_result
     from bpmid.models.vbmm import VBMM, Material, load_vbmm
-    from bpmid.plots import discover as P
-    from bpmid.plots.common import save_figure
 
     io_cfg = config.section("io")
     fit_logs = read_motion_logs(inp.discover_logs, io_cfg, require_angle=True)
@@ -244,17 +241,10 @@ def stage_discover(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     else:
         base, base_from = VBMM.from_config(Material.paper_fit(), config.section("model")), "paper VBMM-fit constants"
     result = discover(fit_logs, base, holdout=ho, cfg=config.section("discover"))
-    body = result.to_yaml()
-    body["base_from"] = base_from
     inputs = inp.discover_logs + inp.discover_holdout + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
-    with staged_dir(out / "discover") as tmp:
-        write_result(tmp / "discovery.yaml", "bpmid.discovery/1", body,
-                     _prov(inputs, config, ctx["seed"], ctx["command"]))
-        write_text(tmp / "verdict.txt", result.verdict + "\n")
-        save_figure(P.residual_figure(result), tmp / "residual_before_after.png")
-        save_figure(P.ranking_figure(result), tmp / "screening_ranking.png")
-        save_figure(P.heldout_figure(result), tmp / "heldout_error.png")
-    return ["discover/discovery.yaml", "discover/verdict.txt"]
+    written = write_discovery(out / "discover", result, _prov(inputs, config, ctx["seed"], ctx["command"]),
+                              base_from=base_from)
+    return [f"discover/{name}" for name in written if not name.endswith(".png")]
 
 
 def stage_report(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
@@ -286,7 +276,7 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
     out_dir : output folder (created)
     command : the command line to record (default: ``sys.argv``)
     """
-    from bpmid.compare import is_synthetic
+    from bpmid.io.motion_logs import is_synthetic
     from bpmid.io.motion_logs import read_motion_logs
     from bpmid.io.results import command_line, write_result
 

@@ -52,11 +52,9 @@ def discover_cmd(
     logs, add one effect at a time; write DIR/discovery.yaml, a plain-language verdict and figures."""
     from bpmid.config import load_config
     from bpmid.discover import discover
-    from bpmid.io.atomic import staged_dir, write_text
+    from bpmid.discover.output import write_discovery
     from bpmid.io.motion_logs import read_motion_logs
-    from bpmid.io.results import provenance, write_result
-    from bpmid.plots.common import save_figure
-    from bpmid.plots import discover as P
+    from bpmid.io.results import provenance
     from bpmid.progress import note
 
     cfg = load_config(config)
@@ -66,16 +64,9 @@ def discover_cmd(
     ho_logs = read_motion_logs(ho_paths, cfg.section("io"), require_angle=True) if ho_paths else None
     base, base_from = load_base(init, cfg)
     result = discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
-    body = result.to_yaml()
-    body["base_from"] = base_from
     inputs = list(paths) + list(ho_paths) + ([init] if init else [])
     note("discover: writing figures")
-    with staged_dir(out) as tmp:
-        write_result(tmp / "discovery.yaml", "bpmid.discovery/1", body, provenance(inputs, config=cfg))
-        write_text(tmp / "verdict.txt", result.verdict + "\n")
-        save_figure(P.residual_figure(result), tmp / "residual_before_after.png")
-        save_figure(P.ranking_figure(result), tmp / "screening_ranking.png")
-        save_figure(P.heldout_figure(result), tmp / "heldout_error.png")
+    write_discovery(out, result, provenance(inputs, config=cfg), base_from=base_from)
     typer.echo(result.verdict)
     typer.echo(f"named effects: {', '.join(result.named_effects) or 'none'}; held-out RMSE "
                f"{result.heldout_before:.3f} -> {result.heldout_after:.3f} deg (noise floor "

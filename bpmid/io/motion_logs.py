@@ -155,6 +155,20 @@ def read_motion_logs(paths: Sequence[str | Path], io_cfg: IOConfig | None = None
     return logs
 
 
+def is_synthetic(logs: Sequence[MotionLog]) -> bool:
+    """True when every log says it is synthetic (a ``# synthetic: true`` line, or a ``# source:``/``# generator:``
+    line naming bpmid's twin) or lives under a ``datasets`` folder of bpmid's shipped data (not ``reference``)."""
+    def one(lg: MotionLog) -> bool:
+        meta = {str(k).strip().lower(): str(v).strip().lower() for k, v in (lg.meta or {}).items()}
+        if "synthetic" in meta:  # "# synthetic: true (bpmid digital twin; not a measurement)"
+            words = meta["synthetic"].replace("(", " ").split()
+            return bool(words) and words[0] in ("true", "yes", "1")
+        if any(("twin" in meta.get(k, "") or "synthetic" in meta.get(k, "")) for k in ("source", "generator")):
+            return True
+        return lg.path is not None and "datasets" in Path(lg.path).parts and "reference" not in Path(lg.path).parts
+    return bool(logs) and all(one(lg) for lg in logs)
+
+
 def pressure_column_name(unit: str) -> str:
     """bpmid's column name for a pressure in ``unit`` (``pressure_bar``, ``pressure_kpa``, ``pressure_pa``)."""
     return f"pressure_{unit.lower()}"

@@ -26,7 +26,8 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, width: float = 7.0, height: fl
 
 def label_synthetic(fig, note: str = SYNTHETIC_NOTE) -> None:
     """Mark a figure made from synthetic data, in its corner."""
-    fig.text(0.995, 0.005, note, ha="right", va="bottom", fontsize=7, color="0.4")
+    # bottom-left: under the y-axis labels, the one corner no x-label or legend of ours reaches
+    fig.text(0.005, 0.005, note, ha="left", va="bottom", fontsize=7, color="0.4")
 
 
 def save_figure(fig, path: str | Path, *, dpi: int = 120) -> Path:
