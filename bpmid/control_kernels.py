@@ -19,6 +19,7 @@ import numpy as np
 
 from bpmid.models._vbmm_kernels import commit as _commit
 from bpmid.models._vbmm_kernels import decay as _decay
+from bpmid.models._vbmm_kernels import instantaneous as _instantaneous
 from bpmid.models._vbmm_kernels import pressure_at, stretch, u3_from_beta
 from bpmid.models._vbmm_kernels import recursion_const as _hist
 from bpmid.models._vbmm_kernels import solve_beta as _solve_beta
@@ -39,12 +40,8 @@ def _step_history(k, dt, r, Ginf, Gj, tauG, Kinf, Kj, tauK, hG1, hG2, hK1, hK2, 
     """Moduli (G0, K0) and history constants of step k."""
     if k == 0:
         return Ginf, Kinf, 0.0, 0.0, 0.0, 0.0
-    G0 = Ginf
-    for j in range(Gj.size):
-        G0 += Gj[j]
-    K0 = Kinf
-    for j in range(Kj.size):
-        K0 += Kj[j]
+    G0 = _instantaneous(Ginf, Gj)
+    K0 = _instantaneous(Kinf, Kj)
     _decay(aG, dt, tauG, r)
     _decay(aK, dt, tauK, r)
     return (G0, K0, _hist(Gj, aG, hG1, x[0]), _hist(Gj, aG, hG2, x[1]),

@@ -61,6 +61,15 @@ def pressure_at(beta, geo, closure, G0, K0, cG1, cG2, cK1, cK2, scale, stiff):  
 
 
 @numba.njit(cache=True)
+def instantaneous(Minf, M):  # pragma: no cover - compiled
+    """M(0) = M_inf + sum_j M_j: the modulus that acts on a step's own strain increment."""
+    m0 = Minf
+    for j in range(M.size):
+        m0 += M[j]
+    return m0
+
+
+@numba.njit(cache=True)
 def decay(a, dt, tau, r):  # pragma: no cover - compiled
     """a_j = exp(-dt / (tau_j r)): the decay of each branch over this step (r: fall ratio, 1 = symmetric)."""
     for j in range(tau.size):
@@ -122,12 +131,8 @@ def _history_consts_sum(k, start, lumped, t, e1, e2, Ginf, Gj, tauG, Kinf, Kj, t
 
     ``start``: first increment summed one by one; ``lumped``: index of the lumped point (eq. 19), or -1.
     """
-    G0 = Ginf
-    for j in range(Gj.size):
-        G0 += Gj[j]
-    K0 = Kinf
-    for j in range(Kj.size):
-        K0 += Kj[j]
+    G0 = instantaneous(Ginf, Gj)
+    K0 = instantaneous(Kinf, Kj)
     aG1 = Ginf * e1[0]
     aG2 = Ginf * e2[0]
     aK1 = Kinf * e1[0]
@@ -189,12 +194,8 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
     hK2 = np.zeros(Kj.size)
     aG = np.ones(Gj.size)
     aK = np.ones(Kj.size)
-    G0full = Ginf
-    for j in range(Gj.size):
-        G0full += Gj[j]
-    K0full = Kinf
-    for j in range(Kj.size):
-        K0full += Kj[j]
+    G0full = instantaneous(Ginf, Gj)
+    K0full = instantaneous(Kinf, Kj)
     shared = Gj.size == Kj.size
     if shared:
         for j in range(Gj.size):
