@@ -323,7 +323,7 @@ def build_plant(model: VBMM, effect_args: Sequence[str] = (), cfg: "ControlConfi
     """The plant from ``--plant-effect ID[:key=value,...]`` texts (the twin's parser and catalogue), in the
     twin's signal-path order, with the config's sensors and pressure dynamics."""
     from bpmid.params import ParamSet
-    from bpmid.twin.simulate import ORDER, build_effect, parse_effect_arg
+    from bpmid.twin.simulate import build_effect, parse_effect_arg, signal_path_key
 
     cfg = cfg or ControlConfig()
     chain = [build_effect(*parse_effect_arg(text), where="--plant-effect") for text in effect_args]
@@ -331,7 +331,7 @@ def build_plant(model: VBMM, effect_args: Sequence[str] = (), cfg: "ControlConfi
     dup = sorted({i for i in ids if ids.count(i) > 1})
     if dup:
         raise InputError(f"effect {dup[0]} is given twice", key="--plant-effect")
-    chain.sort(key=lambda ep: ORDER.index(ep[0].id))
+    chain.sort(key=signal_path_key)
     return Plant(model, tuple(e for e, _p in chain), ParamSet([p for _e, ps in chain for p in ps]), cfg.sensors,
                  cfg.pressure_dynamics, cfg.pneumatics)
 

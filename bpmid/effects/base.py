@@ -36,6 +36,9 @@ class Effect(abc.ABC):
     id: ClassVar[str] = ""
     meaning: ClassVar[str] = ""
     where_it_shows: ClassVar[str] = ""
+    #: place on the signal path (logged pressure -> tubing -> friction -> rubber -> sensor): effects act in
+    #: ascending order; the pressure and angle transforms do not commute, so each effect states its place
+    signal_order: ClassVar[int] = 50
 
     @abc.abstractmethod
     def default_params(self) -> ParamSet:
@@ -112,6 +115,11 @@ class AugmentedVBMM:
 
     def simulate_log(self, log: MotionLog) -> np.ndarray:
         return self.simulate_deg(log.time_s, log.pressure_pa, name=log.name, path=log.path)
+
+
+def signal_path_order(effect: Effect) -> int:
+    """Sort key that puts effects in the order they act on the signal (:attr:`Effect.signal_order`)."""
+    return effect.signal_order
 
 
 def effect_params(effects: Sequence[Effect]) -> ParamSet:

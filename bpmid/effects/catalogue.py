@@ -107,6 +107,7 @@ class BraidFriction(Effect):
     """
 
     id = "braid_friction"
+    signal_order = 20
     meaning = "rate-independent dry friction between braid and bladder or between threads"
     where_it_shows = "a loop that does not shrink at slow rates; residual tracks the sign of the pressure rate"
     SETTINGS: ClassVar[tuple[str, ...]] = ("elements",)
@@ -146,6 +147,7 @@ class PressureLag(Effect):
     """
 
     id = "pressure_lag"
+    signal_order = 10
     meaning = "the muscle's internal pressure lags the logged pressure: valve, tubing, dead time"
     where_it_shows = "residual correlates with the pressure rate at positive lag; loops widen with rate"
     SETTINGS: ClassVar[tuple[str, ...]] = ("dead_time",)
@@ -229,6 +231,7 @@ class AngleOffset(Effect):
     """The angle sensor reads with a constant zero offset (deg)."""
 
     id = "angle_offset"
+    signal_order = 90
     meaning = "the angle sensor reads with a constant zero offset"
     where_it_shows = "constant residual component that no material parameter can produce"
     SETTINGS: ClassVar[tuple[str, ...]] = ()

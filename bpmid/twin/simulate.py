@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from bpmid.effects import CATALOGUE, effect_class
-from bpmid.effects.base import AugmentedVBMM, Effect
+from bpmid.effects.base import AugmentedVBMM, Effect, signal_path_order
 from bpmid.errors import InputError
 from bpmid.io.atomic import staged_dir, write_bytes
 from bpmid.io.results import dump_yaml, provenance
@@ -40,9 +40,9 @@ from bpmid.twin.protocol import Protocol, load_protocol
 SCHEMA = "bpmid.simulation/1"
 SYNTHETIC_NOTE = "bpmid digital twin; not a measurement"
 
-#: the order in which effects act on the signal path: logged pressure -> tubing -> friction -> rubber -> sensor
-ORDER = ("pressure_lag", "braid_friction", "second_relaxation", "asymmetric_relaxation", "strain_stiffening",
-         "thermal_softening", "angle_offset")
+def signal_path_key(effect_and_params) -> int:
+    """Sort (effect, params) pairs in the order the effects act on the signal (``Effect.signal_order``)."""
+    return signal_path_order(effect_and_params[0])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -227,7 +227,7 @@ def _collect_effects(proto: Protocol, effect_args: Sequence[str]):
 def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov: dict) -> Simulation:
     base, base_info = _base_model(proto, params_path)
     rig, injected = _collect_effects(proto, effect_args)
-    chain = sorted(rig + injected, key=lambda ep: ORDER.index(ep[0].id))
+    chain = sorted(rig + injected, key=signal_path_key)
     effects = tuple(e for e, _p in chain)
     params = ParamSet([p for _e, ps in chain for p in ps])
     var, sens = proto.plant.variation, proto.sensors
@@ -259,7 +259,7 @@ def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov:
                          "sha256": hashlib.sha256(files[f"{name}.csv"]).hexdigest()})
             bar.advance()
     plant_block = {"family": "VBMM", **base_info, **vbmm_yaml_body(base),
-                   "rig_effects": _effects_block(sorted(rig, key=lambda ep: ORDER.index(ep[0].id))),
+                   "rig_effects": _effects_block(sorted(rig, key=signal_path_key)),
                    "effect_order": [e.id for e in effects if not proto.blind or any(e is r for r, _p in rig)],
                    "variation": dataclasses.asdict(var)}
     injected_block = _effects_block(injected)
