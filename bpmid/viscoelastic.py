@@ -139,7 +139,8 @@ def _full_kernel(t, x, M_inf, M, tau, window):  # pragma: no cover - compiled
         acc = M_inf * x[0]
         start = 1
         if window > 0.0:
-            while s < k and t[k] - t[s] > window:
+            # ages within rounding of T_win count as T_win: the lumped point is then t_s = t_k - T_win exactly
+            while s < k and t[k] - t[s] >= window * (1.0 - 1e-9):
                 s += 1
             # s is the first sample within the window; s-1 the last one outside it (the lumped point)
             if s > 1:
@@ -170,8 +171,9 @@ def hereditary_full(t, x, M_inf: float, M, tau) -> np.ndarray:
 def hereditary_window(t, x, M_inf: float, M, tau, window_s: float) -> np.ndarray:
     """M-hat[x] with the sliding window of eq. (19): increments older than ``window_s`` are lumped.
 
-    The lumped point s is the last sample older than the window; its increments since t_0 act
-    through the kernel at their window age, M(t_k - t_s) (x_s - x_0).
+    The lumped point s is the last sample at least ``window_s`` old (to rounding: on a regular grid it is
+    t_s = t_k - T_win exactly); its increments since t_0 act through the kernel at their window age,
+    M(t_k - t_s) (x_s - x_0).
     """
     if not window_s > 0:
         raise InputError(f"window length must be positive, found {window_s:g} s", key="model.window_s")

@@ -223,7 +223,8 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
                 # window only moves forward, so it is tracked, not searched for)
                 lumped = -1
                 if mode == 1:
-                    while ls + 1 < k and t[k] - t[ls + 1] > window:
+                    # a sample T_win old (to rounding) is the lumped point t_s = t_k - T_win of eq. (19)
+                    while ls + 1 < k and t[k] - t[ls + 1] >= window * (1.0 - 1e-9):
                         ls += 1
                     lumped = ls
                 start = lumped + 1 if lumped >= 1 else 1
