@@ -67,3 +67,4 @@ def test_new_effect_is_a_discovery_candidate_with_no_other_edit(registered):
     res = discover(fit, start_model(), holdout=ho, cfg=DiscoverConfig(candidates=("sensor_gain", "angle_offset")))
     screened = {s.effect_id for s in res.rounds[0].ranking}
     assert screened == {"sensor_gain", "angle_offset"}
+

@@ -168,3 +168,16 @@ def test_unexplained_remainder_is_attributed_to_log_to_log_variation_only_when_i
     assert res2.unexplained and res2.variation is not None
     assert res2.variation["share_of_gap"] < 0.5
     assert "log-to-log variation" not in res2.verdict
+
+
+def test_boundary_corrected_lr_p_value():
+    from scipy.stats import chi2
+
+    from bpmid.discover.confirm import boundary_lr_p
+
+    # one parameter on its boundary: half a chi2(1)
+    assert boundary_lr_p(3.84, 1) == pytest.approx(0.5 * chi2.sf(3.84, 1))
+    # a size on its boundary plus a free shape parameter: 0.5 chi2(1) + 0.5 chi2(2), larger than 0.5 chi2(2)
+    assert boundary_lr_p(6.0, 2) == pytest.approx(0.5 * chi2.sf(6.0, 1) + 0.5 * chi2.sf(6.0, 2))
+    assert boundary_lr_p(6.0, 2) > 0.5 * chi2.sf(6.0, 2)
+    assert boundary_lr_p(0.0, 2) == 1.0

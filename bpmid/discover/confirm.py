@@ -79,6 +79,17 @@ class Confirmation:
         }
 
 
+def boundary_lr_p(lr: float, dp: int) -> float:
+    """p-value of a likelihood-ratio statistic when the effect's size sits on the boundary of its range under
+    the null (absent = 0) and its other dp - 1 parameters are free: the chi-bar-squared mixture
+    0.5 chi2(dp - 1) + 0.5 chi2(dp) (Self and Liang 1987; chi2(0) is a point mass at 0)."""
+    if not lr > 0:
+        return 1.0
+    dp = max(int(dp), 1)
+    lower = float(chi2.sf(lr, dp - 1)) if dp > 1 else 0.0
+    return 0.5 * lower + 0.5 * float(chi2.sf(lr, dp))
+
+
 def own_identifiability(res: FitResult, names: Sequence[str], *, rel_se_max: float = 0.5,
                         corr_max: float = 0.995) -> dict[str, str]:
     """The candidate's own parameters the fit does not determine, with the reason: infinite or large relative
@@ -145,7 +156,7 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     p1 = len(res.free_names)
     gain = math.log(max(sse0, 1e-300) / sse1)
     lr = n_eff * gain
-    lr_p = 0.5 * float(chi2.sf(max(lr, 0.0), dp)) if lr > 0 else 1.0
+    lr_p = boundary_lr_p(lr, dp)
     f_stat = ((sse0 - sse1) / dp) / (sse1 / max(n_eff - p1, 1.0))
     dbic = -n_eff * gain + dp * math.log(max(n_eff, 2.0))
     ho_after = rmse_deg(residuals(fitted, holdout_logs))
