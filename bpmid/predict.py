@@ -15,6 +15,7 @@ import pandas as pd
 
 from bpmid.io.atomic import staged_dir
 from bpmid.io.motion_logs import MotionLog, pressure_column_name
+from bpmid.io.tables import UNITS
 from bpmid.models.vbmm import VBMM
 from bpmid.motion_fit import check_pressure_range, log_metrics
 
@@ -37,8 +38,14 @@ class Prediction:
     def frame(self, decimals: int = 6) -> pd.DataFrame:
         lg = self.log
         given = lg.pressure_as_given if lg.pressure_as_given is not None else lg.pressure_pa
-        df = pd.DataFrame({"time_s": lg.time_s, pressure_column_name(lg.pressure_unit): np.round(given, 9),
-                           "angle_pred_deg": np.round(self.angle_pred_deg, decimals)})
+        unit = lg.pressure_unit if lg.pressure_as_given is not None else "pa"
+        # CLI.md fixes `pressure_bar` (in the log's own reference, absolute or gauge); a log in another unit
+        # also keeps its pressure column exactly as given
+        cols = {"time_s": lg.time_s, "pressure_bar": np.round(given * UNITS["pressure"][unit] / 1e5, 9)}
+        if unit != "bar":
+            cols[pressure_column_name(unit)] = np.round(given, 9)
+        cols["angle_pred_deg"] = np.round(self.angle_pred_deg, decimals)
+        df = pd.DataFrame(cols)
         if lg.angle_deg is not None:
             df["angle_deg"] = lg.angle_deg
         return df

@@ -63,9 +63,11 @@ def test_predict_writes_one_csv_per_log(fitted, data, tmp_path):
                               "--out", str(tmp_path / "pred")])
     assert res.exit_code == 0, res.output
     df = pd.read_csv(tmp_path / "pred" / "tri22.csv")
-    assert list(df.columns) == ["time_s", "pressure_kpa", "angle_pred_deg", "angle_deg"]
+    # CLI.md's pressure_bar always (same reference as the log), and a kPa log's own column as given
+    assert list(df.columns) == ["time_s", "pressure_bar", "pressure_kpa", "angle_pred_deg", "angle_deg"]
     given = pd.read_csv(data["tri22_kpa"], comment="#")
     np.testing.assert_allclose(df["pressure_kpa"], given["pressure_kpa"])  # as given: kPa, gauge
+    np.testing.assert_allclose(df["pressure_bar"], given["pressure_kpa"] / 100.0)
     assert np.sqrt(np.mean((df["angle_pred_deg"] - df["angle_deg"]) ** 2)) < 0.7
     df2 = pd.read_csv(tmp_path / "pred" / "pressure_only.csv")
     assert list(df2.columns) == ["time_s", "pressure_bar", "angle_pred_deg"]
