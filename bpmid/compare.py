@@ -81,6 +81,9 @@ class CompareConfig:
             if name not in REGISTRY:
                 raise InputError(f"unknown model {name!r} (known: {', '.join(REGISTRY)})", path=path,
                                  key=f"{where}.models[{i}]")
+        dup = sorted({n for n in self.models if self.models.count(n) > 1})
+        if dup:
+            raise InputError(f"model {dup[0]!r} is listed twice", path=path, key=f"{where}.models")
         for name in self.options:
             if name not in REGISTRY:
                 raise InputError(f"options for an unknown model (known: {', '.join(REGISTRY)})", path=path,

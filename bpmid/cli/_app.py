@@ -61,6 +61,15 @@ def command(typer_app: typer.Typer, name: str, **kw):
                 raise typer.Exit(0)
             except KeyboardInterrupt:
                 fail("interrupted", 130)
+            except SystemError as exc:
+                # Ctrl-C inside a compiled kernel surfaces as "returned a result with an exception set"
+                if isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt):
+                    fail("interrupted", 130)
+                raise
+            except OSError as exc:
+                # the file system said no (a folder that cannot be made, no permission, disk full): the user can fix it
+                where = exc.filename if exc.filename is not None else "output"
+                fail(f"{where}: cannot read or write it ({exc.strerror or exc})", 2)
             except Exception as exc:  # an internal failure: say so, keep the traceback one variable away
                 if os.environ.get("BPMID_DEBUG"):
                     raise
@@ -73,11 +82,29 @@ def command(typer_app: typer.Typer, name: str, **kw):
     return deco
 
 
+def check_outputs(outputs, inputs, *, suffix: str | None = None, key: str = "--out") -> None:
+    """Refuse an output that would overwrite an input, that is a folder where a file is meant, or (with
+    ``suffix``) that has another extension. ``outputs`` and ``inputs`` are paths (missing inputs are ignored)."""
+    ins = {Path(p).resolve(): Path(p) for p in inputs if p is not None and Path(p).exists()}
+    for out in outputs:
+        out = Path(out)
+        allowed = {suffix, ".yml"} if suffix == ".yaml" else {suffix}
+        if suffix is not None and out.suffix.lower() not in allowed:
+            raise InputError(f"the output must be a {suffix} file, found {out.name!r}", path=out, key=key)
+        if suffix is not None and out.is_dir():
+            raise InputError("the output is an existing folder; give a file name", path=out, key=key)
+        if out.resolve() in ins:
+            raise InputError(f"the output would overwrite the input {ins[out.resolve()]}; choose another name",
+                             path=out, key=key)
+
+
 def existing_files(paths: list[Path], what: str = "log") -> list[Path]:
     """Check that every path is an existing file (exit-2 message naming the first that is not)."""
     if not paths:
         raise InputError(f"no {what} files given")
     for p in paths:
+        if Path(p).is_dir():
+            raise InputError(f"{what} is a folder, not a file", path=p)
         if not Path(p).is_file():
             raise InputError(f"{what} file not found", path=p)
     return [Path(p) for p in paths]

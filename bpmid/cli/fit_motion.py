@@ -6,9 +6,8 @@ from typing import List, Optional
 
 import typer
 
-from bpmid.cli._app import command, existing_files, fit_app
+from bpmid.cli._app import check_outputs, command, existing_files, fit_app
 from bpmid.config import load_config
-from bpmid.errors import InputError
 from bpmid.io.motion_logs import read_motion_logs
 from bpmid.io.results import provenance
 from bpmid.motion_fit import fit_motion, write_motion_fit
@@ -31,9 +30,10 @@ def fit_motion_command(
     paths = existing_files(logs, "motion log")
     if init is not None:
         existing_files([init], "relaxation fit")
-    if out.suffix.lower() not in (".yaml", ".yml"):
-        raise InputError("--out must name a .yaml file", path=out)
     figure = None if no_plot else (plot or out.with_suffix(".png"))
+    check_outputs([out], paths + [init, config], suffix=".yaml")
+    if figure is not None:
+        check_outputs([figure], paths + [init, config], key="--plot")
     motion = read_motion_logs(paths, cfg.io, require_angle=True)
     result = fit_motion(motion, config=cfg, init=init)
     prov = provenance(paths + ([init] if init is not None else []), config=cfg)

@@ -6,7 +6,7 @@ from typing import List, Optional
 
 import typer
 
-from bpmid.cli._app import command, existing_files, fit_app
+from bpmid.cli._app import check_outputs, command, existing_files, fit_app
 
 EPILOG = ("Example (shipped synthetic logs):  bpmid fit relax datasets/relaxation/*.csv --out relax_fit.yaml  "
           "|  measured master curve, step mode:  bpmid fit relax datasets/reference/pyvisco/time_user_master.csv "
@@ -38,6 +38,9 @@ def fit_relax(
         raise InputError(f"--mode takes ramp or step, found {mode!r}", key="--mode")
     cfg = load_config(config)
     paths = existing_files(logs, "relaxation log")
+    check_outputs([out], paths + [config], suffix=".yaml")
+    if not no_figure:
+        check_outputs([out.with_suffix(".png")], paths + [config])
     yaml_path, fig_path, fit = run_fit_relax(paths, out, terms=terms, mode=mode, poisson=poisson, config=cfg,
                                              figure=not no_figure)
     terms_txt = ", ".join(f"E={e * 1e6:.4g} Pa tau={t:.4g} s" for e, t in zip(fit.E[:4], fit.tau[:4]))

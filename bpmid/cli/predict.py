@@ -6,7 +6,7 @@ from typing import List, Optional
 
 import typer
 
-from bpmid.cli._app import app, command, existing_files
+from bpmid.cli._app import check_outputs, app, command, existing_files
 from bpmid.config import load_config
 from bpmid.io.motion_logs import read_motion_logs
 from bpmid.io.results import provenance
@@ -28,6 +28,8 @@ def predict_command(
     paths = existing_files(logs, "motion log")
     existing_files([params], "params")
     model = load_vbmm(params, cfg.model)
+    check_outputs([Path(out) / f"{Path(p).stem}.csv" for p in paths] + [Path(out) / "predict.yaml"],
+                  paths + [params, config])
     motion = read_motion_logs(paths, cfg.io)
     preds = predict(motion, model)
     prov = provenance(paths + [params], config=cfg)

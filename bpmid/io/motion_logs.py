@@ -31,14 +31,23 @@ class IOConfig:
     pressure_reference : ``absolute`` or ``gauge`` for logs without a ``# pressure_reference:`` line
     atmosphere_pa : ambient pressure used to turn absolute into gauge pressure (Pa)
     max_gap_factor : a time step longer than this many median steps is refused as a gap
+    min_gauge_pa : a gauge pressure below this (Pa) is refused: a muscle is not driven by vacuum, so it is
+        almost always a wrong pressure reference or unit (default -5000 Pa leaves room for sensor noise at rest)
     """
 
     columns: Mapping[str, str] = dataclasses.field(default_factory=dict)
     pressure_reference: Optional[Literal["absolute", "gauge"]] = None
     atmosphere_pa: float = ATMOSPHERE_PA
     max_gap_factor: float = 5.0
+    min_gauge_pa: float = -5000.0
 
     def validate(self, where, path):
+        if not self.max_gap_factor > 1.0:
+            raise InputError(f"max_gap_factor must be above 1 (a multiple of the usual time step), found "
+                             f"{self.max_gap_factor:g}", path=path, key=f"{where}.max_gap_factor")
+        if self.min_gauge_pa > 0:
+            raise InputError(f"min_gauge_pa must be 0 or below, found {self.min_gauge_pa:g} Pa", path=path,
+                             key=f"{where}.min_gauge_pa")
         if not (50e3 <= self.atmosphere_pa <= 120e3):
             raise InputError(f"atmosphere_pa {self.atmosphere_pa:g} Pa is not an ambient pressure",
                              path=path, key=f"{where}.atmosphere_pa")
@@ -137,6 +146,13 @@ def read_motion_log(path: str | Path, io_cfg: IOConfig | None = None, *, require
     p_pa = table.columns["pressure"]
     given = p_pa / UNITS["pressure"][unit]
     gauge = p_pa - io_cfg.atmosphere_pa if ref == "absolute" else p_pa
+    low = np.flatnonzero(gauge < io_cfg.min_gauge_pa)
+    if low.size:
+        k = int(low[0])
+        raise InputError(f"pressure {given[k]:g} {unit} ({ref}) is {-gauge[k] / 1e5:.3g} bar below atmosphere; a "
+                         f"muscle is not driven by vacuum: check the pressure reference (# pressure_reference: "
+                         f"absolute or gauge) and the unit of the column {table.headers['pressure']!r}",
+                         path=path, line=table.line_of(k))
     angle = table.columns.get("angle")
     return MotionLog(name=path.stem, time_s=t, pressure_pa=gauge, angle_deg=angle, pressure_reference=ref,
                      pressure_unit=unit, pressure_as_given=given, atmosphere_pa=io_cfg.atmosphere_pa,

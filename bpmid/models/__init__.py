@@ -32,4 +32,7 @@ def parse_model_list(text: str) -> list[str]:
     for n in names:
         if n not in REGISTRY:
             raise InputError(f"unknown model {n!r} (known: {', '.join(REGISTRY)})", key="--models")
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InputError(f"model {dup[0]!r} is listed twice", key="--models")
     return names
