@@ -105,12 +105,24 @@ def test_three_element_exact_step_is_stable_for_large_dt():
 
 
 def test_two_branch_switches_branch_with_direction():
+    """Against the curves written out here: g(P) = (a0 + a1 P + a2 P^2) / (1 + q1 P), P in bar gauge, deg."""
     model = TwoBranchModel()
-    p = model.default_params()
+    coef = {"up": (2.0, 60.0, 12.0, 0.3), "dn": (9.0, 55.0, -6.0, 0.1)}  # a0 deg, a1 deg/bar, a2 deg/bar^2, q1 1/bar
+    p = model.default_params().with_values({f"{br}_{n}": v for br, c in coef.items()
+                                            for n, v in zip(("a0", "a1", "a2", "q1"), c)})
+
+    def g(br, bar):
+        a0, a1, a2, q1 = coef[br]
+        return (a0 + a1 * bar + a2 * bar ** 2) / (1.0 + q1 * bar)
+
     u = np.concatenate([np.linspace(0.2, 1.2, 50), np.linspace(1.2, 0.2, 50)])
     y = model.simulate_arrays(p, u)
-    np.testing.assert_allclose(y[:50], model.branch_curve(p, "up", u[:50]))
-    np.testing.assert_allclose(y[60:], model.branch_curve(p, "dn", u[60:]))
+    np.testing.assert_allclose(y[1:50], g("up", u[1:50]), rtol=1e-12)    # rising: inflation curve
+    np.testing.assert_allclose(y[51:], g("dn", u[51:]), rtol=1e-12)      # falling (0.02 bar steps > dead band)
+    assert g("up", 0.5) == pytest.approx((2 + 30 + 3) / 1.15)                # the formula, by hand
+    # the same through a log in Pa (simulate converts Pa -> bar)
+    log = from_arrays("tri", np.arange(u.size) * 0.1, u * 1e5)
+    np.testing.assert_allclose(model.simulate(p, log)[51:], g("dn", u[51:]), rtol=1e-12)
 
 
 @pytest.mark.parametrize("name", FAMILIES)

@@ -1,12 +1,22 @@
 """bpmid simulate through the command line: outputs, exit codes, nothing half-written."""
 import os
 
+import numpy as np
+import pandas as pd
 import yaml
 from typer.testing import CliRunner
 
 from bpmid.cli import app
 
 runner = CliRunner()
+
+
+def steady_ramps(t, p, settle_s):
+    """Samples of the command p(t) on a ramp whose slope has not changed for ``settle_s``, and the slope."""
+    rate = np.concatenate([[0.0], np.round(np.diff(p) / np.diff(t), 9)])
+    change = np.concatenate([[True], rate[1:] != rate[:-1]])
+    since = t - np.maximum.accumulate(np.where(change, t, -np.inf))
+    return (rate != 0) & (since >= settle_s - 1e-9), rate
 PROTO = """kind: motion
 name: cli
 seed: 4
@@ -36,6 +46,27 @@ def test_simulate_writes_logs_and_a_manifest(tmp_path):
     assert m["effects"][0]["settings"] == {"elements": 3} and m["effects"][0]["params"]["r"]["value"] == 2000
     assert m["provenance"]["seed"] == 9 and "created" in m["provenance"]
     assert "braid" not in (out / "tri.csv").read_text()
+    # the effect acts on the plant: the same protocol and seed without it gives other angles, and by what a
+    # dead band of r = 2000 Pa means (play operators: on a ramp the muscle sees the pressure r behind, so the
+    # angle is about slope * r lower while rising and higher while falling)
+    plain = tmp_path / "plain"
+    r = runner.invoke(app, ["simulate", str(p), "--out", str(plain), "--seed", "9"])
+    assert r.exit_code == 0, r.output
+    with_fx, without = (pd.read_csv(d / "tri.csv", comment="#") for d in (out, plain))
+    assert np.array_equal(with_fx.time_s, without.time_s)
+    from bpmid.twin.protocol import load_protocol
+
+    proto = load_protocol(p)
+    t, p_cmd = proto.render(proto.logs[0])
+    assert np.allclose(t, without.time_s)
+    d = (with_fx.angle_deg - without.angle_deg).to_numpy()
+    slope = np.polyfit(p_cmd, without.angle_deg, 1)[0]          # deg/bar of the effect-free twin
+    assert 20 < slope < 120
+    ramp, rate = steady_ramps(t, p_cmd, 0.5)                     # 0.5 s: all three slip limits passed
+    assert ramp.sum() >= 40
+    ratio = d[ramp] / (-np.sign(rate[ramp]) * slope * 2000 / 1e5)
+    assert 0.7 < np.median(ratio) < 1.5, np.median(ratio)
+    assert np.mean(ratio > 0) > 0.95                              # below while rising, above while falling
 
 
 def test_bad_input_exits_2_naming_the_key_and_writes_nothing(tmp_path):

@@ -191,3 +191,15 @@ def test_signature_columns_have_one_row_per_sample(eid):
     log = from_arrays("x", t, p, sim(None, t, p))
     cols = get_effect(eid).signature_columns(log, sim(None, t, p))
     assert cols.shape[0] == t.size and cols.shape[1] >= 1 and np.all(np.isfinite(cols))
+    # a signature says something on a typical triangle log: no column is zero, or zero but for a few samples
+    for j in range(cols.shape[1]):
+        c = cols[:, j]
+        assert np.max(np.abs(c)) > 0 and np.mean(c != 0) > 0.25, (eid, j)
+        if eid in CONSTANT_SIGNATURE:
+            assert np.ptp(c) == 0, (eid, j)
+        else:  # it varies along the log, or it could not be told from a constant offset
+            assert np.std(c) > 1e-2 * np.max(np.abs(c)), (eid, j, np.std(c))
+
+
+#: effects whose signature is a constant by design (DISCOVER.md: "constant residual component")
+CONSTANT_SIGNATURE = {"angle_offset"}

@@ -103,7 +103,12 @@ def test_cli_help_example_runs(repo_root, tmp_path):
         res = runner.invoke(app, ["fit", "relax", *sorted(glob.glob("datasets/relaxation/*.csv")), "--out", str(out)])
     finally:
         os.chdir(cwd)
-    assert res.exit_code == 0, res.output and out.is_file()
+    assert res.exit_code == 0, res.output
+    assert out.is_file(), f"{out} was not written; folder has {sorted(os.listdir(tmp_path))}"
+    d = yaml.safe_load(out.read_text())
+    assert d["schema"] == "bpmid.relax/1"
+    assert d["prony"]["E_inf"]["value"] > 0 and len(d["prony"]["terms"]) >= 1
+    assert load_relax_fit(out).E_inf == pytest.approx(d["prony"]["E_inf"]["value"])
 
 
 def test_minimal_file_is_valid_input(tmp_path):

@@ -93,6 +93,30 @@ def test_motion_simulation_is_seeded_labelled_and_reads_back(tmp_path):
     assert np.allclose(df.pressure_bar / 0.001, np.round(df.pressure_bar / 0.001), atol=1e-6)
 
 
+def test_injected_effect_changes_the_angle_by_what_it_means(tmp_path):
+    """Same protocol, same seed, with and without pressure_lag (tau = 0.2 s): on a ramp held for a while the
+    lagged pressure is the ramp delayed by tau, so the angle differs by about -tau * slope * dp/dt."""
+    path = write(tmp_path, MOTION)
+    lag = simulate(path, effects=["pressure_lag:tau=0.2"], timestamp=False, command="x")
+    plain = simulate(path, timestamp=False, command="x")
+    a, b = (pd.read_csv(io.BytesIO(s.files["a_r1.csv"]), comment="#") for s in (lag, plain))
+    proto = load_protocol(path)
+    t, p_cmd = proto.render(proto.logs[0])
+    assert np.allclose(a.time_s, t) and np.allclose(b.time_s, t)
+    d = (a.angle_deg - b.angle_deg).to_numpy()
+    slope = np.polyfit(p_cmd, b.angle_deg, 1)[0]                 # deg/bar of the twin without the lag
+    assert 20 < slope < 120
+    rate = np.concatenate([[0.0], np.round(np.diff(p_cmd) / np.diff(t), 9)])   # bar/s into each sample
+    change = np.concatenate([[True], rate[1:] != rate[:-1]])
+    since = t - np.maximum.accumulate(np.where(change, t, -np.inf))
+    ramp = (rate != 0) & (since >= 0.6 - 1e-9)                   # 3 tau into a ramp: the lag has settled
+    assert ramp.sum() >= 30
+    ratio = d[ramp] / (-0.2 * slope * rate[ramp])
+    assert 0.7 < np.median(ratio) < 1.4, np.median(ratio)
+    assert np.mean(ratio > 0) > 0.9
+    assert np.sqrt(np.mean(d ** 2)) > 0.5                        # deg: the lag shows, not just rounding
+
+
 def test_sensor_noise_is_what_the_protocol_says(tmp_path):
     text = MOTION.replace("angle_drift_deg: 0.3", "angle_drift_deg: 0.0").replace("angle_resolution_deg: 0.05",
                                                                                    "angle_resolution_deg: 0.0")

@@ -4,7 +4,11 @@
 - recursive history equals the full sum of eq. (5) on uneven sampling, several branches, split time
   constants, both closures
 - sliding window (20 s) equals full history on the paper's 1800 s experiment 2 (slow)
+- sliding window on a log many windows long: forward and inverse agree; hereditary_window is eq. (19) as
+  written in a plain-Python reference here; dropping the old history instead of lumping it is far off
 """
+import math
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -108,3 +112,64 @@ def test_window_matches_full_on_1800_s_log():
     assert np.max(np.abs(window - full)) <= 1e-3
     assert np.max(np.abs(np.radians(rec - full))) <= 1e-9
     assert 14.0 < full.min() and full.max() < 90.0  # the paper's range of angles
+
+
+# ------------------------------------------------------------------------------------------------
+# sliding window (eq. 19) on a log many windows long: deterministic
+# ------------------------------------------------------------------------------------------------
+WIN_MAT = Material(9e3, 6e6, (2e4, 5e3), (1.3e7, 4e6), (0.4, 30.0))  # one branch far slower than T_win
+
+
+def window_log():
+    """60 s at exactly 10 Hz (t_k = k / 10, so ages of T_win = 2 s or 5 s land on T_win to rounding, on
+    both sides of it), a varying gauge pressure: triangles of changing height plus a slow sine (Pa)."""
+    t = np.arange(600) / 10.0
+    p_abs = triangle_pressure(t, 1.2, 1.7, 0.2) + 0.15 * np.sin(2 * np.pi * t / 23.0) + 0.1
+    return t, (p_abs - 1.01325) * 1e5
+
+
+def window_reference(t, x, M_inf, M, tau, T_win, lump=True):
+    """VBMM.md eq. (19) written out: increments older than T_win are lumped as M(t_k - t_s) (x_s - x_0), s the
+    last sample at least T_win old (an age within 1e-9 T_win of T_win counts as T_win); the younger ones as in
+    eq. (5), M(t_k - t_i) (x_i - x_{i-1}). ``lump=False``: the old increments are simply dropped."""
+    def kernel(age):
+        return M_inf + sum(m * math.exp(-age / tj) for m, tj in zip(M, tau))
+
+    out = []
+    for k in range(len(t)):
+        old = [i for i in range(k + 1) if t[k] - t[i] >= T_win * (1 - 1e-9)]
+        s = old[-1] if old else 0
+        acc = M_inf * x[0] + (kernel(t[k] - t[s]) * (x[s] - x[0]) if lump else 0.0)
+        for i in range(s + 1, k + 1):
+            acc += kernel(t[k] - t[i]) * (x[i] - x[i - 1])
+        out.append(acc)
+    return np.array(out)
+
+
+def test_window_inverse_of_forward_returns_pressure_on_a_long_log():
+    """The compiled forward kernel (_history_consts_sum) and the inverse (viscoelastic.hereditary_window, a
+    separate implementation) lump the same history."""
+    t, p = window_log()
+    model = VBMM(material=WIN_MAT, history="window", window_s=5.0)
+    beta = model.forward(t, p)
+    assert np.all(beta > 0)
+    np.testing.assert_allclose(model.inverse(t, beta), p, rtol=1e-6, atol=0)
+
+
+def test_hereditary_window_is_eq_19():
+    from bpmid.viscoelastic import hereditary_window
+
+    t = np.arange(300) / 10.0
+    age = t[:, None] - t[None, :]
+    age = age[np.abs(age - 2.0) < 1e-9]
+    # on this grid ages of T_win = 2 s fall below, on and above 2.0 in floating point: the comparison matters
+    assert (age < 2.0).any() and (age == 2.0).any() and (age > 2.0).any()
+    x = VBMM(material=WIN_MAT).forward(t, window_log()[1][:300])  # a strain-like history: the angle (rad)
+    M_inf, M, tau = WIN_MAT.G_inf, WIN_MAT.G, WIN_MAT.tauG
+    got = hereditary_window(t, x, M_inf, M, tau, 2.0)
+    want = window_reference(t, x, M_inf, M, tau, 2.0)
+    scale = np.max(np.abs(want))
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * scale)
+    # the lumped old history is not negligible: simply dropping it is far off
+    dropped = window_reference(t, x, M_inf, M, tau, 2.0, lump=False)
+    assert np.max(np.abs(got - dropped)) > 0.1 * scale
