@@ -10,6 +10,12 @@ Accepted columns (any header dialect :mod:`bpmid.io.tables` reads, units convert
 - ``time_s``, ``modulus_mpa``: a relaxation-modulus curve E(t) of an (ideal) step test, for example
   pyvisco's ``t,E_relax`` / ``s,MPa``. It has no strain history, so it can only be fitted in step mode.
 
+Checks beyond the table reader's: a test log (stress/strain or load/extension) is a tension test, so a
+strain (extension) clearly below zero is refused with its line (a compression test must be logged with
+compression positive, strain and stress alike); with ``gap_factor`` a time step longer than that many
+median steps is refused as a gap in the log (samples lost), as for motion logs. Modulus curves are not
+gap-checked: master curves are usually sampled evenly in log time, not in time.
+
 Every error names the file and the line (or the config key).
 """
 from __future__ import annotations
@@ -24,6 +30,13 @@ from bpmid.errors import InputError
 from bpmid.io.tables import check_time, read_table
 
 KIND = "relaxation log"
+
+#: a strain below -NEG_STRAIN_SHARE x the largest |strain| of the log is refused (sensor noise at rest is far smaller)
+NEG_STRAIN_SHARE = 0.02
+
+#: words for each source kind (messages)
+SOURCE_WORDS = {"stress-strain": "a stress/strain log", "load-extension": "a load/extension log",
+                "modulus": "a modulus curve"}
 
 
 @dataclasses.dataclass
@@ -82,8 +95,21 @@ def _specimen_value(name: str, cfg_value: float | None, meta: dict, path: Path) 
     return float(value)
 
 
+def _check_tension(values: np.ndarray, table, path: Path, what: str, unit: str) -> None:
+    """Refuse a test log whose strain (or extension) goes clearly below zero, naming the first such line."""
+    peak = float(np.max(np.abs(values))) if values.size else 0.0
+    bad = np.flatnonzero(values < -NEG_STRAIN_SHARE * peak) if peak > 0 else np.zeros(0, int)
+    if bad.size:
+        i = int(bad[0])
+        raise InputError(f"negative {what} {values[i]:g}{unit}: a relaxation test is a tension test, so {what} must be "
+                         f">= 0 (log a compression test with compression positive, in {what} and stress alike)",
+                         path=path, line=table.line_of(i), key=table.headers.get(
+                             "strain" if what == "strain" else "extension"))
+
+
 def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = None,
-                   gauge_length_mm: float | None = None, cross_section_mm2: float | None = None) -> RelaxLog:
+                   gauge_length_mm: float | None = None, cross_section_mm2: float | None = None,
+                   gap_factor: float | None = None) -> RelaxLog:
     """Read one relaxation log (see the module docstring).
 
     Parameters
@@ -91,6 +117,8 @@ def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = N
     path : the CSV file
     column_map : file header -> bpmid name, from the config (``relax.columns``)
     gauge_length_mm, cross_section_mm2 : specimen geometry for load/extension logs (mm, mm^2)
+    gap_factor : a time step longer than this many median steps of a test log is refused as a gap (None: not
+        checked; ``bpmid fit relax`` passes ``relax.max_gap_factor``, default ``io.max_gap_factor``)
     """
     path = Path(path)
     table = read_table(path, column_map=column_map, kind=KIND)
@@ -107,7 +135,7 @@ def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = N
                          line=max(table.first_data_line - 1, 1))
     if any(not table.has(q) for q in need):
         table = read_table(path, column_map=column_map, required=need, kind=KIND)  # raises, naming the column
-    t = check_time(table, kind=KIND)
+    t = check_time(table, kind=KIND, gap_factor=None if need[1] == "modulus" else gap_factor)
     common = dict(name=path.stem, time_s=t, path=path, meta=dict(table.meta), first_data_line=table.first_data_line)
     if need[1] == "modulus":
         E = table.columns["modulus"]
@@ -117,8 +145,10 @@ def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = N
                              path=path, line=table.line_of(int(bad[0])))
         return RelaxLog(modulus_mpa=E, source="modulus", **common)
     if need[1] == "strain":
+        _check_tension(table.columns["strain"], table, path, "strain", "")
         return RelaxLog(strain=table.columns["strain"], stress_mpa=table.columns["stress"], source="stress-strain",
                         **common)
+    _check_tension(table.columns["extension"], table, path, "extension", " mm")
     L0 = _specimen_value("gauge_length_mm", gauge_length_mm, table.meta, path)
     A0 = _specimen_value("cross_section_mm2", cross_section_mm2, table.meta, path)
     return RelaxLog(strain=table.columns["extension"] / L0, stress_mpa=table.columns["load"] / A0,
@@ -126,9 +156,10 @@ def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = N
 
 
 def read_relax_logs(paths: Sequence[str | Path], *, column_map: Mapping[str, str] | None = None,
-                    gauge_length_mm: float | None = None, cross_section_mm2: float | None = None) -> list[RelaxLog]:
+                    gauge_length_mm: float | None = None, cross_section_mm2: float | None = None,
+                    gap_factor: float | None = None) -> list[RelaxLog]:
     """Read several relaxation logs (same options for each)."""
     if not paths:
         raise InputError("no relaxation logs given")
     return [read_relax_log(p, column_map=column_map, gauge_length_mm=gauge_length_mm,
-                           cross_section_mm2=cross_section_mm2) for p in paths]
+                           cross_section_mm2=cross_section_mm2, gap_factor=gap_factor) for p in paths]

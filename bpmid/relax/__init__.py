@@ -52,6 +52,9 @@ class RelaxConfig:
     grid_per_decade : density of the log-spaced time-constant grid of the NNLS start
     tau_span_factor : time constants may lie this factor beyond the data's time range (each side)
     hold_window_s : step mode uses this much of each hold (s; the paper used the first 10 s); null = all
+    max_gap_factor : a time step of a stress/strain or load/extension log longer than this many median steps is
+        refused as a gap in the log (lost samples bias the hereditary integral); null (default) uses
+        ``io.max_gap_factor`` (5). Modulus curves are not gap-checked (master curves are log-spaced in time).
     """
 
     specimen: SpecimenConfig = SpecimenConfig()
@@ -65,6 +68,7 @@ class RelaxConfig:
     grid_per_decade: int = 6
     tau_span_factor: float = 10.0
     hold_window_s: Optional[float] = 10.0
+    max_gap_factor: Optional[float] = None
 
     def validate(self, where: str = "relax", path=None) -> None:
         from bpmid.viscoelastic import check_poisson
@@ -88,6 +92,9 @@ class RelaxConfig:
         if not self.tau_span_factor >= 1:
             raise InputError(f"must be at least 1, found {self.tau_span_factor:g}", path=path,
                              key=f"{where}.tau_span_factor")
+        if self.max_gap_factor is not None and not self.max_gap_factor > 1.0:
+            raise InputError(f"must be above 1 (a multiple of the usual time step) or null, found "
+                             f"{self.max_gap_factor:g}", path=path, key=f"{where}.max_gap_factor")
         if self.hold_window_s is not None and not self.hold_window_s > 0:
             raise InputError(f"must be positive or null, found {self.hold_window_s:g}", path=path,
                              key=f"{where}.hold_window_s")

@@ -32,6 +32,9 @@ from bpmid.relax.bases import RampBasis, StepBasis
 #: MAPE of stress fits counts samples whose |stress| is above this share of the largest (a ramp starts at zero)
 MAPE_FLOOR_SHARE = 0.05
 
+#: fewest samples a log (in step mode: its hold) must have: one term and E_inf are 3 constants, plus 2 to spare
+MIN_SAMPLES = 5
+
 
 @dataclasses.dataclass
 class HoldCurve:
@@ -138,6 +141,7 @@ class RelaxFit:
     logs : per-log data and fit
     seconds : wall time of the fit (s)
     uncertainty_method : how the standard errors were computed
+    warnings : things a reader of the constants must know (time constants outside the data's time span)
     """
 
     mode: str
@@ -161,6 +165,7 @@ class RelaxFit:
     logs: list[LogFit]
     seconds: float
     uncertainty_method: str = UNCERTAINTY_METHOD
+    warnings: list[str] = dataclasses.field(default_factory=list)
 
     @property
     def m(self) -> int:
@@ -181,6 +186,50 @@ def _criterion(name: str, n: int):
             return fit + 2 * p + (2 * p * (p + 1) / (n - p - 1) if n - p - 1 > 0 else math.inf)
         return fit + p * math.log(n)
     return score
+
+
+def _label(lg: RelaxLog) -> str:
+    return lg.path.name if lg.path is not None else lg.name
+
+
+def _check_kinds(logs: Sequence[RelaxLog]) -> None:
+    """Refuse a modulus curve fitted together with test logs.
+
+    A modulus curve is usually a master curve (reduced time, its own reference temperature and specimen) and
+    has no strain history; pooling it with the holds of ramp tests mixes two experiments into one series.
+    Stress/strain and load/extension logs are the same kind (both become stress and strain).
+    """
+    curves = [lg for lg in logs if lg.is_modulus_curve]
+    tests = [lg for lg in logs if not lg.is_modulus_curve]
+    if curves and tests:
+        from bpmid.io.relax_logs import SOURCE_WORDS
+
+        a, b = tests[0], curves[0]
+        raise InputError(f"logs of different kinds: {_label(a)} is {SOURCE_WORDS.get(a.source, a.source)}, "
+                         f"{_label(b)} {SOURCE_WORDS['modulus']}; fit them separately", path=b.path)
+
+
+def _check_samples(lg: RelaxLog, n: int, where: str = "") -> None:
+    if n < MIN_SAMPLES:
+        raise InputError(f"{n} samples{where} are too few to fit a Prony series (need at least {MIN_SAMPLES}: "
+                         "one term and E_inf are 3 constants)", path=lg.path)
+
+
+def _span_warnings(tau: np.ndarray, lo: float, hi: float, what: str) -> list[str]:
+    """Time constants the data cannot resolve: faster than the first resolved time or slower than the span.
+
+    Such a term's modulus is not identified on its own (a fast one has decayed before the data see it, a slow one
+    is indistinguishable from E_inf); the sum of the moduli on that side is what the data determine.
+    """
+    out = []
+    for j, t in enumerate(tau):
+        if t < lo:
+            out.append(f"tau_{j + 1} = {t:.4g} s is shorter than {what} ({lo:.4g} s): outside the data's time span, "
+                       f"so the term has mostly relaxed before the data see it and E_{j + 1} is an extrapolation")
+        elif t > hi:
+            out.append(f"tau_{j + 1} = {t:.4g} s is longer than the data's time span ({hi:.4g} s): E_{j + 1} and E_inf "
+                       "are not separated by these data (their sum is)")
+    return out
 
 
 def _choose_mode(logs: Sequence[RelaxLog], mode: str | None) -> str:
@@ -216,6 +265,7 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
     cfg = config or RelaxConfig()
     if not logs:
         raise InputError("no relaxation logs given")
+    _check_kinds(logs)
     mode = _choose_mode(logs, mode)
     if terms != "auto":
         if isinstance(terms, bool) or not isinstance(terms, (int, np.integer)) or not 1 <= int(terms) <= 200:
@@ -231,12 +281,21 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
                 holds.append(hold_curve(lg))
             except InputError:
                 holds.append(HoldCurve(np.zeros(0), np.zeros(0), math.nan, math.nan, 0))
+    for lg, h in zip(logs, holds):
+        if mode == "ramp":
+            _check_samples(lg, lg.n)
+        elif lg.is_modulus_curve:
+            _check_samples(lg, h.t.size)
+        else:
+            _check_samples(lg, h.t.size, " in the hold" + ("" if cfg.hold_window_s is None else
+                                                          f" (its first relax.hold_window_s = {cfg.hold_window_s:g} s)"))
     if mode == "ramp":
         times = [lg.time_s for lg in logs]
         basis = RampBasis(times, [lg.strain for lg in logs])
         y = np.concatenate([lg.stress_mpa for lg in logs])
         dts = [float(np.min(np.diff(t))) for t in times]
         lo, hi = min(dts), max(float(t[-1] - t[0]) for t in times)
+        span_lo_what = "the shortest sampling step"
         quantity = "stress"
         seg_t = times
     else:
@@ -248,6 +307,7 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
         if pos.size == 0:
             raise InputError("step mode needs samples after the step (t > 0)", path=logs[0].path)
         lo, hi = float(pos.min()), float(tt.max())
+        span_lo_what = "the first time after the step"
         quantity = "modulus"
     segments = [t.size for t in seg_t]
     n = y.size
@@ -265,8 +325,12 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
         path = varpro.model_path(basis, y, bounds, per_decade=cfg.grid_per_decade, m_min=m_min, m_max=m_max,
                                  score=score, patience=cfg.patience)
         if not path:
-            raise InputError(f"no Prony series with {terms} live term(s) fits these data (NNLS sets the extra moduli "
-                             "to zero); ask for fewer terms", key="terms")
+            names = ", ".join(_label(lg) for lg in logs)
+            if terms == "auto":
+                raise InputError(f"{names}: no relaxing term fits these data (the fitted moduli of every decaying "
+                                 f"term are zero): the {quantity} does not relax in them")
+            raise InputError(f"{names}: no Prony series with {terms} live term(s) fits these data (NNLS sets the "
+                             "extra moduli to zero); ask for fewer terms", key="terms")
         if score:
             chosen = min(path, key=lambda m: score(path[m]))
         else:
@@ -299,10 +363,11 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
         start += k
     selection = [{"terms": int(k), "rmse_mpa": math.sqrt(s.sse / n), "criterion": (score(s) if score else None)}
                  for k, s in sorted(path.items())]
+    warn = _span_warnings(tau, lo, hi, span_lo_what)
     return RelaxFit(
         mode=mode, E_inf=float(c[0]), E=c[nf:].astype(float), tau=tau, se_E_inf=float(se[0]),
         se_E=se[1::2].copy(), se_tau=se[2::2].copy(), param_names=names, corr=correlation(cov),
         n_obs=int(n), n_eff=float(n_eff), rmse_mpa=metrics.rmse(y, y_fit), r2=metrics.r2(y, y_fit),
         mape_pct=metrics.mape_pct(y, y_fit, floor=floor), quantity=quantity, selection=selection,
         criterion={"bic": "BIC", "aicc": "AICc"}.get(crit) if crit else None, requested_terms=terms,
-        logs=per_log, seconds=time.perf_counter() - t0)
+        logs=per_log, seconds=time.perf_counter() - t0, warnings=warn)

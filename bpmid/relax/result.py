@@ -3,12 +3,19 @@
 Units in the file are SI (Pa, s). Keys fixed by CLI.md: ``schema``, ``prony.E_inf``, ``prony.terms``
 (``{E, tau}``), ``poisson_ratio``, ``shear.G_inf``, ``shear.terms`` (``{G, tau}``), ``bulk.K_inf``,
 ``bulk.terms`` (``{K, tau}``), ``metrics.rmse`` (Pa), ``metrics.r2``, ``metrics.mape_pct``, ``mode``,
-``provenance``. Extra keys: ``terms_selection``, ``uncertainty``, ``data``.
+``provenance``. Extra keys: ``terms_selection``, ``uncertainty``, ``data``, ``warnings`` (time constants
+outside the data's time span; also printed on stderr by :func:`run_fit_relax`).
+
+Reading back (:func:`load_relax_fit`) refuses, naming the key: a ``mode`` other than ramp or step, a
+``poisson_ratio`` outside (-1, 0.5), unknown units, and ``shear``/``bulk`` blocks that contradict ``prony`` and
+``poisson_ratio`` by more than :data:`CONSISTENCY_RTOL` (a modulus in the wrong unit, or G and K swapped). Moduli
+may be given in Pa, kPa, MPa or GPa and time constants in s, ms or min; they are converted to Pa and s.
 """
 from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from pathlib import Path
 from typing import Sequence
 
@@ -23,6 +30,10 @@ SCHEMA = "bpmid.relax/1"
 MPA = 1e6
 _MODULUS_UNITS = {"pa": 1.0, "kpa": 1e3, "mpa": 1e6, "gpa": 1e9}
 _TIME_UNITS = {"s": 1.0, "ms": 1e-3, "min": 60.0}
+#: shear/bulk moduli may differ from E/(2(1+nu)) and E/(3(1-2nu)) by this share (rounding of hand-edited files;
+#: K moves 4.5 % for nu 0.4993 instead of 0.49933) and no more: a unit slip is a factor of 1000
+CONSISTENCY_RTOL = 0.05
+MODES = ("ramp", "step")
 
 
 def _param(value: float, stderr: float | None, unit: str) -> dict:
@@ -62,6 +73,7 @@ def relax_fit_body(fit, poisson: float) -> dict:
         "uncertainty": {"method": fit.uncertainty_method, "n_obs": fit.n_obs, "n_eff": round(fit.n_eff, 3),
                         "parameters": list(fit.param_names),
                         "correlation": [[clean(v) for v in row] for row in fit.corr]},
+        "warnings": list(getattr(fit, "warnings", [])),
         "data": {"logs": [{"name": lg.name, "source": lg.source, "samples": int(lg.t.size),
                            "strain_level": None if math.isnan(lg.hold.strain_level) else float(lg.hold.strain_level),
                            "ramp_s": float(lg.hold.ramp_s)} for lg in fit.logs],
@@ -144,6 +156,9 @@ def load_relax_fit(path: str | Path) -> RelaxParameters:
     if isinstance(nu_raw, bool) or not isinstance(nu_raw, (int, float)):
         raise InputError(f"expected a number, found {nu_raw!r}", path=path, key="poisson_ratio")
     nu = check_poisson(nu_raw, key="poisson_ratio", path=path)
+    mode = data.get("mode")
+    if mode is not None and mode not in MODES:
+        raise InputError(f"mode must be ramp or step, found {mode!r}", path=path, key="mode")
     out = {}
     for block, name, conv in (("shear", "G", E_to_G), ("bulk", "K", E_to_K)):
         if block in data:
@@ -151,12 +166,23 @@ def load_relax_fit(path: str | Path) -> RelaxParameters:
             if taus.size != tau.size or not np.allclose(taus, tau, rtol=1e-6):
                 raise InputError(f"{block}.terms time constants differ from prony.terms", path=path,
                                  key=f"{block}.terms")
+            _check_consistent(f"{block}.{name}_inf", inf, conv(E_inf, nu), path, name, nu, "prony.E_inf")
+            for j, (got, want) in enumerate(zip(mods, conv(E, nu))):
+                _check_consistent(f"{block}.terms[{j}].{name}", got, want, path, name, nu, f"prony.terms[{j}].E")
         else:
             inf, mods = conv(E_inf, nu), conv(E, nu)
         out[name] = (float(inf), np.asarray(mods, float))
-    mode = data.get("mode")
-    return RelaxParameters(E_inf, E, tau, nu, out["G"][0], out["G"][1], out["K"][0], out["K"][1],
-                           mode if mode in ("ramp", "step") else None, path)
+    return RelaxParameters(E_inf, E, tau, nu, out["G"][0], out["G"][1], out["K"][0], out["K"][1], mode, path)
+
+
+def _check_consistent(key: str, got: float, want: float, path, name: str, nu: float, e_key: str) -> None:
+    """A shear or bulk modulus (Pa) must agree with the one prony and poisson_ratio give."""
+    if not np.isclose(got, want, rtol=CONSISTENCY_RTOL, atol=1e-9 * max(abs(want), 1.0)):
+        rel = "E/(2(1+nu))" if name == "G" else "E/(3(1-2nu))"
+        ratio = got / want if want else math.inf
+        raise InputError(f"{key} = {got:g} Pa disagrees with {rel} = {want:g} Pa from {e_key} and poisson_ratio = "
+                         f"{nu:g} (ratio {ratio:.4g}): one of them is in the wrong unit or for another Poisson's "
+                         "ratio", path=path, key=key)
 
 
 def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | int | None = None,
@@ -183,6 +209,7 @@ def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | i
 
     config = config if config is not None else load_config(None)
     cfg = config.section("relax")
+    gap = cfg.max_gap_factor if cfg.max_gap_factor is not None else config.section("io").max_gap_factor
     nu = check_poisson(cfg.poisson if poisson is None else poisson, key="--poisson" if poisson is not None
                        else "relax.poisson")
     if terms is None:
@@ -197,8 +224,10 @@ def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | i
     mode = cfg.mode if mode is None else mode
     paths = [Path(p) for p in logs]
     records = read_relax_logs(paths, column_map=cfg.columns, gauge_length_mm=cfg.specimen.gauge_length_mm,
-                              cross_section_mm2=cfg.specimen.cross_section_mm2)
+                              cross_section_mm2=cfg.specimen.cross_section_mm2, gap_factor=gap)
     fit = fit_relaxation(records, terms=terms, mode=mode, config=cfg)
+    for w in fit.warnings:
+        print(f"warning: {w}", file=sys.stderr, flush=True)
     out = Path(out)
     fig_path = None
     if figure:
