@@ -127,50 +127,22 @@ def material_from_relax(source, path=None) -> Material:
     -------
     Material (Pa, s); time constants shared when shear and bulk terms agree, split otherwise
     """
-    from bpmid.io.results import read_result, require
-    from bpmid.params import parse_param_entry
+    from bpmid.relax.result import load_relax_fit, relax_fit_from_mapping
 
+    # one reader for relaxation fits (units converted, mode and Poisson's ratio checked, shear and bulk
+    # checked against prony and poisson_ratio), whoever asks for one
     if isinstance(source, (str, Path)):
+        rf = load_relax_fit(source)
         path = Path(source)
-        data = read_result(path, "bpmid.relax/")
     elif isinstance(source, Mapping):
-        data = dict(source)
+        rf = relax_fit_from_mapping(dict(source), None if path is None else Path(path))
     else:
         raise TypeError(f"relax fit must be a path or a mapping, not {type(source).__name__}")
-
-    def val(entry, key, unit):
-        v, _se, u = parse_param_entry(entry, path=path, key=key)
-        if u is not None and u != unit:
-            raise InputError(f"unit {u!r} where {unit!r} is expected", path=path, key=key)
-        if not v >= 0:
-            raise InputError(f"must be non-negative, found {v:g}", path=path, key=key)
-        return v
-
-    def terms(block, name):
-        lst = require(data, f"{block}.terms", path)
-        if not isinstance(lst, list):
-            raise InputError(f"expected a list of {{{name}, tau}}", path=path, key=f"{block}.terms")
-        mods, taus = [], []
-        for j, term in enumerate(lst):
-            key = f"{block}.terms[{j}]"
-            if not isinstance(term, dict) or name not in term or "tau" not in term:
-                raise InputError(f"expected a mapping {{{name}, tau}}", path=path, key=key)
-            mods.append(val(term[name], f"{key}.{name}", "Pa"))
-            taus.append(val(term["tau"], f"{key}.tau", "s"))
-        return mods, taus
-
-    G_inf = val(require(data, "shear.G_inf", path), "shear.G_inf", "Pa")
-    K_inf = val(require(data, "bulk.K_inf", path), "bulk.K_inf", "Pa")
-    G, tG = terms("shear", "G")
-    Kb, tK = terms("bulk", "K")
-    if len(G) != len(Kb):
-        raise InputError(f"shear has {len(G)} terms and bulk {len(Kb)}; the VBMM needs one G and one K per branch",
-                         path=path, key="bulk.terms")
-    if K_inf <= 0:
+    if not rf.K_inf > 0:
         raise InputError("bulk.K_inf must be positive", path=path, key="bulk.K_inf")
-    same = all(abs(a - b) <= 1e-9 * max(a, b) for a, b in zip(tG, tK))
     try:
-        return Material(G_inf, K_inf, tuple(G), tuple(Kb), tuple(tG), None if same else tuple(tK))
+        return Material(float(rf.G_inf), float(rf.K_inf), tuple(map(float, rf.G)), tuple(map(float, rf.K)),
+                        tuple(map(float, rf.tau)), None)
     except InputError as exc:
         raise InputError(exc.message, path=path, key=exc.key) from None
 

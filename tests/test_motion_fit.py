@@ -144,10 +144,16 @@ def test_relax_fit_with_only_contract_keys(tmp_path):
     path.write_text(yaml.safe_dump(text))
     with pytest.raises(InputError, match="bulk.K_inf"):
         material_from_relax(path)
-    del text["bulk"]
+    # without shear and bulk, G and K follow from prony and poisson_ratio (both required)
+    del text["bulk"], text["shear"]
     path.write_text(yaml.safe_dump(text))
-    with pytest.raises(InputError, match="missing key"):
+    derived = material_from_relax(path)
+    assert derived.K_inf == pytest.approx(mat.K_inf, rel=1e-9) and derived.G[0] == pytest.approx(mat.G[0], rel=1e-9)
+    del text["poisson_ratio"]
+    path.write_text(yaml.safe_dump(text))
+    with pytest.raises(InputError, match="missing key") as e:
         material_from_relax(path)
+    assert e.value.key == "poisson_ratio"
 
 
 def test_model_families(logs):

@@ -212,8 +212,6 @@ def test_load_relax_fit_units_convert_or_are_refused(relax_fit_file, tmp_path):
     assert ei.value.key == "prony.E_inf.unit"
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="fit motion --init reads the file with bpmid.motion_fit.material_from_relax, "
-                   "not load_relax_fit: it ignores mode and poisson_ratio (outside bpmid/relax; to be fixed there)")
 def test_fit_motion_init_refuses_bad_mode(repo_root, relax_fit_file, tmp_path):
     p = _edited(relax_fit_file, tmp_path, "mode.yaml", lambda b: b.update(mode="stepx"))
     out = tmp_path / "VBMM.yaml"

@@ -150,7 +150,11 @@ def load_relax_fit(path: str | Path) -> RelaxParameters:
     Prony terms'); when absent they are computed from E with ``poisson_ratio``.
     """
     path = Path(path)
-    data = read_result(path, "bpmid.relax/")
+    return relax_fit_from_mapping(read_result(path, "bpmid.relax/"), path)
+
+
+def relax_fit_from_mapping(data: dict, path: Path | None = None) -> RelaxParameters:
+    """:func:`load_relax_fit` for an already-loaded ``bpmid.relax/1`` mapping (``path`` names it in messages)."""
     E_inf, E, tau = _branch_list(data, "prony", "E", path)
     nu_raw = require(data, "poisson_ratio", path)
     if isinstance(nu_raw, bool) or not isinstance(nu_raw, (int, float)):
