@@ -108,6 +108,11 @@ class ControlConfig:
         for c in self.controllers:
             if c not in CONTROLLERS:
                 bad("controllers", f"unknown controller {c!r} (known: {', '.join(CONTROLLERS)})")
+        dup = sorted({c for c in self.controllers if list(self.controllers).count(c) > 1})
+        if dup:
+            bad("controllers", f"controller {dup[0]} is listed twice")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            bad("seed", f"must be a non-negative integer, found {self.seed!r}")
         for key in ("plant_modulus_scale", "plant_tau_scale"):
             if not getattr(self, key) > 0:
                 bad(key, f"must be positive, found {getattr(self, key)!r}")
@@ -220,6 +225,10 @@ def load_references(spec: str, rate_hz: float = 10.0) -> list[Reference]:
                              key="--reference")
     if not out:
         raise InputError("no reference given", key="--reference")
+    names = [r.name for r in out]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InputError(f"reference {dup[0]} is given twice (references are told apart by name)", key="--reference")
     return out
 
 
@@ -550,6 +559,9 @@ def run_control(model: VBMM, plant: Plant, references: Sequence[Reference], cfg:
     for c in controllers:
         if c not in _KIND:
             raise InputError(f"unknown controller {c!r} (known: {', '.join(CONTROLLERS)})", key="--controller")
+    dup = sorted({c for c in controllers if controllers.count(c) > 1})
+    if dup:
+        raise InputError(f"controller {dup[0]} is listed twice", key="--controller")
     ms_ff = fit_ms_feedforward(model, cfg) if "ms-pi" in controllers else None
     if references:  # load the compiled kernels before anything is timed
         r0 = references[0]

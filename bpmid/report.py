@@ -273,12 +273,11 @@ def render_html(doc: Doc, title: str, base: Path) -> str:
 # reading the stage outputs
 # --------------------------------------------------------------------------------------------------
 def _load_yaml(path: Path) -> dict | None:
+    from bpmid.config import read_yaml
+
     if not path.is_file():
         return None
-    try:
-        data = yaml.safe_load(path.read_text("utf-8"))
-    except yaml.YAMLError as exc:
-        raise InputError(f"not valid YAML: {exc}", path=path) from exc
+    data, _sha = read_yaml(path)  # one line "file:line: not valid YAML: ..." on a broken file
     if not isinstance(data, dict):
         raise InputError("expected a YAML mapping", path=path)
     return data
@@ -324,6 +323,8 @@ class StudyFiles:
 def read_study(root: str | Path) -> StudyFiles:
     """Load every stage output under ``root`` that exists (CLI.md names; ``compare/`` or DIR itself)."""
     root = Path(root)
+    if root.exists() and not root.is_dir():
+        raise InputError("is a file, not a folder (bpmid report takes the folder a run wrote)", path=root)
     if not root.is_dir():
         raise InputError("report folder not found", path=root)
     cdir = root / "compare" if (root / "compare" / "summary.csv").is_file() else root

@@ -16,10 +16,14 @@ discover      :func:`bpmid.discover.discover`                            discove
 report        :func:`bpmid.report.write_report`                          report.html, report.md, report_figures/
 ============  =========================================================  ==========================================
 
-Every input path of the config is checked before any work starts (a missing one is an InputError naming the
-config key and the path). Every file is written atomically; ``run.yaml`` (schema ``bpmid.run/1``: stages,
-status, wall time, provenance with the sha256 of every input and of the config, and the seed) is written
-last, so a folder with a ``run.yaml`` holds a complete run.
+Every input of every stage that will run is read and checked before the first stage starts: the paths of the
+config (a missing one is an InputError naming the config key and the path), every log with the reader its stage
+uses, and the parameter files the config names (:func:`check_stage_inputs`). Every file is written atomically;
+``run.yaml`` (schema ``bpmid.run/1``: stages, status, wall time, provenance with the sha256 of every input and of
+the config, and the seed) is written last, so a folder with a ``run.yaml`` holds a complete run. A run that still
+fails in a stage, or is interrupted (Ctrl-C), is rolled back (:class:`OutputJournal`): the files it wrote are
+removed and the files it replaced are put back, so DIR is as it was before (absent if it did not exist). The
+stages write in place, so every path recorded in the outputs (provenance, report) is the final one.
 
 Determinism: no stage draws random numbers except where a seed is recorded (``run.seed``); two runs of the
 same config give identical tables except the wall-clock columns (``us_per_step``, ``seconds``).
@@ -153,6 +157,153 @@ def resolve_run_inputs(config) -> RunInputs:
         discover_holdout=many("discover_holdout", rc.discover_holdout))
 
 
+def stages_to_run(rc: "RunConfig", inp: RunInputs) -> list[str]:
+    """The stages of ``run.stages`` whose inputs the config gives, in the fixed order of :data:`STAGES`."""
+    return [s for s in STAGES if s in rc.stages and _missing_inputs(s, inp) is None]
+
+
+def _param_file(config, section: str, key: str, value) -> Path:
+    p = config.resolve_path(value)
+    if not p.is_file():
+        raise InputError("folder, not a file" if p.is_dir() else "file not found", path=p,
+                         key=f"{section}.{key}")
+    return p
+
+
+def check_stage_inputs(config, inp: RunInputs, stages) -> list:
+    """Read and check every input of every stage in ``stages`` with the reader that stage uses, before any
+    stage runs (InputError naming the file, line or key). Returns the motion logs of the fitting and test sets
+    (read without requiring angles when the stages that need them do not run), for the synthetic flag."""
+    from bpmid.io.motion_logs import read_motion_logs
+    from bpmid.io.relax_logs import read_relax_logs
+    from bpmid.motion_fit import initial_material, material_from_relax
+
+    io_cfg = config.section("io")
+    stages = set(stages)
+    if "relax" in stages:
+        rcfg = config.section("relax")
+        gap = rcfg.max_gap_factor if rcfg.max_gap_factor is not None else io_cfg.max_gap_factor
+        read_relax_logs(inp.relax_logs, column_map=rcfg.columns, gauge_length_mm=rcfg.specimen.gauge_length_mm,
+                        cross_section_mm2=rcfg.specimen.cross_section_mm2, gap_factor=gap)
+    angled: list[Path] = []  # logs whose stage needs measured angles
+    if stages & {"motion", "compare"}:
+        angled += list(inp.fitting_set)
+    if "compare" in stages:
+        angled += [p for v in inp.test_sets.values() for p in v]
+    if "history" in stages:
+        angled.append(inp.long_term)
+    if "discover" in stages:
+        angled += list(inp.discover_logs) + list(inp.discover_holdout)
+    seen: set[str] = set()
+    for p in angled:
+        if str(p) not in seen:
+            seen.add(str(p))
+            read_motion_logs([p], io_cfg, require_angle=True)
+    # the parameter files the config names (used when this run's relaxation fit does not replace them)
+    if "relax" not in stages:
+        mcfg = config.section("motion")
+        if "motion" in stages and mcfg.relax_fit is not None:
+            p = _param_file(config, "motion", "relax_fit", mcfg.relax_fit)
+            initial_material(mcfg, p)
+        ccfg = config.section("compare")
+        if "compare" in stages and ccfg.relax is not None:
+            material_from_relax(_param_file(config, "compare", "relax", ccfg.relax))
+    motion_paths = inp.fitting_set + [p for v in inp.test_sets.values() for p in v]
+    return read_motion_logs(motion_paths, io_cfg) if motion_paths else []
+
+
+# the names a run writes in DIR (files, and folders written whole)
+RUN_FILES = ("relax_fit.yaml", "relax_fit.png", "vbmm_fit.yaml", "vbmm_fit.png", "vbmm_mat.yaml",
+             "history_modes.csv", "history_modes.yaml", "history_modes.png", "report.html", "report.md", "run.yaml")
+RUN_FOLDERS = ("compare", "discover", "report_figures")
+
+
+class OutputJournal:
+    """Undo for a run that writes into ``out`` in place: :meth:`rollback` removes every file and folder the run
+    created and puts back every file it replaced or removed; :meth:`commit` forgets the backup.
+
+    Before the run, the files under the run's own names (:data:`RUN_FILES`, :data:`RUN_FOLDERS`) are copied into
+    a hidden backup folder in ``out``. Nothing is moved, so an input that lives in ``out`` (a relaxation fit of
+    an earlier run, say) stays where the config says it is. When ``out`` does not exist, the
+    rollback removes it, and any parent folder the run made for it.
+    """
+
+    def __init__(self, out: Path):
+        import os
+        import shutil
+        import tempfile
+
+        self.out = Path(os.path.abspath(out))
+        self.existed = self.out.is_dir()
+        self.before: set[str] = set()
+        self.backup: Path | None = None
+        self.saved: set[str] = set()
+        if not self.existed:
+            top = self.out
+            while not top.parent.exists() and top.parent != top:
+                top = top.parent
+            self.created_top = top  # the outermost folder this run will create
+            return
+        for root, dirs, files in os.walk(self.out):
+            rel = Path(root).relative_to(self.out)
+            self.before.update(str(rel / n) for n in dirs + files)
+        self.backup = Path(tempfile.mkdtemp(prefix=".bpmid-run-undo.", dir=self.out))
+        try:
+            for rel in self._own_files():
+                src, dst = self.out / rel, self.backup / rel
+                dst.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copy2(src, dst)
+                self.saved.add(rel)
+        except BaseException:
+            shutil.rmtree(self.backup, ignore_errors=True)
+            raise
+
+    def _own_files(self) -> list[str]:
+        out = [n for n in RUN_FILES if (self.out / n).is_file() and not (self.out / n).is_symlink()]
+        for d in RUN_FOLDERS:
+            if (self.out / d).is_dir() and not (self.out / d).is_symlink():
+                out += [str(p.relative_to(self.out)) for p in sorted((self.out / d).rglob("*"))
+                        if p.is_file() and not p.is_symlink()]
+        return out
+
+    def commit(self) -> None:
+        import shutil
+
+        if self.backup is not None:
+            shutil.rmtree(self.backup, ignore_errors=True)
+            self.backup = None
+
+    def rollback(self) -> None:
+        import contextlib
+        import os
+        import shutil
+
+        if not self.existed:
+            shutil.rmtree(self.created_top, ignore_errors=True)
+            return
+        # files and folders this run created
+        for root, dirs, files in os.walk(self.out, topdown=False):
+            here = Path(root)
+            if self.backup is not None and (here == self.backup or self.backup in here.parents):
+                continue
+            rel = here.relative_to(self.out)
+            dirs = [n for n in dirs if self.backup is None or here / n != self.backup]
+            for n in files:
+                if str(rel / n) not in self.before and str(rel / n) not in self.saved:
+                    with contextlib.suppress(OSError):
+                        (Path(root) / n).unlink()
+            for n in dirs:
+                if str(rel / n) not in self.before:
+                    shutil.rmtree(Path(root) / n, ignore_errors=True)
+        # files it replaced or removed
+        for rel in sorted(self.saved):
+            src, dst = self.backup / rel, self.out / rel
+            with contextlib.suppress(OSError):
+                dst.parent.mkdir(parents=True, exist_ok=True)
+                os.replace(src, dst)
+        self.commit()
+
+
 def _prov(inputs, config, seed, command):
     from bpmid.io.results import provenance
 
@@ -277,7 +428,6 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
     command : the command line to record (default: ``sys.argv``)
     """
     from bpmid.io.motion_logs import is_synthetic
-    from bpmid.io.motion_logs import read_motion_logs
     from bpmid.io.results import command_line, write_result
 
     rc: RunConfig = config.section("run")
@@ -285,14 +435,39 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError("--out must be a folder, found a file", path=out)
+    # every input of every stage read and checked before the first stage runs (and before DIR is touched)
+    motion_logs = check_stage_inputs(config, inp, stages_to_run(rc, inp))
+    ctx = {"seed": rc.seed, "command": command or command_line(),
+           "synthetic": is_synthetic(motion_logs) if motion_logs else True}
+    journal = OutputJournal(out)
+    try:
+        records = _run_stages(config, rc, inp, out, ctx, write_result)
+    except BaseException as exc:  # a failing stage or Ctrl-C: leave DIR as it was
+        journal.rollback()
+        if isinstance(exc, SystemError) and _chained_interrupt(exc):
+            # Ctrl-C inside a compiled kernel can surface as nested SystemErrors: say "interrupted"
+            raise KeyboardInterrupt() from exc
+        raise
+    journal.commit()
+    return records
+
+
+def _chained_interrupt(exc: BaseException) -> bool:
+    """True when a KeyboardInterrupt is somewhere in the cause/context chain of ``exc``."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+def _run_stages(config, rc: RunConfig, inp: RunInputs, out: Path, ctx: dict, write_result) -> list[StageRecord]:
     out.mkdir(parents=True, exist_ok=True)
     stale = out / "run.yaml"
     if stale.is_file():
         stale.unlink()  # a folder with run.yaml holds a complete run; this one is about to be replaced
-    motion_paths = inp.fitting_set + [p for v in inp.test_sets.values() for p in v]
-    motion_logs = read_motion_logs(motion_paths, config.section("io")) if motion_paths else []
-    ctx = {"seed": rc.seed, "command": command or command_line(),
-           "synthetic": is_synthetic(motion_logs) if motion_logs else True}
     records: list[StageRecord] = []
     for stage in STAGES:
         if stage not in rc.stages:

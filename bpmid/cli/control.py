@@ -55,13 +55,19 @@ def control(
     if changes:
         cfg = dataclasses.replace(cfg, **changes)
         opt = {"kp_bar_per_deg": "--kp", "ki_bar_per_deg_s": "--ki", "plant_modulus_scale": "--plant-modulus-scale",
-               "plant_tau_scale": "--plant-tau-scale"}
+               "plant_tau_scale": "--plant-tau-scale", "seed": "--seed"}
         try:
             cfg.validate()
         except InputError as exc:
             key = (exc.key or "").split(".")[-1]
             raise InputError(exc.message, key=opt.get(key, exc.key)) from None
     controllers = [c.strip() for c in controller.split(",") if c.strip()]
+    if not controllers:
+        raise InputError("no controller given (a comma list of pi, vbmm-pi, ms-pi)", key="--controller")
+    try:  # refuse an unknown or repeated controller before any model is read or anything is run
+        dataclasses.replace(cfg, controllers=tuple(controllers)).validate()
+    except InputError as exc:
+        raise InputError(exc.message, key="--controller") from None
     model_cfg = cfg_all.section("model")
     model = load_vbmm(params, model_cfg)
     plant_base = load_vbmm(plant_params, model_cfg) if plant_params is not None else model

@@ -27,7 +27,7 @@ def load_base(init: Optional[Path], cfg):
     mcfg = cfg.section("model")
     if init is None:
         return VBMM.from_config(Material.paper_fit(), mcfg), "paper VBMM-fit constants"
-    data = read_result(init, "bpmid.")
+    data = read_result(init, ("bpmid.vbmm/", "bpmid.relax/"))
     schema = str(data.get("schema"))
     if schema.startswith("bpmid.vbmm/"):
         return load_vbmm(init, mcfg), f"{init} (motion fit)"
@@ -40,7 +40,7 @@ def load_base(init: Optional[Path], cfg):
 
 @command(app, "discover", epilog=EPILOG, cls=HoldoutCommand)
 def discover_cmd(
-    logs: List[Path] = typer.Argument(..., metavar="LOG...", help="Motion logs with measured angles."),
+    logs: List[Path] = typer.Argument(..., metavar="LOG", help="Motion logs with measured angles."),
     holdout: Optional[List[Path]] = typer.Option(None, "--holdout", metavar="LOG...",
                                                  help="Held-out logs (default: a fixed split of LOG...)."),
     init: Optional[Path] = typer.Option(None, "--init", help="Starting constants: bpmid.vbmm/1 or bpmid.relax/1 "

@@ -17,7 +17,7 @@ from bpmid.motion_fit import fit_motion, write_motion_fit
                                    "--out relax_fit.yaml  then  bpmid fit motion datasets/motion/fitting_set/*.csv "
                                    "--init relax_fit.yaml --out VBMM.yaml   (writes VBMM.yaml and the figure VBMM.png)")
 def fit_motion_command(
-    logs: List[Path] = typer.Argument(..., help="Motion logs (time_s, pressure_bar|kpa|pa, angle_deg), fitted at once."),
+    logs: List[Path] = typer.Argument(..., metavar="LOG", help="Motion logs (time_s, pressure_bar|kpa|pa, angle_deg), fitted at once."),
     out: Path = typer.Option(..., "--out", help="Output parameter file (schema bpmid.vbmm/1)."),
     init: Optional[Path] = typer.Option(None, "--init", help="Relaxation fit (bpmid fit relax) to start from; "
                                                              "default: motion.relax_fit or the paper's constants."),

@@ -15,7 +15,7 @@ EPILOG = ("Example (shipped synthetic logs):  bpmid fit relax datasets/relaxatio
 
 @command(fit_app, "relax", epilog=EPILOG)
 def fit_relax(
-    logs: List[Path] = typer.Argument(..., help="Relaxation logs (CSV): time_s,strain,stress_mpa or "
+    logs: List[Path] = typer.Argument(..., metavar="LOG", help="Relaxation logs (CSV): time_s,strain,stress_mpa or "
                                       "time_s,extension_mm,load_n or time_s,modulus_mpa (other header styles too)."),
     out: Path = typer.Option(..., "--out", help="Result YAML (schema bpmid.relax/1); the figure goes beside it "
                              "as .png."),

@@ -18,7 +18,7 @@ from bpmid.predict import predict, write_predictions
                                 "datasets/motion/variable_amplitude/amp_2p0_r2.csv --params VBMM.yaml --out pred/   "
                                 "(writes pred/amp_2p0_r2.csv with angle_pred_deg)")
 def predict_command(
-    logs: List[Path] = typer.Argument(..., help="Motion logs (time_s, pressure_bar|kpa|pa, optional angle_deg)."),
+    logs: List[Path] = typer.Argument(..., metavar="LOG", help="Motion logs (time_s, pressure_bar|kpa|pa, optional angle_deg)."),
     params: Path = typer.Option(..., "--params", help="Fitted VBMM (bpmid fit motion output, bpmid.vbmm/1)."),
     out: Path = typer.Option(..., "--out", help="Output folder: one <log stem>.csv per log, plus predict.yaml."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config file (sections io, model)."),

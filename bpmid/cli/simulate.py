@@ -14,7 +14,7 @@ from bpmid.twin.simulate import simulate
                                  "--effect thermal_softening:amount=0.1,T=300 --seed 7 --out sim/   (an effect "
                                  "the protocol's rig does not already have; ids: see datasets/README.md)")
 def simulate_cmd(
-    protocol: Path = typer.Argument(..., help="Protocol file (YAML, schema bpmid.protocol/1; see datasets/README.md)."),
+    protocol: Path = typer.Argument(..., metavar="PROTOCOL", help="Protocol file (YAML, schema bpmid.protocol/1; see datasets/README.md)."),
     out: Path = typer.Option(..., "--out", help="Folder for the logs (CSV) and manifest.yaml."),
     params: Optional[Path] = typer.Option(None, "--params", help="VBMM constants (bpmid.vbmm/1) for the plant."),
     effect: Optional[List[str]] = typer.Option(None, "--effect", help="Inject a catalogue effect: ID[:key=value,...]; "

@@ -98,19 +98,36 @@ def write_result(path: str | Path, schema: str, body: dict, prov: dict) -> Path:
     return write_text(path, dump_yaml(data))
 
 
-def read_result(path: str | Path, schema_prefix: str) -> dict:
-    """Read a result YAML and check its schema (``bpmid.vbmm/`` etc.)."""
+#: the one version of every ``bpmid.<kind>`` result schema this bpmid reads
+SCHEMA_VERSION = "1"
+
+
+def read_result(path: str | Path, schema_prefix: str | tuple[str, ...]) -> dict:
+    """Read a result YAML and check its schema (``bpmid.vbmm/`` etc., or a tuple of such prefixes when
+    several kinds are accepted).
+
+    Only version 1 exists for every kind: ``bpmid.vbmm/2`` is refused (naming the key ``schema``), as is
+    anything that is not ``bpmid.<kind>/1``.
+    """
     from bpmid.config import read_yaml
 
     path = Path(path)
+    prefixes = (schema_prefix,) if isinstance(schema_prefix, str) else tuple(schema_prefix)
+    expected = " or ".join(f"{p}{SCHEMA_VERSION}" if p.endswith("/") else f"{p}<kind>/{SCHEMA_VERSION}"
+                           for p in prefixes)
     data, _sha = read_yaml(path)
     if not isinstance(data, dict):
         raise InputError("expected a YAML mapping", path=path)
     schema = data.get("schema")
     if schema is None:
-        raise InputError(f"missing key (expected schema: {schema_prefix}<version>)", path=path, key="schema")
-    if not str(schema).startswith(schema_prefix):
-        raise InputError(f"wrong kind of file: schema {schema!r}, expected {schema_prefix}<version>",
+        raise InputError(f"missing key (expected schema {expected})", path=path, key="schema")
+    if not isinstance(schema, str) or not schema.startswith(prefixes):
+        raise InputError(f"wrong kind of file: schema {schema!r}, expected {expected}", path=path, key="schema")
+    kind, sep, version = schema.rpartition("/")
+    if not sep or not kind.startswith("bpmid.") or "/" in kind or len(kind) <= len("bpmid."):
+        raise InputError(f"malformed schema {schema!r}, expected {expected}", path=path, key="schema")
+    if version != SCHEMA_VERSION:
+        raise InputError(f"unsupported schema version {schema!r}: this bpmid reads {kind}/{SCHEMA_VERSION} only",
                          path=path, key="schema")
     return data
 

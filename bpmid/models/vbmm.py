@@ -384,6 +384,10 @@ def _asymmetric_states(t, x, tau, ratio, direction):
 # ---------------------------------------------------------------------------------------------
 # parameter files (schema bpmid.vbmm/1)
 # ---------------------------------------------------------------------------------------------
+_MATERIAL_KEYS = ("G_inf", "K_inf", "branches")
+_BRANCH_KEYS = ("G", "K", "tau", "tauG", "tauK")
+
+
 def material_from_yaml(data: dict, path=None) -> Material:
     """Read the ``material`` block of a ``bpmid.vbmm/1`` file (values in Pa and s)."""
     from bpmid.params import parse_param_entry
@@ -396,6 +400,12 @@ def material_from_yaml(data: dict, path=None) -> Material:
         return v
 
     mat = require(data, "material", path)
+    if not isinstance(mat, dict):
+        raise InputError("material must be a mapping G_inf, K_inf, branches", path=path, key="material")
+    for k in mat:
+        if k not in _MATERIAL_KEYS:
+            raise InputError(f"unknown material key (known: {', '.join(_MATERIAL_KEYS)})", path=path,
+                             key=f"material.{k}")
     G_inf = val(require(data, "material.G_inf", path), "material.G_inf", "Pa")
     K_inf = val(require(data, "material.K_inf", path), "material.K_inf", "Pa")
     branches = mat.get("branches", [])
@@ -406,6 +416,10 @@ def material_from_yaml(data: dict, path=None) -> Material:
         key = f"material.branches[{j}]"
         if not isinstance(b, dict):
             raise InputError("expected a mapping {G, K, tau}", path=path, key=key)
+        for k in b:
+            if k not in _BRANCH_KEYS:
+                raise InputError(f"unknown branch key (known: {', '.join(_BRANCH_KEYS)})", path=path,
+                                 key=f"{key}.{k}")
         for req in ("G", "K"):
             if req not in b:
                 raise InputError("missing key", path=path, key=f"{key}.{req}")
@@ -427,14 +441,17 @@ def material_from_yaml(data: dict, path=None) -> Material:
 
 
 def geometry_from_yaml(data: dict | None, path=None) -> Geometry:
-    if data is None:
-        return Geometry()
+    """Read the ``geometry`` block of a ``bpmid.vbmm/1`` file: all of th, alpha0, R0, l0, n (SI) must be there."""
     if not isinstance(data, dict):
         raise InputError("geometry must be a mapping th, alpha0, R0, l0, n (SI)", path=path, key="geometry")
     known = {f.name for f in dataclasses.fields(Geometry)}
     for k in data:
         if k not in known:
             raise InputError(f"unknown geometry key (known: {', '.join(sorted(known))})", path=path, key=f"geometry.{k}")
+    for f in dataclasses.fields(Geometry):
+        if f.name not in data:
+            raise InputError("missing key (geometry needs th, alpha0, R0, l0, n in SI)", path=path,
+                             key=f"geometry.{f.name}")
     vals = {}
     for k, v in data.items():
         if isinstance(v, dict):
@@ -448,19 +465,20 @@ def geometry_from_yaml(data: dict | None, path=None) -> Geometry:
 
 
 def load_vbmm(path: str | Path, cfg: VBMMConfig | None = None) -> VBMM:
-    """A :class:`VBMM` from a ``bpmid.vbmm/1`` file (``--params``). Keys of CLI.md suffice.
+    """A :class:`VBMM` from a ``bpmid.vbmm/1`` file (``--params``). Keys of CLI.md suffice, and are required:
+    ``geometry`` and ``closure`` are constants of the fitted model, never taken from a default.
 
     ``history`` and ``window_s`` are evaluation settings, not constants: they come from the config
     section ``model`` (the file's own ``model`` block only records how it was fitted)."""
-    from bpmid.io.results import read_result
+    from bpmid.io.results import read_result, require
 
     path = Path(path)
     data = read_result(path, "bpmid.vbmm/")
     cfg = cfg or VBMMConfig()
+    geometry = geometry_from_yaml(require(data, "geometry", path), path)
+    closure = require(data, "closure", path)
     material = material_from_yaml(data, path)
-    geometry = geometry_from_yaml(data.get("geometry"), path) if "geometry" in data else cfg.geometry
-    closure = data.get("closure", cfg.closure)
-    if closure not in _CLOSURES:
+    if not isinstance(closure, str) or closure not in _CLOSURES:
         raise InputError(f"unknown closure {closure!r} (paper or consistent)", path=path, key="closure")
     return VBMM(material=material, geometry=geometry, closure=closure, history=cfg.history, window_s=cfg.window_s)
 

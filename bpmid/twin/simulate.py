@@ -94,7 +94,7 @@ def build_effect(eid: str, values: Mapping[str, Any], where: str = "--effect", p
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
             raise InputError(f"expected a number, found {v!r}", path=path, key=f"{where}.{name}")
         if not (p.lower <= v <= p.upper):
-            raise InputError(f"{v:g} {p.unit} is outside [{p.lower:g}, {p.upper:g}]", path=path, key=f"{where}.{name}")
+            raise InputError(f"{v:g} (unit {p.unit}) is outside [{p.lower:g}, {p.upper:g}]", path=path, key=f"{where}.{name}")
         params = params.replace(name, value=float(v))
     return effect, params
 
