@@ -46,3 +46,15 @@ class InputError(Exception):
 
 class ConvergenceError(InputError):
     """A fit or solve that did not converge on the given data (reported as bad input, exit 2)."""
+
+
+def interrupted(exc: BaseException | None) -> bool:
+    """True when a KeyboardInterrupt stands anywhere in ``exc``'s chain of causes (Ctrl-C inside a compiled
+    kernel surfaces as nested SystemErrors "returned a result with an exception set")."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False

@@ -35,7 +35,7 @@ import time
 from pathlib import Path
 from typing import Mapping, Optional
 
-from bpmid.errors import InputError
+from bpmid.errors import InputError, interrupted
 from bpmid.progress import note
 
 STAGES = ("relax", "motion", "compare", "history", "discover", "report")
@@ -444,23 +444,12 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
         records = _run_stages(config, rc, inp, out, ctx, write_result)
     except BaseException as exc:  # a failing stage or Ctrl-C: leave DIR as it was
         journal.rollback()
-        if isinstance(exc, SystemError) and _chained_interrupt(exc):
+        if isinstance(exc, SystemError) and interrupted(exc):
             # Ctrl-C inside a compiled kernel can surface as nested SystemErrors: say "interrupted"
             raise KeyboardInterrupt() from exc
         raise
     journal.commit()
     return records
-
-
-def _chained_interrupt(exc: BaseException) -> bool:
-    """True when a KeyboardInterrupt is somewhere in the cause/context chain of ``exc``."""
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return True
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return False
 
 
 def _run_stages(config, rc: RunConfig, inp: RunInputs, out: Path, ctx: dict, write_result) -> list[StageRecord]:

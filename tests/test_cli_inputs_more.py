@@ -414,5 +414,4 @@ def test_usage_lines_name_the_arguments_plainly(cmd, want):
     assert r.exit_code == 0
     usage = next(ln for ln in r.output.splitlines() if ln.startswith("Usage:"))
     assert want in usage
-    for bad in ("[[", "{logs}", "{protocol}", "LOG...}", "{LOG...}"):
-        assert bad not in usage, usage
+    assert "[[" not in usage and "{" not in usage and "}" not in usage, usage

@@ -11,7 +11,7 @@ import typer
 from typer.core import TyperCommand
 
 from bpmid import __version__
-from bpmid.errors import InputError
+from bpmid.errors import InputError, interrupted
 from bpmid.progress import set_quiet
 
 app = typer.Typer(
@@ -42,6 +42,19 @@ def fail(message: str, code: int = 2):
     raise typer.Exit(code)
 
 
+class PlainUsageCommand(TyperCommand):
+    """A command whose usage line names the arguments as click does (``LOG...``, ``DIR``, ``[CONFIG]``);
+    typer writes required ones in braces (``{LOG}...``)."""
+
+    def collect_usage_pieces(self, ctx):
+        pieces = [self.options_metavar] if self.options_metavar else []
+        for p in self.get_params(ctx):
+            if getattr(p, "param_type_name", "") == "argument" and not getattr(p, "hidden", False):
+                name = p.metavar or p.name.upper()
+                pieces.append((name if p.required else f"[{name}]") + ("..." if p.nargs != 1 else ""))
+        return pieces
+
+
 def command(typer_app: typer.Typer, name: str, **kw):
     """Register ``fn`` as command ``name``; InputError -> exit 2, any other exception -> exit 1."""
 
@@ -62,8 +75,8 @@ def command(typer_app: typer.Typer, name: str, **kw):
             except KeyboardInterrupt:
                 fail("interrupted", 130)
             except SystemError as exc:
-                # Ctrl-C inside a compiled kernel surfaces as "returned a result with an exception set"
-                if isinstance(exc.__cause__ or exc.__context__, KeyboardInterrupt):
+                # Ctrl-C inside a compiled kernel surfaces as (nested) "returned a result with an exception set"
+                if interrupted(exc):
                     fail("interrupted", 130)
                 raise
             except OSError as exc:
@@ -77,6 +90,7 @@ def command(typer_app: typer.Typer, name: str, **kw):
                 fail(f"internal error: {type(exc).__name__}: {exc} (set BPMID_DEBUG=1 for the full traceback)", 1)
 
         kw.setdefault("no_args_is_help", False)
+        kw.setdefault("cls", PlainUsageCommand)
         return typer_app.command(name, **kw)(wrapper)
 
     return deco
@@ -133,7 +147,7 @@ def spread_multi(args: list[str], options: tuple[str, ...]) -> list[str]:
 def multi_value_command(*options: str) -> type:
     """A Typer command class whose ``options`` each take every following value up to the next option."""
 
-    class MultiValueCommand(TyperCommand):
+    class MultiValueCommand(PlainUsageCommand):
         def parse_args(self, ctx, args):
             return super().parse_args(ctx, spread_multi(list(args), options))
 
