@@ -13,7 +13,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import os
-import importlib
 import types
 import typing
 from pathlib import Path
@@ -22,6 +21,7 @@ from typing import Any, Mapping
 import yaml
 
 from bpmid.errors import InputError
+from bpmid.registry import lookup
 
 #: section name -> "module:Class" (the class is a frozen dataclass with defaults for every field)
 SECTIONS: dict[str, str] = {
@@ -37,8 +37,7 @@ SECTIONS: dict[str, str] = {
 
 
 def _section_class(name: str) -> type:
-    module, cls = SECTIONS[name].split(":")
-    return getattr(importlib.import_module(module), cls)
+    return lookup(SECTIONS, name, what="config section")
 
 
 @dataclasses.dataclass(frozen=True)

@@ -5,9 +5,8 @@ is one new class plus one line here.
 """
 from __future__ import annotations
 
-import importlib
 
-from bpmid.errors import InputError
+from bpmid.registry import lookup
 
 #: id -> "module:Class"
 CATALOGUE: dict[str, str] = {
@@ -22,10 +21,8 @@ CATALOGUE: dict[str, str] = {
 
 
 def effect_class(effect_id: str):
-    if effect_id not in CATALOGUE:
-        raise InputError(f"unknown effect id {effect_id!r} (known: {', '.join(CATALOGUE)})", key="--effect")
-    module, cls = CATALOGUE[effect_id].split(":")
-    return getattr(importlib.import_module(module), cls)
+    """The class of catalogue effect ``effect_id`` (InputError naming the known ids otherwise)."""
+    return lookup(CATALOGUE, effect_id, what="effect id", key="--effect")
 
 
 def get_effect(effect_id: str, **settings):

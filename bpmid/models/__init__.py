@@ -1,9 +1,9 @@
 """Model families, by registry name. Adding a family: one new module plus one line here."""
 from __future__ import annotations
 
-import importlib
 
 from bpmid.errors import InputError
+from bpmid.registry import lookup
 
 #: registry name -> "module:Class" (imported on first use)
 REGISTRY: dict[str, str] = {
@@ -18,10 +18,7 @@ REGISTRY: dict[str, str] = {
 
 def model_class(name: str):
     """The class registered as ``name`` (InputError naming the known ones otherwise)."""
-    if name not in REGISTRY:
-        raise InputError(f"unknown model {name!r} (known: {', '.join(REGISTRY)})", key="--models")
-    module, cls = REGISTRY[name].split(":")
-    return getattr(importlib.import_module(module), cls)
+    return lookup(REGISTRY, name, what="model", key="--models")
 
 
 def parse_model_list(text: str) -> list[str]:
