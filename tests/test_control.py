@@ -103,7 +103,9 @@ def test_shipped_references_run():
     tab = res.table.set_index(["controller", "reference"])
     for r in refs:
         assert tab.loc[("vbmm-pi", r.name), "rmse_deg"] < tab.loc[("pi", r.name), "rmse_deg"]
-    assert tab.loc[("vbmm-pi", "ALL"), "reduction_pct"] >= 35.0
+    # the issue's criterion on the shipped rendition of the paper's references (deterministic: seeded sensor
+    # noise); the sawtooths' one-sample jumps keep it near the line (40.6 %), so a regression shows at once
+    assert tab.loc[("vbmm-pi", "ALL"), "reduction_pct"] >= 40.0
 
 
 def test_ms_feedforward_fits_the_controllers_model():
