@@ -66,6 +66,12 @@ def _non_negative(where, path, **values):
             raise InputError(f"must not be negative, found {v!r}", path=path, key=f"{where}.{k}")
 
 
+def _check_band(seg, where, path):
+    """A segment that swings between ``low`` and ``high`` needs high above low."""
+    if not seg.high > seg.low:
+        raise InputError(f"high ({seg.high:g}) must be above low ({seg.low:g})", path=path, key=f"{where}.high")
+
+
 # ---------------------------------------------------------------------------------------------
 # program segments (levels in the protocol's unit, rates in unit/s)
 # ---------------------------------------------------------------------------------------------
@@ -137,8 +143,7 @@ class Triangle:
 
     def validate(self, where, path):
         _positive(where, path, rate=self.rate, cycles=self.cycles)
-        if not self.high > self.low:
-            raise InputError(f"high ({self.high:g}) must be above low ({self.low:g})", path=path, key=f"{where}.high")
+        _check_band(self, where, path)
 
     def levels(self):
         return {"low": self.low, "high": self.high}
@@ -168,8 +173,7 @@ class Sawtooth:
     def validate(self, where, path):
         _positive(where, path, period_s=self.period_s, cycles=self.cycles)
         _non_negative(where, path, fall_s=self.fall_s)
-        if not self.high > self.low:
-            raise InputError(f"high ({self.high:g}) must be above low ({self.low:g})", path=path, key=f"{where}.high")
+        _check_band(self, where, path)
 
     def levels(self):
         return {"low": self.low, "high": self.high}
