@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from _signals import triangle_with_holds
 import pandas as pd
 import pytest
 from typer.testing import CliRunner
@@ -31,15 +32,7 @@ def has_cli_columns(columns) -> bool:
 # ------------------------------------------------------------------------------------------------
 # a plant with creep (the VBMM's viscoelasticity) and rate-independent hysteresis (a play operator)
 # ------------------------------------------------------------------------------------------------
-def pressure(rate, lo=1.2, hi=1.8, cycles=2, hold=5.0, dt=0.1):
-    """Absolute pressure (bar): hold, triangles lo-hi at +-rate with holds at the top, hold."""
-    seg = [np.full(int(hold / dt), lo)]
-    up, down = np.arange(lo, hi, rate * dt), np.arange(hi, lo, -rate * dt)
-    for _ in range(cycles):
-        seg += [up, np.full(int(hold / dt), hi), down]
-    seg.append(np.full(int(hold / dt), lo))
-    p = np.concatenate(seg)
-    return np.arange(p.size) * dt, p
+pressure = triangle_with_holds
 
 
 def play(x, r):

@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from _signals import triangle_with_holds
 import pandas as pd
 import pytest
 import yaml
@@ -19,18 +20,8 @@ ATM = 101325.0
 runner = CliRunner()
 
 
-def _pressure(rate, lo, hi, cycles, hold, dt=0.1):
-    seg = [np.full(int(hold / dt), lo)]
-    up, down = np.arange(lo, hi, rate * dt), np.arange(hi, lo, -rate * dt)
-    for _ in range(cycles):
-        seg += [up, np.full(int(hold / dt), hi), down]
-    seg.append(np.full(int(hold / dt), lo))
-    p = np.concatenate(seg)
-    return np.arange(p.size) * dt, p
-
-
 def _log(folder: Path, name, rate, seed, lo=1.2, hi=1.7, cycles=2, hold=3.0) -> Path:
-    t, p_bar = _pressure(rate, lo, hi, cycles, hold)
+    t, p_bar = triangle_with_holds(rate, lo, hi, cycles, hold)
     pg = p_bar * 1e5 - ATM
     ang = VBMM(material=Material.paper_fit()).forward_deg(t, pg)
     ang = ang + np.random.default_rng(seed).normal(0.0, 0.2, t.size)
