@@ -113,6 +113,11 @@ class GeneratorConfig:
     integration: Literal["continuous", "log_rate"] = "continuous"
     max_step_s: float = 0.002
 
+    def __post_init__(self):  # plain containers, so cases pickle (Dask ships them to workers)
+        # YAML reads a bare ``null:`` key as None: that is the null kind here
+        object.__setattr__(self, "mix", {("null" if k is None or k == "None" else str(k)): float(v)
+                                         for k, v in dict(self.mix).items()})
+
     def validate(self, where, path):
         kinds = ("single", "null", "pair", "out_of_catalogue")
         for k, v in self.mix.items():
