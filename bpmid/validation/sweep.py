@@ -420,9 +420,11 @@ class SweepOutcome:
 
 def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", scheduler: Optional[str] = None,
               workers: Optional[int] = None, processes: bool = True, thresholds_path: Optional[str | Path] = None,
-              stop_after: Optional[int] = None, progress: Optional[Callable[[str], None]] = None) -> SweepOutcome:
+              stop_after: Optional[int] = None, progress: Optional[Callable[[str], None]] = None,
+              max_cases: Optional[int] = None) -> SweepOutcome:
     """Run a sweep into ``out`` (see the module docstring). Resumes: finished case ids in ``out/records.jsonl``
-    are skipped. ``stop_after`` stops after that many new records (an interruption, used by the tests)."""
+    are skipped. ``stop_after`` stops after that many new records (an interruption, used by the tests);
+    ``max_cases`` keeps only the first cases of each half (by id; a quick subset that a full rerun extends)."""
     from bpmid.discover.calibrate import THRESHOLD_KEYS, load_thresholds, thresholds_from_records, write_thresholds
 
     if split not in ("calibration", "heldout", "all"):
@@ -435,6 +437,8 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     cases = make_cases(gen, cfg.sweep.seed, prefix=cfg.sweep.name)
     halves = {"calibration": [c for c in cases if c.split == "calibration"],
               "heldout": [c for c in cases if c.split == "heldout"]}
+    if max_cases is not None:
+        halves = {k: v[:max(int(max_cases), 0)] for k, v in halves.items()}
     phases = ["calibration", "heldout"] if split == "all" else [split]
     done = {r["id"]: r for r in read_records(out / RECORDS)}
     writer = RecordWriter(out / RECORDS)
@@ -486,6 +490,8 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     evaluated = "heldout" if "heldout" in phases else "calibration"
     recs = [done[c.id] for c in halves[evaluated]]
     summary = summarize(recs, evaluated)
+    summary["thresholds"] = ({k: round(float(v), 4) for k, v in thresholds.items()} if thresholds and
+                             evaluated == "heldout" else "permissive (calibration half)")
     files.update(write_tables(out, summary, recs))
     for phase in phases:
         entries = [{"id": done[c.id]["id"], "split": phase, "truth": done[c.id]["truth"]} for c in halves[phase]]
@@ -599,6 +605,10 @@ def confusion_markdown(summary: dict) -> str:
               f"| gap at least halved where an effect was named | {s['gap_halved_where_named']['halved']}/"
               f"{s['gap_halved_where_named']['n']} ({pct(s['gap_halved_where_named']['rate'])}) |",
               f"| cases discovery declined to judge | {s['not_judged']} |"]
+    if s.get("thresholds") is not None:
+        thr = s["thresholds"]
+        lines += ["", "Thresholds: " + (", ".join(f"{k} = {v:g}" for k, v in thr.items()) if isinstance(thr, dict)
+                                        else str(thr))]
     return "\n".join(lines) + "\n"
 
 
