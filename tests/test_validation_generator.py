@@ -215,3 +215,17 @@ def test_bad_generator_config_names_the_key():
     with pytest.raises(InputError) as e:
         make_cases({"effects": ["braid_friction", "magic"]}, seed=0)
     assert "generator.effects" in e.value.format()
+
+
+def test_module_command_writes_cases_and_answers_apart(tmp_path, repo_root):
+    from bpmid.validation.__main__ import main
+
+    assert main([f"{repo_root}/configs/sweeps/tiny.yaml", "--out", str(tmp_path), "--limit", "2"]) == 0
+    cases = sorted(p.name for p in (tmp_path / "cases").iterdir())
+    assert len(cases) == 2
+    answers = {p.stem for p in (tmp_path / "answers").iterdir()}
+    assert answers and answers <= {"calibration", "heldout"}
+    assert not list((tmp_path / "cases").rglob("*answer*"))
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("generator: {n_case: 3}\n")
+    assert main([str(bad), "--out", str(tmp_path / "x")]) == 2
