@@ -69,6 +69,24 @@ def test_interrupted_sweep_resumes_to_the_same_records(full_run, tmp_path):
     assert comparable(res3.records) == comparable(resumed)
 
 
+def test_a_case_run_with_other_discover_settings_is_rerun(full_run, tmp_path):
+    out_full, _ = full_run
+    out = tmp_path / "copy"
+    shutil.copytree(out_full, out)
+    recs = read_records(out / RECORDS)
+    ho = sorted(r["id"] for r in recs if r["split"] == "heldout")
+    lines = []
+    for r in recs:
+        if r["id"] == ho[0]:
+            r = dict(r, discover_settings=dict(r["discover_settings"], lr_p_max=0.5), named=["stale"])
+        lines.append(json.dumps(r))
+    (out / RECORDS).write_text("\n".join(lines) + "\n")
+    res = run_sweep(load_sweep(TINY), out, workers=2, processes=False)
+    again = read_records(out / RECORDS)
+    assert len(again) == 5 and [r["id"] for r in again].count(ho[0]) == 2  # rerun and appended, latest wins
+    assert comparable(res.records) == comparable(read_records(out_full / RECORDS))
+
+
 def test_summary_rates():
     base = {"error": None, "unexplained": False, "noise_floor_deg": 0.1, "heldout_before_deg": 0.5,
             "heldout_after_deg": 0.2}

@@ -81,8 +81,8 @@ class GeneratorConfig:
     header_styles : bpmid (``time_s,pressure_bar,angle_deg``) or instrument (``Time (ms),Pressure (psi),Angle (deg)``)
     atmosphere_pa : range of the ambient pressure (Pa) the absolute logs refer to (stated in each case.yaml)
     noise_deg : range of the sensor noise standard deviation (deg)
-    noise_rho : range of the AR(1) lag-1 correlation of the noise at 10 Hz (0 = white); at other rates the
-        correlation time is kept: rho_fs = rho ** (10 / fs)
+    noise_rho : range of the AR(1) lag-1 correlation of the noise from one sample to the next (0 = white), as
+        measured on a rig's logs at its own rate
     white_share : share of cases with white noise whatever noise_rho says
     variation : range of the log-to-log variation of the constants (relative standard deviation, 0.05 = 5 %)
     size_ratio : range of the held-out RMSE of the true base model over the noise (1.5: just detectable)
@@ -359,6 +359,7 @@ def make_cases(config: GeneratorConfig | Mapping | None = None, seed: int = 0, *
     geos = cfg.geometry_specs()
     single_order = [e for e in cfg.effects]
     pairs = [(a, b) for i, a in enumerate(cfg.effects) for b in cfg.effects[i + 1:]]
+    pairs = [pairs[j] for j in rng.permutation(len(pairs))]  # every pair once before any repeats
     counters = {"single": 0, "pair": 0, "out_of_catalogue": 0}
     cases = []
     for i, kind in enumerate(kinds):
@@ -369,7 +370,7 @@ def make_cases(config: GeneratorConfig | Mapping | None = None, seed: int = 0, *
         if kind == "single":
             ids = [single_order[k % len(single_order)]]
         elif kind == "pair":
-            ids = list(pairs[int(r.integers(len(pairs)))]) if k >= len(pairs) else list(pairs[(k * 7) % len(pairs)])
+            ids = list(pairs[k % len(pairs)])
         elif kind == "out_of_catalogue":
             ids = [cfg.out_of_catalogue[k % len(cfg.out_of_catalogue)]] if cfg.out_of_catalogue else []
             if not ids:
@@ -390,14 +391,14 @@ def make_cases(config: GeneratorConfig | Mapping | None = None, seed: int = 0, *
         start = {"G_inf": mat["G_inf"], "K_inf": mat["K_inf"] * f(1.0, 1.1), "G": list(mat["G"]),
                  "K": [mat["K"][0] * f(0.95, 1.05)], "tau": [mat["tau"][0] * f(1.4, 2.0)]}
         fs = float(_choice(r, cfg.sampling_hz))
-        rho10 = 0.0 if r.uniform() < cfg.white_share else f(*cfg.noise_rho)
+        rho = 0.0 if r.uniform() < cfg.white_share else f(*cfg.noise_rho)
         lo, hi = _pressure_range(geo.si(), mat)
         cases.append(Case(
             id=f"{prefix}-{i:04d}", index=i, seed=cseed, kind=kind, effects=tuple(effects), geometry=geo,
             material=mat, start=start, fs_hz=fs, pressure_unit=str(_choice(r, cfg.pressure_units)),
             pressure_reference=str(_choice(r, cfg.pressure_references)), atmosphere_pa=f(*cfg.atmosphere_pa),
             time_unit=str(_choice(r, cfg.time_units)), header_style=str(_choice(r, cfg.header_styles)),
-            noise_deg=f(*cfg.noise_deg), noise_rho=float(rho10 ** (10.0 / fs)) if rho10 > 0 else 0.0,
+            noise_deg=f(*cfg.noise_deg), noise_rho=float(rho),
             variation=f(*cfg.variation), p_lo_pa=lo, p_hi_pa=hi, config=cfg))
     return cases
 

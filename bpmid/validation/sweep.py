@@ -73,7 +73,7 @@ class RigSection:
     Attributes
     ----------
     noise_deg : sensor noise standard deviation (deg)
-    noise_ar1_rho : lag-1 correlation of the noise at 10 Hz (0 = white)
+    noise_ar1_rho : lag-1 correlation of the noise from one sample to the next at ``sampling_hz`` (0 = white)
     sampling_hz : sampling rate (Hz)
     geometry : a built-in name or {name, th_mm, alpha0_deg, R0_mm, l0_mm, n}
     pressure_unit, pressure_reference, time_unit : how the rig logs
@@ -218,6 +218,7 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
 
     set_quiet(True)
     t0 = time.perf_counter()
+    settings = discover_settings(discover_cfg)
     data = realize(case)
     entry = answer_entry(data)
     t1 = time.perf_counter()
@@ -226,7 +227,7 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
                  "truth_forms": [e.form for e in case.effects], "truth": entry["truth"],
                  "geometry": case.geometry.name, "sampling_hz": case.fs_hz,
                  "noise_deg": round(case.noise_deg, 5), "noise_ar1_rho": round(case.noise_rho, 4),
-                 "variation": round(case.variation, 5)}
+                 "variation": round(case.variation, 5), "discover_settings": settings}
     tmp = None
     try:
         root = Path(keep_dir) if keep_dir else Path(tmp := tempfile.mkdtemp(prefix="bpmid-oof-"))
@@ -255,6 +256,13 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
     t2 = time.perf_counter()
     rec.update({"generate_s": round(t1 - t0, 3), "discover_s": round(t2 - t1, 3), "elapsed_s": round(t2 - t0, 3)})
     return json.loads(json.dumps(rec, default=_json_default))
+
+
+def discover_settings(discover_cfg) -> dict:
+    """The discover settings a record was made with (plain JSON): a resumed sweep reruns a case whose settings
+    (thresholds, overrides) differ from the current ones."""
+    d = dataclasses.asdict(discover_cfg) if dataclasses.is_dataclass(discover_cfg) else dict(discover_cfg or {})
+    return json.loads(json.dumps(_fix_nan(d), sort_keys=True, default=_json_default))
 
 
 def _record_dict(r) -> dict:
@@ -344,15 +352,17 @@ class RecordWriter:
 def _check_folder(out: Path, cfg: SweepConfig, force: bool = False) -> None:
     """A folder holds one sweep: refuse to resume another config's sweep into it."""
     stamp = out / "sweep.yaml"
-    fp = hashlib.sha256(json.dumps(cfg.to_yaml(), sort_keys=True, default=str).encode()).hexdigest()
+    cases_def = {"sweep": dataclasses.asdict(cfg.sweep), "generator": cfg.effective_generator.to_yaml(),
+                 "generator_version": GENERATOR}
+    fp = hashlib.sha256(json.dumps(cases_def, sort_keys=True, default=str).encode()).hexdigest()
     if stamp.exists() and not force:
         try:
             old = yaml.safe_load(stamp.read_text("utf-8")) or {}
         except yaml.YAMLError:
             old = {}
         if old.get("fingerprint") not in (None, fp):
-            raise InputError("this folder holds a sweep of another config (different cases or settings); give a "
-                             "new --out to start a new sweep", path=stamp, key="fingerprint")
+            raise InputError("this folder holds a sweep of another config (other cases); give a new --out to "
+                             "start a new sweep", path=stamp, key="fingerprint")
     from bpmid.io.atomic import write_text
     body = {"schema": SWEEP_SCHEMA, "fingerprint": fp, "config_path": cfg.path, "config_sha256": cfg.sha256,
             "generator": GENERATOR, **cfg.to_yaml()}
@@ -449,10 +459,11 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     client = cluster = None
     try:
         for phase in phases:
-            todo = [c for c in halves[phase] if c.id not in done]
             if phase == "heldout":
                 thresholds = _thresholds_for_heldout(out, thresholds_path, thresholds, load_thresholds, THRESHOLD_KEYS)
             dcfg = cfg.discover_config(phase, thresholds if phase == "heldout" else None)
+            now = discover_settings(dcfg)
+            todo = [c for c in halves[phase] if c.id not in done or done[c.id].get("discover_settings") != now]
             total = len(halves[phase])
             say(f"{phase} half: {total} cases, {total - len(todo)} already done, {len(todo)} to run")
             if todo and stop_after is not None and new >= stop_after:
