@@ -64,6 +64,7 @@ def test_generator_is_deterministic_and_labelled(tmp_path):
     text = (tmp_path / a[0].id / "fit" / "fit_cyclic.csv").read_text()
     assert "# synthetic: true" in text and "# generator: bpmid.validation/1" in text
     assert f"# seed: {a[0].seed}" in text and f"# case: {a[0].id}" in text
+    assert "# generator_config: sha256:" in text
     assert "synthetic" in (tmp_path / a[0].id / "case.yaml").read_text()
 
 

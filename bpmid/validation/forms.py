@@ -130,8 +130,8 @@ FORMS: dict[str, list[Form]] = {
     "strain_stiffening": [
         Form("strain_stiffening", "exponential", "fibre recruitment: axial stress C (exp(k e1) - 1 - k e1)",
              lambda r: {"k": _u(r, 15.0, 35.0)},
-             lambda s, sh: {"stiffening": {"kind": "exponential", "C": 25e3 * s / (math.exp(0.1 * sh["k"]) - 1 - 0.1 * sh["k"]),
-                                           "k": sh["k"]}}),
+             lambda s, sh: {"stiffening": {"kind": "exponential", "k": sh["k"],
+                                           "C": 25e3 * s / (math.exp(0.1 * sh["k"]) - 1 - 0.1 * sh["k"])}}),
         Form("strain_stiffening", "polynomial", "cubic hyperelastic axial stress C e1^3",
              lambda r: {},
              lambda s, sh: {"stiffening": {"kind": "polynomial", "C": 25e6 * s, "k": 0.0}}),

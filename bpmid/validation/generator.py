@@ -163,7 +163,8 @@ class GeneratorConfig:
             raise InputError("size ratios are held-out RMSE / noise and must be above 1", path=path,
                              key=f"{where}.size_ratio")
         if not 0 <= self.white_share <= 1:
-            raise InputError(f"must be between 0 and 1, found {self.white_share}", path=path, key=f"{where}.white_share")
+            raise InputError(f"must be between 0 and 1, found {self.white_share}", path=path,
+                             key=f"{where}.white_share")
         if not 0.02 <= self.duration_scale <= 10:
             raise InputError(f"must be within 0.02-10, found {self.duration_scale}", path=path,
                              key=f"{where}.duration_scale")
@@ -524,7 +525,8 @@ def _heldout_rms(a: list[np.ndarray], b: list[np.ndarray], roles) -> float:
     return float(np.sqrt(np.mean(d**2)))
 
 
-def _size(case: Case, choice: EffectChoice, protos, var, base_ho: list[np.ndarray], roles, rng_state) -> tuple[float, float]:
+def _size(case: Case, choice: EffectChoice, protos, var, base_ho: list[np.ndarray], roles,
+          rng_state) -> tuple[float, float]:
     """Strength s so that the held-out RMS difference from the true base model is noise * sqrt(ratio^2 - 1),
     i.e. the true base model's held-out RMSE on the noisy logs is ``ratio`` times the noise. Returns (s, achieved
     ratio). Secant on log s, a few simulations."""
@@ -628,9 +630,15 @@ def _plain(x):
 # ---------------------------------------------------------------------------------------------
 # writing a case as a user would have recorded it
 # ---------------------------------------------------------------------------------------------
+def config_digest(cfg: GeneratorConfig) -> str:
+    """A short fingerprint of a generator config (the full config is in the answers files)."""
+    return hashlib.sha256(yaml.safe_dump(cfg.to_yaml(), sort_keys=True).encode("utf-8")).hexdigest()[:16]
+
+
 def _label(case: Case) -> dict:
     return {"synthetic": "true (bpmid.validation out-of-family generator; not a measurement)",
             "generator": f"{GENERATOR} (independent physics, not bpmid's effect terms)",
+            "generator_config": f"sha256:{config_digest(case.config)}",
             "case": case.id, "seed": str(case.seed)}
 
 
@@ -656,7 +664,8 @@ def case_config_yaml(case: Case) -> str:
     """``case.yaml``: a bpmid config (sections io and model) with the muscle's geometry, plus labels as comments."""
     body = {"io": {"atmosphere_pa": round(case.atmosphere_pa, 1)},
             "model": {"closure": "paper", "geometry": case.geometry.to_yaml()}}
-    head = [f"# synthetic validation case {case.id} ({GENERATOR}, seed {case.seed}); not a measurement",
+    head = [f"# synthetic validation case {case.id} ({GENERATOR}, seed {case.seed}, generator config "
+            f"sha256:{config_digest(case.config)}); not a measurement",
             f"# geometry: {case.geometry.name} (th {case.geometry.th_mm} mm, alpha0 {case.geometry.alpha0_deg} deg, "
             f"R0 {case.geometry.R0_mm} mm, l0 {case.geometry.l0_mm} mm, n {case.geometry.n})",
             f"# sampling {case.fs_hz:g} Hz; pressure {case.pressure_unit} {case.pressure_reference}; time in "
@@ -700,7 +709,8 @@ def write_case(case: Case | CaseData, out_dir: str | Path) -> dict:
 def answer_entry(data: CaseData) -> dict:
     c = data.case
     return {"id": c.id, "split": c.split, "seed": c.seed, "truth": _plain(data.truth),
-            "geometry": c.geometry.name, "sampling_hz": c.fs_hz, "pressure": f"{c.pressure_unit} {c.pressure_reference}",
+            "geometry": c.geometry.name, "sampling_hz": c.fs_hz,
+            "pressure": f"{c.pressure_unit} {c.pressure_reference}",
             "time_unit": c.time_unit}
 
 
@@ -710,7 +720,9 @@ def write_answers(entries: Sequence[dict], path: str | Path, *, config: Generato
     from bpmid.io.atomic import write_text
     body = {"schema": ANSWERS_SCHEMA, "generator": GENERATOR, "synthetic": True, "seed": seed,
             "config": None if config is None else config.to_yaml(),
-            "cases": {e["id"]: {k: v for k, v in e.items() if k != "id"} for e in sorted(entries, key=lambda e: e["id"])}}
+            "config_sha256": None if config is None else config_digest(config),
+            "cases": {e["id"]: {k: v for k, v in e.items() if k != "id"}
+                      for e in sorted(entries, key=lambda e: e["id"])}}
     return write_text(path, yaml.safe_dump(_plain(body), sort_keys=False))
 
 

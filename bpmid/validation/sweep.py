@@ -209,7 +209,6 @@ def calibration_truth(case_kind: str, truth_ids: Sequence[str]) -> Optional[str]
 def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = None) -> dict:
     """Simulate, write, read back and discover one case; a record (plain JSON types). Never raises for a case
     discovery cannot judge: the record says ``error``."""
-    from bpmid.cli.discover import load_base
     from bpmid.config import load_config
     from bpmid.discover.calibrate import records_from_result
     from bpmid.discover.workflow import discover
@@ -236,7 +235,7 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
         cfg = load_config(paths["config"])
         fit = read_motion_logs(paths["fit"], cfg.section("io"), require_angle=True)
         ho = read_motion_logs(paths["holdout"], cfg.section("io"), require_angle=True)
-        base, _ = load_base(paths["init"], cfg)
+        base = _load_base(paths["init"], cfg)
         try:
             res = discover(fit, base, holdout=ho, cfg=discover_cfg)
         except InputError as exc:  # includes ConvergenceError: discovery declined to judge
@@ -263,6 +262,16 @@ def discover_settings(discover_cfg) -> dict:
     (thresholds, overrides) differ from the current ones."""
     d = dataclasses.asdict(discover_cfg) if dataclasses.is_dataclass(discover_cfg) else dict(discover_cfg or {})
     return json.loads(json.dumps(_fix_nan(d), sort_keys=True, default=_json_default))
+
+
+def _load_base(init: Path, cfg):
+    """The starting model as ``bpmid discover --init init.yaml --config case.yaml`` builds it."""
+    try:
+        from bpmid.cli.discover import load_base
+    except ImportError:  # the CLI helper moved: the same file read directly (init.yaml is bpmid.vbmm/1)
+        from bpmid.models.vbmm import load_vbmm
+        return load_vbmm(init, cfg.section("model"))
+    return load_base(init, cfg)[0]
 
 
 def _record_dict(r) -> dict:
@@ -383,7 +392,7 @@ def _client(scheduler: Optional[str], workers: Optional[int], processes: bool):
         except (OSError, TimeoutError) as exc:
             raise InputError(f"cannot reach the Dask scheduler at {scheduler!r} ({exc})", key="--scheduler") from None
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=None,
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=":0",
                            silence_logs=40)
     return Client(cluster), cluster
 
@@ -526,7 +535,8 @@ def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_re
     records = [Record(**r) for rec in recs for r in (rec.get("calibration_records") or [])]
     values = thresholds_from_records(records)
     n_err = sum(1 for r in recs if r.get("error"))
-    meta = {"produced_by": f"bpmid calibrate {cfg.path or 'SWEEP.yaml'} (sweep {cfg.sweep.name}, seed {cfg.sweep.seed})",
+    meta = {"produced_by": f"bpmid calibrate {cfg.path or 'SWEEP.yaml'} (sweep {cfg.sweep.name}, "
+                           f"seed {cfg.sweep.seed})",
             "data": f"{len(recs)} out-of-family cases ({GENERATOR}), calibration half; {n_err} not judged",
             "generator": cfg.effective_generator.to_yaml()}
     write_thresholds(values, meta, out / "thresholds.yaml")
@@ -565,6 +575,9 @@ def summarize(recs: Sequence[dict], split: str) -> dict:
     def rate(num, den):
         return None if den == 0 else round(num / den, 4)
 
+    def both(r):
+        return set(r["truth_ids"]) <= set(r.get("named") or [])
+
     return {
         "split": split, "n_cases": len(recs), "not_judged": sum(1 for r in recs if r.get("error")),
         "single_named_first_right": {"n": len(single), "right": sum(1 for r in single if r.get("named") and
@@ -573,9 +586,8 @@ def summarize(recs: Sequence[dict], split: str) -> dict:
                                                       r["named"][0] == r["truth_label"]), len(single))},
         "null_false_positive": {"n": len(null), "named_something": sum(1 for r in null if r.get("named")),
                                 "rate": rate(sum(1 for r in null if r.get("named")), len(null))},
-        "pair_both_named": {"n": len(pair), "both": sum(1 for r in pair if set(r["truth_ids"]) <= set(r.get("named") or [])),
-                            "rate": rate(sum(1 for r in pair if set(r["truth_ids"]) <= set(r.get("named") or [])),
-                                         len(pair)),
+        "pair_both_named": {"n": len(pair), "both": sum(1 for r in pair if both(r)),
+                            "rate": rate(sum(1 for r in pair if both(r)), len(pair)),
                             "at_least_one_rate": rate(sum(1 for r in pair if set(r["truth_ids"]) &
                                                           set(r.get("named") or [])), len(pair))},
         "out_of_catalogue_nothing_named": {"n": len(oof), "nothing": sum(1 for r in oof if not r.get("named")),
