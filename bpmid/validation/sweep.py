@@ -388,7 +388,7 @@ def _client(scheduler: Optional[str], workers: Optional[int], processes: bool):
         raise InputError("sweeps run on Dask: pip install 'bpmid[cluster]' (dask[distributed])") from exc
     if scheduler:
         try:
-            return Client(scheduler, timeout="20s"), None
+            return Client(scheduler, timeout="10s"), None
         except (OSError, TimeoutError) as exc:
             raise InputError(f"cannot reach the Dask scheduler at {scheduler!r} ({exc})", key="--scheduler") from None
     n = workers or os.cpu_count() or 1
@@ -540,7 +540,8 @@ def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_re
             "data": f"{len(recs)} out-of-family cases ({GENERATOR}), calibration half; {n_err} not judged",
             "generator": cfg.effective_generator.to_yaml()}
     write_thresholds(values, meta, out / "thresholds.yaml")
-    return {k: float(v) for k, v in values.items() if isinstance(v, (int, float))}
+    from bpmid.discover.calibrate import THRESHOLD_KEYS
+    return {k: float(values[k]) for k in THRESHOLD_KEYS}
 
 
 # ---------------------------------------------------------------------------------------------
