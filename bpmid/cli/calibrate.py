@@ -8,7 +8,7 @@ import typer
 
 from bpmid.cli._app import app, command
 
-EPILOG = ("Example (a small sweep on 2 local workers, about a minute per case on a loaded 2-core machine):  "
+EPILOG = ("Example (24 short cases on 2 local workers, about a minute on 2 cores):  "
           "bpmid calibrate configs/sweeps/small.yaml --out out/sweep-small --workers 2   |   rerun the same "
           "command to resume an interrupted sweep; --scheduler tcp://HOST:8786 runs it on an existing Dask cluster")
 
