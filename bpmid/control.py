@@ -582,13 +582,44 @@ def run_control(model: VBMM, plant: Plant, references: Sequence[Reference], cfg:
     return ControlResult(runs, table, cost, ms_ff, warnings)
 
 
+def control_yaml_body(result: ControlResult, cfg: ControlConfig, *, model: VBMM, plant: Plant) -> dict:
+    """The body of ``control.yaml`` (schema ``bpmid.control/1``): gains, limits, feedforward, models, summary."""
+    from bpmid.models.vbmm import vbmm_yaml_body
+
+    body = {
+        "gains": {"kp": {"value": cfg.kp_bar_per_deg, "unit": "bar/deg"},
+                  "ki": {"value": cfg.ki_bar_per_deg_s, "unit": "bar/(deg s)",
+                         "per_step": cfg.ki_bar_per_deg_s / cfg.rate_hz},
+                  "acts_on": "error in deg (reference - measured angle) -> command pressure in bar absolute"},
+        "rate_hz": cfg.rate_hz,
+        "pressure_limits_bar_abs": [cfg.p_min_bar_abs, cfg.p_max_bar_abs],
+        "anti_windup": "conditional integration (integrator frozen while the command is clipped and the error "
+                       "pushes further out)",
+        "feedforward": {"vbmm-pi": "inverse VBMM (eq. 18) of the controller's model, recursive history, stepped "
+                                   "incrementally on the reference",
+                        "preview": cfg.preview, "cost": result.feedforward_cost},
+        "controller_model": vbmm_yaml_body(model),
+        "plant": {"model": vbmm_yaml_body(plant.model),
+                  "effects": [e.describe(plant.effect_params) for e in plant.effects],
+                  "sensors": dataclasses.asdict(plant.sensors),
+                  "pressure_dynamics": plant.pressure_dynamics,
+                  "pneumatics": dataclasses.asdict(plant.pneumatics) if plant.pressure_dynamics else None},
+        "summary": result.table.to_dict(orient="records"),
+        "warnings": result.warnings,
+    }
+    if result.ms_feedforward is not None:
+        ms = result.ms_feedforward
+        body["ms_feedforward"] = {"poly_bar_per_deg_j": ms.poly, "k_bar_per_deg": ms.k, "D_deg": ms.D,
+                                  "train_rmse_bar": ms.train_rmse_bar}
+    return body
+
+
 def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig, prov: dict, *,
                   model: VBMM, plant: Plant, figure: bool = True) -> list[Path]:
     """Write DIR/summary.csv, DIR/control.yaml (schema bpmid.control/1), DIR/traces/<reference>.csv and
     DIR/fig18.png, all at once (nothing half-written on failure)."""
     from bpmid.io.atomic import staged_dir
     from bpmid.io.results import write_result
-    from bpmid.models.vbmm import vbmm_yaml_body
 
     out_dir = Path(out_dir)
     written = []
@@ -608,31 +639,7 @@ def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig
             safe = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name)
             pd.DataFrame(cols).to_csv(tmp / "traces" / f"{safe}.csv", index=False, float_format="%.6f")
             written.append(out_dir / "traces" / f"{safe}.csv")
-        body = {
-            "gains": {"kp": {"value": cfg.kp_bar_per_deg, "unit": "bar/deg"},
-                      "ki": {"value": cfg.ki_bar_per_deg_s, "unit": "bar/(deg s)",
-                             "per_step": cfg.ki_bar_per_deg_s / cfg.rate_hz},
-                      "acts_on": "error in deg (reference - measured angle) -> command pressure in bar absolute"},
-            "rate_hz": cfg.rate_hz,
-            "pressure_limits_bar_abs": [cfg.p_min_bar_abs, cfg.p_max_bar_abs],
-            "anti_windup": "conditional integration (integrator frozen while the command is clipped and the error "
-                           "pushes further out)",
-            "feedforward": {"vbmm-pi": "inverse VBMM (eq. 18) of the controller's model, recursive history, stepped "
-                                       "incrementally on the reference",
-                            "preview": cfg.preview, "cost": result.feedforward_cost},
-            "controller_model": vbmm_yaml_body(model),
-            "plant": {"model": vbmm_yaml_body(plant.model),
-                      "effects": [e.describe(plant.effect_params) for e in plant.effects],
-                      "sensors": dataclasses.asdict(plant.sensors),
-                      "pressure_dynamics": plant.pressure_dynamics,
-                      "pneumatics": dataclasses.asdict(plant.pneumatics) if plant.pressure_dynamics else None},
-            "summary": result.table.to_dict(orient="records"),
-            "warnings": result.warnings,
-        }
-        if result.ms_feedforward is not None:
-            ms = result.ms_feedforward
-            body["ms_feedforward"] = {"poly_bar_per_deg_j": ms.poly, "k_bar_per_deg": ms.k, "D_deg": ms.D,
-                                      "train_rmse_bar": ms.train_rmse_bar}
+        body = control_yaml_body(result, cfg, model=model, plant=plant)
         write_result(tmp / "control.yaml", "bpmid.control/1", body, prov)
         written.append(out_dir / "control.yaml")
         if figure:
@@ -644,6 +651,11 @@ def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig
     return written
 
 
-__all__ = ["ControlConfig", "write_control", "build_plant", "causal_terms", "Reference", "Plant", "PlantTerms", "MSFeedforward", "Run", "ControlResult",
+__all__ = ["ControlConfig", "write_control", "control_yaml_body", "build_plant", "causal_terms", "Reference", "Plant", "PlantTerms", "MSFeedforward", "Run", "ControlResult",
            "builtin_reference", "read_reference", "load_references", "fit_ms_feedforward", "simulate_loop",
            "run_control", "summary_table", "feedforward_cost", "scaled_plant_model", "CONTROLLERS"]
+
+# ``bpmid.control(...)`` is the public workflow (bpmid.api.control); this module stays importable as before
+from bpmid._callable import make_callable as _make_callable  # noqa: E402
+
+_make_callable(__name__, "bpmid.api:control")

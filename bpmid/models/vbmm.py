@@ -470,10 +470,17 @@ def load_vbmm(path: str | Path, cfg: VBMMConfig | None = None) -> VBMM:
 
     ``history`` and ``window_s`` are evaluation settings, not constants: they come from the config
     section ``model`` (the file's own ``model`` block only records how it was fitted)."""
-    from bpmid.io.results import read_result, require
+    from bpmid.io.results import read_result
 
     path = Path(path)
-    data = read_result(path, "bpmid.vbmm/")
+    return vbmm_from_mapping(read_result(path, "bpmid.vbmm/"), path, cfg)
+
+
+def vbmm_from_mapping(data: dict, path=None, cfg: VBMMConfig | None = None) -> VBMM:
+    """A :class:`VBMM` from the mapping of a ``bpmid.vbmm/1`` file (see :func:`load_vbmm`); ``path`` names the
+    file in messages."""
+    from bpmid.io.results import require
+
     cfg = cfg or VBMMConfig()
     geometry = geometry_from_yaml(require(data, "geometry", path), path)
     closure = require(data, "closure", path)
@@ -481,6 +488,37 @@ def load_vbmm(path: str | Path, cfg: VBMMConfig | None = None) -> VBMM:
     if not isinstance(closure, str) or closure not in _CLOSURES:
         raise InputError(f"unknown closure {closure!r} (paper or consistent)", path=path, key="closure")
     return VBMM(material=material, geometry=geometry, closure=closure, history=cfg.history, window_s=cfg.window_s)
+
+
+def starting_vbmm(init=None, cfg: VBMMConfig | None = None) -> tuple[VBMM, str, Path | None]:
+    """The one rule for "the VBMM to start from": a fitted VBMM (``bpmid.vbmm/1``), a relaxation fit
+    (``bpmid.relax/1``, the material's Prony constants), either as a path or a loaded result, else the paper's
+    VBMM-fit constants. Geometry and closure of a vbmm file are its own; history settings from ``cfg``.
+
+    Returns
+    -------
+    (model, where it came from in words, the input file or None)
+    """
+    from bpmid.io.results import read_result
+
+    cfg = cfg or VBMMConfig()
+    if init is None:
+        return VBMM.from_config(Material.paper_fit(), cfg), "paper VBMM-fit constants", None
+    schema = getattr(init, "schema", None)
+    if schema is not None and hasattr(init, "to_dict"):  # a loaded or computed bpmid result
+        data, path = init.to_dict(), getattr(init, "source", None)
+    else:
+        path = Path(init)
+        data = read_result(path, ("bpmid.vbmm/", "bpmid.relax/"))
+    schema = str(data.get("schema"))
+    if schema.startswith("bpmid.vbmm/"):
+        return vbmm_from_mapping(data, path, cfg), f"{path or 'given VBMM'} (motion fit)", path
+    if schema.startswith("bpmid.relax/"):
+        from bpmid.motion_fit import material_from_relax
+
+        return (VBMM.from_config(material_from_relax(data, path), cfg), f"{path or 'given fit'} (relaxation fit)",
+                path)
+    raise InputError(f"needs a bpmid.vbmm/1 or bpmid.relax/1 file, found schema {schema!r}", path=path, key="schema")
 
 
 def vbmm_yaml_body(model: VBMM, stderr: dict | None = None) -> dict:
@@ -499,4 +537,4 @@ def triangle_pressure(t: np.ndarray, p_lo: float, p_hi: float, rate: float) -> n
 
 
 __all__: Sequence[str] = ["Geometry", "Material", "VBMM", "VBMMConfig", "kinematics", "u3_from_beta",
-                          "closure_pressure", "load_vbmm", "vbmm_yaml_body", "material_from_yaml"]
+                          "closure_pressure", "load_vbmm", "vbmm_from_mapping", "starting_vbmm", "vbmm_yaml_body", "material_from_yaml"]
