@@ -341,8 +341,6 @@ def simulate(protocol, *, params=None, effects: Sequence[str] = (), seed: int | 
     from bpmid.results import SimulationResult
     from bpmid.twin.simulate import simulate as _simulate
 
-    if isinstance(params, (str, Path)) and not Path(params).is_file():
-        raise InputError("params file not found", path=params, key="params")
     sim = _simulate(protocol, params_path=params, effects=tuple(_as_list(effects)), seed=seed, timestamp=timestamp)
     return SimulationResult(sim.manifest, sim.manifest.get("provenance"), raw=sim)
 
