@@ -135,7 +135,9 @@ class Reference:
 
 
 def shipped_dir() -> Path:
-    return Path(__file__).resolve().parents[1] / "datasets" / "control"
+    from bpmid import data
+
+    return (data.root() / "datasets" / "control").resolve()
 
 
 def builtin_reference(name: str, rate_hz: float = 10.0) -> Reference:

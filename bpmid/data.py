@@ -23,7 +23,7 @@ def root() -> Path:
 
 def path(relative: str | Path) -> Path:
     """The shipped file or folder ``relative`` (``"configs/paper.yaml"``); InputError when it is not shipped."""
-    p = root() / relative
+    p = (root() / relative).resolve()  # the real file (in a source tree: under the top-level folders)
     if not p.exists():
         raise InputError(f"not among bpmid's shipped data (under {root()})", path=str(relative))
     return p
@@ -32,7 +32,9 @@ def path(relative: str | Path) -> Path:
 def files(pattern: str) -> list[Path]:
     """Shipped files matching a glob relative to :func:`root` (``"datasets/motion/fitting_set/*.csv"``),
     sorted; InputError when none match."""
-    found = sorted(Path(p) for p in _glob.glob(str(root() / pattern), recursive=True))
+    head, _, rest = str(pattern).partition("/")
+    base = (root() / head).resolve() if rest else root()
+    found = sorted(Path(p) for p in _glob.glob(str(base / rest if rest else base / head), recursive=True))
     if not found:
         raise InputError("no shipped file matches", path=pattern)
     return found

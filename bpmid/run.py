@@ -88,9 +88,9 @@ class RunConfig:
 def default_config_path() -> Path:
     """``configs/paper.yaml`` of the source tree bpmid was installed from (``pip install -e .``), else of the
     working directory; InputError when neither exists."""
-    import bpmid
+    from bpmid import data
 
-    candidates = [Path(bpmid.__file__).resolve().parent.parent / DEFAULT_CONFIG, Path.cwd() / DEFAULT_CONFIG]
+    candidates = [(data.root() / DEFAULT_CONFIG).resolve(), Path.cwd() / DEFAULT_CONFIG]
     for c in candidates:
         if c.is_file():
             return c

@@ -175,3 +175,40 @@ def test_compare_result(tmp_path):
     assert list(back.table["model"])[:2] and set(back.table["model"]) == {"gpi", "maxwell-slip"}
     assert any(n.startswith("gpi.") for n in back.params)
     assert "[[Verdicts]]" in cmp.summary()
+
+
+def test_shipped_data_found_through_the_package(tmp_path):
+    from typer.testing import CliRunner
+
+    from bpmid.cli import app
+
+    assert bpmid.data.path("configs/paper.yaml").is_file()
+    assert len(bpmid.data.files("datasets/motion/fitting_set/*.csv")) >= 3
+    with pytest.raises(InputError, match="shipped"):
+        bpmid.data.path("configs/absent.yaml")
+    from bpmid.run import default_config_path
+    assert default_config_path() == bpmid.data.path("configs/paper.yaml")
+    r = CliRunner().invoke(app, ["shipped"])
+    assert r.exit_code == 0 and Path(r.output.strip(), "configs", "paper.yaml").is_file()
+    r = CliRunner().invoke(app, ["shipped", "--copy", str(tmp_path / "w")])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "w" / "configs" / "paper.yaml").is_file()
+    assert (tmp_path / "w" / "datasets" / "relaxation").is_dir()
+    (tmp_path / "f").write_text("x")
+    r = CliRunner().invoke(app, ["shipped", "--copy", str(tmp_path / "f")])
+    assert r.exit_code == 2 and "--copy" in r.output
+
+
+def test_uniform_recursion_equals_lfilter():
+    """The hereditary states on even sampling are bit for bit what scipy.signal.lfilter gave."""
+    from scipy.signal import lfilter
+
+    from bpmid.viscoelastic import hereditary_states
+
+    rng = np.random.default_rng(0)
+    t = np.arange(3000) * 0.01
+    x = rng.normal(size=t.size).cumsum()
+    tau = np.array([0.05, 1.3, 40.0])
+    dx = np.diff(x, prepend=x[0])
+    ref = np.column_stack([lfilter([1.0], [1.0, -np.exp(-(t[1] - t[0]) / tj)], dx) for tj in tau])
+    np.testing.assert_array_equal(hereditary_states(t, x, tau), ref)

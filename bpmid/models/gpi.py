@@ -154,7 +154,11 @@ def fit_variable_projection(design_fn: Callable[[ParamSet], np.ndarray], y: np.n
 
     out = fitted
     for i, name in enumerate(names):
-        out = out.replace(name, stderr=float(se[i]) if np.isfinite(se[i]) else None, identifiable=True)
+        if np.isfinite(se[i]):
+            out = out.replace(name, stderr=float(se[i]), identifiable=True)
+        else:  # a singular covariance: the data do not fix this constant; never report it as measured
+            out = out.replace(name, stderr=None, identifiable=False,
+                              note="not identifiable: its standard error is not finite (singular covariance)")
     held = dict(res.held)
     for j, name in enumerate(linear):
         if active[j]:
