@@ -37,8 +37,8 @@ from bpmid.errors import InputError
 from bpmid.models.vbmm import VBMM, _CLOSURES, triangle_pressure
 from bpmid.pneumatics import ValveVolumeParams
 from bpmid.twin.sensors import Sensors, read_angle
+from bpmid.units import PA_PER_BAR
 
-PA_PER_BAR = 1e5
 CONTROLLERS = ("pi", "vbmm-pi", "ms-pi")
 _KIND = {"pi": CK.CTRL_PI, "vbmm-pi": CK.CTRL_VBMM, "ms-pi": CK.CTRL_MS}
 #: built-in references (used when datasets/control/ does not hold a file of that name)

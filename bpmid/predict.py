@@ -18,6 +18,7 @@ from bpmid.io.motion_logs import MotionLog, pressure_column_name
 from bpmid.io.tables import UNITS
 from bpmid.models.vbmm import VBMM
 from bpmid.motion_fit import check_pressure_range, log_metrics
+from bpmid.units import PA_PER_BAR
 
 
 @dataclasses.dataclass
@@ -41,7 +42,7 @@ class Prediction:
         unit = lg.pressure_unit if lg.pressure_as_given is not None else "pa"
         # CLI.md fixes `pressure_bar` (in the log's own reference, absolute or gauge); a log in another unit
         # also keeps its pressure column exactly as given
-        cols = {"time_s": lg.time_s, "pressure_bar": np.round(given * UNITS["pressure"][unit] / 1e5, 9)}
+        cols = {"time_s": lg.time_s, "pressure_bar": np.round(given * UNITS["pressure"][unit] / PA_PER_BAR, 9)}
         if unit != "bar":
             cols[pressure_column_name(unit)] = np.round(given, 9)
         cols["angle_pred_deg"] = np.round(self.angle_pred_deg, decimals)

@@ -61,9 +61,8 @@ from bpmid.io.motion_logs import MotionLog
 from bpmid.models._hysteresis_kernels import play_bank
 from bpmid.models.base import ModelFamily, check_fit_logs
 from bpmid.params import Param, ParamSet
-
-#: Pa per bar: muscle logs carry gauge pressure in Pa, the baselines work in bar (well-conditioned)
-PA_PER_BAR = 1e5
+# Pa per bar: muscle logs carry gauge pressure in Pa, the baselines work in bar (well-conditioned)
+from bpmid.units import PA_PER_BAR
 
 ENVELOPES = ("tanh", "linear", "identity")
 ORIENTATIONS = ("auto", "lag", "lead")
