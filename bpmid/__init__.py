@@ -21,6 +21,34 @@ __version__ = "0.1.0"
 
 from bpmid.errors import InputError  # noqa: E402  (standard library only)
 
+#: modules that moved, old name -> new name: ``import bpmid.motion_fit`` gives the very module object of
+#: ``bpmid.models.vbmm.fit`` (so patches and isinstance checks see one module)
+MOVED: dict[str, str] = {
+    "bpmid.motion_fit": "bpmid.models.vbmm.fit",
+    "bpmid.models.vbmm_family": "bpmid.models.vbmm.family",
+}
+
+
+class _MovedModuleFinder:
+    """Finds the modules of :data:`MOVED` under their old names (a meta-path finder and its loader)."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name not in MOVED:
+            return None
+        from importlib.machinery import ModuleSpec
+
+        return ModuleSpec(name, self, origin=MOVED[name])
+
+    def create_module(self, spec):
+        return importlib.import_module(MOVED[spec.name])
+
+    def exec_module(self, module):
+        pass
+
+
+if not any(isinstance(f, _MovedModuleFinder) for f in __import__("sys").meta_path):
+    __import__("sys").meta_path.insert(0, _MovedModuleFinder())
+
 #: public name -> "module:attribute" (imported on first access)
 _LAZY: dict[str, str] = {
     # workflows
@@ -43,8 +71,8 @@ _LAZY: dict[str, str] = {
     "Material": "bpmid.models.vbmm:Material",
     "Geometry": "bpmid.models.vbmm:Geometry",
     "load_vbmm": "bpmid.models.vbmm:load_vbmm",
-    "VBMMMatModel": "bpmid.models.vbmm_family:VBMMMatModel",
-    "VBMMFitModel": "bpmid.models.vbmm_family:VBMMFitModel",
+    "VBMMMatModel": "bpmid.models.vbmm.family:VBMMMatModel",
+    "VBMMFitModel": "bpmid.models.vbmm.family:VBMMFitModel",
     "GPIModel": "bpmid.models.gpi:GPIModel",
     "MaxwellSlipModel": "bpmid.models.maxwell_slip:MaxwellSlipModel",
     "ThreeElementModel": "bpmid.models.three_element:ThreeElementModel",

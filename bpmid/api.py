@@ -216,7 +216,7 @@ def fit_motion(logs, *, init=None, config=None):
     bpmid.results.VBMMFitResult : ``.model`` is the fitted VBMM
     """
     from bpmid.io.results import provenance
-    from bpmid.motion_fit import fit_motion as _fit
+    from bpmid.models.vbmm.fit import fit_motion as _fit
     from bpmid.results import RelaxationResult, VBMMFitResult
 
     cfg = _config(config)

@@ -17,7 +17,7 @@ from bpmid.io.atomic import staged_dir
 from bpmid.io.motion_logs import MotionLog, pressure_column_name
 from bpmid.io.tables import UNITS
 from bpmid.models.vbmm import VBMM
-from bpmid.motion_fit import check_pressure_range, log_metrics
+from bpmid.models.vbmm.fit import check_pressure_range, log_metrics
 from bpmid.units import PA_PER_BAR
 
 

@@ -480,7 +480,7 @@ class VBMMFitResult(Result):
     def save(self, path: str | Path, *, figure: str | Path | None = None, synthetic: bool = False) -> Path:
         """Write the ``bpmid.vbmm/1`` YAML; with ``figure`` (a live result) the fit figure too, all or nothing."""
         if figure is not None and self.raw is not None:
-            from bpmid.motion_fit import write_motion_fit
+            from bpmid.models.vbmm.fit import write_motion_fit
 
             write_motion_fit(path, self.raw, self.provenance, figure=figure, synthetic=synthetic)
             return Path(path)

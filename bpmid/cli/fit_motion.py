@@ -1,4 +1,4 @@
-"""``bpmid fit motion``: fit the VBMM to pressure-angle logs (library: :mod:`bpmid.motion_fit`)."""
+"""``bpmid fit motion``: fit the VBMM to pressure-angle logs (library: :func:`bpmid.fit_motion`, :mod:`bpmid.models.vbmm.fit`)."""
 from __future__ import annotations
 
 from pathlib import Path

@@ -567,7 +567,7 @@ def starting_vbmm(init=None, cfg: VBMMConfig | None = None) -> tuple[VBMM, str, 
     if schema.startswith("bpmid.vbmm/"):
         return vbmm_from_mapping(data, path, cfg), f"{path or 'given VBMM'} (motion fit)", path
     if schema.startswith("bpmid.relax/"):
-        from bpmid.motion_fit import material_from_relax
+        from bpmid.models.vbmm.fit import material_from_relax
 
         return (VBMM.from_config(material_from_relax(data, path), cfg), f"{path or 'given fit'} (relaxation fit)",
                 path)
