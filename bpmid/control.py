@@ -252,12 +252,13 @@ class PlantTerms:
     """The plant's causal per-sample terms: what the catalogue effects become inside the loop.
 
     ops : ((op, values), ...) pressure terms in order (:func:`bpmid.control_kernels.pressure_chain`)
-    offset_deg : angle sensor offset; scale : (N,) modulus scale or None (thermal softening)
+    offset_deg, gain : the angle sensor reads gain * angle + offset_deg; scale : (N,) modulus scale or None
     """
 
     ops: tuple = ()
     offset_deg: float = 0.0
     scale: np.ndarray | None = None
+    gain: float = 1.0
 
     def arrays(self):
         """(ch_op (m,), ch_par (m, R), ch_cnt (m,)) for the kernel."""
@@ -270,35 +271,36 @@ class PlantTerms:
                 np.array([len(v) for _op, v in self.ops], np.int64))
 
 
+#: the operators an effect's causal pressure form may name (Effect.causal_pressure) -> kernel op code
+CAUSAL_OPS = {"delay": CK.OP_DELAY, "lag": CK.OP_LAG, "plays": CK.OP_PLAYS}
+
+
 def causal_terms(aug, t: np.ndarray) -> tuple[VBMM, PlantTerms]:
     """Split an :class:`~bpmid.effects.base.AugmentedVBMM` into its VBMM (structural changes applied:
-    extra branch, fall_ratio, stiffening) and the per-sample terms the loop steps causally: the pressure
-    terms (pressure_lag: dead time then first-order lag; braid_friction: mean of play operators), the
-    modulus scale (a function of time only) and the angle offset. An effect with a pressure or angle term
-    this function does not know is refused (it could not be stepped causally)."""
-    from bpmid.effects.base import Effect
-
-    ops, offset, scale = [], 0.0, None
+    extra branch, fall_ratio, stiffening) and the per-sample terms the loop steps causally, as each effect
+    declares them: its pressure operators (:meth:`~bpmid.effects.base.Effect.causal_pressure`), its sensor
+    gain and offset (:meth:`~bpmid.effects.base.Effect.causal_angle`) and its modulus scale (a function of time
+    only). No effect is named here; an effect whose pressure or angle term has no causal form is refused."""
+    ops, gain, offset, scale = [], 1.0, 0.0, None
     p = aug.params
     for e in aug.effects:
-        if e.id == "pressure_lag":
-            tau = p.value(f"{e.id}.tau")
-            if tau != 0.0 or e.dead_time != 0.0:
-                ops += [(CK.OP_DELAY, [e.dead_time]), (CK.OP_LAG, [tau])]
-        elif e.id == "braid_friction":
-            r = p.value(f"{e.id}.r")
-            if r != 0.0:
-                ops.append((CK.OP_PLAYS, list(e.radii(r))))
-        elif type(e).transform_pressure is not Effect.transform_pressure:
+        terms = e.causal_pressure(p)
+        if terms is None:
             raise InputError(f"effect {e.id} changes the pressure in a way the closed loop cannot step", key=e.id)
-        if e.id == "angle_offset":
-            offset += p.value(f"{e.id}.offset")
-        elif type(e).transform_angle is not Effect.transform_angle:
+        for name, values in terms:
+            if name not in CAUSAL_OPS:
+                raise InputError(f"effect {e.id} asks for an unknown causal operator {name!r} (known: "
+                                 f"{', '.join(CAUSAL_OPS)})", key=e.id)
+            ops.append((CAUSAL_OPS[name], [float(v) for v in values]))
+        affine = e.causal_angle(p)
+        if affine is None:
             raise InputError(f"effect {e.id} changes the angle in a way the closed loop cannot step", key=e.id)
+        g, o = affine  # applied after the effects before it: y = g (gain beta + offset) + o
+        gain, offset = g * gain, g * offset + o
         s = e.modulus_scale(np.asarray(t, float), p)
         if s is not None:
             scale = s if scale is None else scale * s
-    return aug.model(), PlantTerms(tuple(ops), offset, scale)
+    return aug.model(), PlantTerms(tuple(ops), offset, scale, gain)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -484,7 +486,7 @@ def simulate_loop(controller: str, ref: Reference, model: VBMM, plant: Plant, cf
     u, pm, pe, beta, y, ff, sat, status = CK.closed_loop(
         t, ref_rad, _KIND[controller], kp * PA_PER_BAR, ki * PA_PER_BAR / cfg.rate_hz, lo, hi, atm, p_start, bool(cfg.preview),
         *pack_model(model), ms_ff.poly, ms_ff.k, ms_ff.D,
-        *pack_model(pmodel), scale, *terms.arrays(), float(terms.offset_deg),
+        *pack_model(pmodel), scale, *terms.arrays(), float(terms.gain), float(terms.offset_deg),
         np.ascontiguousarray(noise, float), float(plant.sensors.angle_resolution_deg), bool(plant.pressure_dynamics),
         plant.pneumatics.vector(atm))
     wall = time.perf_counter() - t0
