@@ -27,8 +27,8 @@ def logs():
     return out
 
 
-@pytest.mark.parametrize("name", list(REGISTRY))
-def test_family_contract(name, logs):
+def check_family(name, logs):
+    """Everything a family registered as ``name`` must do (the check_estimator of bpmid)."""
     cls = model_class(name)
     assert issubclass(cls, ModelFamily) and cls.name == name and cls.label
     model = cls()                                                   # constructor: settings only, all defaulted
@@ -59,6 +59,33 @@ def test_family_contract(name, logs):
             assert p.stderr is not None and p.stderr >= 0, p
     y_test = model.simulate(fit.params, test)
     assert np.all(np.isfinite(y_test))
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_family_contract(name, logs):
+    check_family(name, logs)
+
+
+class QuadraticStatic(ModelFamily):
+    """Test-only family: angle = a + b p + c p^2 (p in bar gauge), one file and one registry line away."""
+
+    name = "quadratic-static"
+    label = "quadratic static"
+
+    def default_params(self) -> ParamSet:
+        from bpmid.params import Param
+
+        return ParamSet([Param("a", 0.0, "deg"), Param("b", 40.0, "deg/bar"), Param("c", 0.0, "deg/bar^2")])
+
+    def simulate(self, params, log):
+        p = log.pressure_pa / 1e5
+        v = params.values()
+        return v["a"] + v["b"] * p + v["c"] * p ** 2
+
+
+def test_a_new_family_is_one_registry_line(logs, monkeypatch):
+    monkeypatch.setitem(REGISTRY, "quadratic-static", f"{__name__}:QuadraticStatic")
+    check_family("quadratic-static", logs)
 
 
 @pytest.mark.parametrize("name", list(REGISTRY))
