@@ -94,6 +94,7 @@ _LAZY: dict[str, str] = {
     "DiscoveryResult": "bpmid.results:DiscoveryResult",
     "SimulationResult": "bpmid.results:SimulationResult",
     "ControlResult": "bpmid.results:ControlResult",
+    "StudyResult": "bpmid.results:StudyResult",
     # configuration
     "load_config": "bpmid.config:load_config",
 }

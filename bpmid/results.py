@@ -802,6 +802,36 @@ class ControlResult(Result):
         return super().save(path)
 
 
+class StudyResult(Result):
+    """The whole study of ``bpmid run`` (folder with ``run.yaml``): its stages and, through :attr:`results`,
+    every stage's own result object."""
+
+    kind = "run"
+    main_file = "run.yaml"
+    title = "Study (bpmid run)"
+
+    #: stage output -> file or folder in the run folder
+    STAGE_FILES = {"relax": "relax_fit.yaml", "vbmm_fit": "vbmm_fit.yaml", "vbmm_mat": "vbmm_mat.yaml",
+                   "compare": "compare", "history": "history_modes.yaml", "discover": "discover"}
+
+    @property
+    def results(self) -> dict[str, Result]:
+        """Stage output name -> its loaded result (only those present beside ``run.yaml``)."""
+        if self.source is None:
+            return {}
+        base = self.source.parent
+        return {k: load(base / f) for k, f in self.STAGE_FILES.items() if (base / f).exists()}
+
+    def _extra_sections(self):
+        rows = [f"{s.get('name', '?'):<9} {s.get('status', '?'):<8} {s.get('seconds', 0) or 0:7.1f} s"
+                for s in self.body.get("stages") or []]
+        return [("Stages", "\n".join(rows))] if rows else []
+
+    def _headline(self) -> str:
+        st = self.body.get("stages") or []
+        return f"{sum(1 for s in st if s.get('status') == 'done')}/{len(st)} stage(s) done"
+
+
 class FileResult(Result):
     """Any other file bpmid writes (``bpmid.run/1``, ``bpmid.history_modes/1``, ``bpmid.protocol/1`` ...):
     its mapping, provenance, and whatever parameters it lists as ``{value, stderr, unit}`` entries."""
@@ -830,9 +860,9 @@ class FileResult(Result):
 #: schema kind -> result class
 KINDS: dict[str, type[Result]] = {c.kind: c for c in (RelaxationResult, VBMMFitResult, PredictionResult,
                                                      ComparisonResult, DiscoveryResult, SimulationResult,
-                                                     ControlResult)}
+                                                     ControlResult, StudyResult)}
 #: file names that carry the schema of a folder result
-MAIN_FILES = tuple(c.main_file for c in KINDS.values() if c.main_file) + ("run.yaml",)
+MAIN_FILES = tuple(c.main_file for c in KINDS.values() if c.main_file)
 
 
 def load(path: str | Path) -> Result:
@@ -864,5 +894,6 @@ def load(path: str | Path) -> Result:
 
 
 __all__ = ["ParamInfo", "Parameters", "Result", "RelaxationResult", "VBMMFitResult", "PredictionResult",
-           "ComparisonResult", "DiscoveryResult", "SimulationResult", "ControlResult", "FileResult", "KINDS",
+           "ComparisonResult", "DiscoveryResult", "SimulationResult", "ControlResult", "StudyResult", "FileResult",
+           "KINDS",
            "load"]

@@ -212,3 +212,19 @@ def test_uniform_recursion_equals_lfilter():
     dx = np.diff(x, prepend=x[0])
     ref = np.column_stack([lfilter([1.0], [1.0, -np.exp(-(t[1] - t[0]) / tj)], dx) for tj in tau])
     np.testing.assert_array_equal(hereditary_states(t, x, tau), ref)
+
+
+def test_every_output_of_a_study_loads(timed_small_study):
+    """bpmid.load on a `bpmid run` folder and on each file in it: the matching result type, summaries, figures."""
+    from bpmid.results import ComparisonResult, DiscoveryResult, RelaxationResult, StudyResult, VBMMFitResult
+
+    study = bpmid.load(timed_small_study)
+    assert isinstance(study, StudyResult) and "[[Stages]]" in study.summary()
+    res = study.results
+    assert isinstance(res["relax"], RelaxationResult) and isinstance(res["vbmm_fit"], VBMMFitResult)
+    assert isinstance(res["compare"], ComparisonResult) and isinstance(res["discover"], DiscoveryResult)
+    assert res["vbmm_mat"].params["K_inf"].value == pytest.approx(res["relax"].params["K_inf"].value, rel=1e-9)
+    assert set(res["compare"].table["model"]) == {"vbmm-mat", "vbmm-fit", "two-branch", "maxwell-slip"}
+    for name, r in res.items():
+        assert r == bpmid.load(r.source) and len(repr(r)) < 300, name
+        assert r.summary().startswith("[[")
