@@ -18,6 +18,13 @@ class WorkflowModule(types.ModuleType):
     def __call__(self, *args, **kwargs):
         return self.__bpmid_function__()(*args, **kwargs)
 
+    @property
+    def __signature__(self):
+        """The workflow function's signature (``inspect.signature(bpmid.compare)``, notebook tooltips)."""
+        import inspect
+
+        return inspect.signature(self.__bpmid_function__())
+
     def __bpmid_function__(self):
         module, attr = self.__bpmid_call__.split(":")
         return getattr(importlib.import_module(module), attr)
