@@ -9,13 +9,11 @@
 
 ``from bpmid.models.vbmm import VBMM`` gives the model (importing this package does not import fitting).
 """
-from bpmid.models.vbmm.model import (  # noqa: F401
-    DISCOVERY_BOUNDS, FIT_BOUNDS, MPa, VBMM, Geometry, Material, VBMMConfig, _BRANCH_KEYS, _CLOSURES,
-    _MATERIAL_KEYS, _MODES, closure_pressure, geometry_from_yaml, kinematics, load_vbmm, material_from_yaml,
-    material_params, material_yaml, starting_vbmm, triangle_pressure, u3_from_beta, vbmm_from_mapping,
-    vbmm_yaml_body,
-)
-from bpmid.models.vbmm.model import K  # noqa: F401  (the compiled kernels, as model.py names them)
+from bpmid.models.vbmm import model as _model
+
+# every name of model.py (public and private, including ones added later on other branches) stays importable
+# from here, as it was when the model was the module bpmid/models/vbmm.py
+globals().update({k: v for k, v in vars(_model).items() if not (k.startswith("__") and k.endswith("__"))})
 
 __all__ = ["Geometry", "Material", "VBMM", "VBMMConfig", "kinematics", "u3_from_beta", "closure_pressure",
            "load_vbmm", "vbmm_from_mapping", "starting_vbmm", "material_params", "material_yaml", "FIT_BOUNDS",
