@@ -521,16 +521,18 @@ def resolve_inputs(cfg: CompareConfig, config=None, *, train=None, test=None, re
     return train_paths, test_sets, relax_path
 
 
-def run_compare(train_paths: Sequence[Path], test_sets: Mapping[str, Sequence[Path]], out_dir: str | Path, *,
-                models: Sequence[str] | None = None, config=None, relax_fit: str | Path | None = None,
-                prov_command: str | None = None) -> CompareResult:
-    """What ``bpmid compare`` does (and the compare stage of ``bpmid run``): read the logs, compare, write.
+def compare_files(train_paths: Sequence[Path], test_sets: Mapping[str, Sequence[Path]], *,
+                  models: Sequence[str] | None = None, config=None, relax_fit: str | Path | None = None,
+                  prov_command: str | None = None) -> tuple[CompareResult, dict, dict]:
+    """Read the logs and compare the models; nothing is written.
+
+    Returns ``(result, provenance, how)`` where ``how`` holds the keyword arguments of :func:`write_compare`
+    (``relax_fit``, ``n_figure_logs``, ``synthetic``).
 
     Parameters
     ----------
     train_paths : training motion logs
     test_sets : test-set name -> motion logs
-    out_dir : folder for metrics.csv, summary.csv, compare.yaml, predictions/ and figures
     models : registry names; default ``compare.models`` of the config, else every registered family
     config : a loaded :class:`bpmid.config.Config` (sections ``io`` and ``compare``) or None
     relax_fit : relaxation fit for families that start from one
@@ -556,6 +558,21 @@ def run_compare(train_paths: Sequence[Path], test_sets: Mapping[str, Sequence[Pa
                             config=config, timing=cfg.timing, timing_repeats=cfg.timing_repeats)
     inputs = list(train_paths) + all_test_paths + ([Path(relax_fit)] if relax_fit is not None else [])
     prov = provenance(inputs, config=config, command=prov_command)
-    write_compare(result, out_dir, prov, relax_fit=relax_fit, n_figure_logs=cfg.figure_logs,
-                  synthetic=is_synthetic(train + test))
+    return result, prov, {"relax_fit": relax_fit, "n_figure_logs": cfg.figure_logs,
+                          "synthetic": is_synthetic(train + test)}
+
+
+def run_compare(train_paths: Sequence[Path], test_sets: Mapping[str, Sequence[Path]], out_dir: str | Path, *,
+                models: Sequence[str] | None = None, config=None, relax_fit: str | Path | None = None,
+                prov_command: str | None = None) -> CompareResult:
+    """What ``bpmid compare`` does (and the compare stage of ``bpmid run``): read the logs, compare
+    (:func:`compare_files`), write everything into ``out_dir`` (:func:`write_compare`)."""
+    result, prov, how = compare_files(train_paths, test_sets, models=models, config=config, relax_fit=relax_fit,
+                                      prov_command=prov_command)
+    write_compare(result, out_dir, prov, **how)
     return result
+
+# ``bpmid.compare(...)`` is the public workflow (bpmid.api.compare); this module stays importable as before
+from bpmid._callable import make_callable as _make_callable  # noqa: E402
+
+_make_callable(__name__, "bpmid.api:compare")

@@ -37,8 +37,8 @@ from bpmid.errors import InputError
 from bpmid.models.vbmm import VBMM, _CLOSURES, triangle_pressure
 from bpmid.pneumatics import ValveVolumeParams
 from bpmid.twin.sensors import Sensors, read_angle
+from bpmid.units import PA_PER_BAR
 
-PA_PER_BAR = 1e5
 CONTROLLERS = ("pi", "vbmm-pi", "ms-pi")
 _KIND = {"pi": CK.CTRL_PI, "vbmm-pi": CK.CTRL_VBMM, "ms-pi": CK.CTRL_MS}
 #: built-in references (used when datasets/control/ does not hold a file of that name)
@@ -135,7 +135,9 @@ class Reference:
 
 
 def shipped_dir() -> Path:
-    return Path(__file__).resolve().parents[1] / "datasets" / "control"
+    from bpmid import data
+
+    return (data.root() / "datasets" / "control").resolve()
 
 
 def builtin_reference(name: str, rate_hz: float = 10.0) -> Reference:
@@ -250,12 +252,13 @@ class PlantTerms:
     """The plant's causal per-sample terms: what the catalogue effects become inside the loop.
 
     ops : ((op, values), ...) pressure terms in order (:func:`bpmid.control_kernels.pressure_chain`)
-    offset_deg : angle sensor offset; scale : (N,) modulus scale or None (thermal softening)
+    offset_deg, gain : the angle sensor reads gain * angle + offset_deg; scale : (N,) modulus scale or None
     """
 
     ops: tuple = ()
     offset_deg: float = 0.0
     scale: np.ndarray | None = None
+    gain: float = 1.0
 
     def arrays(self):
         """(ch_op (m,), ch_par (m, R), ch_cnt (m,)) for the kernel."""
@@ -268,35 +271,36 @@ class PlantTerms:
                 np.array([len(v) for _op, v in self.ops], np.int64))
 
 
+#: the operators an effect's causal pressure form may name (Effect.causal_pressure) -> kernel op code
+CAUSAL_OPS = {"delay": CK.OP_DELAY, "lag": CK.OP_LAG, "plays": CK.OP_PLAYS}
+
+
 def causal_terms(aug, t: np.ndarray) -> tuple[VBMM, PlantTerms]:
     """Split an :class:`~bpmid.effects.base.AugmentedVBMM` into its VBMM (structural changes applied:
-    extra branch, fall_ratio, stiffening) and the per-sample terms the loop steps causally: the pressure
-    terms (pressure_lag: dead time then first-order lag; braid_friction: mean of play operators), the
-    modulus scale (a function of time only) and the angle offset. An effect with a pressure or angle term
-    this function does not know is refused (it could not be stepped causally)."""
-    from bpmid.effects.base import Effect
-
-    ops, offset, scale = [], 0.0, None
+    extra branch, fall_ratio, stiffening) and the per-sample terms the loop steps causally, as each effect
+    declares them: its pressure operators (:meth:`~bpmid.effects.base.Effect.causal_pressure`), its sensor
+    gain and offset (:meth:`~bpmid.effects.base.Effect.causal_angle`) and its modulus scale (a function of time
+    only). No effect is named here; an effect whose pressure or angle term has no causal form is refused."""
+    ops, gain, offset, scale = [], 1.0, 0.0, None
     p = aug.params
     for e in aug.effects:
-        if e.id == "pressure_lag":
-            tau = p.value(f"{e.id}.tau")
-            if tau != 0.0 or e.dead_time != 0.0:
-                ops += [(CK.OP_DELAY, [e.dead_time]), (CK.OP_LAG, [tau])]
-        elif e.id == "braid_friction":
-            r = p.value(f"{e.id}.r")
-            if r != 0.0:
-                ops.append((CK.OP_PLAYS, list(e.radii(r))))
-        elif type(e).transform_pressure is not Effect.transform_pressure:
+        terms = e.causal_pressure(p)
+        if terms is None:
             raise InputError(f"effect {e.id} changes the pressure in a way the closed loop cannot step", key=e.id)
-        if e.id == "angle_offset":
-            offset += p.value(f"{e.id}.offset")
-        elif type(e).transform_angle is not Effect.transform_angle:
+        for name, values in terms:
+            if name not in CAUSAL_OPS:
+                raise InputError(f"effect {e.id} asks for an unknown causal operator {name!r} (known: "
+                                 f"{', '.join(CAUSAL_OPS)})", key=e.id)
+            ops.append((CAUSAL_OPS[name], [float(v) for v in values]))
+        affine = e.causal_angle(p)
+        if affine is None:
             raise InputError(f"effect {e.id} changes the angle in a way the closed loop cannot step", key=e.id)
+        g, o = affine  # applied after the effects before it: y = g (gain beta + offset) + o
+        gain, offset = g * gain, g * offset + o
         s = e.modulus_scale(np.asarray(t, float), p)
         if s is not None:
             scale = s if scale is None else scale * s
-    return aug.model(), PlantTerms(tuple(ops), offset, scale)
+    return aug.model(), PlantTerms(tuple(ops), offset, scale, gain)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -482,7 +486,7 @@ def simulate_loop(controller: str, ref: Reference, model: VBMM, plant: Plant, cf
     u, pm, pe, beta, y, ff, sat, status = CK.closed_loop(
         t, ref_rad, _KIND[controller], kp * PA_PER_BAR, ki * PA_PER_BAR / cfg.rate_hz, lo, hi, atm, p_start, bool(cfg.preview),
         *pack_model(model), ms_ff.poly, ms_ff.k, ms_ff.D,
-        *pack_model(pmodel), scale, *terms.arrays(), float(terms.offset_deg),
+        *pack_model(pmodel), scale, *terms.arrays(), float(terms.gain), float(terms.offset_deg),
         np.ascontiguousarray(noise, float), float(plant.sensors.angle_resolution_deg), bool(plant.pressure_dynamics),
         plant.pneumatics.vector(atm))
     wall = time.perf_counter() - t0
@@ -582,13 +586,44 @@ def run_control(model: VBMM, plant: Plant, references: Sequence[Reference], cfg:
     return ControlResult(runs, table, cost, ms_ff, warnings)
 
 
+def control_yaml_body(result: ControlResult, cfg: ControlConfig, *, model: VBMM, plant: Plant) -> dict:
+    """The body of ``control.yaml`` (schema ``bpmid.control/1``): gains, limits, feedforward, models, summary."""
+    from bpmid.models.vbmm import vbmm_yaml_body
+
+    body = {
+        "gains": {"kp": {"value": cfg.kp_bar_per_deg, "unit": "bar/deg"},
+                  "ki": {"value": cfg.ki_bar_per_deg_s, "unit": "bar/(deg s)",
+                         "per_step": cfg.ki_bar_per_deg_s / cfg.rate_hz},
+                  "acts_on": "error in deg (reference - measured angle) -> command pressure in bar absolute"},
+        "rate_hz": cfg.rate_hz,
+        "pressure_limits_bar_abs": [cfg.p_min_bar_abs, cfg.p_max_bar_abs],
+        "anti_windup": "conditional integration (integrator frozen while the command is clipped and the error "
+                       "pushes further out)",
+        "feedforward": {"vbmm-pi": "inverse VBMM (eq. 18) of the controller's model, recursive history, stepped "
+                                   "incrementally on the reference",
+                        "preview": cfg.preview, "cost": result.feedforward_cost},
+        "controller_model": vbmm_yaml_body(model),
+        "plant": {"model": vbmm_yaml_body(plant.model),
+                  "effects": [e.describe(plant.effect_params) for e in plant.effects],
+                  "sensors": dataclasses.asdict(plant.sensors),
+                  "pressure_dynamics": plant.pressure_dynamics,
+                  "pneumatics": dataclasses.asdict(plant.pneumatics) if plant.pressure_dynamics else None},
+        "summary": result.table.to_dict(orient="records"),
+        "warnings": result.warnings,
+    }
+    if result.ms_feedforward is not None:
+        ms = result.ms_feedforward
+        body["ms_feedforward"] = {"poly_bar_per_deg_j": ms.poly, "k_bar_per_deg": ms.k, "D_deg": ms.D,
+                                  "train_rmse_bar": ms.train_rmse_bar}
+    return body
+
+
 def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig, prov: dict, *,
                   model: VBMM, plant: Plant, figure: bool = True) -> list[Path]:
     """Write DIR/summary.csv, DIR/control.yaml (schema bpmid.control/1), DIR/traces/<reference>.csv and
     DIR/fig18.png, all at once (nothing half-written on failure)."""
     from bpmid.io.atomic import staged_dir
     from bpmid.io.results import write_result
-    from bpmid.models.vbmm import vbmm_yaml_body
 
     out_dir = Path(out_dir)
     written = []
@@ -608,31 +643,7 @@ def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig
             safe = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name)
             pd.DataFrame(cols).to_csv(tmp / "traces" / f"{safe}.csv", index=False, float_format="%.6f")
             written.append(out_dir / "traces" / f"{safe}.csv")
-        body = {
-            "gains": {"kp": {"value": cfg.kp_bar_per_deg, "unit": "bar/deg"},
-                      "ki": {"value": cfg.ki_bar_per_deg_s, "unit": "bar/(deg s)",
-                             "per_step": cfg.ki_bar_per_deg_s / cfg.rate_hz},
-                      "acts_on": "error in deg (reference - measured angle) -> command pressure in bar absolute"},
-            "rate_hz": cfg.rate_hz,
-            "pressure_limits_bar_abs": [cfg.p_min_bar_abs, cfg.p_max_bar_abs],
-            "anti_windup": "conditional integration (integrator frozen while the command is clipped and the error "
-                           "pushes further out)",
-            "feedforward": {"vbmm-pi": "inverse VBMM (eq. 18) of the controller's model, recursive history, stepped "
-                                       "incrementally on the reference",
-                            "preview": cfg.preview, "cost": result.feedforward_cost},
-            "controller_model": vbmm_yaml_body(model),
-            "plant": {"model": vbmm_yaml_body(plant.model),
-                      "effects": [e.describe(plant.effect_params) for e in plant.effects],
-                      "sensors": dataclasses.asdict(plant.sensors),
-                      "pressure_dynamics": plant.pressure_dynamics,
-                      "pneumatics": dataclasses.asdict(plant.pneumatics) if plant.pressure_dynamics else None},
-            "summary": result.table.to_dict(orient="records"),
-            "warnings": result.warnings,
-        }
-        if result.ms_feedforward is not None:
-            ms = result.ms_feedforward
-            body["ms_feedforward"] = {"poly_bar_per_deg_j": ms.poly, "k_bar_per_deg": ms.k, "D_deg": ms.D,
-                                      "train_rmse_bar": ms.train_rmse_bar}
+        body = control_yaml_body(result, cfg, model=model, plant=plant)
         write_result(tmp / "control.yaml", "bpmid.control/1", body, prov)
         written.append(out_dir / "control.yaml")
         if figure:
@@ -644,6 +655,11 @@ def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig
     return written
 
 
-__all__ = ["ControlConfig", "write_control", "build_plant", "causal_terms", "Reference", "Plant", "PlantTerms", "MSFeedforward", "Run", "ControlResult",
+__all__ = ["ControlConfig", "write_control", "control_yaml_body", "build_plant", "causal_terms", "Reference", "Plant", "PlantTerms", "MSFeedforward", "Run", "ControlResult",
            "builtin_reference", "read_reference", "load_references", "fit_ms_feedforward", "simulate_loop",
            "run_control", "summary_table", "feedforward_cost", "scaled_plant_model", "CONTROLLERS"]
+
+# ``bpmid.control(...)`` is the public workflow (bpmid.api.control); this module stays importable as before
+from bpmid._callable import make_callable as _make_callable  # noqa: E402
+
+_make_callable(__name__, "bpmid.api:control")

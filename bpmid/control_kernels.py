@@ -191,13 +191,13 @@ def closed_loop(t, ref, kind, kp, ki, p_lo, p_hi, atm, p_start, preview,
                 ms_poly, ms_k, ms_D,
                 # plant
                 geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, fall, stiff, scale,
-                ch_op, ch_par, ch_cnt, offset_deg, noise_deg, quant_deg, pneu, pneu_prm):  # pragma: no cover - compiled
+                ch_op, ch_par, ch_cnt, gain, offset_deg, noise_deg, quant_deg, pneu, pneu_prm):  # pragma: no cover - compiled
     """Simulate the loop. ``ref`` (N,) rad; gains kp (Pa / deg), ki (Pa / deg per step);
     limits and p_start in Pa abs. Controller kinds: CTRL_PI, CTRL_VBMM, CTRL_MS.
 
     Step k: the plant's pressure is the command u_k (saturated; through the valve-and-volume dynamics when
     ``pneu``), then the catalogue's pressure terms (:func:`pressure_chain`), the VBMM step, the angle
-    offset, the sensor error ``noise_deg`` (white noise and drift, drawn beforehand) and the quantisation
+    sensor's gain and offset (``gain`` 1 and ``offset_deg`` 0: none), the sensor error ``noise_deg`` (white noise and drift, drawn beforehand) and the quantisation
     ``quant_deg`` give the measurement y_k; the controller forms e_k = r_k - y_k
     and the command of the next step (eq. 20):
 
@@ -258,7 +258,7 @@ def closed_loop(t, ref, kind, kp, ki, p_lo, p_hi, atm, p_start, preview,
                            hG1, hG2, hK1, hK2, aG, aK, x)
         beta[k] = b
         status[k] = st
-        yk = math.degrees(b) + offset_deg + noise_deg[k]
+        yk = gain * math.degrees(b) + offset_deg + noise_deg[k]
         y[k] = yk if quant_deg <= 0.0 else round(yk / quant_deg) * quant_deg
         if pneu:
             V = muscle_volume(u3_from_beta(b, geo[2], geo[3], geo[4]),

@@ -40,6 +40,7 @@ import numba
 import numpy as np
 
 from bpmid.errors import InputError
+from bpmid.units import PA_PER_BAR
 
 R_AIR = 287.05  # J / (kg K), specific gas constant of air
 RHO0 = 1.185  # kg / m^3, air density at the ISO 8778 standard reference atmosphere
@@ -93,8 +94,8 @@ class ValveVolumeParams:
 
     def vector(self, atm_pa: float) -> np.ndarray:
         """The parameter vector of the compiled code (SI)."""
-        return np.array([self.supply_bar_abs * 1e5, atm_pa, self.conductance_l_per_s_bar * 1e-8,
-                         self.critical_ratio, self.polytropic_exponent, self.temperature_k, self.band_bar * 1e5,
+        return np.array([self.supply_bar_abs * PA_PER_BAR, atm_pa, self.conductance_l_per_s_bar * 1e-8,
+                         self.critical_ratio, self.polytropic_exponent, self.temperature_k, self.band_bar * PA_PER_BAR,
                          float(self.substeps), self.dead_volume_ml * 1e-6])
 
 
@@ -178,11 +179,11 @@ def fill(t, p_cmd_bar_abs, *, volume_ml: float = 192.0, p0_bar_abs: float = 1.01
     A numpy entry point for checks and plots; ``bpmid control`` couples the same compiled step to the
     VBMM's volume.
     """
-    prm = (params or ValveVolumeParams()).vector(atm_bar * 1e5)
+    prm = (params or ValveVolumeParams()).vector(atm_bar * PA_PER_BAR)
     prm[IDX_DEAD] = 0.0
     t = np.ascontiguousarray(t, float)
-    cmd = np.ascontiguousarray(p_cmd_bar_abs, float) * 1e5
-    return _fill_kernel(t, cmd, volume_ml * 1e-6, p0_bar_abs * 1e5, prm) / 1e5
+    cmd = np.ascontiguousarray(p_cmd_bar_abs, float) * PA_PER_BAR
+    return _fill_kernel(t, cmd, volume_ml * 1e-6, p0_bar_abs * PA_PER_BAR, prm) / PA_PER_BAR
 
 
 __all__ = ["ValveVolumeParams", "fill", "flow_function", "mass_flow", "pressure_period", "muscle_volume"]

@@ -17,7 +17,8 @@ from bpmid.io.atomic import staged_dir
 from bpmid.io.motion_logs import MotionLog, pressure_column_name
 from bpmid.io.tables import UNITS
 from bpmid.models.vbmm import VBMM
-from bpmid.motion_fit import check_pressure_range, log_metrics
+from bpmid.models.vbmm.fit import check_pressure_range, log_metrics
+from bpmid.units import PA_PER_BAR
 
 
 @dataclasses.dataclass
@@ -41,7 +42,7 @@ class Prediction:
         unit = lg.pressure_unit if lg.pressure_as_given is not None else "pa"
         # CLI.md fixes `pressure_bar` (in the log's own reference, absolute or gauge); a log in another unit
         # also keeps its pressure column exactly as given
-        cols = {"time_s": lg.time_s, "pressure_bar": np.round(given * UNITS["pressure"][unit] / 1e5, 9)}
+        cols = {"time_s": lg.time_s, "pressure_bar": np.round(given * UNITS["pressure"][unit] / PA_PER_BAR, 9)}
         if unit != "bar":
             cols[pressure_column_name(unit)] = np.round(given, 9)
         cols["angle_pred_deg"] = np.round(self.angle_pred_deg, decimals)
@@ -65,6 +66,18 @@ def predict(logs: Sequence[MotionLog], model: VBMM) -> list[Prediction]:
     return out
 
 
+def predict_yaml_body(preds: Sequence[Prediction], *, params: str | Path | None = None, model=None) -> dict:
+    """The body of ``predict.yaml`` (schema ``bpmid.predict/1``): the parameter file, model settings, per-log
+    metrics."""
+    body = {"params": None if params is None else str(params)}
+    if model is not None:
+        body["model"] = {"closure": model.closure, "history": model.history, "window_s": model.window_s}
+    body["logs"] = {p.log.name: {"samples": p.log.n, "file": f"{p.log.name}.csv",
+                                 "metrics": None if p.metrics is None else
+                                 {k: float(v) for k, v in p.metrics.items()}} for p in preds}
+    return body
+
+
 def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov: dict | None = None,
                       params: str | Path | None = None, model: VBMM | None = None) -> list[Path]:
     """Write ``DIR/<log stem>.csv`` for every prediction, and ``DIR/predict.yaml`` (schema
@@ -79,15 +92,15 @@ def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov:
             p.frame().to_csv(tmp / name, index=False, lineterminator="\n")
             names.append(out_dir / name)
         if prov is not None:
-            body = {"schema": "bpmid.predict/1", "params": None if params is None else str(params)}
-            if model is not None:
-                body["model"] = {"closure": model.closure, "history": model.history, "window_s": model.window_s}
-            body["logs"] = {p.log.name: {"samples": p.log.n, "file": f"{p.log.name}.csv",
-                                         "metrics": None if p.metrics is None else
-                                         {k: float(v) for k, v in p.metrics.items()}} for p in preds}
+            body = {"schema": "bpmid.predict/1", **predict_yaml_body(preds, params=params, model=model)}
             body["provenance"] = prov
             (tmp / "predict.yaml").write_text(dump_yaml(body), encoding="utf-8")
             names.append(out_dir / "predict.yaml")
     return names
 
-__all__ = ["Prediction", "predict", "write_predictions"]
+__all__ = ["Prediction", "predict", "predict_yaml_body", "write_predictions"]
+
+# ``bpmid.predict(...)`` is the public workflow (bpmid.api.predict); this module stays importable as before
+from bpmid._callable import make_callable as _make_callable  # noqa: E402
+
+_make_callable(__name__, "bpmid.api:predict")

@@ -88,9 +88,9 @@ class RunConfig:
 def default_config_path() -> Path:
     """``configs/paper.yaml`` of the source tree bpmid was installed from (``pip install -e .``), else of the
     working directory; InputError when neither exists."""
-    import bpmid
+    from bpmid import data
 
-    candidates = [Path(bpmid.__file__).resolve().parent.parent / DEFAULT_CONFIG, Path.cwd() / DEFAULT_CONFIG]
+    candidates = [(data.root() / DEFAULT_CONFIG).resolve(), Path.cwd() / DEFAULT_CONFIG]
     for c in candidates:
         if c.is_file():
             return c
@@ -362,13 +362,11 @@ def stage_compare(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
 def stage_history(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     from bpmid.history_modes import history_mode_study, write_history_study
     from bpmid.io.motion_logs import read_motion_log
-    from bpmid.models.vbmm import VBMM, Material, load_vbmm
+    from bpmid.models.vbmm import starting_vbmm
 
     mcfg = config.section("model")
-    if ctx.get("vbmm_fit") is not None:
-        model, source = load_vbmm(ctx["vbmm_fit"], mcfg), "VBMM-fit of this run (vbmm_fit.yaml)"
-    else:
-        model, source = VBMM.from_config(Material.paper_fit(), mcfg), "the paper's VBMM-fit constants"
+    model = starting_vbmm(ctx.get("vbmm_fit"), mcfg)[0]
+    source = "VBMM-fit of this run (vbmm_fit.yaml)" if ctx.get("vbmm_fit") else "the paper's VBMM-fit constants"
     log = read_motion_log(inp.long_term, config.section("io"), require_angle=True)
     rc: RunConfig = config.section("run")
     study = history_mode_study(model, log, durations_s=rc.history_durations_s, repeats=rc.history_repeats)
@@ -382,15 +380,13 @@ def stage_discover(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     from bpmid.discover import discover
     from bpmid.discover.output import write_discovery
     from bpmid.io.motion_logs import read_motion_logs
-    from bpmid.models.vbmm import VBMM, Material, load_vbmm
+    from bpmid.models.vbmm import starting_vbmm
 
     io_cfg = config.section("io")
     fit_logs = read_motion_logs(inp.discover_logs, io_cfg, require_angle=True)
     ho = read_motion_logs(inp.discover_holdout, io_cfg, require_angle=True) if inp.discover_holdout else None
-    if ctx.get("vbmm_fit") is not None:
-        base, base_from = load_vbmm(ctx["vbmm_fit"], config.section("model")), "vbmm_fit.yaml (motion fit of this run)"
-    else:
-        base, base_from = VBMM.from_config(Material.paper_fit(), config.section("model")), "paper VBMM-fit constants"
+    base = starting_vbmm(ctx.get("vbmm_fit"), config.section("model"))[0]
+    base_from = "vbmm_fit.yaml (motion fit of this run)" if ctx.get("vbmm_fit") else "paper VBMM-fit constants"
     result = discover(fit_logs, base, holdout=ho, cfg=config.section("discover"))
     inputs = inp.discover_logs + inp.discover_holdout + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
     written = write_discovery(out / "discover", result, _prov(inputs, config, ctx["seed"], ctx["command"]),

@@ -16,10 +16,9 @@ Units are whatever the caller uses consistently (moduli in Pa or MPa, time in s)
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
-from scipy.signal import lfilter
 
+from bpmid._jit import lazy_njit
 from bpmid.errors import InputError
 
 
@@ -72,9 +71,9 @@ def prony(t, M_inf: float, M, tau):
 
 
 # ---------------------------------------------------------------------------------------------
-# hereditary states (the recursion), compiled for uneven sampling, lfilter for even sampling
+# hereditary states (the recursion), compiled; even sampling takes exp(-dt/tau) once per branch
 # ---------------------------------------------------------------------------------------------
-@numba.njit(cache=True)
+@lazy_njit(cache=True)
 def _states_kernel(t, x, tau):  # pragma: no cover - compiled
     n = t.size
     m = tau.size
@@ -84,6 +83,19 @@ def _states_kernel(t, x, tau):  # pragma: no cover - compiled
         dx = x[k] - x[k - 1]
         for j in range(m):
             h[k, j] = np.exp(-dt / tau[j]) * h[k - 1, j] + dx
+    return h
+
+
+@lazy_njit(cache=True)
+def _uniform_states_kernel(dx, a):  # pragma: no cover - compiled
+    n = dx.size
+    m = a.size
+    h = np.empty((n, m))
+    for j in range(m):
+        acc = 0.0
+        for k in range(n):
+            acc = a[j] * acc + dx[k]
+            h[k, j] = acc
     return h
 
 
@@ -114,12 +126,9 @@ def hereditary_states(t, x, tau) -> np.ndarray:
         return np.zeros((t.size, 0))
     if _is_uniform(t) and t.size > 1:
         # each branch is the first-order filter h_k = a h_{k-1} + dx_k, a = exp(-dt/tau)
+        # (what scipy.signal.lfilter([1], [1, -a], dx) computes, bit for bit, without importing scipy.signal)
         dx = np.diff(x, prepend=x[0])
-        dt = t[1] - t[0]
-        out = np.empty((t.size, tau.size))
-        for j, tj in enumerate(tau):
-            out[:, j] = lfilter([1.0], [1.0, -np.exp(-dt / tj)], dx)
-        return out
+        return _uniform_states_kernel(dx, np.exp(-(t[1] - t[0]) / tau))
     return _states_kernel(t, x, tau)
 
 
@@ -130,7 +139,7 @@ def hereditary_recursive(t, x, M_inf: float, M, tau) -> np.ndarray:
     return M_inf * np.asarray(x, float) + (h @ M if M.size else 0.0)
 
 
-@numba.njit(cache=True)
+@lazy_njit(cache=True)
 def _full_kernel(t, x, M_inf, M, tau, window):  # pragma: no cover - compiled
     n = t.size
     out = np.empty(n)

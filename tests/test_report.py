@@ -16,14 +16,9 @@ runner = CliRunner()
 
 
 @pytest.fixture(scope="module")
-def study(tmp_path_factory):
-    from test_run import make_study
-
-    root = tmp_path_factory.mktemp("report")
-    cfg = make_study(root, timing=True)
-    r = runner.invoke(app, ["run", str(cfg), "--out", str(root / "out")])
-    assert r.exit_code == 0, r.output
-    return root / "out"
+def study(timed_small_study):
+    """The small study run once per session with timing on (tests/conftest.py)."""
+    return timed_small_study
 
 
 def _panels_md(md: str) -> tuple[str, str]:

@@ -13,11 +13,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from typer.testing import CliRunner
 
-from bpmid.cli import app
 
-runner = CliRunner()
 CANDIDATES = ("/usr/bin/chromium", "chromium", "chromium-browser", "google-chrome")
 CHECK = """<script>
 window.addEventListener('load', function () {
@@ -47,13 +44,8 @@ BROWSER = find_browser()
 
 @pytest.mark.skipif(BROWSER is None, reason="no Chromium on this machine (apt-get install chromium; .ci/run does) - "
                     "the report cannot be rendered in a browser here")
-def test_report_renders_in_headless_chromium_with_every_image_loaded(tmp_path):
-    from test_run import make_study
-
-    cfg = make_study(tmp_path, timing=True)
-    out = tmp_path / "out"
-    r = runner.invoke(app, ["run", str(cfg), "--out", str(out)])
-    assert r.exit_code == 0, r.output
+def test_report_renders_in_headless_chromium_with_every_image_loaded(tmp_path, timed_small_study):
+    out = timed_small_study  # the small study, run once per session with timing on (tests/conftest.py)
     page = (out / "report.html").read_text()
     n_img = len(re.findall(r"<img ", page))
     assert n_img >= 10

@@ -36,17 +36,16 @@ def compare(
                              "compare.yaml, predictions/, figures."),
 ):
     """Fit every model on the training logs only, simulate each free-running on every test log, score it."""
-    from bpmid.compare import CompareWarning, resolve_inputs, run_compare, verdicts
+    from bpmid.api import compare
+    from bpmid.compare import CompareWarning, verdicts
     from bpmid.config import load_config
-    from bpmid.models import parse_model_list
 
     cfg = load_config(config)
-    names = parse_model_list(models) if models is not None else None
-    train_paths, test_sets, relax_path = resolve_inputs(cfg.section("compare"), cfg, train=train, test=test,
-                                                        relax=relax)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", CompareWarning)
-        result = run_compare(train_paths, test_sets, out, models=names, config=cfg, relax_fit=relax_path)
+        res = compare(train, test, models=models, relax=relax, config=cfg)
+        res.save(out)
+    result = res.raw
     for w in caught:
         if issubclass(w.category, CompareWarning):
             typer.echo(f"warning: {w.message}", err=True)

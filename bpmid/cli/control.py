@@ -41,11 +41,9 @@ def control(
     no_figure: bool = typer.Option(False, "--no-figure", help="Do not write fig18.png."),
 ):
     """Simulate closed-loop tracking at the control rate and compare the controllers (the paper's Fig. 18)."""
+    from bpmid.api import control
     from bpmid.config import load_config
-    from bpmid.control import build_plant, load_references, run_control, scaled_plant_model, write_control
     from bpmid.errors import InputError
-    from bpmid.io.results import provenance
-    from bpmid.models.vbmm import load_vbmm
 
     cfg_all = load_config(config)
     cfg = cfg_all.section("control")
@@ -68,16 +66,10 @@ def control(
         dataclasses.replace(cfg, controllers=tuple(controllers)).validate()
     except InputError as exc:
         raise InputError(exc.message, key="--controller") from None
-    model_cfg = cfg_all.section("model")
-    model = load_vbmm(params, model_cfg)
-    plant_base = load_vbmm(plant_params, model_cfg) if plant_params is not None else model
-    plant_base = scaled_plant_model(plant_base, cfg.plant_modulus_scale, cfg.plant_tau_scale)
-    plant = build_plant(plant_base, plant_effect or [], cfg)
-    refs = load_references(reference, cfg.rate_hz)
-    result = run_control(model, plant, refs, cfg, controllers=controllers)
-    inputs = [params] + ([plant_params] if plant_params else []) + [r.path for r in refs if r.path is not None]
-    prov = provenance(inputs, config=cfg_all if cfg_all.path else None, seed=cfg.seed)
-    write_control(result, out, cfg, prov, model=model, plant=plant, figure=not no_figure)
+    result = control(params, reference=reference, controllers=controllers, plant_params=plant_params,
+                     plant_effects=plant_effect or [], config=cfg_all, **changes)
+    result.save(out, figure=not no_figure)
+    result = result.raw
     tab = result.table
     for row in tab[tab.reference == "ALL"].itertuples():
         red = "" if row.controller == "pi" or row.reduction_pct != row.reduction_pct else \

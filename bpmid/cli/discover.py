@@ -20,22 +20,9 @@ EPILOG = ("Example (a shipped blind case; its answer is in datasets/discovery/AN
 def load_base(init: Optional[Path], cfg):
     """The starting VBMM: ``--init`` (bpmid.vbmm/1 or bpmid.relax/1, told apart by schema) or the paper's
     VBMM-fit constants; geometry, closure and history from the config section ``model``."""
-    from bpmid.io.results import read_result
-    from bpmid.models.vbmm import VBMM, Material, load_vbmm
-    from bpmid.errors import InputError
+    from bpmid.models.vbmm import starting_vbmm
 
-    mcfg = cfg.section("model")
-    if init is None:
-        return VBMM.from_config(Material.paper_fit(), mcfg), "paper VBMM-fit constants"
-    data = read_result(init, ("bpmid.vbmm/", "bpmid.relax/"))
-    schema = str(data.get("schema"))
-    if schema.startswith("bpmid.vbmm/"):
-        return load_vbmm(init, mcfg), f"{init} (motion fit)"
-    if schema.startswith("bpmid.relax/"):
-        from bpmid.motion_fit import material_from_relax
-        return VBMM.from_config(material_from_relax(init), mcfg), f"{init} (relaxation fit)"
-    raise InputError(f"--init needs a bpmid.vbmm/1 or bpmid.relax/1 file, found schema {schema!r}", path=init,
-                     key="schema")
+    return starting_vbmm(init, cfg.section("model"))[:2]
 
 
 @command(app, "discover", epilog=EPILOG, cls=HoldoutCommand)

@@ -1,4 +1,4 @@
-"""``bpmid fit motion``: fit the VBMM to pressure-angle logs (library: :mod:`bpmid.motion_fit`)."""
+"""``bpmid fit motion``: fit the VBMM to pressure-angle logs (library: :func:`bpmid.fit_motion`, :mod:`bpmid.models.vbmm.fit`)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,10 +7,6 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import check_outputs, command, existing_files, fit_app
-from bpmid.config import load_config
-from bpmid.io.motion_logs import read_motion_logs
-from bpmid.io.results import provenance
-from bpmid.motion_fit import fit_motion, write_motion_fit
 
 
 @command(fit_app, "motion", epilog="Example (shipped synthetic logs): bpmid fit relax datasets/relaxation/*.csv "
@@ -26,6 +22,9 @@ def fit_motion_command(
     no_plot: bool = typer.Option(False, "--no-plot", help="Write no figure."),
 ):
     """Fit the VBMM's moduli and time constants on motion logs (angle error of the forward model)."""
+    from bpmid.api import fit_motion
+    from bpmid.config import load_config
+
     cfg = load_config(config)
     paths = existing_files(logs, "motion log")
     if init is not None:
@@ -34,14 +33,13 @@ def fit_motion_command(
     check_outputs([out], paths + [init, config], suffix=".yaml")
     if figure is not None:
         check_outputs([figure], paths + [init, config], key="--plot")
-    motion = read_motion_logs(paths, cfg.io, require_angle=True)
-    result = fit_motion(motion, config=cfg, init=init)
-    prov = provenance(paths + ([init] if init is not None else []), config=cfg)
-    written = write_motion_fit(out, result, prov, figure=figure, synthetic=False)
-    m = result.metrics
-    typer.echo(f"VBMM fit on {len(motion)} logs: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, "
-               f"R^2 {m['r2']:.4f}, fit {m['fit_pct']:.2f} % ({result.seconds:.2f} s)")
-    for p in result.fit.params:
+    result = fit_motion(paths, init=init, config=cfg)
+    result.save(out, figure=figure)
+    fit = result.raw
+    m = fit.metrics
+    typer.echo(f"VBMM fit on {len(fit.logs)} logs: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, "
+               f"R^2 {m['r2']:.4f}, fit {m['fit_pct']:.2f} % ({fit.seconds:.2f} s)")
+    for p in fit.fit.params:
         se = "" if p.stderr is None else f" +- {p.stderr:.3g}"
-        typer.echo(f"  {p.name:7s} {p.value:.6g}{se} {p.unit}   {result.verdicts()[p.name]}")
-    typer.echo("wrote " + ", ".join(str(w) for w in written))
+        typer.echo(f"  {p.name:7s} {p.value:.6g}{se} {p.unit}   {fit.verdicts()[p.name]}")
+    typer.echo("wrote " + ", ".join(str(w) for w in [out] + ([figure] if figure is not None else [])))

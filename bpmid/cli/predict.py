@@ -7,11 +7,6 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import check_outputs, app, command, existing_files
-from bpmid.config import load_config
-from bpmid.io.motion_logs import read_motion_logs
-from bpmid.io.results import provenance
-from bpmid.models.vbmm import load_vbmm
-from bpmid.predict import predict, write_predictions
 
 
 @command(app, "predict", epilog="Example (after bpmid fit motion ... --out VBMM.yaml): bpmid predict "
@@ -24,20 +19,20 @@ def predict_command(
     config: Optional[Path] = typer.Option(None, "--config", help="Config file (sections io, model)."),
 ):
     """Predict the bending angle of new pressure logs with a fitted VBMM."""
+    from bpmid.api import predict
+    from bpmid.config import load_config
+
     cfg = load_config(config)
     paths = existing_files(logs, "motion log")
     existing_files([params], "params")
-    model = load_vbmm(params, cfg.model)
     check_outputs([Path(out) / f"{Path(p).stem}.csv" for p in paths] + [Path(out) / "predict.yaml"],
                   paths + [params, config])
-    motion = read_motion_logs(paths, cfg.io)
-    preds = predict(motion, model)
-    prov = provenance(paths + [params], config=cfg)
-    written = write_predictions(out, preds, prov=prov, params=params, model=model)
-    for p in preds:
+    result = predict(paths, params, config=cfg)
+    result.save(out)
+    for p in result.raw:
         if p.metrics is not None:
             m = p.metrics
             typer.echo(f"{p.log.name}: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, R^2 {m['r2']:.4f}")
         else:
             typer.echo(f"{p.log.name}: {p.log.n} samples predicted (no measured angle)")
-    typer.echo(f"wrote {len(written)} files to {out}")
+    typer.echo(f"wrote {len(result.raw) + 1} files to {out}")

@@ -7,7 +7,6 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import app, command
-from bpmid.twin.simulate import simulate
 
 
 @command(app, "simulate", epilog="Example: bpmid simulate configs/datasets/variable_amplitude.yaml "
@@ -24,6 +23,8 @@ def simulate_cmd(
 ):
     """Simulate the test rig running PROTOCOL: synthetic logs plus a manifest naming protocol, parameters,
     seed and any injected effect (never in the CSV)."""
-    sim = simulate(protocol, params_path=params, effects=tuple(effect or ()), seed=seed, timestamp=not no_timestamp)
-    sim.write(out)
-    typer.echo(f"wrote {len(sim.files)} files and manifest.yaml to {out} (seed {sim.manifest['seed']})")
+    from bpmid.api import simulate
+
+    result = simulate(protocol, params=params, effects=tuple(effect or ()), seed=seed, timestamp=not no_timestamp)
+    result.save(out)
+    typer.echo(f"wrote {len(result.raw.files)} files and manifest.yaml to {out} (seed {result.body['seed']})")

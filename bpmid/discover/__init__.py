@@ -8,3 +8,8 @@ its signature), :mod:`.confirm` (refit, held-out score, penalised criteria, iden
 from bpmid.discover.workflow import DiscoverConfig, DiscoveryResult, discover
 
 __all__ = ["DiscoverConfig", "DiscoveryResult", "discover"]
+
+# ``bpmid.discover(...)`` is the public workflow (bpmid.api.discover)
+from bpmid._callable import make_callable as _make_callable  # noqa: E402
+
+_make_callable(__name__, "bpmid.api:discover")

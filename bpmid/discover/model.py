@@ -20,7 +20,7 @@ from bpmid.effects.base import AugmentedVBMM, Effect
 from bpmid.errors import InputError
 from bpmid.fitting import FitResult, fit_least_squares
 from bpmid.io.motion_logs import MotionLog
-from bpmid.models.vbmm import VBMM, Material
+from bpmid.models.vbmm import DISCOVERY_BOUNDS, VBMM, Material, material_params
 from bpmid.params import Param, ParamSet
 
 #: residual (deg) used where the model cannot be evaluated (pressure beyond its range)
@@ -30,13 +30,7 @@ FAIL_RESIDUAL_DEG = 1e3
 def base_params(model: VBMM) -> ParamSet:
     """The base constants the discovery fits: K_inf and every branch's K and tau (G is held: it barely moves
     the angle next to K, VBMM.md)."""
-    m = model.material
-    ps = [Param("vbmm.K_inf", m.K_inf, "Pa", lower=m.K_inf / 20, upper=m.K_inf * 20, log_scale=True)]
-    for j, (k, tau) in enumerate(zip(m.K, m.tau_K), start=1):
-        ps.append(Param(f"vbmm.K_{j}", max(k, 1e3), "Pa", lower=max(k, 1e3) / 50, upper=max(k, 1e3) * 50,
-                        log_scale=True))
-        ps.append(Param(f"vbmm.tau_{j}", tau, "s", lower=0.01, upper=100.0, log_scale=True))
-    return ParamSet(ps)
+    return material_params(model.material, prefix="vbmm.", bounds=DISCOVERY_BOUNDS)  # the VBMM's one naming
 
 
 @dataclasses.dataclass(frozen=True)

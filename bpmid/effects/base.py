@@ -11,6 +11,9 @@ that compose with the VBMM (:class:`AugmentedVBMM`):
 3. ``modulus_scale``: a per-step scale of all moduli (thermal_softening)
 4. ``transform_angle``: the sensor reads something else (angle_offset)
 
+with the causal per-step form of 1 and 4 beside them (``causal_pressure``, ``causal_angle``), which the
+closed loop (:func:`bpmid.control.causal_terms`) steps without naming any effect,
+
 and a *signature* for screening (``signature_columns``): regressors whose projection explains the
 residual when the effect is present (used by :mod:`bpmid.discover`). Adding an effect to the
 catalogue is one new class plus one line in :data:`bpmid.effects.CATALOGUE`.
@@ -60,6 +63,19 @@ class Effect(abc.ABC):
 
     def transform_angle(self, t: np.ndarray, beta_deg: np.ndarray, params: ParamSet) -> np.ndarray:
         return beta_deg
+
+    # -- causal per-step form (the closed loop steps the plant one sample at a time) ----------
+    def causal_pressure(self, params: ParamSet) -> tuple | None:
+        """The pressure term as operators stepped sample by sample, in order: ``(("delay", (d_s,)),
+        ("lag", (tau_s,)), ("plays", (r_1_pa, ...)))`` (see :data:`bpmid.control.CAUSAL_OPS`); ``()`` when the
+        effect leaves the pressure alone (the default when :meth:`transform_pressure` is not overridden).
+        None: no causal form (the closed loop refuses the effect)."""
+        return () if type(self).transform_pressure is Effect.transform_pressure else None
+
+    def causal_angle(self, params: ParamSet) -> tuple[float, float] | None:
+        """The sensor term per sample as ``(gain, offset_deg)``: the sensor reads ``gain * angle + offset_deg``;
+        ``(1, 0)`` when :meth:`transform_angle` is not overridden. None: not affine (the closed loop refuses)."""
+        return (1.0, 0.0) if type(self).transform_angle is Effect.transform_angle else None
 
     # -- screening signature (discover) -------------------------------------------------------
     def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:

@@ -132,6 +132,10 @@ class BraidFriction(Effect):
         radii = self.radii(r)
         return sum(_kernels.play(p, ri) for ri in radii) / radii.size
 
+    def causal_pressure(self, params):
+        r = params.value(f"{self.id}.r")
+        return () if r == 0.0 else (("plays", tuple(float(v) for v in self.radii(r))),)
+
     def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
         # (play(p) - p) / r in [-1, 1]: the sign of the pressure rate with memory of the last reversal
         r = self.default_params().value(f"{self.id}.r")
@@ -166,6 +170,10 @@ class PressureLag(Effect):
         if tau == 0.0 and self.dead_time == 0.0:
             return p
         return _kernels.lag(t, _kernels.delay(t, p, self.dead_time), tau)
+
+    def causal_pressure(self, params):
+        tau = params.value(f"{self.id}.tau")
+        return () if tau == 0.0 and self.dead_time == 0.0 else (("delay", (self.dead_time,)), ("lag", (tau,)))
 
     def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
         # beta(p(t - tau)) ~ beta - tau dbeta/dt
@@ -245,6 +253,9 @@ class AngleOffset(Effect):
     def transform_angle(self, t, beta_deg, params):
         off = params.value(f"{self.id}.offset")
         return beta_deg if off == 0.0 else beta_deg + off
+
+    def causal_angle(self, params):
+        return (1.0, params.value(f"{self.id}.offset"))
 
     def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
         return np.ones((log.n, 1))

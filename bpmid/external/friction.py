@@ -22,14 +22,14 @@ from typing import Sequence
 
 import numpy as np
 
-from bpmid import metrics
+from bpmid import data as _shipped, metrics
 from bpmid.errors import InputError
 from bpmid.models._hysteresis_kernels import direction_with_deadband
 from bpmid.models.gpi import GPIModel
 from bpmid.models.maxwell_slip import MaxwellSlipModel
 
 #: the copied data set (repository checkout)
-DATA_DIR = Path(__file__).resolve().parents[2] / "datasets" / "reference" / "friction"
+DATA_DIR = (_shipped.root() / "datasets" / "reference" / "friction").resolve()
 #: displacement change (mm) that counts as a stroke reversal (the laser jitters by about 0.01 mm)
 REVERSAL_DEADBAND_MM = 1.0
 

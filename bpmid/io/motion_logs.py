@@ -13,7 +13,6 @@ from pathlib import Path
 from typing import Literal, Mapping, Optional, Sequence
 
 import numpy as np
-import pandas as pd
 
 from bpmid.errors import InputError
 from bpmid.io.tables import UNITS, check_time, read_table
@@ -195,6 +194,8 @@ def motion_frame(log: MotionLog, *, angle_deg: np.ndarray | None = None, unit: s
     """A log as a DataFrame in the motion-log format (pressure in ``unit`` and ``reference``)."""
     reference = reference or log.pressure_reference
     p = log.pressure_pa + (log.atmosphere_pa if reference == "absolute" else 0.0)
+    import pandas as pd  # here, not at the top: reading logs and configs must not import pandas (0.3 s)
+
     df = pd.DataFrame({"time_s": np.round(log.time_s, decimals),
                        pressure_column_name(unit): np.round(p / UNITS["pressure"][unit.lower()], decimals)})
     ang = log.angle_deg if angle_deg is None else angle_deg

@@ -7,8 +7,8 @@ from bpmid.registry import lookup
 
 #: registry name -> "module:Class" (imported on first use)
 REGISTRY: dict[str, str] = {
-    "vbmm-mat": "bpmid.models.vbmm_family:VBMMMatModel",
-    "vbmm-fit": "bpmid.models.vbmm_family:VBMMFitModel",
+    "vbmm-mat": "bpmid.models.vbmm.family:VBMMMatModel",
+    "vbmm-fit": "bpmid.models.vbmm.family:VBMMFitModel",
     "gpi": "bpmid.models.gpi:GPIModel",
     "maxwell-slip": "bpmid.models.maxwell_slip:MaxwellSlipModel",
     "three-element": "bpmid.models.three_element:ThreeElementModel",

@@ -61,9 +61,8 @@ from bpmid.io.motion_logs import MotionLog
 from bpmid.models._hysteresis_kernels import play_bank
 from bpmid.models.base import ModelFamily, check_fit_logs
 from bpmid.params import Param, ParamSet
-
-#: Pa per bar: muscle logs carry gauge pressure in Pa, the baselines work in bar (well-conditioned)
-PA_PER_BAR = 1e5
+# Pa per bar: muscle logs carry gauge pressure in Pa, the baselines work in bar (well-conditioned)
+from bpmid.units import PA_PER_BAR
 
 ENVELOPES = ("tanh", "linear", "identity")
 ORIENTATIONS = ("auto", "lag", "lead")
@@ -154,7 +153,11 @@ def fit_variable_projection(design_fn: Callable[[ParamSet], np.ndarray], y: np.n
 
     out = fitted
     for i, name in enumerate(names):
-        out = out.replace(name, stderr=float(se[i]) if np.isfinite(se[i]) else None, identifiable=True)
+        if np.isfinite(se[i]):
+            out = out.replace(name, stderr=float(se[i]), identifiable=True)
+        else:  # a singular covariance: the data do not fix this constant; never report it as measured
+            out = out.replace(name, stderr=None, identifiable=False,
+                              note="not identifiable: its standard error is not finite (singular covariance)")
     held = dict(res.held)
     for j, name in enumerate(linear):
         if active[j]:

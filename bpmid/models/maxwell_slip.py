@@ -71,8 +71,9 @@ from bpmid.fitting import FitResult, correlation
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models._hysteresis_kernels import direction_with_deadband, stop_bank
 from bpmid.models.base import ModelFamily, check_fit_logs
-from bpmid.models.gpi import PA_PER_BAR, check_arrays, fit_variable_projection, solve_linear
+from bpmid.models.gpi import check_arrays, fit_variable_projection, solve_linear
 from bpmid.params import Param, ParamSet
+from bpmid.units import PA_PER_BAR
 
 METHODS = ("lsq", "virgin")
 ORIENTATIONS = ("lead", "lag", "auto")

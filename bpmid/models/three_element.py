@@ -43,14 +43,13 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from bpmid.errors import InputError
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models._hysteresis_kernels import direction_with_deadband, first_order_exact
 from bpmid.models.base import ModelFamily
-from bpmid.models.gpi import PA_PER_BAR
 from bpmid.params import Param, ParamSet
+from bpmid.units import PA_PER_BAR
 
 #: forms of the static angle f(P)/k(P) (module docstring)
 STATIC_FORMS = ("quadratic", "rational", "linear")
@@ -141,6 +140,8 @@ class ThreeElementModel(ModelFamily):
             if win < 5:
                 dy = np.gradient(y, t)
             else:
+                from scipy.signal import savgol_filter  # only here: scipy.signal costs 0.9 s to import
+
                 dy = savgol_filter(y, win, 2, deriv=1, delta=lg.dt_s)
             inf = (direction > 0).astype(float)
             de = 1.0 - inf

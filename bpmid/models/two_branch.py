@@ -49,8 +49,8 @@ from bpmid.errors import InputError
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models._hysteresis_kernels import direction_with_deadband
 from bpmid.models.base import ModelFamily
-from bpmid.models.gpi import PA_PER_BAR
 from bpmid.params import Param, ParamSet
+from bpmid.units import PA_PER_BAR
 
 BRANCHES = ("up", "dn")
 #: forms of the branch curves (module docstring)

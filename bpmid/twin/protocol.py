@@ -50,6 +50,7 @@ from bpmid.config import build_dataclass, read_yaml
 from bpmid.errors import InputError
 from bpmid.twin.relaxation_protocol import RelaxationSpec
 from bpmid.twin.sensors import Sensors
+from bpmid.units import PA_PER_BAR, PA_PER_KPA
 
 SCHEMA = "bpmid.protocol/1"
 
@@ -373,12 +374,12 @@ class Protocol:
     # -- units -------------------------------------------------------------------------------
     @property
     def unit_pa(self) -> float:
-        return {"bar": 1e5, "kpa": 1e3, "deg": 1.0}[self.unit]
+        return {"bar": PA_PER_BAR, "kpa": PA_PER_KPA, "deg": 1.0}[self.unit]
 
     def to_gauge_pa(self, level):
         """A program level (the protocol's unit and reference) as gauge Pa."""
         pa = np.asarray(level, float) * self.unit_pa
-        return pa - self.atmosphere_bar * 1e5 if self.pressure_reference == "absolute" else pa
+        return pa - self.atmosphere_bar * PA_PER_BAR if self.pressure_reference == "absolute" else pa
 
     def runs(self):
         """(file stem, log spec, replicate index) for every log file this protocol writes."""
@@ -445,7 +446,7 @@ def _check_levels(proto: Protocol, path, max_gauge_pa):
                 raise InputError(f"pressure {level:g} {proto.unit} ({proto.pressure_reference}) is below atmosphere: "
                                  f"outside the model's range (the VBMM takes gauge pressure >= 0)", path=path, key=key)
             if max_gauge_pa is not None and g > max_gauge_pa:
-                top = max_gauge_pa / proto.unit_pa + (proto.atmosphere_bar * 1e5 / proto.unit_pa
+                top = max_gauge_pa / proto.unit_pa + (proto.atmosphere_bar * PA_PER_BAR / proto.unit_pa
                                                        if proto.pressure_reference == "absolute" else 0.0)
                 raise InputError(f"pressure {level:g} {proto.unit} ({proto.pressure_reference}) is above the model's "
                                  f"range (at most {top:.3g} {proto.unit}: beyond it the muscle would bend past the "

@@ -36,6 +36,7 @@ from bpmid.params import ParamSet
 from bpmid.progress import Progress
 from bpmid.twin import sensors as S
 from bpmid.twin.protocol import Protocol, load_protocol
+from bpmid.units import PA_PER_BAR
 
 SCHEMA = "bpmid.simulation/1"
 SYNTHETIC_NOTE = "bpmid digital twin; not a measurement"
@@ -246,7 +247,7 @@ def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov:
             plant = AugmentedVBMM(base.replace(material=m), effects, params)
             angle = plant.simulate_deg(t, proto.to_gauge_pa(p_cmd), name=name, path=proto.path)
             rs = _rng(seed, i, 1)
-            unit_bar = proto.unit_pa / 1e5
+            unit_bar = proto.unit_pa / PA_PER_BAR
             p_log = S.read_pressure(p_cmd * unit_bar, sens, rs) / unit_bar
             a_log = S.read_angle(t, angle, sens, rs)
             frame = pd.DataFrame({"time_s": np.round(t, 6), col: np.round(p_log, 6), "angle_deg": np.round(a_log, 6)})

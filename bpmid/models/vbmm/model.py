@@ -131,23 +131,76 @@ class Material:
                                    G=tuple(v * factor for v in self.G), K=tuple(v * factor for v in self.K))
 
     def to_yaml(self, stderr: dict | None = None) -> dict:
-        """``material`` block of ``bpmid.vbmm/1`` (param mappings in Pa and s)."""
-        se = stderr or {}
+        """``material`` block of ``bpmid.vbmm/1`` (param mappings in Pa and s); ``stderr`` by parameter name."""
+        ps = material_params(self)
+        for name, s in (stderr or {}).items():
+            if name in ps:
+                ps = ps.replace(name, stderr=None if s is None or not np.isfinite(s) else float(s))
+        return material_yaml(ps)
 
-        def par(name, value, unit):
-            s = se.get(name)
-            return {"value": float(value), "stderr": None if s is None or not np.isfinite(s) else float(s), "unit": unit}
 
-        branches = []
-        for j in range(self.n_branches):
-            b = {"G": par(f"G_{j + 1}", self.G[j], "Pa"), "K": par(f"K_{j + 1}", self.K[j], "Pa")}
-            if self.split:
-                b["tauG"] = par(f"tauG_{j + 1}", self.tauG[j], "s")
-                b["tauK"] = par(f"tauK_{j + 1}", self.tauK[j], "s")
+# ---------------------------------------------------------------------------------------------
+# the one naming of the material constants, and the one writer of the ``material`` block
+# ---------------------------------------------------------------------------------------------
+#: bounds of each kind of constant for ``bpmid fit motion``: (lower, upper) in Pa or s
+FIT_BOUNDS: dict = {"G_inf": (0.0, math.inf), "K_inf": (1e3, math.inf), "G": (0.0, math.inf),
+                    "K": (0.0, math.inf), "tau": (1e-3, 1e3)}
+#: the constants discovery refits (G is held: it barely moves the angle next to K) and their bounds:
+#: ("x", f[, floor]) is [v / f, v f] around the start value v (raised to ``floor`` first), else (lower, upper)
+DISCOVERY_BOUNDS: dict = {"K_inf": ("x", 20.0), "K": ("x", 50.0, 1e3), "tau": (0.01, 100.0)}
+
+
+def material_params(mat: "Material", *, prefix: str = "", bounds: dict | None = None):
+    """The VBMM's material constants as a :class:`~bpmid.params.ParamSet`, in the one naming every workflow
+    uses: ``G_inf``, ``K_inf``, ``G_<j>``, ``K_<j>`` (Pa) and ``tau_<j>`` (s), or ``tauG_<j>`` and ``tauK_<j>``
+    when the time constants are split (j = 1..branches), each name preceded by ``prefix``.
+
+    Parameters
+    ----------
+    bounds : kind (``G_inf``, ``K_inf``, ``G``, ``K``, ``tau``) -> bounds (see :data:`FIT_BOUNDS`, the default,
+        and :data:`DISCOVERY_BOUNDS`); kinds not named are left out. With ``tau`` but no ``tauG``/``tauK`` on a
+        split material, ``tau_<j>`` stands for the bulk time constant.
+    """
+    from bpmid.params import Param, ParamSet
+
+    bounds = FIT_BOUNDS if bounds is None else bounds
+
+    def par(kind: str, name: str, value: float, unit: str, log: bool = False):
+        b = bounds[kind]
+        if b[0] == "x":
+            v = max(value, b[2]) if len(b) > 2 else value
+            return Param(prefix + name, v, unit, lower=v / b[1], upper=v * b[1], log_scale=True)
+        return Param(prefix + name, value, unit, float(b[0]), float(b[1]), log_scale=log)
+
+    ps = [par(k, k, getattr(mat, k), "Pa") for k in ("G_inf", "K_inf") if k in bounds]
+    for j in range(mat.n_branches):
+        i = j + 1
+        ps += [par(k, f"{k}_{i}", getattr(mat, k)[j], "Pa") for k in ("G", "K") if k in bounds]
+        if "tau" in bounds:
+            if not mat.split:
+                ps.append(par("tau", f"tau_{i}", mat.tauG[j], "s", True))
+            elif "tauG" in bounds or "tauK" in bounds or bounds is FIT_BOUNDS:
+                ps += [par("tau", f"tauG_{i}", mat.tauG[j], "s", True), par("tau", f"tauK_{i}", mat.tauK[j], "s", True)]
             else:
-                b["tau"] = par(f"tau_{j + 1}", self.tauG[j], "s")
-            branches.append(b)
-        return {"G_inf": par("G_inf", self.G_inf, "Pa"), "K_inf": par("K_inf", self.K_inf, "Pa"), "branches": branches}
+                ps.append(par("tau", f"tau_{i}", mat.tau_K[j], "s", True))
+    return ParamSet(ps)
+
+
+def material_yaml(params) -> dict:
+    """The ``material`` block of a ``bpmid.vbmm/1`` file from parameters in the naming of
+    :func:`material_params` (each entry ``{value, stderr, unit}`` plus any verdict the parameter carries)."""
+    branches = []
+    j = 1
+    while f"G_{j}" in params:
+        b = {"G": params[f"G_{j}"].to_yaml(), "K": params[f"K_{j}"].to_yaml()}
+        if f"tauG_{j}" in params:
+            b["tauG"] = params[f"tauG_{j}"].to_yaml()
+            b["tauK"] = params[f"tauK_{j}"].to_yaml()
+        else:
+            b["tau"] = params[f"tau_{j}"].to_yaml()
+        branches.append(b)
+        j += 1
+    return {"G_inf": params["G_inf"].to_yaml(), "K_inf": params["K_inf"].to_yaml(), "branches": branches}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -470,10 +523,17 @@ def load_vbmm(path: str | Path, cfg: VBMMConfig | None = None) -> VBMM:
 
     ``history`` and ``window_s`` are evaluation settings, not constants: they come from the config
     section ``model`` (the file's own ``model`` block only records how it was fitted)."""
-    from bpmid.io.results import read_result, require
+    from bpmid.io.results import read_result
 
     path = Path(path)
-    data = read_result(path, "bpmid.vbmm/")
+    return vbmm_from_mapping(read_result(path, "bpmid.vbmm/"), path, cfg)
+
+
+def vbmm_from_mapping(data: dict, path=None, cfg: VBMMConfig | None = None) -> VBMM:
+    """A :class:`VBMM` from the mapping of a ``bpmid.vbmm/1`` file (see :func:`load_vbmm`); ``path`` names the
+    file in messages."""
+    from bpmid.io.results import require
+
     cfg = cfg or VBMMConfig()
     geometry = geometry_from_yaml(require(data, "geometry", path), path)
     closure = require(data, "closure", path)
@@ -483,10 +543,44 @@ def load_vbmm(path: str | Path, cfg: VBMMConfig | None = None) -> VBMM:
     return VBMM(material=material, geometry=geometry, closure=closure, history=cfg.history, window_s=cfg.window_s)
 
 
-def vbmm_yaml_body(model: VBMM, stderr: dict | None = None) -> dict:
-    """The model part of a ``bpmid.vbmm/1`` file (geometry, closure, material, history settings)."""
+def starting_vbmm(init=None, cfg: VBMMConfig | None = None) -> tuple[VBMM, str, Path | None]:
+    """The one rule for "the VBMM to start from": a fitted VBMM (``bpmid.vbmm/1``), a relaxation fit
+    (``bpmid.relax/1``, the material's Prony constants), either as a path or a loaded result, else the paper's
+    VBMM-fit constants. Geometry and closure of a vbmm file are its own; history settings from ``cfg``.
+
+    Returns
+    -------
+    (model, where it came from in words, the input file or None)
+    """
+    from bpmid.io.results import read_result
+
+    cfg = cfg or VBMMConfig()
+    if init is None:
+        return VBMM.from_config(Material.paper_fit(), cfg), "paper VBMM-fit constants", None
+    schema = getattr(init, "schema", None)
+    if schema is not None and hasattr(init, "to_dict"):  # a loaded or computed bpmid result
+        data, path = init.to_dict(), getattr(init, "source", None)
+    else:
+        path = Path(init)
+        data = read_result(path, ("bpmid.vbmm/", "bpmid.relax/"))
+    schema = str(data.get("schema"))
+    if schema.startswith("bpmid.vbmm/"):
+        return vbmm_from_mapping(data, path, cfg), f"{path or 'given VBMM'} (motion fit)", path
+    if schema.startswith("bpmid.relax/"):
+        from bpmid.models.vbmm.fit import material_from_relax
+
+        return (VBMM.from_config(material_from_relax(data, path), cfg), f"{path or 'given fit'} (relaxation fit)",
+                path)
+    raise InputError(f"needs a bpmid.vbmm/1 or bpmid.relax/1 file, found schema {schema!r}", path=path, key="schema")
+
+
+def vbmm_yaml_body(model: VBMM, stderr: dict | None = None, *, params=None) -> dict:
+    """The model part of a ``bpmid.vbmm/1`` file (geometry, closure, material, history settings): the one
+    writer of the format, read back by :func:`vbmm_from_mapping`. ``params`` (the naming of
+    :func:`material_params`, e.g. a fit's result with standard errors and verdicts) replaces the material's own
+    values in the ``material`` block."""
     return {"geometry": model.geometry.to_yaml(), "closure": model.closure,
-            "material": model.material.to_yaml(stderr),
+            "material": model.material.to_yaml(stderr) if params is None else material_yaml(params),
             "model": {"history": model.history, "window_s": model.window_s}}
 
 
@@ -499,4 +593,5 @@ def triangle_pressure(t: np.ndarray, p_lo: float, p_hi: float, rate: float) -> n
 
 
 __all__: Sequence[str] = ["Geometry", "Material", "VBMM", "VBMMConfig", "kinematics", "u3_from_beta",
-                          "closure_pressure", "load_vbmm", "vbmm_yaml_body", "material_from_yaml"]
+                          "closure_pressure", "load_vbmm", "vbmm_from_mapping", "starting_vbmm", "material_params",
+                          "material_yaml", "FIT_BOUNDS", "DISCOVERY_BOUNDS", "vbmm_yaml_body", "material_from_yaml"]

@@ -4,7 +4,7 @@
   ``shear``, K from ``bulk``) or the paper's VBMM-mat constants. Nothing is refitted on motion data: its
   :meth:`~VBMMMatModel.fit` only evaluates the training logs (no free parameters).
 - ``vbmm-fit`` (:class:`VBMMFitModel`): the same start, refitted on the training logs by
-  :func:`bpmid.motion_fit.fit_motion` (linear start in pressure space, then least squares on the angle
+  :func:`bpmid.models.vbmm.fit.fit_motion` (linear start in pressure space, then least squares on the angle
   error, identifiability verdicts).
 
 Both take ``relax_fit`` (a ``bpmid.relax/1`` path, its loaded mapping, or a
@@ -23,7 +23,7 @@ from bpmid.fitting import FitResult, fit_least_squares
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models.base import ModelFamily, check_fit_logs
 from bpmid.models.vbmm import VBMM, VBMMConfig
-from bpmid.motion_fit import (MotionFit, MotionFitConfig, check_angle_range, check_pressure_range, fit_motion,
+from bpmid.models.vbmm.fit import (MotionFit, MotionFitConfig, check_angle_range, check_pressure_range, fit_motion,
                               initial_material, linear_start, material_from_params, params_from_material)
 from bpmid.params import ParamSet
 
@@ -99,7 +99,7 @@ class VBMMMatModel(_VBMMBase):
 
 
 class VBMMFitModel(_VBMMBase):
-    """VBMM refitted on motion data (the paper's VBMM-fit), by :func:`bpmid.motion_fit.fit_motion`.
+    """VBMM refitted on motion data (the paper's VBMM-fit), by :func:`bpmid.models.vbmm.fit.fit_motion`.
 
     Parameters
     ----------
@@ -107,7 +107,7 @@ class VBMMFitModel(_VBMMBase):
 
     Attributes
     ----------
-    result : the :class:`~bpmid.motion_fit.MotionFit` of the last :meth:`fit` (metrics, verdicts), or None
+    result : the :class:`~bpmid.models.vbmm.fit.MotionFit` of the last :meth:`fit` (metrics, verdicts), or None
 
     Examples
     --------

@@ -35,8 +35,8 @@ from bpmid.errors import InputError
 from bpmid.fitting import FitResult, fit_least_squares
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models import _vbmm_kernels as VK
-from bpmid.models.vbmm import VBMM, Material, VBMMConfig
-from bpmid.params import Param, ParamSet
+from bpmid.models.vbmm import VBMM, Material, VBMMConfig, material_params, vbmm_yaml_body
+from bpmid.params import ParamSet
 from bpmid.progress import note
 
 #: paper's name for each built-in prior
@@ -199,16 +199,7 @@ def params_from_material(mat: Material, cfg: MotionFitConfig | None = None, *, a
     """The ParamSet of a material (names as in the module docstring), with the config's start values,
     fixed flags and bounds applied."""
     cfg = cfg or MotionFitConfig()
-    ps = [Param("G_inf", mat.G_inf, "Pa", 0.0, math.inf), Param("K_inf", mat.K_inf, "Pa", 1e3, math.inf)]
-    for j in range(mat.n_branches):
-        i = j + 1
-        ps += [Param(f"G_{i}", mat.G[j], "Pa", 0.0, math.inf), Param(f"K_{i}", mat.K[j], "Pa", 0.0, math.inf)]
-        if mat.split:
-            ps += [Param(f"tauG_{i}", mat.tauG[j], "s", 1e-3, 1e3, log_scale=True),
-                   Param(f"tauK_{i}", mat.tauK[j], "s", 1e-3, 1e3, log_scale=True)]
-        else:
-            ps.append(Param(f"tau_{i}", mat.tauG[j], "s", 1e-3, 1e3, log_scale=True))
-    params = ParamSet(ps)
+    params = material_params(mat)
     for what, names in (("start", cfg.start), ("fixed", cfg.fixed), ("bounds", cfg.bounds)):
         for name in names:
             if name not in params:
@@ -458,16 +449,6 @@ class MotionFit:
     def yaml_body(self) -> dict:
         """Everything of the ``bpmid.vbmm/1`` file but schema and provenance."""
         params = self.fit.params
-        branches = []
-        for j in range(self.model.material.n_branches):
-            i = j + 1
-            b = {"G": params[f"G_{i}"].to_yaml(), "K": params[f"K_{i}"].to_yaml()}
-            if self.model.material.split:
-                b["tauG"] = params[f"tauG_{i}"].to_yaml()
-                b["tauK"] = params[f"tauK_{i}"].to_yaml()
-            else:
-                b["tau"] = params[f"tau_{i}"].to_yaml()
-            branches.append(b)
         unc = self.fit.uncertainty_yaml()
         unc["standard_errors"] = {p.name: (None if p.stderr is None else float(p.stderr)) for p in params}
         unc["relative_standard_errors"] = {
@@ -476,13 +457,10 @@ class MotionFit:
         unc["identifiability"] = self.verdicts()
         unc["sensitivity_deg_per_10pct"] = {k: round(float(v), 6) for k, v in self.sensitivity_deg.items()}
         unc["thresholds"] = {"rel_se_max": self._cfg.rel_se_max, "corr_max": self._cfg.corr_max}
+        body = vbmm_yaml_body(self.model, params=params)
+        body["model"]["time_constants"] = "split" if self.model.material.split else "shared"
         return {
-            "geometry": self.model.geometry.to_yaml(),
-            "closure": self.model.closure,
-            "material": {"G_inf": params["G_inf"].to_yaml(), "K_inf": params["K_inf"].to_yaml(),
-                         "branches": branches},
-            "model": {"history": self.model.history, "window_s": self.model.window_s,
-                      "time_constants": "split" if self.model.material.split else "shared"},
+            **body,
             "metrics": {**{k: float(v) for k, v in self.metrics.items()}, "n_samples": int(sum(lg.n for lg in self.logs)),
                         "mape_floor_deg": MAPE_FLOOR_DEG,
                         "per_log": {k: {kk: float(vv) for kk, vv in v.items()} for k, v in self.per_log.items()}},

@@ -1,0 +1,403 @@
+"""The library's workflows, one call each, each returning a :mod:`bpmid.results` object.
+
+These are what ``import bpmid`` exposes (``bpmid.fit_motion`` ...) and what the CLI commands call. Units are
+explicit at this boundary: files state theirs in column names; arrays get theirs as arguments
+(:func:`from_arrays`); nothing is taken to be Pa silently.
+
+Every function takes ``config``: a :class:`bpmid.config.Config`, the path of a config YAML, or None for the
+defaults. Logs are paths (read with the config's ``io`` section) or already-read log objects.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterable, Sequence
+
+from bpmid.errors import InputError
+from bpmid.units import ATMOSPHERE_PA
+
+
+# --------------------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------------------
+def _config(config):
+    from bpmid.config import Config, load_config
+
+    if config is None or isinstance(config, (str, Path)):
+        return load_config(config)
+    if not isinstance(config, Config):
+        raise InputError(f"config must be a Config, a path or None, found {type(config).__name__}", key="config")
+    return config
+
+
+def _as_list(x) -> list:
+    if x is None:
+        return []
+    if isinstance(x, (str, Path)) or not isinstance(x, Iterable):
+        return [x]
+    return list(x)
+
+
+def _motion_logs(logs, cfg, *, require_angle: bool = False) -> tuple[list, list[Path]]:
+    """(MotionLog list, the paths among the inputs) from paths and/or MotionLog objects."""
+    from bpmid.io.motion_logs import MotionLog, read_motion_logs
+
+    items = _as_list(logs)
+    if not items:
+        raise InputError("no logs given", key="logs")
+    paths = [Path(x) for x in items if isinstance(x, (str, Path))]
+    for p in paths:
+        if not p.is_file():
+            raise InputError("log file not found", path=p)
+    read = iter(read_motion_logs(paths, cfg.section("io"), require_angle=require_angle) if paths else [])
+    out = []
+    for x in items:
+        if isinstance(x, (str, Path)):
+            out.append(next(read))
+        elif isinstance(x, MotionLog):
+            if require_angle and x.angle_deg is None:
+                raise InputError("this log has no measured angle (angle_deg)", path=x.path or x.name)
+            out.append(x)
+        else:
+            raise InputError(f"a log is a path or a MotionLog (bpmid.from_arrays), found {type(x).__name__}",
+                             key="logs")
+    return out, paths
+
+
+def _vbmm(params, model_cfg):
+    """A VBMM from a ``bpmid.vbmm/1`` path, a :class:`VBMMFitResult` or a VBMM; plus the path when there is one."""
+    from bpmid.models.vbmm import VBMM, load_vbmm, vbmm_from_mapping
+    from bpmid.results import VBMMFitResult
+
+    if isinstance(params, (str, Path)):
+        return load_vbmm(params, model_cfg), Path(params)
+    if isinstance(params, VBMMFitResult):
+        return vbmm_from_mapping(params.to_dict(), params.source, model_cfg), params.source
+    if isinstance(params, VBMM):
+        return params, None
+    raise InputError(f"params must be a bpmid.vbmm/1 file, a VBMMFitResult or a VBMM, found {type(params).__name__}",
+                     key="params")
+
+
+# --------------------------------------------------------------------------------------------------
+# logs
+# --------------------------------------------------------------------------------------------------
+def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None = None,
+                reference: str | None = None, name: str = "log", atmosphere_pa: float = ATMOSPHERE_PA):
+    """A motion log from arrays, with the pressure's unit and reference stated.
+
+    Parameters
+    ----------
+    time_s : (N,) seconds, strictly increasing
+    pressure : (N,) pressure in ``pressure_unit``
+    angle_deg : (N,) measured bending angle in degrees, or None (a pressure-only log, e.g. for ``predict``)
+    pressure_unit : ``"bar"``, ``"kPa"``, ``"Pa"``, ``"MPa"``, ``"mbar"`` or ``"psi"`` (required)
+    reference : ``"gauge"`` or ``"absolute"`` (required)
+    name : the log's name (output file names)
+    atmosphere_pa : ambient pressure (Pa) for an absolute reference
+
+    Raises
+    ------
+    InputError : a missing unit or reference, arrays of different lengths, times not increasing, or a pressure
+        that cannot be in the stated unit (a muscle driven by less than 0.01 bar, or by vacuum)
+    """
+    import numpy as np
+
+    from bpmid.io.motion_logs import MotionLog
+    from bpmid.units import PRESSURE_UNITS, to_gauge_pa
+
+    if pressure_unit is None:
+        raise InputError("state the pressure's unit: from_arrays(..., pressure_unit='bar'|'kPa'|'Pa', ...)",
+                         key="pressure_unit")
+    if reference is None:
+        raise InputError("state the pressure's reference: from_arrays(..., reference='gauge'|'absolute')",
+                         key="reference")
+    t = np.asarray(time_s, float)
+    given = np.asarray(pressure, float)
+    a = None if angle_deg is None else np.asarray(angle_deg, float)
+    if t.ndim != 1 or given.shape != t.shape or (a is not None and a.shape != t.shape):
+        raise InputError(f"time_s, pressure and angle_deg must be 1-D arrays of one length, found shapes "
+                         f"{t.shape}, {given.shape}, {None if a is None else a.shape}", key=name)
+    if t.size < 2 or not np.all(np.diff(t) > 0):
+        raise InputError("time_s must hold at least two strictly increasing times", key=name)
+    if not (np.all(np.isfinite(given)) and (a is None or np.all(np.isfinite(a)))):
+        raise InputError("pressure and angle must be finite numbers", key=name)
+    gauge = to_gauge_pa(given, pressure_unit, reference, atmosphere_pa=atmosphere_pa)
+    span = float(np.max(gauge))
+    if span < 1e3:
+        raise InputError(f"the largest gauge pressure is {span:.4g} Pa ({span / 1e5:.4g} bar) for pressure_unit="
+                         f"{pressure_unit!r}, reference={reference!r}: no muscle moves on that; check the unit "
+                         "and the reference", key="pressure_unit")
+    if float(np.min(gauge)) < -0.05 * 1e5:
+        raise InputError(f"pressure {float(np.min(gauge)) / 1e5:.3g} bar gauge is below atmosphere: a wrong "
+                         "reference (absolute vs gauge) or unit", key="reference")
+    unit = str(pressure_unit).lower()
+    assert unit in PRESSURE_UNITS
+    return MotionLog(name=name, time_s=t, pressure_pa=gauge, angle_deg=a, pressure_reference=reference,
+                     pressure_unit=unit, pressure_as_given=given.copy(), atmosphere_pa=atmosphere_pa)
+
+
+def read_motion_logs(paths, *, config=None, require_angle: bool = False) -> list:
+    """Read motion logs (CSV: ``time_s``, ``pressure_bar|kpa|pa`` with a stated reference, optional ``angle_deg``)."""
+    return _motion_logs(paths, _config(config), require_angle=require_angle)[0]
+
+
+def read_relax_logs(paths, *, config=None) -> list:
+    """Read relaxation logs (``time_s,strain,stress_mpa``, ``time_s,extension_mm,load_n`` or ``time_s,modulus_mpa``)."""
+    from bpmid.io.relax_logs import read_relax_logs as _read
+
+    cfg = _config(config)
+    rc = cfg.section("relax")
+    gap = rc.max_gap_factor if rc.max_gap_factor is not None else cfg.section("io").max_gap_factor
+    return _read([Path(p) for p in _as_list(paths)], column_map=rc.columns,
+                 gauge_length_mm=rc.specimen.gauge_length_mm, cross_section_mm2=rc.specimen.cross_section_mm2,
+                 gap_factor=gap)
+
+
+# --------------------------------------------------------------------------------------------------
+# workflows
+# --------------------------------------------------------------------------------------------------
+def fit_relaxation(logs, *, terms: int | str | None = None, mode: str | None = None, poisson: float | None = None,
+                   config=None):
+    """Fit a Prony series E(t) = E_inf + sum_j E_j exp(-t/tau_j) to relaxation logs (``bpmid fit relax``).
+
+    Parameters
+    ----------
+    logs : relaxation log paths
+    terms : number of Prony terms or ``"auto"`` (default: ``relax.terms`` of the config)
+    mode : ``"ramp"`` or ``"step"`` (default: the config's, or step for modulus curves)
+    poisson : Poisson's ratio for G and K (default ``relax.poisson``)
+
+    Returns
+    -------
+    bpmid.results.RelaxationResult
+    """
+    from bpmid.io.results import provenance
+    from bpmid.relax.fit import fit_relaxation as _fit
+    from bpmid.relax.result import relax_fit_body
+    from bpmid.results import RelaxationResult
+    from bpmid.viscoelastic import check_poisson
+
+    cfg_all = _config(config)
+    cfg = cfg_all.section("relax")
+    if mode is not None and mode not in ("ramp", "step"):
+        raise InputError(f"mode takes ramp or step, found {mode!r}", key="mode")
+    nu = check_poisson(cfg.poisson if poisson is None else poisson, key="poisson" if poisson is not None
+                       else "relax.poisson")
+    if terms is None:
+        terms = cfg.terms
+    elif isinstance(terms, str):
+        terms = "auto" if terms.strip().lower() == "auto" else terms
+        if terms != "auto":
+            try:
+                terms = int(terms)
+            except ValueError:
+                raise InputError(f"terms takes a whole number or auto, found {terms!r}", key="terms") from None
+    paths = [Path(p) for p in _as_list(logs)]
+    if not paths:
+        raise InputError("no relaxation logs given", key="logs")
+    records = read_relax_logs(paths, config=cfg_all)
+    fit = _fit(records, terms=terms, mode=cfg.mode if mode is None else mode, config=cfg)
+    result = RelaxationResult(relax_fit_body(fit, nu), provenance(paths, config=cfg_all), raw=fit)
+    result._synthetic = any(str(r.meta.get("synthetic", "")).lower() in ("true", "yes", "1") for r in records)
+    return result
+
+
+def fit_motion(logs, *, init=None, config=None):
+    """Fit the VBMM's moduli and time constants to pressure-angle logs (``bpmid fit motion``).
+
+    Parameters
+    ----------
+    logs : motion log paths or :func:`from_arrays` logs, with measured angles
+    init : where the fit starts: a relaxation fit (``bpmid.relax/1`` path or :class:`RelaxationResult`) or None
+        (``motion.relax_fit`` of the config, else the paper's constants)
+
+    Returns
+    -------
+    bpmid.results.VBMMFitResult : ``.model`` is the fitted VBMM
+    """
+    from bpmid.io.results import provenance
+    from bpmid.models.vbmm.fit import fit_motion as _fit
+    from bpmid.results import RelaxationResult, VBMMFitResult
+
+    cfg = _config(config)
+    motion, paths = _motion_logs(logs, cfg, require_angle=True)
+    inputs = list(paths)
+    if isinstance(init, RelaxationResult):
+        if init.source is not None:
+            inputs.append(init.source)
+        init = init.to_dict()
+    elif isinstance(init, (str, Path)):
+        if not Path(init).is_file():
+            raise InputError("relaxation fit not found", path=init, key="init")
+        inputs.append(Path(init))
+    fit = _fit(motion, config=cfg, init=init)
+    return VBMMFitResult(fit.yaml_body(), provenance(inputs, config=cfg), raw=fit)
+
+
+def predict(logs, params, *, config=None):
+    """Run a fitted VBMM free on pressure logs (``bpmid predict``).
+
+    Parameters
+    ----------
+    logs : motion log paths or :func:`from_arrays` logs (angles optional: with them, metrics are computed)
+    params : the VBMM: a ``bpmid.vbmm/1`` path, a :class:`VBMMFitResult` or a ``bpmid.models.vbmm.VBMM``
+
+    Returns
+    -------
+    bpmid.results.PredictionResult : ``.predictions`` maps log name -> predicted angle (deg)
+    """
+    from bpmid.io.results import provenance
+    from bpmid.predict import predict as _predict, predict_yaml_body
+    from bpmid.results import PredictionResult
+
+    cfg = _config(config)
+    model, ppath = _vbmm(params, cfg.section("model"))
+    motion, paths = _motion_logs(logs, cfg)
+    preds = _predict(motion, model)
+    body = predict_yaml_body(preds, params=ppath, model=model)
+    return PredictionResult(body, provenance(list(paths) + ([ppath] if ppath else []), config=cfg), raw=preds)
+
+
+def compare(train=None, test=None, *, models: Sequence[str] | str | None = None, relax=None, config=None):
+    """Fit every model on the training logs only and score each free-running on the test logs (``bpmid compare``).
+
+    Parameters
+    ----------
+    train, test : motion log paths (default: ``compare.train`` / ``compare.test_sets`` of the config)
+    models : registry names (see :data:`bpmid.REGISTRY`) or a comma list; default the config's, else all
+    relax : relaxation fit path for vbmm-mat (default ``compare.relax`` of the config)
+
+    Returns
+    -------
+    bpmid.results.ComparisonResult : ``.table`` is the ranked summary
+    """
+    from bpmid.compare import compare_files, compare_yaml_body, resolve_inputs
+    from bpmid.models import parse_model_list
+    from bpmid.results import ComparisonResult
+
+    cfg = _config(config)
+    if isinstance(models, str):
+        models = parse_model_list(models)
+    elif models is not None:
+        models = parse_model_list(",".join(models))
+    train_paths, test_sets, relax_path = resolve_inputs(cfg.section("compare"), cfg, train=_as_list(train) or None,
+                                                        test=_as_list(test) or None, relax=relax)
+    result, prov, how = compare_files(train_paths, test_sets, models=models, config=cfg, relax_fit=relax_path)
+    body = compare_yaml_body(result, how["relax_fit"])
+    body["synthetic"] = bool(how["synthetic"])
+    out = ComparisonResult(body, prov, raw=result)
+    out._figure_logs = how["n_figure_logs"]
+    return out
+
+
+def discover(logs, *, holdout=None, init=None, config=None):
+    """Name the effects the VBMM lacks (``bpmid discover``): fit the base VBMM, diagnose the residual, screen
+    every catalogue effect, confirm on held-out logs, add one effect at a time.
+
+    Parameters
+    ----------
+    logs : motion logs with measured angles
+    holdout : held-out logs (default: a fixed split of ``logs``)
+    init : starting constants: a ``bpmid.vbmm/1`` or ``bpmid.relax/1`` path, or a VBMMFitResult / RelaxationResult
+        (default: the paper's VBMM-fit constants)
+
+    Returns
+    -------
+    bpmid.results.DiscoveryResult : ``.named_effects``, ``summary()`` carries the verdict
+    """
+    from bpmid.discover import discover as _discover
+    from bpmid.io.results import provenance
+    from bpmid.models.vbmm import starting_vbmm
+    from bpmid.results import DiscoveryResult
+
+    cfg = _config(config)
+    fit_logs, paths = _motion_logs(logs, cfg, require_angle=True)
+    ho_logs, ho_paths = _motion_logs(holdout, cfg, require_angle=True) if holdout is not None else (None, [])
+    base, base_from, init_path = starting_vbmm(init, cfg.section("model"))
+    res = _discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
+    body = res.to_yaml()
+    body["base_from"] = base_from
+    prov = provenance(list(paths) + list(ho_paths) + ([init_path] if init_path else []), config=cfg)
+    return DiscoveryResult(body, prov, raw=res)
+
+
+def simulate(protocol, *, params=None, effects: Sequence[str] = (), seed: int | None = None,
+             timestamp: bool = True):
+    """Run a protocol file (``bpmid.protocol/1``) on the digital twin (``bpmid simulate``); nothing is written
+    until ``.save(folder)``.
+
+    Parameters
+    ----------
+    protocol : protocol path (shipped ones: :func:`bpmid.data.path` ``("configs/datasets/<name>.yaml")``)
+    params : VBMM constants of the plant (``bpmid.vbmm/1`` path; default the protocol's preset)
+    effects : catalogue effects to inject, ``"ID[:key=value,...]"`` each
+    seed : overrides the protocol's seed
+    timestamp : record the creation time (False: byte-reproducible)
+
+    Returns
+    -------
+    bpmid.results.SimulationResult : synthetic logs (labelled so) and their manifest
+    """
+    from bpmid.results import SimulationResult
+    from bpmid.twin.simulate import simulate as _simulate
+
+    sim = _simulate(protocol, params_path=params, effects=tuple(_as_list(effects)), seed=seed, timestamp=timestamp)
+    return SimulationResult(sim.manifest, sim.manifest.get("provenance"), raw=sim)
+
+
+def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequence[str] | str | None = None,
+            plant_params=None, plant_effects: Sequence[str] = (), config=None, **settings):
+    """Closed-loop tracking with PI, VBMM-PI and MS-PI at the control rate (``bpmid control``).
+
+    Parameters
+    ----------
+    params : the controller's VBMM (``bpmid.vbmm/1`` path or :class:`VBMMFitResult` or VBMM)
+    reference : shipped reference names, CSV paths (``time_s, angle_deg``) or ``"all"``; a list or a comma list
+    controllers : any of ``pi``, ``vbmm-pi``, ``ms-pi`` (default: ``control.controllers`` of the config)
+    plant_params : the plant's VBMM (default the controller's)
+    plant_effects : catalogue effects of the plant, ``"ID[:key=value,...]"`` each
+    settings : fields of the config section ``control`` by name with their units in the name
+        (``kp_bar_per_deg``, ``ki_bar_per_deg_s``, ``seed``, ``plant_modulus_scale``, ``plant_tau_scale``,
+        ``pressure_dynamics`` ...)
+
+    Returns
+    -------
+    bpmid.results.ControlResult : ``.table`` is the summary (RMSE per controller and reference)
+    """
+    import dataclasses
+
+    from bpmid.control import build_plant, control_yaml_body, load_references, run_control, scaled_plant_model
+    from bpmid.io.results import provenance
+    from bpmid.results import ControlResult
+
+    cfg_all = _config(config)
+    cfg = cfg_all.section("control")
+    known = {f.name for f in dataclasses.fields(cfg)}
+    for k in settings:
+        if k not in known:
+            raise InputError(f"unknown control setting (known: {', '.join(sorted(known))})", key=k)
+    if isinstance(controllers, str):
+        controllers = [c.strip() for c in controllers.split(",") if c.strip()]
+    if controllers is not None:
+        settings["controllers"] = tuple(controllers)
+    if settings:
+        cfg = dataclasses.replace(cfg, **settings)
+        cfg.validate()
+    controllers = list(cfg.controllers)
+    model_cfg = cfg_all.section("model")
+    model, ppath = _vbmm(params, model_cfg)
+    plant_base, plant_path = _vbmm(plant_params, model_cfg) if plant_params is not None else (model, None)
+    plant_base = scaled_plant_model(plant_base, cfg.plant_modulus_scale, cfg.plant_tau_scale)
+    plant = build_plant(plant_base, list(_as_list(plant_effects)), cfg)
+    spec = reference if isinstance(reference, str) else ",".join(str(r) for r in reference)
+    refs = load_references(spec, cfg.rate_hz)
+    res = run_control(model, plant, refs, cfg, controllers=controllers)
+    inputs = [p for p in (ppath, plant_path) if p is not None] + [r.path for r in refs if r.path is not None]
+    prov = provenance(inputs, config=cfg_all if cfg_all.path else None, seed=cfg.seed)
+    out = ControlResult(control_yaml_body(res, cfg, model=model, plant=plant), prov, raw=res)
+    out._write_context = {"cfg": cfg, "model": model, "plant": plant}
+    return out
+
+
+__all__ = ["from_arrays", "read_motion_logs", "read_relax_logs", "fit_relaxation", "fit_motion", "predict",
+           "compare", "discover", "simulate", "control"]

@@ -1,0 +1,899 @@
+"""One result protocol for every workflow (relaxation fit, VBMM fit, prediction, comparison, discovery,
+simulation, control).
+
+A :class:`Result` is what a workflow's file says, held in memory: its ``schema`` (``bpmid.<kind>/1``), its
+``body`` (the file's keys, plain YAML types) and its ``provenance``. The live objects a workflow built (fitted
+model, arrays of every trace) ride along as ``raw`` where the result was computed in this process; they make
+``plot()`` richer and let ``save`` write the same figures and tables the CLI writes, but they are not part of the
+result's identity: ``bpmid.load(result.save(path)) == result``.
+
+Every result offers
+
+- ``params``: the named constants (value, stderr, unit, identifiability) -> :class:`Parameters`
+- ``metrics``: the fit statistics (a flat dict, units in the key names)
+- ``correlations(threshold)``: pairs of estimated parameters correlated beyond ``threshold``
+- ``warnings``: what the workflow warned about
+- ``summary()``: a plain-text report in the spirit of lmfit's ``fit_report``
+- ``_repr_html_()``: the same for notebooks; ``repr()`` is one line
+- ``plot()``: a matplotlib Figure (matplotlib is imported only here)
+- ``save(path)``: the file(s) the CLI writes, with provenance; ``to_dict()`` the file's mapping
+
+Adding a workflow: a subclass with ``kind`` (and ``main_file`` when it writes a folder) plus the few properties
+it can answer; :data:`KINDS` finds it by schema.
+"""
+from __future__ import annotations
+
+import dataclasses
+import html
+import math
+from pathlib import Path
+from typing import Any, ClassVar, Iterator, Mapping
+
+from bpmid.errors import InputError
+
+
+# --------------------------------------------------------------------------------------------------
+# parameters
+# --------------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class ParamInfo:
+    """One reported constant.
+
+    Attributes
+    ----------
+    name : the parameter's name (``K_inf``, ``tau_1``, ``gpi.w_1`` ...)
+    value : in ``unit``
+    stderr : standard error in ``unit`` (None: not estimated, fixed, or not identifiable)
+    unit : unit string (``Pa``, ``s``, ``deg``, ``bar/deg`` ...)
+    identifiability : ``estimated``, ``fixed ...``, ``not identifiable: ...`` or ``""`` when not judged
+    """
+
+    name: str
+    value: float
+    stderr: float | None = None
+    unit: str = ""
+    identifiability: str = ""
+
+    @property
+    def rel_stderr(self) -> float | None:
+        if self.stderr is None or not self.value:
+            return None
+        return abs(self.stderr / self.value)
+
+
+class Parameters(Mapping[str, ParamInfo]):
+    """Named parameters in order (a read-only mapping name -> :class:`ParamInfo`)."""
+
+    def __init__(self, items=()):
+        self._items: dict[str, ParamInfo] = {p.name: p for p in items}
+
+    def __getitem__(self, name: str) -> ParamInfo:
+        try:
+            return self._items[name]
+        except KeyError:
+            raise KeyError(f"no parameter {name!r} (known: {', '.join(self._items) or 'none'})") from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def values(self):  # noqa: D102 - the ParamInfo objects, in order
+        return list(self._items.values())
+
+    def valuesdict(self) -> dict[str, float]:
+        """name -> value (lmfit's name for it)."""
+        return {k: p.value for k, p in self._items.items()}
+
+    def table(self) -> str:
+        """Aligned text table: name, value, stderr (and %), unit, identifiability."""
+        if not self._items:
+            return "    (none)"
+        w = max(len(n) for n in self._items)
+        lines = []
+        for p in self._items.values():
+            se = "" if p.stderr is None else f" +/- {p.stderr:.4g}"
+            rel = p.rel_stderr
+            se += "" if rel is None else f" ({100 * rel:.2f}%)"
+            ident = f"  [{p.identifiability}]" if p.identifiability else ""
+            lines.append(f"    {p.name:<{w}} = {_num(p.value):>12}{se} {p.unit}{ident}")
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        return f"Parameters({', '.join(f'{k}={_num(p.value)} {p.unit}'.strip() for k, p in self._items.items())})"
+
+
+def _num(v) -> str:
+    if v is None:
+        return "None"
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return str(v)
+    return f"{v:.6g}"
+
+
+def _entry(name: str, entry, unit: str = "", identifiability: str = "") -> ParamInfo:
+    """A ParamInfo from a ``{value, stderr, unit}`` entry or a bare number."""
+    if isinstance(entry, Mapping):
+        se = entry.get("stderr")
+        return ParamInfo(name, float(entry.get("value")), None if se is None else float(se),
+                         str(entry.get("unit", unit) or unit), identifiability)
+    return ParamInfo(name, float(entry), None, unit, identifiability)
+
+
+# --------------------------------------------------------------------------------------------------
+# the base class
+# --------------------------------------------------------------------------------------------------
+def _normalised(data: dict) -> dict:
+    """``data`` as it reads back from its YAML file (plain types, NaN -> None), so equality survives save/load."""
+    import yaml
+
+    from bpmid.io.results import dump_yaml
+
+    return yaml.safe_load(dump_yaml(data)) or {}
+
+
+class Result:
+    """The common shape of every workflow's result (see the module docstring).
+
+    Parameters
+    ----------
+    body : the file's keys except ``schema`` and ``provenance``
+    provenance : the provenance block (what made it: version, command, input hashes, config, seed)
+    raw : the live workflow object (not compared, not saved beyond what ``body`` holds)
+    source : the file this result was loaded from, if any
+    """
+
+    #: ``bpmid.<kind>/1``
+    kind: ClassVar[str] = ""
+    #: for results written as a folder: the YAML inside it that carries the schema
+    main_file: ClassVar[str | None] = None
+    title: ClassVar[str] = "bpmid result"
+
+    def __init__(self, body: Mapping, provenance: Mapping | None = None, *, raw: Any = None,
+                 source: str | Path | None = None):
+        self.body = _normalised(dict(body))
+        self.body.pop("schema", None)
+        self.body.pop("provenance", None)
+        self.provenance = _normalised(dict(provenance or {}))
+        self.raw = raw
+        self.source = None if source is None else Path(source)
+
+    # ----- identity -------------------------------------------------------------------------------
+    @property
+    def schema(self) -> str:
+        return f"bpmid.{self.kind}/1"
+
+    def to_dict(self) -> dict:
+        """The file's mapping: ``{schema, <body...>, provenance}``."""
+        return {"schema": self.schema, **self.body, "provenance": self.provenance}
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Result):
+            return NotImplemented
+        return (type(self) is type(other) and self.schema == other.schema and self.body == other.body
+                and self.provenance == other.provenance)
+
+    __hash__ = None  # mutable mapping inside
+
+    # ----- what every result answers --------------------------------------------------------------
+    @property
+    def params(self) -> Parameters:
+        return Parameters()
+
+    @property
+    def metrics(self) -> dict[str, float]:
+        return {}
+
+    @property
+    def warnings(self) -> list[str]:
+        w = self.body.get("warnings")
+        return [str(x) for x in w] if isinstance(w, list) else []
+
+    def correlations(self, threshold: float = 0.3) -> list[tuple[str, str, float]]:
+        """Pairs ``(a, b, r)`` of estimated parameters with ``|r| > threshold``, largest first."""
+        names, corr = self._correlation()
+        out = []
+        for i in range(len(names)):
+            for j in range(i + 1, len(names)):
+                try:
+                    r = corr[i][j]
+                except (IndexError, TypeError):
+                    continue
+                if r is not None and math.isfinite(r) and abs(r) > threshold:
+                    out.append((names[i], names[j], float(r)))
+        return sorted(out, key=lambda x: -abs(x[2]))
+
+    def _correlation(self) -> tuple[list[str], list]:
+        return [], []
+
+    def _headline(self) -> str:
+        return ", ".join(f"{k} {_num(v)}" for k, v in list(self.metrics.items())[:3])
+
+    def _extra_sections(self) -> list[tuple[str, str]]:
+        return []
+
+    # ----- text -----------------------------------------------------------------------------------
+    def summary(self, min_correl: float = 0.3) -> str:
+        """A plain-text report: fit statistics, parameters with standard errors and identifiability,
+        correlations above ``min_correl``, warnings, and where it came from."""
+        lines = [f"[[{self.title}]]  ({self.schema})"]
+        if self.metrics:
+            lines.append("[[Fit statistics]]")
+            w = max(len(k) for k in self.metrics)
+            lines += [f"    {k:<{w}} = {_num(v)}" for k, v in self.metrics.items()]
+        lines.append("[[Parameters]]")
+        lines.append(self.params.table())
+        corr = self.correlations(min_correl)
+        if corr:
+            lines.append(f"[[Correlations]] (unreported correlations are < {min_correl:.3f})")
+            w = max(len(f"C({a}, {b})") for a, b, _ in corr)
+            lines += [f"    {f'C({a}, {b})':<{w}} = {r:+.4f}" for a, b, r in corr]
+        for head, text in self._extra_sections():
+            lines.append(f"[[{head}]]")
+            lines += ["    " + ln for ln in text.splitlines()]
+        if self.warnings:
+            lines.append("[[Warnings]]")
+            lines += [f"    - {w}" for w in self.warnings]
+        prov = self.provenance
+        if prov:
+            made = f"bpmid {prov.get('bpmid_version', '?')}"
+            if prov.get("created"):
+                made += f", {prov['created']}"
+            if prov.get("seed") is not None:
+                made += f", seed {prov['seed']}"
+            lines.append(f"[[Provenance]] {made}; {len(prov.get('inputs') or {})} input file(s)")
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        head = self._headline()
+        where = f", from {self.source}" if self.source else ""
+        return f"<{type(self).__name__} {self.schema}: {len(self.params)} params{', ' + head if head else ''}{where}>"
+
+    def __str__(self) -> str:
+        return self.__repr__()
+
+    def _repr_html_(self) -> str:
+        rows = "".join(
+            f"<tr><td>{html.escape(p.name)}</td><td>{_num(p.value)}</td>"
+            f"<td>{'' if p.stderr is None else f'{p.stderr:.4g}'}</td><td>{html.escape(p.unit)}</td>"
+            f"<td>{html.escape(p.identifiability)}</td></tr>" for p in self.params.values())
+        stats = "".join(f"<tr><td>{html.escape(k)}</td><td>{_num(v)}</td></tr>" for k, v in self.metrics.items())
+        warn = "".join(f"<li>{html.escape(w)}</li>" for w in self.warnings)
+        corr = "".join(f"<tr><td>{html.escape(a)}</td><td>{html.escape(b)}</td><td>{r:+.4f}</td></tr>"
+                       for a, b, r in self.correlations())
+        parts = [f"<h4>{html.escape(self.title)} <small>({html.escape(self.schema)})</small></h4>"]
+        if stats:
+            parts.append(f"<table><tr><th>statistic</th><th>value</th></tr>{stats}</table>")
+        if rows:
+            parts.append("<table><tr><th>name</th><th>value</th><th>stderr</th><th>unit</th>"
+                         f"<th>identifiability</th></tr>{rows}</table>")
+        if corr:
+            parts.append(f"<table><tr><th colspan=2>pair</th><th>correlation</th></tr>{corr}</table>")
+        if warn:
+            parts.append(f"<p>Warnings:</p><ul>{warn}</ul>")
+        return "\n".join(parts)
+
+    # ----- figures --------------------------------------------------------------------------------
+    def plot(self):
+        """A matplotlib Figure of the result (the CLI's figure where the live result is at hand, else a
+        figure drawn from the file's numbers)."""
+        return self._params_figure()
+
+    def _params_figure(self):
+        from matplotlib.figure import Figure
+
+        ps = [p for p in self.params.values() if p.value]
+        fig = Figure(figsize=(6.4, 0.4 * max(len(ps), 3) + 1.0), layout="constrained")
+        ax = fig.add_subplot()
+        if ps:
+            rel = [100.0 * (p.rel_stderr or 0.0) for p in ps]
+            ax.barh([f"{p.name} ({p.unit})" for p in ps], rel, color="#4a7ab5")
+            ax.invert_yaxis()
+        ax.set_xlabel("relative standard error (%)")
+        ax.set_title(f"{self.title}: parameter uncertainty")
+        return fig
+
+    # ----- files ----------------------------------------------------------------------------------
+    def save(self, path: str | Path, **kw) -> Path:
+        """Write the result's YAML (schema, body, provenance) atomically; returns the path written.
+
+        Folder results (``main_file`` set) take a folder and write ``main_file`` inside it."""
+        from bpmid.io.results import write_result
+
+        path = Path(path)
+        target = path / self.main_file if self.main_file else path
+        write_result(target, self.schema, self.body, self.provenance)
+        return path
+
+    @classmethod
+    def from_file(cls, data: dict, path: Path) -> "Result":
+        return cls(data, data.get("provenance"), source=path)
+
+
+# --------------------------------------------------------------------------------------------------
+# the workflows
+# --------------------------------------------------------------------------------------------------
+class RelaxationResult(Result):
+    """A Prony-series fit of relaxation logs (``bpmid.relax/1``; :func:`bpmid.fit_relaxation`)."""
+
+    kind = "relax"
+    title = "Relaxation fit (Prony series)"
+
+    @property
+    def params(self) -> Parameters:
+        out = []
+        for block, inf_name, mod in (("prony", "E_inf", "E"), ("shear", "G_inf", "G"), ("bulk", "K_inf", "K")):
+            b = self.body.get(block) or {}
+            tag = "estimated" if block == "prony" else "derived (Poisson's ratio)"
+            if inf_name in b:
+                out.append(_entry(inf_name, b[inf_name], "Pa", tag))
+            for j, term in enumerate(b.get("terms") or [], start=1):
+                out.append(_entry(f"{mod}_{j}", term[mod], "Pa", tag))
+                if block == "prony":
+                    out.append(_entry(f"tau_{j}", term["tau"], "s", tag))
+        if "poisson_ratio" in self.body:
+            out.append(ParamInfo("poisson_ratio", float(self.body["poisson_ratio"]), None, "1", "given"))
+        return Parameters(out)
+
+    @property
+    def metrics(self) -> dict[str, float]:
+        m = self.body.get("metrics") or {}
+        out = {f"rmse_{m.get('rmse_unit', 'Pa')}": m.get("rmse"), "r2": m.get("r2"), "mape_pct": m.get("mape_pct"),
+               "n_terms": m.get("n_terms")}
+        unc = self.body.get("uncertainty") or {}
+        out.update({"n_obs": unc.get("n_obs"), "n_eff": unc.get("n_eff")})
+        return {k: v for k, v in out.items() if v is not None}
+
+    def _correlation(self):
+        unc = self.body.get("uncertainty") or {}
+        return list(unc.get("parameters") or []), unc.get("correlation") or []
+
+    def _headline(self) -> str:
+        m = self.metrics
+        return f"{self.body.get('mode')} mode, {m.get('n_terms')} term(s), R^2 {_num(m.get('r2'))}"
+
+    def modulus_pa(self, t_s, which: str = "E"):
+        """E(t), G(t) or K(t) in Pa at times ``t_s`` (s) from the fitted Prony series."""
+        import numpy as np
+
+        block, inf = {"E": ("prony", "E_inf"), "G": ("shear", "G_inf"), "K": ("bulk", "K_inf")}[which]
+        b = self.body[block]
+        t = np.asarray(t_s, float)
+        out = np.full_like(t, float(b[inf]["value"]))
+        for term in b.get("terms") or []:
+            out = out + float(term[which]["value"]) * np.exp(-t / float(term["tau"]["value"]))
+        return out
+
+    def plot(self):
+        if self.raw is not None:
+            from bpmid.plots.relax import relax_figure
+
+            return relax_figure(self.raw)
+        import numpy as np
+        from matplotlib.figure import Figure
+
+        taus = [float(t["tau"]["value"]) for t in (self.body.get("prony") or {}).get("terms") or []] or [1.0]
+        t = np.logspace(np.log10(min(taus)) - 2, np.log10(max(taus)) + 2, 300)
+        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
+        ax = fig.add_subplot()
+        ax.semilogx(t, self.modulus_pa(t, "E") / 1e6, label="E(t) fitted Prony series")
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("relaxation modulus E (MPa)")
+        ax.legend()
+        ax.set_title(self.title)
+        return fig
+
+    def save(self, path: str | Path, *, figure: str | Path | bool | None = None) -> Path:
+        """Write the ``bpmid.relax/1`` YAML (and, for a live result, the figure: True = beside it as .png)."""
+        path = Path(path)
+        if figure and self.raw is not None:
+            from bpmid.io.atomic import staged_file
+            from bpmid.plots.common import save_figure
+            from bpmid.plots.relax import relax_figure
+
+            fig_path = path.with_suffix(".png") if figure is True else Path(figure)
+            with staged_file(path) as tmp_yaml, staged_file(fig_path) as tmp_fig:
+                super().save(tmp_yaml)
+                save_figure(relax_figure(self.raw, synthetic=bool(getattr(self, "_synthetic", False))), tmp_fig)
+            return path
+        return super().save(path)
+
+    @property
+    def relax_parameters(self):
+        """The constants as :class:`bpmid.relax.result.RelaxParameters` (what fit motion's ``init`` takes)."""
+        from bpmid.relax.result import relax_fit_from_mapping
+
+        return relax_fit_from_mapping(self.to_dict(), self.source)
+
+
+class VBMMFitResult(Result):
+    """A fitted VBMM (``bpmid.vbmm/1``; :func:`bpmid.fit_motion`)."""
+
+    kind = "vbmm"
+    title = "VBMM fit"
+
+    @property
+    def params(self) -> Parameters:
+        mat = self.body.get("material") or {}
+        ident = ((self.body.get("uncertainty") or {}).get("identifiability") or {})
+        out = []
+        for name in ("G_inf", "K_inf"):
+            if name in mat:
+                out.append(_entry(name, mat[name], "Pa", ident.get(name, "")))
+        for j, b in enumerate(mat.get("branches") or [], start=1):
+            for key, unit in (("G", "Pa"), ("K", "Pa"), ("tau", "s"), ("tauG", "s"), ("tauK", "s")):
+                if key in b:
+                    name = f"{key}_{j}"
+                    out.append(_entry(name, b[key], unit, ident.get(name, "")))
+        return Parameters(out)
+
+    @property
+    def metrics(self) -> dict[str, float]:
+        m = self.body.get("metrics") or {}
+        keep = ("rmse_deg", "mape_pct", "r2", "fit_pct", "max_abs_err_deg", "n_samples")
+        out = {k: m[k] for k in keep if k in m}
+        unc = self.body.get("uncertainty") or {}
+        for k in ("n_obs", "n_eff", "nfev", "converged"):
+            if k in unc:
+                out[k] = unc[k]
+        return out
+
+    def _correlation(self):
+        unc = self.body.get("uncertainty") or {}
+        return list(unc.get("parameters") or []), unc.get("correlation") or []
+
+    def _headline(self) -> str:
+        m = self.metrics
+        return f"RMSE {_num(m.get('rmse_deg'))} deg, R^2 {_num(m.get('r2'))}"
+
+    @property
+    def model(self):
+        """The fitted :class:`bpmid.models.vbmm.VBMM` (history settings as recorded in the file)."""
+        if self.raw is not None and hasattr(self.raw, "model"):
+            return self.raw.model
+        from bpmid.models.vbmm import vbmm_from_mapping
+
+        return vbmm_from_mapping(self.to_dict(), self.source)
+
+    def plot(self):
+        if self.raw is not None and hasattr(self.raw, "predictions"):
+            from bpmid.plots.motion import motion_fit_figure
+
+            r = self.raw
+            return motion_fit_figure(r.logs, r.predictions, title=f"VBMM fit: RMSE {r.metrics['rmse_deg']:.3g} deg")
+        import numpy as np
+        from matplotlib.figure import Figure
+
+        model = self.model
+        beta = np.linspace(0.05, 1.5 * np.pi, 200)
+        p = model.equilibrium_pressure(beta)
+        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
+        ax = fig.add_subplot()
+        ax.plot(np.asarray(p) / 1e5, np.degrees(beta), label="long-term equilibrium (G_inf, K_inf)")
+        ax.set_xlabel("pressure (bar, gauge)")
+        ax.set_ylabel("bending angle (deg)")
+        ax.legend()
+        ax.set_title(self.title)
+        return fig
+
+    def save(self, path: str | Path, *, figure: str | Path | None = None, synthetic: bool = False) -> Path:
+        """Write the ``bpmid.vbmm/1`` YAML; with ``figure`` (a live result) the fit figure too, all or nothing."""
+        if figure is not None and self.raw is not None:
+            from bpmid.models.vbmm.fit import write_motion_fit
+
+            write_motion_fit(path, self.raw, self.provenance, figure=figure, synthetic=synthetic)
+            return Path(path)
+        return super().save(path)
+
+
+class PredictionResult(Result):
+    """Predictions of a fitted VBMM on logs (folder with ``predict.yaml``; :func:`bpmid.predict`)."""
+
+    kind = "predict"
+    main_file = "predict.yaml"
+    title = "VBMM prediction"
+
+    @property
+    def metrics(self) -> dict[str, float]:
+        out = {}
+        for name, d in (self.body.get("logs") or {}).items():
+            for k, v in ((d or {}).get("metrics") or {}).items():
+                out[f"{name}.{k}"] = v
+        return out
+
+    @property
+    def predictions(self) -> dict:
+        """log name -> (N,) predicted angle (deg); from the live result or the CSVs beside the YAML."""
+        if self.raw is not None:
+            return {p.log.name: p.angle_pred_deg for p in self.raw}
+        import pandas as pd
+
+        base = self.source.parent if self.source is not None else Path(".")
+        return {name: pd.read_csv(base / d["file"], comment="#")["angle_pred_deg"].to_numpy()
+                for name, d in (self.body.get("logs") or {}).items() if (base / d["file"]).is_file()}
+
+    def _headline(self) -> str:
+        return f"{len(self.body.get('logs') or {})} log(s)"
+
+    def plot(self):
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(7.0, 4.0), layout="constrained")
+        ax = fig.add_subplot()
+        if self.raw is not None:
+            for p in self.raw:
+                line, = ax.plot(p.log.time_s, p.angle_pred_deg, label=f"{p.log.name} predicted")
+                if p.log.angle_deg is not None:
+                    ax.plot(p.log.time_s, p.log.angle_deg, ":", color=line.get_color(), label=f"{p.log.name} measured")
+        else:
+            for name, y in self.predictions.items():
+                ax.plot(y, label=f"{name} predicted")
+        ax.set_xlabel("time (s)" if self.raw is not None else "sample")
+        ax.set_ylabel("bending angle (deg)")
+        ax.legend(fontsize="small")
+        ax.set_title(self.title)
+        return fig
+
+    def save(self, path: str | Path) -> Path:
+        """Write ``DIR/<log>.csv`` per log and ``DIR/predict.yaml`` (all or nothing); a loaded result writes
+        ``predict.yaml`` only."""
+        if self.raw is not None:
+            from bpmid.predict import write_predictions
+
+            m = self.body.get("model") or {}
+            write_predictions(path, self.raw, prov=self.provenance, params=self.body.get("params"),
+                              model=_ModelSettings(m) if m else None)
+            return Path(path)
+        return super().save(path)
+
+
+@dataclasses.dataclass
+class _ModelSettings:
+    """The ``model`` block of predict.yaml as the writer reads it (closure, history, window_s)."""
+
+    block: dict
+
+    def __getattr__(self, name):
+        try:
+            return self.__dict__["block"][name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+class ComparisonResult(Result):
+    """Every model fitted on training logs and scored free-running on test logs (folder with
+    ``compare.yaml``; :func:`bpmid.compare`)."""
+
+    kind = "compare"
+    main_file = "compare.yaml"
+    title = "Model comparison"
+
+    @property
+    def params(self) -> Parameters:
+        out = []
+        for model, d in (self.body.get("models") or {}).items():
+            for name, entry in ((d or {}).get("parameters") or {}).items():
+                if isinstance(entry, Mapping) and "value" in entry:
+                    ident = "" if entry.get("identifiable") is None else \
+                        ("estimated" if entry["identifiable"] else "not identifiable")
+                    if entry.get("fixed") and not ident:
+                        ident = "fixed"
+                    out.append(_entry(f"{model}.{name}", entry, "", ident))
+        return Parameters(out)
+
+    @property
+    def table(self):
+        """The summary table (pandas DataFrame: rank, model, rmse_deg, mape_pct, r2, us_per_step, n_params)."""
+        if self.raw is not None:
+            return self.raw.summary
+        import pandas as pd
+
+        base = self.source.parent if self.source is not None else None
+        if base is not None and (base / "summary.csv").is_file():
+            return pd.read_csv(base / "summary.csv")
+        return pd.DataFrame()
+
+    @property
+    def metrics(self) -> dict[str, float]:
+        out = {}
+        for model, d in (self.body.get("models") or {}).items():
+            fit = (d or {}).get("fit") or {}
+            if "rmse_train_deg" in fit:
+                out[f"{model}.rmse_train_deg"] = fit["rmse_train_deg"]
+        return out
+
+    def _extra_sections(self):
+        v = self.body.get("verdicts") or []
+        return [("Verdicts", "\n".join(str(x) for x in v))] if v else []
+
+    def _headline(self) -> str:
+        return f"{len(self.body.get('models') or {})} model(s)"
+
+    def plot(self):
+        if self.raw is not None:
+            from bpmid.plots.compare import summary_bars
+
+            return summary_bars(self.raw.summary, self.raw.by_set)
+        from matplotlib.figure import Figure
+
+        m = self.metrics
+        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
+        ax = fig.add_subplot()
+        ax.barh([k.split(".")[0] for k in m], list(m.values()))
+        ax.invert_yaxis()
+        ax.set_xlabel("training RMSE (deg)")
+        ax.set_title(self.title)
+        return fig
+
+    def save(self, path: str | Path) -> Path:
+        """The whole comparison folder (tables, compare.yaml, predictions, figures) for a live result;
+        compare.yaml only for a loaded one."""
+        if self.raw is not None:
+            from bpmid.compare import write_compare
+
+            body = dict(self.body)
+            write_compare(self.raw, path, self.provenance, relax_fit=body.get("relax_fit"),
+                          n_figure_logs=getattr(self, "_figure_logs", 4), synthetic=bool(body.get("synthetic", True)))
+            return Path(path)
+        return super().save(path)
+
+
+class DiscoveryResult(Result):
+    """The effects discovery named (folder with ``discovery.yaml``; :func:`bpmid.discover`)."""
+
+    kind = "discovery"
+    main_file = "discovery.yaml"
+    title = "Discovery of missing effects"
+
+    @property
+    def params(self) -> Parameters:
+        return Parameters(_entry(k, v, "") for k, v in (self.body.get("final_model") or {}).items())
+
+    @property
+    def named_effects(self) -> list[str]:
+        return list(self.body.get("named_effects") or [])
+
+    @property
+    def metrics(self) -> dict[str, float]:
+        return dict(self.body.get("gap") or {})
+
+    @property
+    def warnings(self) -> list[str]:
+        return ["part of the gap stays unexplained by the catalogue"] if self.body.get("unexplained") else []
+
+    def _extra_sections(self):
+        return [("Verdict", str(self.body.get("verdict", "")))]
+
+    def _headline(self) -> str:
+        return f"named: {', '.join(self.named_effects) or 'none'}"
+
+    def plot(self):
+        if self.raw is not None:
+            from bpmid.plots.discover import heldout_figure
+
+            return heldout_figure(self.raw)
+        return self._params_figure()
+
+    def save(self, path: str | Path, *, base_from: str | None = None) -> Path:
+        """discovery.yaml, verdict.txt and the figures for a live result; discovery.yaml only for a loaded one."""
+        if self.raw is not None:
+            from bpmid.discover.output import write_discovery
+
+            write_discovery(path, self.raw, self.provenance, base_from=base_from or self.body.get("base_from", ""))
+            return Path(path)
+        return super().save(path)
+
+
+class SimulationResult(Result):
+    """Synthetic logs from the digital twin (folder with ``manifest.yaml``; :func:`bpmid.simulate`)."""
+
+    kind = "simulation"
+    main_file = "manifest.yaml"
+    title = "Digital-twin simulation"
+
+    @property
+    def params(self) -> Parameters:
+        out = []
+        for e in self.body.get("effects") or []:
+            for k, v in (e.get("params") or {}).items():
+                out.append(_entry(f"{e.get('id')}.{k}", v, "", "injected"))
+        return Parameters(out)
+
+    @property
+    def logs(self) -> list[str]:
+        """The log files' names."""
+        if self.raw is not None:
+            return [n for n in self.raw.files]
+        return [str(x.get("file", x)) if isinstance(x, Mapping) else str(x) for x in self.body.get("logs") or []]
+
+    def _headline(self) -> str:
+        return f"seed {self.body.get('seed')}"
+
+    def plot(self):
+        import io
+
+        import pandas as pd
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(7.0, 4.0), layout="constrained")
+        ax = fig.add_subplot()
+        files = {}
+        if self.raw is not None:
+            files = {n: io.BytesIO(b) for n, b in self.raw.files.items() if n.endswith(".csv")}
+        elif self.source is not None:
+            files = {p.name: p for p in sorted(self.source.parent.glob("*.csv"))}
+        for name, f in list(files.items())[:6]:
+            df = pd.read_csv(f, comment="#")
+            y = next((c for c in df.columns if c.startswith("angle")), df.columns[-1])
+            ax.plot(df[df.columns[0]], df[y], label=name)
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("bending angle (deg)")
+        if files:
+            ax.legend(fontsize="small")
+        ax.set_title(f"{self.title} (synthetic)")
+        return fig
+
+    def save(self, path: str | Path) -> Path:
+        """The logs and manifest.yaml (and ANSWER.yaml of a blind case) for a live result; manifest.yaml only
+        for a loaded one."""
+        if self.raw is not None:
+            return self.raw.write(path)
+        from bpmid.io.atomic import write_text
+        from bpmid.io.results import dump_yaml
+
+        write_text(Path(path) / self.main_file, dump_yaml(self.to_dict()))
+        return Path(path)
+
+
+class ControlResult(Result):
+    """Closed-loop tracking by PI, VBMM-PI and MS-PI (folder with ``control.yaml``; :func:`bpmid.control`)."""
+
+    kind = "control"
+    main_file = "control.yaml"
+    title = "Closed-loop control"
+
+    @property
+    def params(self) -> Parameters:
+        g = self.body.get("gains") or {}
+        return Parameters(_entry(k, g[k], "", "given") for k in ("kp", "ki") if k in g)
+
+    @property
+    def table(self):
+        """Summary rows as a pandas DataFrame (controller, reference, rmse_deg, reduction_pct ...)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.body.get("summary") or [])
+
+    @property
+    def metrics(self) -> dict[str, float]:
+        out = {}
+        for row in self.body.get("summary") or []:
+            if row.get("reference") == "ALL":
+                out[f"{row.get('controller')}.rmse_deg"] = row.get("rmse_deg")
+        return out
+
+    def plot(self):
+        if self.raw is not None:
+            from bpmid.plots.control import fig18
+
+            lim = self.body.get("pressure_limits_bar_abs")
+            return fig18(self.raw.runs, limits_bar=tuple(lim) if lim else None)
+        from matplotlib.figure import Figure
+
+        m = self.metrics
+        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
+        ax = fig.add_subplot()
+        ax.bar([k.split(".")[0] for k in m], list(m.values()))
+        ax.set_xlabel("controller")
+        ax.set_ylabel("tracking RMSE over all references (deg)")
+        ax.set_title(self.title)
+        return fig
+
+    def save(self, path: str | Path, *, figure: bool = True) -> Path:
+        """summary.csv, control.yaml, traces/ and fig18.png for a live result; control.yaml only for a loaded one."""
+        ctx = getattr(self, "_write_context", None)
+        if self.raw is not None and ctx is not None:
+            from bpmid.control import write_control
+
+            write_control(self.raw, path, ctx["cfg"], self.provenance, model=ctx["model"], plant=ctx["plant"],
+                          figure=figure)
+            return Path(path)
+        return super().save(path)
+
+
+class StudyResult(Result):
+    """The whole study of ``bpmid run`` (folder with ``run.yaml``): its stages and, through :attr:`results`,
+    every stage's own result object."""
+
+    kind = "run"
+    main_file = "run.yaml"
+    title = "Study (bpmid run)"
+
+    #: stage output -> file or folder in the run folder
+    STAGE_FILES = {"relax": "relax_fit.yaml", "vbmm_fit": "vbmm_fit.yaml", "vbmm_mat": "vbmm_mat.yaml",
+                   "compare": "compare", "history": "history_modes.yaml", "discover": "discover"}
+
+    @property
+    def results(self) -> dict[str, Result]:
+        """Stage output name -> its loaded result (only those present beside ``run.yaml``)."""
+        if self.source is None:
+            return {}
+        base = self.source.parent
+        return {k: load(base / f) for k, f in self.STAGE_FILES.items() if (base / f).exists()}
+
+    def _extra_sections(self):
+        rows = [f"{s.get('name', '?'):<9} {s.get('status', '?'):<8} {s.get('seconds', 0) or 0:7.1f} s"
+                for s in self.body.get("stages") or []]
+        return [("Stages", "\n".join(rows))] if rows else []
+
+    def _headline(self) -> str:
+        st = self.body.get("stages") or []
+        return f"{sum(1 for s in st if s.get('status') == 'done')}/{len(st)} stage(s) done"
+
+
+class FileResult(Result):
+    """Any other file bpmid writes (``bpmid.run/1``, ``bpmid.history_modes/1``, ``bpmid.protocol/1`` ...):
+    its mapping, provenance, and whatever parameters it lists as ``{value, stderr, unit}`` entries."""
+
+    title = "bpmid file"
+
+    def __init__(self, body, provenance=None, *, raw=None, source=None, schema: str = "bpmid.file/1"):
+        super().__init__(body, provenance, raw=raw, source=source)
+        self._schema = schema
+
+    @property
+    def schema(self) -> str:
+        return self._schema
+
+    @classmethod
+    def from_file(cls, data: dict, path: Path) -> "Result":
+        return cls(data, data.get("provenance"), source=path, schema=str(data.get("schema")))
+
+    def save(self, path: str | Path) -> Path:
+        from bpmid.io.atomic import write_text
+        from bpmid.io.results import dump_yaml
+
+        return write_text(path, dump_yaml(self.to_dict()))
+
+
+#: schema kind -> result class
+KINDS: dict[str, type[Result]] = {c.kind: c for c in (RelaxationResult, VBMMFitResult, PredictionResult,
+                                                     ComparisonResult, DiscoveryResult, SimulationResult,
+                                                     ControlResult, StudyResult)}
+#: file names that carry the schema of a folder result
+MAIN_FILES = tuple(c.main_file for c in KINDS.values() if c.main_file)
+
+
+def load(path: str | Path) -> Result:
+    """The result object of any file (or output folder) bpmid writes.
+
+    Parameters
+    ----------
+    path : a result YAML (``relax_fit.yaml``, ``VBMM.yaml``, ``compare.yaml`` ...) or a folder holding one of
+        ``compare.yaml``, ``control.yaml``, ``discovery.yaml``, ``manifest.yaml``, ``predict.yaml``, ``run.yaml``
+
+    Raises
+    ------
+    InputError : not a bpmid result (naming the file and the key ``schema``)
+    """
+    from bpmid.io.results import read_result
+
+    path = Path(path)
+    if path.is_dir():
+        found = [path / n for n in MAIN_FILES if (path / n).is_file()]
+        if not found:
+            raise InputError(f"no bpmid result in this folder (looked for {', '.join(MAIN_FILES)})", path=path)
+        path = found[0]
+    if not path.is_file():
+        raise InputError("file not found", path=path)
+    data = read_result(path, "bpmid.")
+    kind = str(data["schema"]).split("/")[0][len("bpmid."):]
+    cls = KINDS.get(kind, FileResult)
+    return cls.from_file(data, path)
+
+
+__all__ = ["ParamInfo", "Parameters", "Result", "RelaxationResult", "VBMMFitResult", "PredictionResult",
+           "ComparisonResult", "DiscoveryResult", "SimulationResult", "ControlResult", "StudyResult", "FileResult",
+           "KINDS",
+           "load"]

@@ -1,0 +1,61 @@
+"""Unit constants and conversions: the one home of every factor bpmid uses at its boundaries.
+
+Inside, bpmid works in SI (Pa gauge, s, rad or deg for angles as named). Values cross the boundary (files,
+the command line, the public API) with their unit stated; this module turns them into SI and back.
+Import cost: none beyond the standard library.
+"""
+from __future__ import annotations
+
+#: Pa in one bar
+PA_PER_BAR = 1e5
+#: Pa in one kPa, one MPa, one mbar, one psi
+PA_PER_KPA = 1e3
+PA_PER_MPA = 1e6
+PA_PER_MBAR = 1e2
+PA_PER_PSI = 6894.757293168
+#: standard atmosphere (Pa): the default ambient pressure turning absolute into gauge pressure
+ATMOSPHERE_PA = 101325.0
+
+#: pressure unit name (lower case) -> Pa per unit
+PRESSURE_UNITS: dict[str, float] = {"pa": 1.0, "kpa": PA_PER_KPA, "bar": PA_PER_BAR, "mbar": PA_PER_MBAR,
+                                    "mpa": PA_PER_MPA, "psi": PA_PER_PSI}
+#: pressure references a value can be given in
+PRESSURE_REFERENCES = ("gauge", "absolute")
+#: angle unit -> degrees per unit
+ANGLE_UNITS: dict[str, float] = {"deg": 1.0, "rad": 57.29577951308232}
+#: time unit -> seconds per unit
+TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "min": 60.0}
+
+
+def pa_per(unit: str, *, what: str = "pressure_unit") -> float:
+    """Pa per ``unit`` (``"bar"``, ``"kPa"``, ``"Pa"``, ``"MPa"``, ``"mbar"``, ``"psi"``; case-insensitive).
+
+    Raises
+    ------
+    bpmid.errors.InputError
+        For an unknown unit (naming the known ones) or a missing one.
+    """
+    from bpmid.errors import InputError
+
+    if unit is None:
+        raise InputError(f"no pressure unit given: state it ({', '.join(PRESSURE_UNITS)})", key=what)
+    key = str(unit).strip().lower()
+    if key not in PRESSURE_UNITS:
+        raise InputError(f"unknown pressure unit {unit!r} (known: {', '.join(PRESSURE_UNITS)})", key=what)
+    return PRESSURE_UNITS[key]
+
+
+def to_gauge_pa(values, unit: str, reference: str, *, atmosphere_pa: float = ATMOSPHERE_PA):
+    """Pressure values in ``unit`` and ``reference`` (``"gauge"`` or ``"absolute"``) -> gauge Pa (numpy array)."""
+    import numpy as np
+
+    from bpmid.errors import InputError
+
+    if reference not in PRESSURE_REFERENCES:
+        raise InputError(f"pressure reference must be gauge or absolute, found {reference!r}", key="reference")
+    pa = np.asarray(values, float) * pa_per(unit)
+    return pa - atmosphere_pa if reference == "absolute" else pa
+
+
+__all__ = ["PA_PER_BAR", "PA_PER_KPA", "PA_PER_MPA", "PA_PER_MBAR", "PA_PER_PSI", "ATMOSPHERE_PA",
+           "PRESSURE_UNITS", "PRESSURE_REFERENCES", "ANGLE_UNITS", "TIME_UNITS", "pa_per", "to_gauge_pa"]

@@ -1,0 +1,230 @@
+"""The public API (``import bpmid``) and the one result protocol every workflow returns."""
+import glob
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import bpmid
+from bpmid.errors import InputError
+from bpmid.results import KINDS, FileResult, Result, load
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def test_import_is_cheap_and_every_public_name_resolves():
+    code = ("import sys, bpmid; heavy = [m for m in ('numpy', 'scipy', 'pandas', 'numba', 'matplotlib', 'typer') "
+            "if m in sys.modules]; print(heavy)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={**os.environ, "PYTHONPATH": str(REPO)}).stdout.strip()
+    assert out == "[]"
+    for name in bpmid.__all__:
+        assert getattr(bpmid, name) is not None, name
+    for name in ("fit_relaxation", "fit_motion", "predict", "compare", "discover", "simulate", "control", "load"):
+        assert callable(getattr(bpmid, name)), name
+    # the workflow modules stay modules for the code that imports them
+    import bpmid.compare as C
+    assert C.CompareResult is not None and callable(bpmid.compare)
+    with pytest.raises(AttributeError):
+        bpmid.no_such_name
+
+
+def test_from_arrays_needs_units_and_converts_them():
+    t = np.linspace(0, 10, 101)
+    p_bar = 1.0 + 0.5 * np.sin(t)
+    with pytest.raises(InputError, match="unit"):
+        bpmid.from_arrays(t, p_bar, reference="gauge")
+    with pytest.raises(InputError, match="reference"):
+        bpmid.from_arrays(t, p_bar, pressure_unit="bar")
+    # bar numbers declared as Pa: refused, not fitted to nonsense
+    with pytest.raises(InputError, match="unit"):
+        bpmid.from_arrays(t, p_bar, pressure_unit="Pa", reference="gauge")
+    with pytest.raises(InputError, match="unknown pressure unit"):
+        bpmid.from_arrays(t, p_bar, pressure_unit="atm", reference="gauge")
+    lg = bpmid.from_arrays(t, p_bar, pressure_unit="bar", reference="gauge")
+    np.testing.assert_allclose(lg.pressure_pa, p_bar * 1e5)
+    lg = bpmid.from_arrays(t, p_bar + 1.01325, pressure_unit="bar", reference="absolute")
+    np.testing.assert_allclose(lg.pressure_pa, p_bar * 1e5, atol=1e-6)
+    lg = bpmid.from_arrays(t, p_bar * 100, pressure_unit="kPa", reference="gauge", name="k")
+    np.testing.assert_allclose(lg.pressure_pa, p_bar * 1e5)
+    # 1 bar absolute said to be gauge-referenced 1 bar below: vacuum -> refused
+    with pytest.raises(InputError, match="below atmosphere"):
+        bpmid.from_arrays(t, p_bar - 1.4, pressure_unit="bar", reference="gauge")
+
+
+# ---------------------------------------------------------------------------------------------
+# save -> load round trip of every result type (property test over the file's contents)
+# ---------------------------------------------------------------------------------------------
+_keys = st.text("abcdefghijklmnopqrstuvwxyz_0123456789", min_size=1, max_size=8)
+_leaf = st.one_of(st.none(), st.booleans(), st.integers(-10**9, 10**9),
+                  st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=12))
+_tree = st.recursive(_leaf, lambda c: st.one_of(st.lists(c, max_size=4), st.dictionaries(_keys, c, max_size=4)),
+                     max_leaves=20)
+_param = st.fixed_dictionaries({"value": st.floats(-1e9, 1e9, allow_nan=False), "stderr": st.one_of(
+    st.none(), st.floats(0, 1e9)), "unit": st.sampled_from(["Pa", "s", "1", "deg"])})
+
+
+@pytest.mark.parametrize("kind", sorted(KINDS) + ["history_modes"])
+@settings(max_examples=15)
+@given(body=st.dictionaries(_keys.filter(lambda k: k not in ("schema", "provenance")), _tree, max_size=5),
+       prov=st.fixed_dictionaries({"bpmid_version": st.just("0.1.0"), "command": st.text(max_size=20),
+                                   "inputs": st.dictionaries(_keys, st.text("0123456789abcdef", min_size=64,
+                                                                            max_size=64), max_size=2)}),
+       params=st.dictionaries(_keys, _param, max_size=3))
+def test_every_result_type_round_trips(kind, body, prov, params):
+    cls = KINDS.get(kind)
+    body = dict(body)
+    if kind == "discovery":
+        body["final_model"] = params
+    elif kind == "compare":
+        body["models"] = {"gpi": {"parameters": params}}
+    if cls is None:
+        res = FileResult(body, prov, schema=f"bpmid.{kind}/1")
+    else:
+        res = cls(body, prov)
+    with tempfile.TemporaryDirectory() as tmp:
+        target = Path(tmp) / ("out" if cls is not None and cls.main_file else "r.yaml")
+        res.save(target)
+        back = load(target)
+    assert type(back) is type(res)
+    assert back == res and back.schema == res.schema
+    assert back.params.valuesdict() == res.params.valuesdict()
+    text = back.summary()
+    assert back.schema in text and len(repr(back)) < 300
+    assert "<table" in back._repr_html_() or not back.params
+
+
+def test_load_refuses_what_bpmid_did_not_write(tmp_path):
+    f = tmp_path / "x.yaml"
+    f.write_text("a: 1\n")
+    with pytest.raises(InputError, match="schema"):
+        bpmid.load(f)
+    with pytest.raises(InputError, match="no bpmid result"):
+        bpmid.load(tmp_path)
+
+
+# ---------------------------------------------------------------------------------------------
+# the workflows on the shipped data: live results equal what they save, and plot
+# ---------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def relax():
+    return bpmid.fit_relaxation(sorted(glob.glob(str(REPO / "datasets/relaxation/*.csv"))))
+
+
+def _round_trip(res: Result, target: Path) -> Result:
+    res.save(target)
+    back = bpmid.load(target)
+    assert back == res
+    for r in (res, back):
+        fig = r.plot()
+        assert fig.axes and any(ax.get_xlabel() or ax.get_ylabel() for ax in fig.axes)
+    assert len(str(res)) < 300
+    return back
+
+
+def test_relaxation_and_motion_fit_and_predict(relax, tmp_path):
+    back = _round_trip(relax, tmp_path / "relax.yaml")
+    assert back.params["E_inf"].unit == "Pa" and back.params["tau_1"].stderr > 0
+    assert "[[Correlations]]" in relax.summary() and "C(E_1, tau_1)" in relax.summary()
+    logs = sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))[:1]
+    fit = bpmid.fit_motion(logs, init=back)
+    vb = _round_trip(fit, tmp_path / "VBMM.yaml")
+    assert vb.params["K_inf"].identifiability == "estimated" and vb.metrics["rmse_deg"] < 5
+    np.testing.assert_allclose(vb.model.material.K_inf, fit.model.material.K_inf)
+    log = bpmid.read_motion_logs(logs)[0]
+    arr = bpmid.from_arrays(log.time_s, log.pressure_pa / 1e3, pressure_unit="kPa", reference="gauge", name="mem")
+    pred = bpmid.predict([logs[0], arr], vb)
+    np.testing.assert_allclose(pred.predictions["mem"], pred.predictions[Path(logs[0]).stem])
+    _round_trip(pred, tmp_path / "pred")
+    assert (tmp_path / "pred" / "mem.csv").is_file()
+
+
+def test_simulate_and_control(tmp_path):
+    sim = bpmid.simulate(REPO / "configs/datasets/variable_rate.yaml", seed=3, timestamp=False)
+    assert sim.params == {} and sim.provenance["seed"] == 3
+    _round_trip(sim, tmp_path / "sim")
+    ctl = bpmid.control(_paper_vbmm(tmp_path), reference="steps",
+                        controllers="pi,vbmm-pi", seed=1)
+    back = _round_trip(ctl, tmp_path / "ctl")
+    assert set(back.metrics) == {"pi.rmse_deg", "vbmm-pi.rmse_deg"}
+    assert (tmp_path / "ctl" / "fig18.png").is_file() and back.params["kp"].unit == "bar/deg"
+    with pytest.raises(InputError, match="unknown control setting"):
+        bpmid.control(_paper_vbmm(tmp_path), kp=1.0)
+
+
+def _paper_vbmm(tmp_path) -> Path:
+    from bpmid.io.results import write_result
+    from bpmid.models.vbmm import VBMM, vbmm_yaml_body
+
+    p = tmp_path / "paper.yaml"
+    if not p.is_file():
+        write_result(p, "bpmid.vbmm/1", vbmm_yaml_body(VBMM()), {"bpmid_version": bpmid.__version__})
+    return p
+
+
+def test_compare_result(tmp_path):
+    train = sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))[:1]
+    test = sorted(glob.glob(str(REPO / "datasets/motion/variable_rate/*.csv")))[:1]
+    cmp = bpmid.compare(train, test, models=["gpi", "maxwell-slip"])
+    back = _round_trip(cmp, tmp_path / "cmp")
+    assert list(back.table["model"])[:2] and set(back.table["model"]) == {"gpi", "maxwell-slip"}
+    assert any(n.startswith("gpi.") for n in back.params)
+    assert "[[Verdicts]]" in cmp.summary()
+
+
+def test_shipped_data_found_through_the_package(tmp_path):
+    from typer.testing import CliRunner
+
+    from bpmid.cli import app
+
+    assert bpmid.data.path("configs/paper.yaml").is_file()
+    assert len(bpmid.data.files("datasets/motion/fitting_set/*.csv")) >= 3
+    with pytest.raises(InputError, match="shipped"):
+        bpmid.data.path("configs/absent.yaml")
+    from bpmid.run import default_config_path
+    assert default_config_path() == bpmid.data.path("configs/paper.yaml")
+    r = CliRunner().invoke(app, ["shipped"])
+    assert r.exit_code == 0 and Path(r.output.strip(), "configs", "paper.yaml").is_file()
+    r = CliRunner().invoke(app, ["shipped", "--copy", str(tmp_path / "w")])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "w" / "configs" / "paper.yaml").is_file()
+    assert (tmp_path / "w" / "datasets" / "relaxation").is_dir()
+    (tmp_path / "f").write_text("x")
+    r = CliRunner().invoke(app, ["shipped", "--copy", str(tmp_path / "f")])
+    assert r.exit_code == 2 and "--copy" in r.output
+
+
+def test_uniform_recursion_equals_lfilter():
+    """The hereditary states on even sampling are bit for bit what scipy.signal.lfilter gave."""
+    from scipy.signal import lfilter
+
+    from bpmid.viscoelastic import hereditary_states
+
+    rng = np.random.default_rng(0)
+    t = np.arange(3000) * 0.01
+    x = rng.normal(size=t.size).cumsum()
+    tau = np.array([0.05, 1.3, 40.0])
+    dx = np.diff(x, prepend=x[0])
+    ref = np.column_stack([lfilter([1.0], [1.0, -np.exp(-(t[1] - t[0]) / tj)], dx) for tj in tau])
+    np.testing.assert_array_equal(hereditary_states(t, x, tau), ref)
+
+
+def test_every_output_of_a_study_loads(timed_small_study):
+    """bpmid.load on a `bpmid run` folder and on each file in it: the matching result type, summaries, figures."""
+    from bpmid.results import ComparisonResult, DiscoveryResult, RelaxationResult, StudyResult, VBMMFitResult
+
+    study = bpmid.load(timed_small_study)
+    assert isinstance(study, StudyResult) and "[[Stages]]" in study.summary()
+    res = study.results
+    assert isinstance(res["relax"], RelaxationResult) and isinstance(res["vbmm_fit"], VBMMFitResult)
+    assert isinstance(res["compare"], ComparisonResult) and isinstance(res["discover"], DiscoveryResult)
+    assert res["vbmm_mat"].params["K_inf"].value == pytest.approx(res["relax"].params["K_inf"].value, rel=1e-9)
+    assert set(res["compare"].table["model"]) == {"vbmm-mat", "vbmm-fit", "two-branch", "maxwell-slip"}
+    for name, r in res.items():
+        assert r == bpmid.load(r.source) and len(repr(r)) < 300, name
+        assert r.summary().startswith("[[")
