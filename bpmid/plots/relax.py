@@ -77,6 +77,20 @@ def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
     return fig
 
 
+def _sparse_log_ticks(fig) -> None:
+    """At most ~8 labelled decades and no minor ticks on log axes spanning many decades (a 30-decade master curve
+    otherwise draws hundreds of tick labels, which makes saving slow and the axis unreadable)."""
+    from matplotlib.ticker import LogLocator, NullLocator
+
+    for ax in fig.axes:
+        for axis, scale in ((ax.xaxis, ax.get_xscale()), (ax.yaxis, ax.get_yscale())):
+            if scale == "log":
+                lo, hi = axis.get_view_interval()
+                if lo > 0 and hi / lo > 1e6:
+                    axis.set_major_locator(LogLocator(base=10.0, numticks=8))
+                    axis.set_minor_locator(NullLocator())
+
+
 def material_figure(mf, *, synthetic: bool = False):
     """Figure of a :class:`bpmid.relax.material.MaterialFit`.
 
@@ -161,6 +175,7 @@ def material_figure(mf, *, synthetic: bool = False):
         ax_f.axvline(sh.T_ref, color="0.6", lw=0.5)
         ax_f.set(xlabel="temperature (°C)", ylabel="log10 a_T (-)", title="(f) shift factors and shift functions")
         ax_f.legend(fontsize=7)
+    _sparse_log_ticks(fig)
     if synthetic:
         label_synthetic(fig)
     return fig

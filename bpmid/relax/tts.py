@@ -5,13 +5,11 @@ onto the set at the reference temperature. A set at temperature T moves by log10
 f a_T, times t / a_T (a_T > 1 below the reference temperature, where the material is slower).
 
 Shift factors from the data (overlap-based): neighbouring sets are shifted pairwise, walking outward from the
-reference set, and the shifts add up. For one pair, each set's log modulus against log frequency is smoothed by a
-least-squares quadratic (robust to the first-point transients of a sweep), and the shift is the one that makes the
-two quadratics coincide best over the modulus range the two sets share: for a grid of modulus levels inside the
-overlap (or bridging the gap between them when they do not overlap) the log-frequency distance between the two
-curves at each level is averaged. Only the storage modulus E' (or E(t)) is used, as a monotone function of log
-frequency is what makes the level-to-frequency inversion unique; where a quadratic is not monotone over the range
-the shift falls back to minimising the mean squared difference of log modulus over the overlap.
+reference set, each onto its already shifted inner neighbour (:func:`pair_shift`): samples that stray from their
+own set's smooth curve (the first point of a sweep, taken before the temperature settled) are left out, and the
+shift minimises the squared difference of log modulus where the two sets overlap, measured both ways. Sets that
+share no modulus range are bridged by extrapolating their smooth curves. The storage modulus E' (or E(t)) is used:
+it is monotone in frequency, where the loss modulus has peaks and, in the glassy region, instrument artefacts.
 
 Shift functions fitted to the shift factors, each with standard errors:
 
@@ -32,6 +30,12 @@ from bpmid.errors import InputError
 
 #: modulus levels used per pair of sets
 N_LEVELS = 10
+#: level of the outlier test of :func:`inliers` (Bonferroni-corrected over the samples of a set)
+OUTLIER_ALPHA = 0.01
+#: every set keeps at least this many samples
+MIN_INLIERS = 5
+#: fewest overlapping samples (both ways together) a shift is judged on
+MIN_OVERLAP = 3
 #: degree of the polynomial shift function (lowered to the number of temperatures - 2)
 POLY_DEGREE = 4
 
@@ -130,38 +134,106 @@ def _invert(coef: np.ndarray, lo: float, hi: float, levels: np.ndarray) -> np.nd
     return np.interp(levels, val, grid)
 
 
-def pair_shift(logx_ref: np.ndarray, logy_ref: np.ndarray, logx: np.ndarray, logy: np.ndarray) -> float:
-    """Shift (decades of x) that moves the set (logx, logy) onto the reference set (logx_ref, logy_ref).
+def inliers(logx: np.ndarray, logy: np.ndarray, alpha: float = OUTLIER_ALPHA) -> np.ndarray:
+    """Mask of the samples of one set that agree with the set's own smooth curve; the first point of a sweep taken
+    before the temperature settled is the usual outlier.
 
-    Returns d such that the set's curve at logx + d matches the reference curve.
+    Outlier test by externally studentized residuals: each sample is compared with the least-squares quadratic (a line
+    for 6 samples or fewer) of the others, in units of the others' own residual scatter and the prediction's
+    leverage, t_j = r_j / (s_(j) sqrt(1 + h_j)); the sample with the largest |t_j| is dropped when it exceeds the
+    Bonferroni-corrected two-sided Student-t quantile at level ``alpha``, and the test repeats. A point cannot hide
+    by bending the curve towards itself, nor inflate the scale it is judged by. At least ``MIN_INLIERS`` samples are
+    kept.
     """
+    from scipy.stats import t as student_t
+
+    keep = np.ones(logx.size, bool)
+    while keep.sum() > MIN_INLIERS:
+        idx = np.flatnonzero(keep)
+        n = idx.size
+        deg = 2 if n - 1 > 6 else 1
+        dof = n - 1 - (deg + 1)
+        if dof < 2:
+            break
+        tj = np.zeros(n)
+        for j, i in enumerate(idx):
+            others = np.delete(idx, j)
+            V = np.polynomial.polynomial.polyvander(logx[others], deg)
+            c, *_ = np.linalg.lstsq(V, logy[others], rcond=None)
+            res = logy[others] - V @ c
+            s2 = float(res @ res) / dof
+            v = np.polynomial.polynomial.polyvander(np.array([logx[i]]), deg)[0]
+            h = float(v @ np.linalg.pinv(V.T @ V) @ v)
+            r = logy[i] - float(v @ c)
+            tj[j] = abs(r) / math.sqrt(max(s2 * (1.0 + h), 1e-300))
+        j = int(np.argmax(tj))
+        if tj[j] <= student_t.ppf(1.0 - alpha / (2.0 * n), dof):
+            break
+        keep[idx[j]] = False
+    return keep
+
+
+def _bridge_shift(logx_ref, logy_ref, logx, logy) -> float:
+    """Shift across a gap (no common modulus range): the two robust quadratics are extended and the mean log-x
+    distance at modulus levels between the nearest ends is taken."""
     cr, cs = _quad(logx_ref, logy_ref), _quad(logx, logy)
     fr = np.polynomial.polynomial.polyval(logx_ref, cr)
     fs = np.polynomial.polynomial.polyval(logx, cs)
-    lo = max(fr.min(), fs.min())
-    hi = min(fr.max(), fs.max())
-    if lo >= hi:  # no overlap: bridge the gap between the nearest ends
+    lo, hi = max(fr.min(), fs.min()), min(fr.max(), fs.max())
+    if lo >= hi:
         lo, hi = hi, lo
     levels = np.linspace(lo, hi, N_LEVELS)
     xr = _invert(cr, logx_ref.min(), logx_ref.max(), levels)
     xs = _invert(cs, logx.min(), logx.max(), levels)
-    if xr is not None and xs is not None:
-        return float(np.mean(xr - xs))
-    # fallback: least squares of log modulus over the shifted overlap
-    d_lo, d_hi = logx_ref.min() - logx.max(), logx_ref.max() - logx.min()
+    if xr is None or xs is None:
+        return math.nan
+    return float(np.mean(xr - xs))
+
+
+def pair_shift(logx_ref: np.ndarray, logy_ref: np.ndarray, logx: np.ndarray, logy: np.ndarray) -> float:
+    """Shift d (decades of x) that moves the set (logx, logy) onto the reference set: logx + d overlays logx_ref.
+
+    Each set's outliers are dropped (:func:`inliers`); d minimises the mean squared difference of log modulus over the
+    overlap, measured both ways (the set interpolated at the reference's samples and the reference at the set's,
+    linear in log-log): a global scan of every d that gives an overlap, then a bounded refinement. Sets whose moduli
+    do not overlap at any shift are bridged by extrapolating their smooth curves (:func:`_bridge_shift`).
+    """
+    o = np.argsort(logx_ref)
+    xr, yr = logx_ref[o], logy_ref[o]
+    o = np.argsort(logx)
+    xs, ys = logx[o], logy[o]
+    mr, ms = inliers(xr, yr), inliers(xs, ys)
+    xr, yr, xs, ys = xr[mr], yr[mr], xs[ms], ys[ms]
+    lo, hi = xr.min() - xs.max(), xr.max() - xs.min()
 
     def cost(d):
-        xx = logx + d
-        k = (xx >= logx_ref.min()) & (xx <= logx_ref.max())
-        if k.sum() < 2:
-            return 1e3 + abs(d)
-        return float(np.mean((np.interp(xx[k], logx_ref, logy_ref) - logy[k]) ** 2))
+        xx = xs + d
+        k1 = (xx >= xr[0]) & (xx <= xr[-1])
+        k2 = (xr >= xx[0]) & (xr <= xx[-1])
+        n = int(k1.sum() + k2.sum())
+        if n < MIN_OVERLAP:
+            return math.inf
+        r1 = np.interp(xx[k1], xr, yr) - ys[k1]
+        r2 = np.interp(xr[k2], xx, ys) - yr[k2]
+        return float((r1 @ r1 + r2 @ r2) / n)
 
-    grid = np.linspace(d_lo, d_hi, 81)
-    best = min(grid, key=cost)
+    grid = np.linspace(lo, hi, 401)
+    costs = np.array([cost(d) for d in grid])
+    if not np.isfinite(costs).any() or not _levels_overlap(yr, ys):
+        d = _bridge_shift(xr, yr, xs, ys)
+        if math.isfinite(d):
+            return d
+    if not np.isfinite(costs).any():
+        raise InputError("two neighbouring sets cannot be overlaid (too few samples in common at any shift)")
+    b = grid[int(np.nanargmin(costs))]
     step = grid[1] - grid[0]
-    res = minimize_scalar(cost, bounds=(best - step, best + step), method="bounded")
-    return float(res.x)
+    res = minimize_scalar(cost, bounds=(b - step, b + step), method="bounded")
+    return float(res.x) if res.fun <= costs.min() else float(b)
+
+
+def _levels_overlap(yr: np.ndarray, ys: np.ndarray) -> bool:
+    """The two sets share a range of modulus (else no shift can overlay them; their shift is an extrapolation)."""
+    return max(yr.min(), ys.min()) < min(yr.max(), ys.max())
 
 
 def find_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: Sequence[np.ndarray], T_ref: float,
@@ -243,15 +315,17 @@ def fit_poly(T: np.ndarray, log_aT: np.ndarray, T_ref: float, degree: int = POLY
     deg = min(degree, T.size - 2)
     if deg < 1:
         return None
-    V = np.polynomial.polynomial.polyvander(T - T_ref, deg)
-    coef, *_ = np.linalg.lstsq(V, y, rcond=None)
-    r = y - V @ coef
+    scale = float(np.max(np.abs(T - T_ref))) or 1.0
+    V = np.polynomial.polynomial.polyvander((T - T_ref) / scale, deg)  # scaled: a well-conditioned basis
+    q, rr = np.linalg.qr(V)
+    cs = np.linalg.solve(rr, q.T @ y)
+    r = y - V @ cs
     dof = max(T.size - deg - 1, 1)
     s2 = float(r @ r) / dof
-    try:
-        se = np.sqrt(np.abs(np.diag(np.linalg.pinv(V.T @ V) * s2)))
-    except np.linalg.LinAlgError:
-        se = np.full(coef.shape, np.nan)
+    rinv = np.linalg.inv(rr)
+    se_s = np.sqrt(np.abs(np.diag(rinv @ rinv.T) * s2))
+    powers = scale ** -np.arange(deg + 1.0)
+    coef, se = cs * powers, se_s * powers
     return {"degree": int(deg), "variable": "T - T_ref (C)", "coefficients": [float(c) for c in coef],
             "se": [float(s) for s in se], "rmse": float(np.sqrt(np.mean(r ** 2)))}
 
@@ -319,6 +393,6 @@ def shift_body(sh: ShiftResult) -> dict:
     return {
         "T_ref": sh.T_ref, "T_unit": "C", "source": sh.source,
         "convention": "f_reduced = f * a_T, t_reduced = t / a_T; log_aT is log10",
-        "log_aT": {float(t): float(a) for t, a in zip(sh.T[order], sh.log_aT[order])},
+        "log_aT": {format(float(t), "g"): float(a) for t, a in zip(sh.T[order], sh.log_aT[order])},
         "wlf": clean(sh.wlf), "poly": clean(sh.poly),
     }
