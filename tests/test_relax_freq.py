@@ -159,3 +159,18 @@ def test_bad_input_exits_2_with_file_and_line(tmp_path):
     assert not (tmp_path / "o.yaml").exists()
     with pytest.raises(InputError, match="unknown unit"):
         read_material_file(write_curve(tmp_path / "u.csv", f, s, l, header="f,E_stor,E_loss\nHz,MPa,furlong\n"))
+
+
+def test_shear_data_are_written_as_shear_and_converted_to_E(tmp_path):
+    f = np.logspace(-3, 6, 40)
+    s, l = complex_modulus(f, **TRUTH)
+    p = write_curve(tmp_path / "g.csv", f, s, l, header="f,G_stor,G_loss\nHz,MPa,MPa\n")
+    out = tmp_path / "g.yaml"
+    res = runner.invoke(app, ["fit", "relax", str(p), "--terms", "3", "--poisson", "0.4", "--no-figure", "--out",
+                              str(out)])
+    assert res.exit_code == 0, res.output
+    body = yaml.safe_load(out.read_text())
+    assert body["fitted_modulus"] == "G"
+    assert body["shear"]["G_inf"]["value"] == pytest.approx(2.0e6, rel=1e-5)
+    assert body["prony"]["E_inf"]["value"] == pytest.approx(2.0e6 * 2 * 1.4, rel=1e-5)
+    assert load_relax_fit(out).G == pytest.approx(TRUTH["E"] * 1e6, rel=1e-5)
