@@ -93,8 +93,10 @@ def abaqus_text(params, wlf: dict | None, prov: list[str], name: str) -> str:
     G0, K0, g, k = _ratios(params)
     E0 = params.E_inf + float(params.E.sum())
     if 1.0 - float(g.sum()) <= 1e-12 or 1.0 - float(k.sum()) <= 1e-12:
-        raise InputError("the long-term modulus is zero (E_inf = 0, so sum g_i = 1); Abaqus needs sum g_i < 1. Refit "
-                         "with a term fewer or export to ANSYS/COMSOL", key="prony.E_inf")
+        raise InputError(f"the long-term modulus is zero (E_inf = 0, so sum g_i = 1; the slowest term has tau = "
+                         f"{params.tau.max():.4g} s); Abaqus needs sum g_i < 1. Refit with relax.tau_span_factor: 1 "
+                         "(no time constant beyond the data, which usually leaves E_inf > 0) or export to ANSYS or "
+                         "COMSOL", key="prony.E_inf")
     out = [f"** {ln}" for ln in prov]
     out += [f"*MATERIAL, NAME={name}",
             "*ELASTIC, MODULI=INSTANTANEOUS",
