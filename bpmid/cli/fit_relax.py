@@ -1,4 +1,5 @@
-"""``bpmid fit relax``: fit a Prony series to relaxation logs (the science is in :mod:`bpmid.relax`)."""
+"""``bpmid fit relax``: fit a Prony series to relaxation logs or frequency sweeps (the science is in
+:mod:`bpmid.relax`)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -10,26 +11,43 @@ from bpmid.cli._app import check_outputs, command, existing_files, fit_app
 
 EPILOG = ("Example (shipped synthetic logs):  bpmid fit relax datasets/relaxation/*.csv --out relax_fit.yaml  "
           "|  measured master curve, step mode:  bpmid fit relax datasets/reference/pyvisco/time_user_master.csv "
-          "--out master_fit.yaml")
+          "--out master_fit.yaml  |  DMTA storage and loss modulus:  bpmid fit relax "
+          "datasets/reference/pyvisco-frequency/freq_user_master.csv --terms 26 --out freq_fit.yaml  |  raw sweeps at "
+          "21 temperatures, master curve at -5 C:  bpmid fit relax "
+          "datasets/reference/pyvisco-frequency/freq_user_raw.csv --ref-temp -5 --out raw_fit.yaml")
 
 
 @command(fit_app, "relax", epilog=EPILOG)
 def fit_relax(
     logs: List[Path] = typer.Argument(..., metavar="LOG", help="Relaxation logs (CSV): time_s,strain,stress_mpa or "
-                                      "time_s,extension_mm,load_n or time_s,modulus_mpa (other header styles too)."),
+                                      "time_s,extension_mm,load_n or time_s,modulus_mpa (other header styles too); "
+                                      "or frequency-domain data: f (Hz) with E_stor/E' and E_loss/E'' (or G), a "
+                                      "master curve or raw sweeps with T (C) and Set columns, CSV or an Eplexor "
+                                      ".xls export; or raw relaxation curves t, E_relax, T, Set."),
     out: Path = typer.Option(..., "--out", help="Result YAML (schema bpmid.relax/1); the figure goes beside it "
                              "as .png."),
     terms: Optional[str] = typer.Option(None, "--terms", help="Number of Prony terms, or auto (information "
-                                        "criterion). Default: relax.terms of the config (auto)."),
+                                        "criterion, printed per candidate). Default: relax.terms of the config "
+                                        "(auto)."),
+    max_error: Optional[float] = typer.Option(None, "--max-error", help="Pick the fewest terms whose error (%) is at "
+                                              "most this (frequency data: RMS of |E*_fit - E*|/|E*|; modulus "
+                                              "curves: RMS relative error; stress: RMSE / RMS stress). Overrides "
+                                              "--terms."),
     mode: Optional[str] = typer.Option(None, "--mode", help="ramp: stress through each log's strain history; "
                                        "step: modulus curve of each hold, as an ideal step. Default: ramp, or step "
-                                       "for modulus curves."),
+                                       "for modulus curves. Not for frequency-domain data."),
+    ref_temp: Optional[float] = typer.Option(None, "--ref-temp", help="Reference temperature (C) of the master curve "
+                                             "built from raw sets at several temperatures (default: the median set "
+                                             "temperature)."),
+    shift: Optional[Path] = typer.Option(None, "--shift", help="CSV of shift factors (columns T in C and log_aT) to "
+                                         "use instead of finding them from the data."),
     poisson: Optional[float] = typer.Option(None, "--poisson", help="Poisson's ratio for G and K, below 0.5 "
                                             "(default 0.49933, which reproduces the paper's K values)."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (section relax)."),
     no_figure: bool = typer.Option(False, "--no-figure", help="Do not write the figure."),
 ):
-    """Fit a Prony series E(t) = E_inf + sum E_j exp(-t/tau_j) to relaxation logs; write E, G and K."""
+    """Fit a Prony series E(t) = E_inf + sum E_j exp(-t/tau_j) to relaxation logs or to storage and loss moduli
+    (shifting raw sets at several temperatures into a master curve first); write E, G and K."""
     from bpmid.config import load_config
     from bpmid.errors import InputError
     from bpmid.relax import run_fit_relax
@@ -38,13 +56,39 @@ def fit_relax(
         raise InputError(f"--mode takes ramp or step, found {mode!r}", key="--mode")
     cfg = load_config(config)
     paths = existing_files(logs, "relaxation log")
-    check_outputs([out], paths + [config], suffix=".yaml")
+    if shift is not None:
+        existing_files([shift], "shift-factor")
+    check_outputs([out], paths + [config, shift], suffix=".yaml")
     if not no_figure:
-        check_outputs([out.with_suffix(".png")], paths + [config])
+        check_outputs([out.with_suffix(".png")], paths + [config, shift])
     yaml_path, fig_path, fit = run_fit_relax(paths, out, terms=terms, mode=mode, poisson=poisson, config=cfg,
-                                             figure=not no_figure)
-    terms_txt = ", ".join(f"E={e * 1e6:.4g} Pa tau={t:.4g} s" for e, t in zip(fit.E[:4], fit.tau[:4]))
-    more = f" (+{fit.m - 4} more)" if fit.m > 4 else ""
-    typer.echo(f"{fit.mode} mode, {fit.m} term(s): E_inf={fit.E_inf * 1e6:.4g} Pa, {terms_txt}{more}; "
-               f"RMSE {fit.rmse_mpa * 1e6:.4g} Pa, R2 {fit.r2:.5f}, fit {fit.seconds:.2f} s")
+                                             figure=not no_figure, max_error_pct=max_error, ref_temp=ref_temp,
+                                             shift=shift)
+    shift_res = getattr(fit, "shift", None)
+    inner = getattr(fit, "fit", fit)
+    if inner.criterion and inner.criterion != "max-error":
+        typer.echo(f"terms  {inner.criterion} (lower is better; * chosen)")
+        for c in inner.selection:
+            if c.get("criterion") is not None:
+                typer.echo(f"{c['terms']:5d}  {c['criterion']:.2f}{'  *' if c['terms'] == inner.m else ''}")
+    elif inner.criterion == "max-error":
+        typer.echo("terms  error %  (* the fewest that meet --max-error)")
+        for c in inner.selection:
+            typer.echo(f"{c['terms']:5d}  {c['error_pct']:.3g}{'  *' if c['terms'] == inner.m else ''}")
+    if shift_res is not None:
+        wl = shift_res.wlf
+        typer.echo(f"shift factors ({shift_res.source}) at T_ref {shift_res.T_ref:g} C: " + ", ".join(
+            f"{t:g} C: {a:+.2f}" for t, a in sorted(zip(shift_res.T.tolist(), shift_res.log_aT.tolist()))))
+        if wl is not None:
+            typer.echo(f"WLF: C1 = {wl['C1']:.4g} +- {wl['se_C1']:.2g}, C2 = {wl['C2']:.4g} +- {wl['se_C2']:.2g} C, "
+                       f"T_ref = {wl['T_ref']:g} C, RMSE {wl['rmse']:.3g} decades")
+    terms_txt = ", ".join(f"E={e * 1e6:.4g} Pa tau={t:.4g} s" for e, t in zip(inner.E[:4], inner.tau[:4]))
+    more = f" (+{inner.m - 4} more)" if inner.m > 4 else ""
+    if getattr(inner, "mode", "") == "frequency":
+        typer.echo(f"frequency domain, {inner.m} term(s): E_inf={inner.E_inf * 1e6:.4g} Pa, {terms_txt}{more}; "
+                   f"RMS relative error {inner.modulus}' {inner.rms_rel_storage_pct:.3g} %, {inner.modulus}'' "
+                   f"{inner.rms_rel_loss_pct:.3g} %, fit {inner.seconds:.2f} s")
+    else:
+        typer.echo(f"{inner.mode} mode, {inner.m} term(s): E_inf={inner.E_inf * 1e6:.4g} Pa, {terms_txt}{more}; "
+                   f"RMSE {inner.rmse_mpa * 1e6:.4g} Pa, R2 {inner.r2:.5f}, fit {inner.seconds:.2f} s")
     typer.echo(f"wrote {yaml_path}" + (f" and {fig_path}" if fig_path else ""))

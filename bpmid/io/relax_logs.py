@@ -21,6 +21,8 @@ Every error names the file and the line (or the config key).
 from __future__ import annotations
 
 import dataclasses
+import math
+import re
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -163,3 +165,357 @@ def read_relax_logs(paths: Sequence[str | Path], *, column_map: Mapping[str, str
         raise InputError("no relaxation logs given")
     return [read_relax_log(p, column_map=column_map, gauge_length_mm=gauge_length_mm,
                            cross_section_mm2=cross_section_mm2, gap_factor=gap_factor) for p in paths]
+
+
+# ---- material data: frequency sweeps, master curves and raw sets at several temperatures ------------------------
+#
+# pyvisco's formats (two header rows, names then units) and an Eplexor DMA instrument's Excel export are read here;
+# the time-domain logs above go through :mod:`bpmid.io.tables`. A file is routed here when it has a frequency or
+# storage/loss column, a temperature column, or is an Excel workbook (:func:`is_material_file`).
+
+#: header name (lower case, spaces, underscores, dashes and dots removed) -> role
+_MAT_NAMES = {
+    "f": "f", "freq": "f", "frequency": "f", "fset": "f", "omega": "omega", "angularfrequency": "omega",
+    "w": "omega",
+    "estor": "storage", "e'": "storage", "estorage": "storage", "storagemodulus": "storage", "eprime": "storage",
+    "eloss": "loss", "e''": "loss", "lossmodulus": "loss", "edoubleprime": "loss",
+    "gstor": "storage_g", "g'": "storage_g", "gstorage": "storage_g", "shearstoragemodulus": "storage_g",
+    "gloss": "loss_g", "g''": "loss_g", "shearlossmodulus": "loss_g",
+    "t": "t", "time": "t", "tset": "t",
+    "erelax": "relax", "e(t)": "relax", "relaxationmodulus": "relax", "modulus": "relax",
+    "grelax": "relax_g", "g(t)": "relax_g",
+    "temp": "T", "temperature": "T", "tround": "T",
+    "set": "set", "setid": "set", "sweep": "set", "segment": "set",
+}
+_MAT_UNITS = {
+    "f": {"hz": 1.0, "1/s": 1.0, "khz": 1e3, "mhz": 1e6, "": 1.0},
+    "omega": {"rad/s": 1.0 / (2 * np.pi), "1/s": 1.0 / (2 * np.pi), "": 1.0 / (2 * np.pi)},
+    "t": {"s": 1.0, "sec": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0, "": 1.0},
+    "modulus": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3, "": 1.0},
+    "T": {"c": 0.0, "°c": 0.0, "degc": 0.0, "deg c": 0.0, "celsius": 0.0, "k": -273.15, "": 0.0},
+    "set": {"-": 1.0, "": 1.0, "1": 1.0},
+}
+#: role -> unit family
+_ROLE_UNIT = {"f": "f", "omega": "omega", "t": "t", "storage": "modulus", "loss": "modulus", "storage_g": "modulus",
+              "loss_g": "modulus", "relax": "modulus", "relax_g": "modulus", "T": "T", "set": "set"}
+
+
+def _mat_key(name: str) -> str:
+    return re.sub(r"[\s_\-\.]+", "", name.strip().strip('"').lower())
+
+
+def _split_unit(name: str) -> tuple[str, str | None]:
+    m = re.match(r"^(.*?)\s*[\(\[]\s*([^\)\]]*)\s*[\)\]]\s*$", name.strip())
+    return (m.group(1), m.group(2).strip().lower()) if m else (name.strip(), None)
+
+
+def _mat_role(name: str) -> tuple[str | None, str | None]:
+    """``'E_stor'`` -> ``('storage', None)``; ``'Frequency (Hz)'`` -> ``('f', 'hz')``; ``'T'`` -> ``('T', None)``."""
+    base, unit = _split_unit(name)
+    if base.strip().strip('"') == "T":  # upper-case T is temperature, lower-case t is time (pyvisco's headers)
+        return "T", unit
+    key = _mat_key(base)
+    if key in _MAT_NAMES:
+        return _MAT_NAMES[key], unit
+    parts = base.strip().lower().rsplit("_", 1)  # suffix style: f_hz, e_stor_mpa, t_s, temperature_c
+    if len(parts) == 2 and _mat_key(parts[0]) in _MAT_NAMES:
+        role = _MAT_NAMES[_mat_key(parts[0])]
+        if parts[1] in _MAT_UNITS[_ROLE_UNIT[role]]:
+            return role, parts[1] if unit is None else unit
+    return None, None
+
+
+def is_material_file(path: str | Path) -> bool:
+    """True for an Excel workbook, a CSV whose header names a frequency or storage/loss column, or a relaxation-modulus
+    curve with a temperature column."""
+    path = Path(path)
+    if path.suffix.lower() in (".xls", ".xlsx"):
+        return True
+    try:
+        header, _units, _rows, _line = _csv_rows(path)
+    except InputError:
+        return False
+    roles = {_mat_role(h)[0] for h in header}
+    if roles & {"f", "omega", "storage", "loss", "storage_g", "loss_g"}:
+        return True
+    # relaxation curves at several temperatures (t, E_relax, T[, Set]); a test log with a temperature column is not
+    return "T" in roles and bool(roles & {"relax", "relax_g"})
+
+
+def _is_num(s) -> bool:
+    if isinstance(s, (int, float)) and not isinstance(s, bool):
+        return True
+    try:
+        float(str(s))
+        return True
+    except ValueError:
+        return False
+
+
+def _csv_rows(path: Path) -> tuple[list[str], list[str] | None, list[tuple[int, list[str]]], int]:
+    """Header, unit row (or None), data rows with their file line numbers, header line (CSV/TSV/semicolon)."""
+    if not path.is_file():
+        raise InputError("file not found", path=path)
+    try:
+        text = path.read_text("utf-8-sig")
+    except UnicodeDecodeError:
+        try:
+            text = path.read_text("latin-1")
+        except UnicodeDecodeError as exc:  # pragma: no cover - latin-1 decodes every byte
+            raise InputError("not a text file", path=path) from exc
+    lines = text.splitlines()
+    i = 0
+    while i < len(lines) and (lines[i].lstrip().startswith("#") or not lines[i].strip()):
+        i += 1
+    if i >= len(lines):
+        raise InputError("empty file: no header row", path=path)
+    head = lines[i]
+    delim = "\t" if "\t" in head and "," not in head else (";" if ";" in head and "," not in head else ",")
+    import csv
+    import io as _io
+
+    parsed = list(csv.reader(_io.StringIO("\n".join(lines[i:])), delimiter=delim))
+    header = [h.strip().lstrip("\ufeff") for h in parsed[0]]
+    rows = [(i + 1 + k, r) for k, r in enumerate(parsed) if k > 0]
+    units = None
+    if rows and rows[0][1] and not any(_is_num(c) for c in rows[0][1] if c.strip()):
+        units = [c.strip() for c in rows[0][1]]
+        rows = rows[1:]
+    rows = [(ln, r) for ln, r in rows if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
+    return header, units, rows, i + 1
+
+
+def _xls_rows(path: Path) -> tuple[list[str], list[str] | None, list[tuple[int, list]], int, str]:
+    """The same from an Excel workbook: the first sheet whose first row names a frequency or time column
+    (an Eplexor export: sheet ``Exported Data``, names in row 1, units in row 2). Lines are sheet rows (1-based)."""
+    if path.suffix.lower() == ".xlsx":
+        try:
+            import openpyxl
+        except ImportError as exc:  # pragma: no cover - openpyxl is a dependency of pandas' Excel support here
+            raise InputError("reading .xlsx needs openpyxl (pip install openpyxl)", path=path) from exc
+        try:
+            wb = openpyxl.load_workbook(path, read_only=True, data_only=True)
+        except Exception as exc:
+            raise InputError(f"cannot read this Excel workbook ({exc})", path=path) from None
+        sheets = [(ws.title, [["" if c is None else c for c in r] for r in ws.iter_rows(values_only=True)])
+                  for ws in wb.worksheets]
+    else:
+        try:
+            import xlrd
+        except ImportError as exc:  # pragma: no cover
+            raise InputError("reading .xls needs xlrd (pip install xlrd)", path=path) from exc
+        try:
+            wb = xlrd.open_workbook(str(path))
+        except Exception as exc:
+            raise InputError(f"cannot read this Excel workbook ({exc})", path=path) from None
+        sheets = [(s.name, [s.row_values(r) for r in range(s.nrows)]) for s in wb.sheets()]
+    for name, rows in sheets:
+        if not rows:
+            continue
+        header = [str(h).strip() for h in rows[0]]
+        roles = {_mat_role(h)[0] for h in header}
+        if not roles & {"f", "omega", "t"}:
+            continue
+        data = [(k + 1, r) for k, r in enumerate(rows) if k > 0]
+        units = None
+        if data and not any(_is_num(c) for c in data[0][1] if str(c).strip()):
+            units = [str(c).strip() for c in data[0][1]]
+            data = data[1:]
+        data = [(ln, r) for ln, r in data if any(str(c).strip() for c in r)]
+        return header, units, data, 1, name
+    raise InputError("no sheet with a frequency (f, Hz) or time (t, s) column in its first row", path=path)
+
+
+@dataclasses.dataclass
+class MaterialData:
+    """Frequency-domain moduli (storage and loss) or time-domain relaxation moduli, possibly at several temperatures.
+
+    Attributes
+    ----------
+    name : file stem
+    path : the file
+    domain : ``"freq"`` (E'(f), E''(f)) or ``"time"`` (E(t))
+    modulus : ``"E"`` (tensile) or ``"G"`` (shear)
+    x : (N,) frequency (Hz) or time (s), > 0
+    storage : (N,) storage modulus E' (MPa), or the relaxation modulus E(t) in the time domain
+    loss : (N,) loss modulus E'' (MPa), or None in the time domain
+    temperature_c : (N,) test temperature (deg C) or None (a master curve)
+    set_id : (N,) integer set of each sample (one isothermal sweep each) or None
+    lines : (N,) file line (CSV) or sheet row (Excel) of each sample
+    sheet : sheet name of an Excel source, else None
+    """
+
+    name: str
+    path: Path | None
+    domain: str
+    modulus: str
+    x: np.ndarray
+    storage: np.ndarray
+    loss: np.ndarray | None
+    temperature_c: np.ndarray | None = None
+    set_id: np.ndarray | None = None
+    lines: np.ndarray | None = None
+    sheet: str | None = None
+    units_in_file: dict = dataclasses.field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return int(self.x.size)
+
+    @property
+    def is_raw(self) -> bool:
+        """More than one isothermal set: needs time-temperature superposition."""
+        return self.set_id is not None and np.unique(self.set_id).size > 1
+
+    def where(self, i: int) -> int:
+        return int(self.lines[i]) if self.lines is not None else i + 1
+
+    def sets(self) -> list[tuple[float, np.ndarray]]:
+        """[(set temperature in deg C, indices of its samples), ...] in the file's order of sets.
+
+        The set temperature is the mean measured temperature of the set, rounded to a whole degree (as pyvisco does).
+        """
+        if self.set_id is None:
+            T = float(np.round(np.mean(self.temperature_c))) if self.temperature_c is not None else math.nan
+            return [(T, np.arange(self.n))]
+        out = []
+        _, first = np.unique(self.set_id, return_index=True)
+        for s in self.set_id[np.sort(first)]:
+            idx = np.flatnonzero(self.set_id == s)
+            out.append((float(np.round(np.mean(self.temperature_c[idx]))), idx))
+        return out
+
+
+def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None = None) -> MaterialData:
+    """Read frequency-domain moduli or raw relaxation sets at several temperatures (CSV or Excel).
+
+    Columns (names in the first header row, units in a second row or in parentheses):
+    ``f`` (Hz; or ``omega`` in rad/s) with ``E_stor``/``E'`` and ``E_loss``/``E''`` (or ``G_...``); or ``t`` (s)
+    with ``E_relax`` (or ``G_relax``) and a temperature column; optional ``T`` (C or K) and ``Set``. Sets are taken
+    from the ``Set`` column, else from the frequency (time) restarting low, as an instrument logs consecutive
+    sweeps. Every error names the file and line (sheet row).
+    """
+    path = Path(path)
+    sheet = None
+    if path.suffix.lower() in (".xls", ".xlsx"):
+        header, units, rows, header_line, sheet = _xls_rows(path)
+    else:
+        header, units, rows, header_line = _csv_rows(path)
+    cmap = {str(k).strip(): str(v) for k, v in (column_map or {}).items()}
+    index: dict[str, tuple[int, str]] = {}
+    for j, h in enumerate(header):
+        role, unit = _mat_role(cmap.get(h, h))
+        if role is None:
+            continue
+        if units is not None and unit is None and j < len(units):
+            unit = units[j].strip().lower()
+        unit = (unit or "").strip()
+        fam = _ROLE_UNIT[role]
+        if unit not in _MAT_UNITS[fam]:
+            raise InputError(f"unknown unit {unit!r} for column {h!r} (known: "
+                             f"{', '.join(sorted(u for u in _MAT_UNITS[fam] if u))})", path=path,
+                             line=header_line + (1 if units is not None else 0), key=h)
+        if role in index:
+            raise InputError(f"two columns give {role}: {header[index[role][0]]!r} and {h!r}", path=path,
+                             line=header_line, key=h)
+        index[role] = (j, unit)
+    has = index.__contains__
+    freq = has("f") or has("omega")
+    kinds = {"E": [r for r in ("storage", "loss", "relax") if has(r)],
+             "G": [r for r in ("storage_g", "loss_g", "relax_g") if has(r)]}
+    if kinds["E"] and kinds["G"]:
+        raise InputError("both tensile (E) and shear (G) moduli in one file; give one kind per file", path=path,
+                         line=header_line)
+    modulus = "G" if kinds["G"] else "E"
+    sfx = "_g" if modulus == "G" else ""
+    found = ", ".join(repr(h) for h in header)
+    if freq:  # a time column beside a frequency is the instrument's elapsed test time (Eplexor): not used
+        domain = "freq"
+        for r in ("storage", "loss"):
+            if not has(r + sfx):
+                raise InputError(f"frequency-domain data need storage and loss moduli ({modulus}_stor and "
+                                 f"{modulus}_loss, or {modulus}' and {modulus}''); found columns {found}", path=path,
+                                 line=header_line, key=f"{modulus}_{r[:4]}")
+    elif has("t"):
+        domain = "time"
+        if not has("relax" + sfx):
+            raise InputError(f"time-domain data need a relaxation modulus column ({modulus}_relax); found columns "
+                             f"{found}", path=path, line=header_line, key=f"{modulus}_relax")
+    else:
+        raise InputError(f"no frequency (f, Hz) or time (t, s) column; found columns {found}", path=path,
+                         line=header_line)
+    if has("set") and not has("T"):
+        raise InputError("a raw set without temperatures: the file has a Set column but no temperature column T "
+                         "(C); add the test temperature of every row", path=path, line=header_line, key="T")
+
+    def column(role: str) -> np.ndarray:
+        j, unit = index[role]
+        vals = np.empty(len(rows))
+        for r, (ln, row) in enumerate(rows):
+            cell = row[j] if j < len(row) else ""
+            try:
+                v = float(cell if not isinstance(cell, str) else cell.strip())
+            except ValueError:
+                raise InputError(f"column {header[j]!r}: {cell!r} is not a number", path=path, line=ln) from None
+            if not np.isfinite(v):
+                raise InputError(f"column {header[j]!r}: {cell!r} (NaN or infinite values are not allowed)", path=path,
+                                 line=ln)
+            vals[r] = v
+        fam = _ROLE_UNIT[role]
+        if fam == "T":
+            return vals - _MAT_UNITS["T"][unit]  # K -> C (offset), C unchanged
+        return vals * _MAT_UNITS[fam][unit]
+
+    if not rows:
+        raise InputError("a header but no data rows", path=path, line=header_line)
+    lines = np.array([ln for ln, _ in rows], int)
+    x = column("f") if has("f") else (column("omega") if has("omega") else column("t"))
+    what = "frequency" if freq else "time"
+    bad = np.flatnonzero(~(x > 0))
+    if bad.size:
+        raise InputError(f"non-positive {what} {x[bad[0]]:g} {'Hz' if freq else 's'}: {what}s must be > 0 (a "
+                         "log-spaced axis)", path=path, line=int(lines[bad[0]]))
+    if freq:
+        stor, loss = column("storage" + sfx), column("loss" + sfx)
+        names = (f"storage modulus {modulus}'", f"loss modulus {modulus}''")
+        mods = (stor, loss)
+    else:
+        stor, loss = column("relax" + sfx), None
+        names, mods = (f"relaxation modulus {modulus}(t)",), (stor,)
+    for nm, v in zip(names, mods):
+        bad = np.flatnonzero(~(v > 0))
+        if bad.size:
+            raise InputError(f"non-positive {nm} {v[bad[0]]:g} MPa: moduli must be > 0 (the fit weighs residuals "
+                             "relative to the data)", path=path, line=int(lines[bad[0]]))
+    T = column("T") if has("T") else None
+    if T is not None:
+        bad = np.flatnonzero(T < -273.15)
+        if bad.size:
+            raise InputError(f"temperature {T[bad[0]]:g} C is below absolute zero", path=path,
+                             line=int(lines[bad[0]]))
+    if has("set"):
+        sid = column("set")
+        if np.any(sid != np.round(sid)):
+            i = int(np.flatnonzero(sid != np.round(sid))[0])
+            raise InputError(f"Set must be a whole number, found {sid[i]:g}", path=path, line=int(lines[i]))
+        sid = sid.astype(int)
+    elif T is not None:
+        # consecutive sweeps: a new set starts where the frequency (time) falls back
+        sid = np.concatenate([[0], np.cumsum(np.diff(x) < 0)]).astype(int)
+    else:
+        sid = None
+        restart = np.flatnonzero(np.diff(x) <= 0)
+        if restart.size:
+            i = int(restart[0]) + 1
+            raise InputError(f"the {what} falls back ({x[i - 1]:g} then {x[i]:g}): several sweeps in one file are raw "
+                             "sets, which need a temperature column T (C) to be shifted into a master curve",
+                             path=path, line=int(lines[i]), key="T")
+    out = MaterialData(path.stem, path, domain, modulus, x, stor, loss, T, sid, lines, sheet,
+                       {r: u for r, (_, u) in index.items()})
+    if sid is not None:
+        for Tset, idx in out.sets():
+            xs = x[idx]
+            if np.unique(xs).size < xs.size:
+                k = idx[int(np.flatnonzero(np.diff(np.sort(xs)) == 0)[0])]
+                raise InputError(f"the set at {Tset:g} C repeats the {what} {x[k]:g}", path=path, line=int(lines[k]))
+    return out

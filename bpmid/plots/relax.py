@@ -75,3 +75,107 @@ def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
     if synthetic:
         label_synthetic(fig)
     return fig
+
+
+def _sparse_log_ticks(fig) -> None:
+    """At most ~8 labelled decades and no minor ticks on log axes spanning many decades (a 30-decade master curve
+    otherwise draws hundreds of tick labels, which makes saving slow and the axis unreadable)."""
+    from matplotlib.ticker import LogLocator, NullLocator
+
+    for ax in fig.axes:
+        for axis, scale in ((ax.xaxis, ax.get_xscale()), (ax.yaxis, ax.get_yscale())):
+            if scale == "log":
+                lo, hi = axis.get_view_interval()
+                if lo > 0 and hi / lo > 1e6:
+                    axis.set_major_locator(LogLocator(base=10.0, numticks=8))
+                    axis.set_minor_locator(NullLocator())
+
+
+def material_figure(mf, *, synthetic: bool = False):
+    """Figure of a :class:`bpmid.relax.material.MaterialFit`.
+
+    Frequency domain: (a) storage and loss modulus of the (master) curve with the fit, against (reduced) frequency;
+    (b) relative residuals of both; (c) the fitted E(t). With shifted sets, a second row: (d) the raw sweeps as
+    measured, coloured by temperature; (e) the shifted sets on the master curve; (f) the shift factors with the
+    fitted WLF and polynomial shift functions. Time domain: the same with E(t) in place of E', E''.
+    """
+    import matplotlib.pyplot as plt
+
+    fit, sh = mf.fit, mf.shift
+    rows = 2 if sh is not None else 1
+    fig, axes = new_figure(rows, 3, width=15.0, height=4.4 * rows)
+    axes = np.atleast_2d(axes)
+    M = mf.modulus
+    freq = mf.domain == "freq"
+    red = " (reduced)" if sh is not None else ""
+    at = f" at T_ref = {sh.T_ref:g} °C" if sh is not None else ""
+    ax_a, ax_b, ax_c = axes[0]
+    if freq:
+        ax_a.loglog(fit.f, fit.storage, "o", ms=2.5, color="C0", alpha=0.6, label=f"{M}' data")
+        ax_a.loglog(fit.f, fit.loss, "s", ms=2.5, color="C1", alpha=0.6, label=f"{M}'' data")
+        fg = np.logspace(np.log10(fit.f.min()), np.log10(fit.f.max()), 400)
+        s_, l_ = fit.complex(fg)
+        ax_a.loglog(fg, s_, "-", color="C0", lw=1.5, label=f"{M}' fit")
+        ax_a.loglog(fg, l_, "-", color="C1", lw=1.5, label=f"{M}'' fit")
+        ax_a.set(xlabel=f"frequency{red} (Hz)", ylabel=f"{M}', {M}'' (MPa)",
+                 title=f"(a) storage and loss modulus{at}: {fit.m} terms")
+        ax_a.legend(fontsize=7)
+        ax_b.semilogx(fit.f, 100 * (fit.storage_fit - fit.storage) / fit.storage, ".-", ms=2, lw=0.6, color="C0",
+                      label=f"{M}': RMS {fit.rms_rel_storage_pct:.3g} %")
+        ax_b.semilogx(fit.f, 100 * (fit.loss_fit - fit.loss) / fit.loss, ".-", ms=2, lw=0.6, color="C1",
+                      label=f"{M}'': RMS {fit.rms_rel_loss_pct:.3g} %")
+        ax_b.axhline(0.0, color="k", lw=0.5)
+        ax_b.set(xlabel=f"frequency{red} (Hz)", ylabel="relative residual, fit - data (%)",
+                 title=f"(b) relative residuals ({fit.weighting} weighting)")
+        ax_b.legend(fontsize=7)
+        tg = np.logspace(np.log10(1 / (2 * np.pi * fit.f.max())), np.log10(1 / (2 * np.pi * fit.f.min())), 400)
+        ax_c.loglog(tg, fit.modulus_t(tg), "k-", lw=1.5)
+        ax_c.set(xlabel=f"time{red} (s)", ylabel=f"{M}(t) (MPa)", title="(c) relaxation modulus of the fit")
+    else:
+        lg = fit.logs[0]
+        ax_a.loglog(lg.t, lg.y, "o", ms=2.5, alpha=0.6, color="C0", label=f"{M}(t) data")
+        tg = np.logspace(np.log10(lg.t[lg.t > 0].min()), np.log10(lg.t.max()), 400)
+        ax_a.loglog(tg, fit.modulus(tg), "k-", lw=1.5, label=f"fit, {fit.m} terms")
+        ax_a.set(xlabel=f"time{red} (s)", ylabel=f"{M}(t) (MPa)", title=f"(a) relaxation modulus{at}")
+        ax_a.legend(fontsize=7)
+        ax_b.semilogx(lg.t, 100 * (lg.y_fit - lg.y) / lg.y, ".", ms=2, color="C0")
+        ax_b.axhline(0.0, color="k", lw=0.5)
+        ax_b.set(xlabel=f"time{red} (s)", ylabel="relative residual, fit - data (%)", title="(b) relative residuals")
+        ax_c.axis("off")
+        ax_c.text(0.05, 0.95, f"RMSE {fit.rmse_mpa:.4g} MPa\nR² {fit.r2:.6f}\nE_inf {fit.E_inf:.4g} MPa",
+                  va="top", transform=ax_c.transAxes)
+    if sh is not None:
+        ax_d, ax_e, ax_f = axes[1]
+        Ts = np.array([s.T for s in mf.sets])
+        cmap = plt.get_cmap("coolwarm")
+        norm = plt.Normalize(Ts.min(), Ts.max())
+        sign = 1.0 if freq else -1.0
+        for s in mf.sets:
+            c = cmap(norm(s.T))
+            ax_d.loglog(s.x, s.storage, ".-", ms=3, lw=0.7, color=c)
+            ax_e.loglog(s.x * 10.0 ** (sign * s.log_aT), s.storage, ".", ms=3, color=c)
+            if s.loss is not None:
+                ax_d.loglog(s.x, s.loss, "x--", ms=2, lw=0.5, color=c, alpha=0.6)
+                ax_e.loglog(s.x * 10.0 ** (sign * s.log_aT), s.loss, "x", ms=2, color=c, alpha=0.6)
+        sm = plt.cm.ScalarMappable(norm=norm, cmap=cmap)
+        fig.colorbar(sm, ax=ax_d, label="set temperature (°C)")
+        what = f"{M}' (dots), {M}'' (crosses)" if freq else f"{M}(t)"
+        ax_d.set(xlabel="frequency (Hz)" if freq else "time (s)", ylabel=f"{what} (MPa)",
+                 title=f"(d) raw sets, {len(mf.sets)} temperatures")
+        ax_e.set(xlabel=("frequency f·a_T (Hz)" if freq else "time t/a_T (s)"), ylabel=f"{what} (MPa)",
+                 title=f"(e) shifted onto the master curve at {sh.T_ref:g} °C")
+        o = np.argsort(sh.T)
+        ax_f.plot(sh.T[o], sh.log_aT[o], "ko", ms=4, label=f"log a_T ({'from the data' if sh.source == 'data' else 'given'})")
+        Tg = np.linspace(sh.T.min(), sh.T.max(), 200)
+        if sh.wlf is not None:
+            ax_f.plot(Tg, sh.wlf_log_aT(Tg), "C3-", lw=1.2,
+                      label=f"WLF C1={sh.wlf['C1']:.4g}, C2={sh.wlf['C2']:.4g} °C")
+        if sh.poly is not None:
+            ax_f.plot(Tg, sh.poly_log_aT(Tg), "C2--", lw=1.2, label=f"polynomial, degree {sh.poly['degree']}")
+        ax_f.axvline(sh.T_ref, color="0.6", lw=0.5)
+        ax_f.set(xlabel="temperature (°C)", ylabel="log10 a_T (-)", title="(f) shift factors and shift functions")
+        ax_f.legend(fontsize=7)
+    _sparse_log_ticks(fig)
+    if synthetic:
+        label_synthetic(fig)
+    return fig

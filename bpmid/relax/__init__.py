@@ -52,6 +52,10 @@ class RelaxConfig:
     grid_per_decade : density of the log-spaced time-constant grid of the NNLS start
     tau_span_factor : time constants may lie this factor beyond the data's time range (each side)
     hold_window_s : step mode uses this much of each hold (s; the paper used the first 10 s); null = all
+    freq_weighting : frequency-domain residuals: ``complex`` (storage and loss residual over |E*|, the relative
+        error of the complex modulus) or ``component`` (each modulus relative to itself); see :mod:`bpmid.relax.freq`
+    max_error_pct : if set, the fewest terms whose RMS relative error (%) meets it (on E' and E'' in the frequency
+        domain, on the modulus or stress in the time domain) instead of the criterion
     max_gap_factor : a time step of a stress/strain or load/extension log longer than this many median steps is
         refused as a gap in the log (lost samples bias the hereditary integral); null (default) uses
         ``io.max_gap_factor`` (5). Modulus curves are not gap-checked (master curves are log-spaced in time).
@@ -69,6 +73,8 @@ class RelaxConfig:
     tau_span_factor: float = 10.0
     hold_window_s: Optional[float] = 10.0
     max_gap_factor: Optional[float] = None
+    freq_weighting: Literal["complex", "component"] = "complex"
+    max_error_pct: Optional[float] = None
 
     def validate(self, where: str = "relax", path=None) -> None:
         from bpmid.viscoelastic import check_poisson
@@ -95,6 +101,12 @@ class RelaxConfig:
         if self.max_gap_factor is not None and not self.max_gap_factor > 1.0:
             raise InputError(f"must be above 1 (a multiple of the usual time step) or null, found "
                              f"{self.max_gap_factor:g}", path=path, key=f"{where}.max_gap_factor")
+        if self.freq_weighting not in ("complex", "component"):
+            raise InputError(f"must be complex or component, found {self.freq_weighting!r}", path=path,
+                             key=f"{where}.freq_weighting")
+        if self.max_error_pct is not None and not self.max_error_pct > 0:
+            raise InputError(f"must be a positive percentage or null, found {self.max_error_pct:g}", path=path,
+                             key=f"{where}.max_error_pct")
         if self.hold_window_s is not None and not self.hold_window_s > 0:
             raise InputError(f"must be positive or null, found {self.hold_window_s:g}", path=path,
                              key=f"{where}.hold_window_s")

@@ -245,8 +245,18 @@ def _choose_mode(logs: Sequence[RelaxLog], mode: str | None) -> str:
     return mode
 
 
+def _error_pct(quantity: str, y: np.ndarray):
+    """The error measure of ``--max-error`` (%): RMS relative error of a modulus curve; for stress (which starts at
+    zero) the RMS error relative to the RMS stress."""
+    if quantity == "modulus":
+        yy = np.where(np.abs(y) > 0, y, np.nan)
+        return lambda sol: float(100 * np.sqrt(np.nanmean((sol.residual / yy) ** 2)))
+    scale = float(np.sqrt(np.mean(y ** 2))) or 1.0
+    return lambda sol: float(100 * np.sqrt(np.mean(sol.residual ** 2)) / scale)
+
+
 def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode: str | None = None,
-                   config=None) -> RelaxFit:
+                   config=None, max_error_pct: float | None = None) -> RelaxFit:
     """Fit one Prony series to all logs jointly.
 
     Parameters
@@ -255,6 +265,8 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
     terms : number of Prony terms, or ``"auto"`` (information criterion over 1..config.max_terms)
     mode : ``"ramp"``, ``"step"`` or None (ramp unless a log is a modulus curve)
     config : :class:`bpmid.relax.RelaxConfig` (grid, criterion, hold window); None for defaults
+    max_error_pct : if given, the fewest terms (up to ``config.max_terms``) whose error (:func:`_error_pct`) is at most
+        this (%), instead of ``terms``
 
     Returns
     -------
@@ -312,11 +324,13 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
     segments = [t.size for t in seg_t]
     n = y.size
     bounds = (math.log(lo / cfg.tau_span_factor), math.log(hi * cfg.tau_span_factor))
-    crit = None if terms != "auto" else cfg.criterion
-    m_min, m_max = (1, cfg.max_terms) if terms == "auto" else (terms, terms)
+    if max_error_pct is not None and not (np.isfinite(max_error_pct) and max_error_pct > 0):
+        raise InputError(f"--max-error must be a positive percentage, found {max_error_pct!r}", key="--max-error")
+    crit = None if terms != "auto" or max_error_pct is not None else cfg.criterion
+    m_min, m_max = (1, cfg.max_terms) if terms == "auto" or max_error_pct is not None else (terms, terms)
     if n < 2 * m_max + 3:
         m_max = max((n - 3) // 2, 1)
-        if terms != "auto" and terms > m_max:
+        if terms != "auto" and max_error_pct is None and terms > m_max:
             raise InputError(f"{terms} terms need at least {2 * terms + 3} samples, the logs have {n}", key="terms")
         m_min = min(m_min, m_max)
     score = _criterion(crit, n) if crit else None
@@ -331,7 +345,16 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
                                  f"term are zero): the {quantity} does not relax in them")
             raise InputError(f"{names}: no Prony series with {terms} live term(s) fits these data (NNLS sets the "
                              "extra moduli to zero); ask for fewer terms", key="terms")
-        if score:
+        err_of = _error_pct(quantity, y)
+        extra_warn = []
+        if max_error_pct is not None:
+            ok = [m for m in sorted(path) if err_of(path[m]) <= max_error_pct]
+            chosen = ok[0] if ok else min(path, key=lambda m: err_of(path[m]))
+            if not ok:
+                extra_warn.append(f"no candidate up to {m_max} terms meets --max-error {max_error_pct:g} %: the best "
+                                  f"has {chosen} terms with {err_of(path[chosen]):.3g} % (raise relax.max_terms or "
+                                  "the stated error)")
+        elif score:
             chosen = min(path, key=lambda m: score(path[m]))
         else:
             chosen = terms if terms in path else max(path)
@@ -361,13 +384,15 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
         t_fit = lg.time_s if mode == "ramp" else h.t
         per_log.append(LogFit(lg.name, lg.source, t_fit, y[sl], y_fit[sl], quantity, h))
         start += k
-    selection = [{"terms": int(k), "rmse_mpa": math.sqrt(s.sse / n), "criterion": (score(s) if score else None)}
-                 for k, s in sorted(path.items())]
-    warn = _span_warnings(tau, lo, hi, span_lo_what)
+    selection = [{"terms": int(k), "rmse_mpa": math.sqrt(s.sse / n), "criterion": (score(s) if score else None),
+                  "error_pct": err_of(s)} for k, s in sorted(path.items())]
+    warn = extra_warn + _span_warnings(tau, lo, hi, span_lo_what)
     return RelaxFit(
         mode=mode, E_inf=float(c[0]), E=c[nf:].astype(float), tau=tau, se_E_inf=float(se[0]),
         se_E=se[1::2].copy(), se_tau=se[2::2].copy(), param_names=names, corr=correlation(cov),
         n_obs=int(n), n_eff=float(n_eff), rmse_mpa=metrics.rmse(y, y_fit), r2=metrics.r2(y, y_fit),
         mape_pct=metrics.mape_pct(y, y_fit, floor=floor), quantity=quantity, selection=selection,
-        criterion={"bic": "BIC", "aicc": "AICc"}.get(crit) if crit else None, requested_terms=terms,
+        criterion=({"bic": "BIC", "aicc": "AICc"}.get(crit) if crit else
+                   ("max-error" if max_error_pct is not None else None)),
+        requested_terms=terms if max_error_pct is None else "max-error",
         logs=per_log, seconds=time.perf_counter() - t0, warnings=warn)

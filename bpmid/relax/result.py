@@ -33,7 +33,7 @@ _TIME_UNITS = {"s": 1.0, "ms": 1e-3, "min": 60.0}
 #: shear/bulk moduli may differ from E/(2(1+nu)) and E/(3(1-2nu)) by this share (rounding of hand-edited files;
 #: K moves 4.5 % for nu 0.4993 instead of 0.49933) and no more: a unit slip is a factor of 1000
 CONSISTENCY_RTOL = 0.05
-MODES = ("ramp", "step")
+MODES = ("ramp", "step", "frequency")
 
 
 def _param(value: float, stderr: float | None, unit: str) -> dict:
@@ -79,6 +79,79 @@ def relax_fit_body(fit, poisson: float) -> dict:
                            "ramp_s": float(lg.hold.ramp_s)} for lg in fit.logs],
                  "fit_seconds": round(fit.seconds, 4)},
     }
+
+
+def _g_to_e(fit, nu: float):
+    """A fit of shear moduli G, restated as tensile moduli E = 2 (1 + nu) G (the file's ``prony`` block is E)."""
+    k = 2.0 * (1.0 + nu)
+    return dataclasses.replace(fit, E_inf=fit.E_inf * k, E=fit.E * k, se_E_inf=fit.se_E_inf * k, se_E=fit.se_E * k)
+
+
+def material_fit_body(mf, poisson: float) -> dict:
+    """The YAML body of a :class:`bpmid.relax.material.MaterialFit` (frequency-domain data or shifted raw sets)."""
+    from bpmid.relax.tts import shift_body
+
+    nu = check_poisson(poisson, key="poisson_ratio")
+    fit = _g_to_e(mf.fit, nu) if mf.modulus == "G" else mf.fit
+    sources = [str(p) for p in mf.sources if p is not None]
+    if mf.domain == "time":
+        body = relax_fit_body(fit, nu)
+        body["fitted_modulus"] = mf.modulus
+        body["data"]["sources"] = sources
+        body["data"]["domain"] = "time"
+    else:
+        g, k = E_to_G(1.0, nu), E_to_K(1.0, nu)
+
+        def moduli(factor: float, name: str, inf_name: str) -> dict:
+            return {inf_name: _param(fit.E_inf * MPA * factor, fit.se_E_inf * MPA * factor, "Pa"),
+                    "terms": [{name: _param(e * MPA * factor, se * MPA * factor, "Pa"), "tau": _param(t, st, "s")}
+                              for e, se, t, st in zip(fit.E, fit.se_E, fit.tau, fit.se_tau)]}
+
+        def clean(v):
+            return None if v is None or not np.isfinite(v) else round(float(v), 4)
+
+        y = np.concatenate([fit.storage, fit.loss])
+        yf = np.concatenate([fit.storage_fit, fit.loss_fit])
+        from bpmid import metrics
+
+        body = {
+            "mode": "frequency",
+            "fitted_modulus": mf.modulus,
+            "prony": moduli(1.0, "E", "E_inf"),
+            "poisson_ratio": float(nu),
+            "shear": moduli(g, "G", "G_inf"),
+            "bulk": moduli(k, "K", "K_inf"),
+            "metrics": {"rmse": metrics.rmse(y, yf) * MPA * (1.0 if mf.modulus == "E" else 1.0),
+                        "rmse_unit": "Pa", "r2": metrics.r2(y, yf),
+                        "mape_pct": float(100 * np.mean(np.abs((yf - y) / y))),
+                        "quantity": f"storage and loss modulus {mf.modulus}', {mf.modulus}''",
+                        "rms_rel_storage_pct": fit.rms_rel_storage_pct, "rms_rel_loss_pct": fit.rms_rel_loss_pct,
+                        "error_pct": fit.error_pct, "weighting": fit.weighting, "n_terms": fit.m,
+                        "E0": fit.E0 * MPA, "E0_unit": "Pa"},
+            "terms_selection": {
+                "requested": fit.requested_terms, "chosen": fit.m, "criterion": fit.criterion,
+                "max_error_pct": fit.max_error_pct,
+                "error_measure": ("RMS over frequencies of |E*_fit - E*| / |E*| (%)" if fit.weighting == "complex"
+                                  else "RMS over frequencies of the relative E' and E'' residuals (%)"),
+                "method": "variable projection on E' and E'' jointly: moduli by NNLS (>= 0), log time constants by "
+                          "nonlinear least squares; start from NNLS on a dense log-spaced grid, merged, then terms "
+                          "dropped or added one at a time",
+                "candidates": [{k2: (None if v is None else (int(v) if k2 == "terms" else float(v)))
+                                for k2, v in c.items()} for c in fit.selection]},
+            "uncertainty": {"method": fit.uncertainty_method, "n_obs": fit.n_obs, "n_eff": round(fit.n_eff, 3),
+                            "parameters": list(fit.param_names),
+                            "correlation": [[clean(v) for v in row] for row in fit.corr]},
+            "warnings": list(fit.warnings),
+            "data": {"domain": "frequency", "sources": sources, "frequencies": int(fit.f.size),
+                     "f_min_hz": float(fit.f.min()), "f_max_hz": float(fit.f.max()),
+                     "fit_seconds": round(fit.seconds, 4)},
+        }
+        if mf.modulus == "G":
+            body["metrics"]["note"] = "fitted to shear moduli G; prony holds E = 2 (1 + nu) G"
+    if mf.shift is not None:
+        body["shift"] = shift_body(mf.shift)
+        body["data"]["sets"] = len(mf.sets)
+    return body
 
 
 def write_relax_fit(path, fit, poisson: float, prov: dict) -> Path:
@@ -162,7 +235,8 @@ def relax_fit_from_mapping(data: dict, path: Path | None = None) -> RelaxParamet
     nu = check_poisson(nu_raw, key="poisson_ratio", path=path)
     mode = data.get("mode")
     if mode is not None and mode not in MODES:
-        raise InputError(f"mode must be ramp or step, found {mode!r}", path=path, key="mode")
+        raise InputError(f"mode must be ramp or step (or frequency, for frequency-domain fits), found {mode!r}",
+                         path=path, key="mode")
     out = {}
     for block, name, conv in (("shear", "G", E_to_G), ("bulk", "K", E_to_K)):
         if block in data:
@@ -189,9 +263,71 @@ def _check_consistent(key: str, got: float, want: float, path, name: str, nu: fl
                          "ratio", path=path, key=key)
 
 
+def _terms_option(terms, cfg):
+    if terms is None:
+        return cfg.terms
+    if isinstance(terms, str) and terms.strip().lower() != "auto":
+        try:
+            return int(terms)
+        except ValueError:
+            raise InputError(f"--terms takes a whole number or auto, found {terms!r}", key="--terms") from None
+    if isinstance(terms, str):
+        return "auto"
+    return terms
+
+
+def _run_fit_material(paths, material, out, *, terms, mode, poisson, config, figure, max_error_pct, ref_temp,
+                      shift):
+    """``fit relax`` on frequency sweeps or raw sets at several temperatures (see :mod:`bpmid.relax.material`)."""
+    from bpmid.io.atomic import staged_file
+    from bpmid.io.relax_logs import read_material_file, read_relax_logs
+    from bpmid.relax.material import check_domains, fit_material
+
+    cfg = config.section("relax")
+    nu = check_poisson(cfg.poisson if poisson is None else poisson, key="--poisson" if poisson is not None
+                       else "relax.poisson")
+    datas = [read_material_file(p, column_map=cfg.columns) for p in material]
+    others = [p for p in paths if p not in material]
+    if others:
+        gap = cfg.max_gap_factor if cfg.max_gap_factor is not None else config.section("io").max_gap_factor
+        logs = read_relax_logs(others, column_map=cfg.columns, gauge_length_mm=cfg.specimen.gauge_length_mm,
+                               cross_section_mm2=cfg.specimen.cross_section_mm2, gap_factor=gap)
+        check_domains(datas, logs)
+    domain = check_domains(datas)
+    if mode not in (None, "step") or (mode == "step" and domain == "freq"):
+        what = ("frequency-domain data" if domain == "freq" else
+                "relaxation curves at several temperatures (they are fitted as modulus curves, step mode)")
+        raise InputError(f"--mode {mode} does not apply to {what}", key="--mode")
+    if max_error_pct is None:
+        max_error_pct = cfg.max_error_pct
+    mf = fit_material(datas, terms=_terms_option(terms, cfg), max_error_pct=max_error_pct, ref_temp=ref_temp,
+                      shift_file=shift, config=cfg)
+    for w in mf.warnings:
+        print(f"warning: {w}", file=sys.stderr, flush=True)
+    out = Path(out)
+    fig_path = None
+    if figure:
+        fig_path = out.with_suffix(".png") if figure is True else Path(figure)
+    inputs = paths + ([Path(shift)] if shift is not None else [])
+    prov = provenance(inputs, config=config)
+    body = material_fit_body(mf, nu)
+    if fig_path is not None:
+        from bpmid.plots.common import save_figure
+        from bpmid.plots.relax import material_figure
+
+        with staged_file(out) as tmp_yaml, staged_file(fig_path) as tmp_fig:
+            write_result(tmp_yaml, SCHEMA, body, prov)
+            save_figure(material_figure(mf), tmp_fig)
+    else:
+        write_result(out, SCHEMA, body, prov)
+    return out, fig_path, mf
+
+
 def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | int | None = None,
                   mode: str | None = None, poisson: float | None = None, config=None,
-                  figure: str | Path | None | bool = True) -> tuple[Path, Path | None, object]:
+                  figure: str | Path | None | bool = True, max_error_pct: float | None = None,
+                  ref_temp: float | None = None, shift: str | Path | None = None
+                  ) -> tuple[Path, Path | None, object]:
     """What ``bpmid fit relax`` does: read the logs, fit, write the YAML and the figure.
 
     Parameters
@@ -201,17 +337,32 @@ def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | i
     terms, mode, poisson : override the config (``relax.terms``, ``relax.mode``, ``relax.poisson``)
     config : a loaded :class:`bpmid.config.Config` or None
     figure : True for ``<out stem>.png`` beside the YAML, a path, or False/None for no figure
+    max_error_pct : the fewest terms meeting this error (%) instead of ``terms`` (default ``relax.max_error_pct``)
+    ref_temp : reference temperature (C) of the master curve built from raw sets at several temperatures
+    shift : a CSV of shift factors (T, log_aT) to use instead of finding them from the data
+
+    Frequency-domain files (f with storage and loss modulus, CSV or an Eplexor .xls export) and relaxation curves at
+    several temperatures go through :mod:`bpmid.relax.material`; the third element returned is then a
+    :class:`bpmid.relax.material.MaterialFit`.
 
     Returns
     -------
-    (yaml path, figure path or None, RelaxFit)
+    (yaml path, figure path or None, RelaxFit or MaterialFit)
     """
     from bpmid.config import load_config
     from bpmid.io.atomic import staged_file
-    from bpmid.io.relax_logs import read_relax_logs
+    from bpmid.io.relax_logs import is_material_file, read_relax_logs
     from bpmid.relax.fit import fit_relaxation
 
     config = config if config is not None else load_config(None)
+    paths = [Path(p) for p in logs]
+    material = [p for p in paths if is_material_file(p)]
+    if material:
+        return _run_fit_material(paths, material, out, terms=terms, mode=mode, poisson=poisson, config=config,
+                                 figure=figure, max_error_pct=max_error_pct, ref_temp=ref_temp, shift=shift)
+    if ref_temp is not None or shift is not None:
+        raise InputError("--ref-temp and --shift apply to raw sets at several temperatures (a file with columns T "
+                         "and Set) or to frequency sweeps", key="--ref-temp" if ref_temp is not None else "--shift")
     cfg = config.section("relax")
     gap = cfg.max_gap_factor if cfg.max_gap_factor is not None else config.section("io").max_gap_factor
     nu = check_poisson(cfg.poisson if poisson is None else poisson, key="--poisson" if poisson is not None
@@ -226,10 +377,11 @@ def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | i
     elif isinstance(terms, str):
         terms = "auto"
     mode = cfg.mode if mode is None else mode
-    paths = [Path(p) for p in logs]
+    if max_error_pct is None:
+        max_error_pct = cfg.max_error_pct
     records = read_relax_logs(paths, column_map=cfg.columns, gauge_length_mm=cfg.specimen.gauge_length_mm,
                               cross_section_mm2=cfg.specimen.cross_section_mm2, gap_factor=gap)
-    fit = fit_relaxation(records, terms=terms, mode=mode, config=cfg)
+    fit = fit_relaxation(records, terms=terms, mode=mode, config=cfg, max_error_pct=max_error_pct)
     for w in fit.warnings:
         print(f"warning: {w}", file=sys.stderr, flush=True)
     out = Path(out)

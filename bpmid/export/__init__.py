@@ -1,0 +1,1 @@
+"""Exports of fitted models to other tools (C code, finite-element input files)."""

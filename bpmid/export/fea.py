@@ -1,0 +1,189 @@
+"""Prony constants of a ``bpmid.relax/1`` fit in the input syntax of finite-element tools.
+
+- **Abaqus** (``<stem>_abaqus.inp``): ``*MATERIAL``, ``*ELASTIC, MODULI=INSTANTANEOUS`` (E0, nu), ``*VISCOELASTIC,
+  TIME=PRONY`` with one data line per term ``g_i, k_i, tau_i`` (shear and bulk relaxation modulus ratios and the
+  relaxation time), and, when the fit has a WLF shift, ``*TRS, DEFINITION=WLF`` with ``theta_0, C1, C2``.
+  Abaqus needs sum g_i < 1 (a positive long-term modulus); a fit with E_inf = 0 is refused for it.
+- **ANSYS** Mechanical APDL (``<stem>_ansys.mac``): ``MP,EX`` and ``MP,PRXY`` (instantaneous), ``TB,PRONY,...,SHEAR``
+  and ``TB,PRONY,...,BULK`` tables (``TBDATA`` pairs alpha_i, tau_i, six values per command), and, with a WLF shift,
+  ``TB,SHIFT,...,WLF`` with ``TBDATA,1,T_r,C1,C2``.
+- **COMSOL** (``<stem>_comsol.txt``): a parameter list for Global Definitions > Parameters > Load from File
+  (``name value[unit] "description"`` per line): long-term shear modulus ``G_inf``, branch shear moduli ``G_i`` and
+  relaxation times ``tau_i`` of the generalized Maxwell model, the bulk modulus, and ``T_ref``, ``C1_WLF``,
+  ``C2_WLF`` for the WLF shift function.
+
+Relative moduli: g_i = G_i / G0 with G0 = G_inf + sum G_i (the instantaneous shear modulus), k_i = K_i / K0 likewise;
+alpha_i (ANSYS) are the same ratios. Units are SI (Pa, s); temperatures are those of the fit (deg C). The WLF form
+is log10 a_T = -C1 (T - T_ref) / (C2 + T - T_ref), relaxation times at T being tau_i a_T (bpmid's, pyvisco's and
+Abaqus' convention; ANSYS and COMSOL take the same positive C1, C2). Every file starts with comment lines giving
+the provenance: bpmid version, the fit file and its sha256, and the fit's own command and inputs.
+"""
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from bpmid.errors import InputError
+
+TOOLS = ("abaqus", "ansys", "comsol")
+SUFFIX = {"abaqus": "_abaqus.inp", "ansys": "_ansys.mac", "comsol": "_comsol.txt"}
+
+
+def _wlf(data: dict, path: Path) -> dict | None:
+    """``shift.wlf`` of the fit file, checked (None when the fit has no shift)."""
+    shift = data.get("shift")
+    if shift is None:
+        return None
+    if not isinstance(shift, dict):
+        raise InputError("expected a mapping", path=path, key="shift")
+    w = shift.get("wlf")
+    if w is None:
+        return None
+    if not isinstance(w, dict):
+        raise InputError("expected a mapping with C1, C2, T_ref", path=path, key="shift.wlf")
+    out = {}
+    for k in ("C1", "C2", "T_ref"):
+        v = w.get(k)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise InputError(f"expected a number, found {v!r}", path=path, key=f"shift.wlf.{k}")
+        out[k] = float(v)
+    if not out["C2"] > 0:
+        raise InputError(f"C2 must be positive (C), found {out['C2']:g}", path=path, key="shift.wlf.C2")
+    return out
+
+
+def _provenance_lines(fit_path: Path, data: dict, params, wlf: dict | None) -> list[str]:
+    from bpmid import __version__
+    from bpmid.io.results import sha256_file
+
+    prov = data.get("provenance") if isinstance(data.get("provenance"), dict) else {}
+    lines = [f"bpmid {__version__} export of {fit_path.name} (sha256 {sha256_file(fit_path)})",
+             f"fit: mode {params.mode or 'unknown'}, {params.tau.size} Prony term(s), nu = {params.poisson_ratio:g}; "
+             "units SI (Pa, s)"]
+    if prov.get("command"):
+        lines.append(f"fit command: {prov['command']}")
+    for name, sha in (prov.get("inputs") or {}).items():
+        lines.append(f"fit input: {name} (sha256 {sha})")
+    if wlf is not None:
+        lines.append(f"WLF shift: log10 aT = -C1 (T - T_ref)/(C2 + T - T_ref); T in C; T_ref = {wlf['T_ref']:g} C")
+    # one comment line stays short (input readers limit line length) and free of commas (APDL splits fields on them)
+    out = []
+    for ln in lines:
+        ln = ln.replace(",", ";")
+        out += [ln[i:i + 150] for i in range(0, len(ln), 150)] or [""]
+    return out
+
+
+def _ratios(params):
+    G0 = params.G_inf + float(params.G.sum())
+    K0 = params.K_inf + float(params.K.sum())
+    if not (G0 > 0 and K0 > 0):
+        raise InputError("the instantaneous modulus is zero: nothing to export", key="prony.E_inf")
+    return G0, K0, params.G / G0, params.K / K0
+
+
+def _num(v: float) -> str:
+    return f"{v:.10e}"
+
+
+def abaqus_text(params, wlf: dict | None, prov: list[str], name: str) -> str:
+    G0, K0, g, k = _ratios(params)
+    E0 = params.E_inf + float(params.E.sum())
+    if 1.0 - float(g.sum()) <= 1e-12 or 1.0 - float(k.sum()) <= 1e-12:
+        raise InputError(f"the long-term modulus is zero (E_inf = 0, so sum g_i = 1; the slowest term has tau = "
+                         f"{params.tau.max():.4g} s); Abaqus needs sum g_i < 1. Refit with relax.tau_span_factor: 1 "
+                         "(no time constant beyond the data, which usually leaves E_inf > 0) or export to ANSYS or "
+                         "COMSOL", key="prony.E_inf")
+    out = [f"** {ln}" for ln in prov]
+    out += [f"*MATERIAL, NAME={name}",
+            "*ELASTIC, MODULI=INSTANTANEOUS",
+            f"{_num(E0)}, {params.poisson_ratio:.10g}",
+            "*VISCOELASTIC, TIME=PRONY"]
+    out += [f"{_num(gi)}, {_num(ki)}, {_num(ti)}" for gi, ki, ti in zip(g, k, params.tau)]
+    if wlf is not None:
+        out += ["*TRS, DEFINITION=WLF", f"{wlf['T_ref']:.10g}, {wlf['C1']:.10g}, {wlf['C2']:.10g}"]
+    return "\n".join(out) + "\n"
+
+
+def _tbdata(values: list[float]) -> list[str]:
+    return [f"TBDATA,{i + 1}," + ",".join(_num(v) for v in values[i:i + 6]) for i in range(0, len(values), 6)]
+
+
+def ansys_text(params, wlf: dict | None, prov: list[str], mat: int = 1) -> str:
+    G0, K0, g, k = _ratios(params)
+    E0 = params.E_inf + float(params.E.sum())
+    n = params.tau.size
+    out = [f"/COM, {ln}" for ln in prov]
+    out += [f"MP,EX,{mat},{_num(E0)}", f"MP,PRXY,{mat},{params.poisson_ratio:.10g}",
+            f"TB,PRONY,{mat},1,{n},SHEAR"]
+    out += _tbdata([v for pair in zip(g, params.tau) for v in pair])
+    out += [f"TB,PRONY,{mat},1,{n},BULK"]
+    out += _tbdata([v for pair in zip(k, params.tau) for v in pair])
+    if wlf is not None:
+        out += [f"TB,SHIFT,{mat},1,3,WLF", f"TBDATA,1,{wlf['T_ref']:.10g},{wlf['C1']:.10g},{wlf['C2']:.10g}"]
+    return "\n".join(out) + "\n"
+
+
+def comsol_text(params, wlf: dict | None, prov: list[str]) -> str:
+    G0, K0, _, _ = _ratios(params)
+    out = [f"# {ln}" for ln in prov]
+    out.append('# generalized Maxwell model: G(t) = G_inf + sum_i G_i exp(-t/tau_i); the bulk modulus is elastic '
+               "(the instantaneous K0)")
+    out.append(f'G_inf {_num(params.G_inf)}[Pa] "long-term shear modulus"')
+    out.append(f'K_bulk {_num(K0)}[Pa] "bulk modulus (instantaneous)"')
+    out.append(f'nu_inst {params.poisson_ratio:.10g} "Poisson\'s ratio of the fit"')
+    for j, (Gj, tj) in enumerate(zip(params.G, params.tau), start=1):
+        out.append(f'G_{j} {_num(Gj)}[Pa] "shear modulus of Maxwell branch {j}"')
+        out.append(f'tau_{j} {_num(tj)}[s] "relaxation time of Maxwell branch {j}"')
+    if wlf is not None:
+        out.append(f'T_ref {wlf["T_ref"]:.10g}[degC] "WLF reference temperature"')
+        out.append(f'C1_WLF {wlf["C1"]:.10g} "WLF constant C1"')
+        out.append(f'C2_WLF {wlf["C2"]:.10g}[K] "WLF constant C2"')
+    return "\n".join(out) + "\n"
+
+
+def export_fea(fit_path: Path, tool: str, out_dir: Path) -> list[Path]:
+    """Write the Prony constants of a ``bpmid.relax/1`` fit for ``tool`` (abaqus, ansys or comsol) into ``out_dir``.
+
+    Returns the paths written (one file). Bad input raises :class:`bpmid.errors.InputError` naming the key; the file
+    is written atomically (whole or not at all).
+    """
+    from bpmid.io.atomic import write_text
+    from bpmid.io.results import read_result
+    from bpmid.relax.result import relax_fit_from_mapping
+
+    fit_path = Path(fit_path)
+    tool = str(tool).strip().lower()
+    if tool not in TOOLS:
+        raise InputError(f"unknown tool {tool!r} (expected one of {', '.join(TOOLS)})", key="--to")
+    data = read_result(fit_path, "bpmid.relax/")
+    params = relax_fit_from_mapping(data, fit_path)
+    if params.tau.size == 0:
+        raise InputError("the fit has no Prony terms: nothing viscoelastic to export", path=fit_path,
+                         key="prony.terms")
+    wlf = _wlf(data, fit_path)
+    prov = _provenance_lines(fit_path, data, params, wlf)
+    stem = fit_path.stem
+    try:
+        if tool == "abaqus":
+            name = re.sub(r"[^A-Za-z0-9_\-]", "_", stem).upper() or "BPMID"
+            if not name[0].isalpha():
+                name = "M_" + name
+            text = abaqus_text(params, wlf, prov, name[:80])
+        elif tool == "ansys":
+            text = ansys_text(params, wlf, prov)
+        else:
+            text = comsol_text(params, wlf, prov)
+    except InputError as exc:
+        if exc.path is None:
+            raise InputError(exc.message, path=fit_path, key=exc.key) from None
+        raise
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise InputError("--out must be a folder, found a file", path=out_dir, key="--out")
+    out = out_dir / f"{stem}{SUFFIX[tool]}"
+    write_text(out, text)
+    return [out]

@@ -1,0 +1,398 @@
+"""Time-temperature superposition: shift factors from raw isothermal sets, WLF and polynomial shift functions.
+
+Raw sets (one frequency sweep, or one relaxation curve, per temperature) are shifted along log frequency (log time)
+onto the set at the reference temperature. A set at temperature T moves by log10(a_T): frequencies become
+f a_T, times t / a_T (a_T > 1 below the reference temperature, where the material is slower).
+
+Shift factors from the data (overlap-based): neighbouring sets are shifted pairwise, walking outward from the
+reference set, each onto its already shifted inner neighbour (:func:`pair_shift`): samples that stray from their
+own set's smooth curve (the first point of a sweep, taken before the temperature settled) are left out, and the
+shift minimises the squared difference of log modulus where the two sets overlap, measured both ways. Sets that
+share no modulus range are bridged by extrapolating their smooth curves. The storage modulus E' (or E(t)) is used:
+it is monotone in frequency, where the loss modulus has peaks and, in the glassy region, instrument artefacts.
+
+Shift functions fitted to the shift factors, each with standard errors:
+
+- WLF: log10 a_T = -C1 (T - T_ref) / (C2 + T - T_ref)
+- polynomial: log10 a_T = sum_k c_k (T - T_ref)^k, k = 0..degree (degree 4, or fewer for few temperatures)
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from scipy.optimize import least_squares, minimize_scalar
+
+from bpmid.errors import InputError
+
+#: modulus levels used per pair of sets
+N_LEVELS = 10
+#: level of the outlier test of :func:`inliers` (Bonferroni-corrected over the samples of a set)
+OUTLIER_ALPHA = 0.01
+#: every set keeps at least this many samples
+MIN_INLIERS = 5
+#: fewest overlapping samples (both ways together) a shift is judged on
+MIN_OVERLAP = 3
+#: degree of the polynomial shift function (lowered to the number of temperatures - 2)
+POLY_DEGREE = 4
+
+
+@dataclasses.dataclass
+class ShiftResult:
+    """Shift factors and shift functions.
+
+    Attributes
+    ----------
+    T_ref : reference temperature (deg C)
+    T : (K,) set temperatures (deg C), in the order of the sets
+    log_aT : (K,) decadic log of the shift factor of each set
+    source : ``"data"`` (found from the raw sets) or ``"user"`` (given in a file)
+    wlf : dict C1, C2, T_ref, se_C1, se_C2, rmse (decades), or None when the fit failed
+    poly : dict degree, coefficients c0..cd (of T - T_ref, deg C), se, rmse (decades)
+    pair_shifts : (K,) shift of each set relative to its inner neighbour (decades; 0 at the reference)
+    """
+
+    T_ref: float
+    T: np.ndarray
+    log_aT: np.ndarray
+    source: str
+    wlf: dict | None
+    poly: dict | None
+    pair_shifts: np.ndarray | None = None
+
+    def wlf_log_aT(self, T) -> np.ndarray:
+        T = np.asarray(T, float)
+        if self.wlf is None:
+            return np.full(T.shape, np.nan)
+        return wlf(T, self.wlf["T_ref"], self.wlf["C1"], self.wlf["C2"])
+
+    def poly_log_aT(self, T) -> np.ndarray:
+        T = np.asarray(T, float)
+        if self.poly is None:
+            return np.full(T.shape, np.nan)
+        return np.polynomial.polynomial.polyval(T - self.T_ref, self.poly["coefficients"])
+
+
+def wlf(T, T_ref: float, C1: float, C2: float) -> np.ndarray:
+    """log10 a_T of the WLF equation."""
+    d = np.asarray(T, float) - T_ref
+    return -C1 * d / (C2 + d)
+
+
+def _quad(logx: np.ndarray, logy: np.ndarray) -> np.ndarray:
+    """Robust quadratic (coefficients low to high) of log modulus in log x; a line for 4 points or fewer.
+
+    Huber-weighted least squares (iteratively reweighted, scale from the median absolute residual), so that a sweep's
+    first point, often taken before the temperature settled, does not bend the curve."""
+    deg = 2 if logx.size > 4 else 1
+    V = np.polynomial.polynomial.polyvander(logx, deg)
+    w = np.ones(logx.size)
+    coef = np.linalg.lstsq(V, logy, rcond=None)[0]
+    for _ in range(20):
+        r = logy - V @ coef
+        scale = 1.4826 * np.median(np.abs(r)) + 1e-12
+        u = np.abs(r) / (1.345 * scale)
+        w_new = np.where(u <= 1.0, 1.0, 1.0 / np.maximum(u, 1e-300))
+        sw = np.sqrt(w_new)
+        new = np.linalg.lstsq(V * sw[:, None], logy * sw, rcond=None)[0]
+        if np.allclose(new, coef, rtol=0, atol=1e-12) and np.allclose(w_new, w):
+            break
+        coef, w = new, w_new
+    return coef
+
+
+def _invert(coef: np.ndarray, lo: float, hi: float, levels: np.ndarray) -> np.ndarray | None:
+    """log x at which the polynomial reaches each level, searched on [lo, hi] extended by the range itself on each side;
+    None where the polynomial is not monotone there or misses a level."""
+    span = hi - lo
+    grid = np.linspace(lo - span, hi + span, 801)
+    val = np.polynomial.polynomial.polyval(grid, coef)
+    d = np.diff(val)
+    if not (np.all(d > 0) or np.all(d < 0)):
+        # keep the monotone branch that holds the data range
+        mid = np.polynomial.polynomial.polyval(0.5 * (lo + hi), np.polynomial.polynomial.polyder(coef))
+        sign = 1.0 if mid > 0 else -1.0
+        ok = np.flatnonzero(sign * d > 0)
+        inside = np.flatnonzero((grid[:-1] >= lo) & (grid[:-1] <= hi))
+        if not np.all(np.isin(inside, ok)):
+            return None
+        # extend from the data range while monotone
+        a = inside[0]
+        while a > 0 and sign * d[a - 1] > 0:
+            a -= 1
+        b = inside[-1]
+        while b < d.size - 1 and sign * d[b + 1] > 0:
+            b += 1
+        grid, val = grid[a:b + 2], val[a:b + 2]
+    if val[0] > val[-1]:
+        grid, val = grid[::-1], val[::-1]
+    if levels.min() < val[0] or levels.max() > val[-1]:
+        return None
+    return np.interp(levels, val, grid)
+
+
+def inliers(logx: np.ndarray, logy: np.ndarray, alpha: float = OUTLIER_ALPHA) -> np.ndarray:
+    """Mask of the samples of one set that agree with the set's own smooth curve; the first point of a sweep taken
+    before the temperature settled is the usual outlier.
+
+    Outlier test by externally studentized residuals: each sample is compared with the least-squares quadratic (a line
+    for 6 samples or fewer) of the others, in units of the others' own residual scatter and the prediction's
+    leverage, t_j = r_j / (s_(j) sqrt(1 + h_j)); the sample with the largest |t_j| is dropped when it exceeds the
+    Bonferroni-corrected two-sided Student-t quantile at level ``alpha``, and the test repeats. A point cannot hide
+    by bending the curve towards itself, nor inflate the scale it is judged by. At least ``MIN_INLIERS`` samples are
+    kept.
+    """
+    from scipy.stats import t as student_t
+
+    keep = np.ones(logx.size, bool)
+    while keep.sum() > MIN_INLIERS:
+        idx = np.flatnonzero(keep)
+        n = idx.size
+        deg = 2 if n - 1 > 6 else 1
+        dof = n - 1 - (deg + 1)
+        if dof < 2:
+            break
+        tj = np.zeros(n)
+        for j, i in enumerate(idx):
+            others = np.delete(idx, j)
+            V = np.polynomial.polynomial.polyvander(logx[others], deg)
+            c, *_ = np.linalg.lstsq(V, logy[others], rcond=None)
+            res = logy[others] - V @ c
+            s2 = float(res @ res) / dof
+            v = np.polynomial.polynomial.polyvander(np.array([logx[i]]), deg)[0]
+            h = float(v @ np.linalg.pinv(V.T @ V) @ v)
+            r = logy[i] - float(v @ c)
+            tj[j] = abs(r) / math.sqrt(max(s2 * (1.0 + h), 1e-300))
+        j = int(np.argmax(tj))
+        if tj[j] <= student_t.ppf(1.0 - alpha / (2.0 * n), dof):
+            break
+        keep[idx[j]] = False
+    return keep
+
+
+def _bridge_shift(logx_ref, logy_ref, logx, logy) -> float:
+    """Shift across a gap (no common modulus range): the two robust quadratics are extended and the mean log-x
+    distance at modulus levels between the nearest ends is taken."""
+    cr, cs = _quad(logx_ref, logy_ref), _quad(logx, logy)
+    fr = np.polynomial.polynomial.polyval(logx_ref, cr)
+    fs = np.polynomial.polynomial.polyval(logx, cs)
+    lo, hi = max(fr.min(), fs.min()), min(fr.max(), fs.max())
+    if lo >= hi:
+        lo, hi = hi, lo
+    levels = np.linspace(lo, hi, N_LEVELS)
+    xr = _invert(cr, logx_ref.min(), logx_ref.max(), levels)
+    xs = _invert(cs, logx.min(), logx.max(), levels)
+    if xr is None or xs is None:
+        return math.nan
+    return float(np.mean(xr - xs))
+
+
+def pair_shift(logx_ref: np.ndarray, logy_ref: np.ndarray, logx: np.ndarray, logy: np.ndarray) -> float:
+    """Shift d (decades of x) that moves the set (logx, logy) onto the reference set: logx + d overlays logx_ref.
+
+    Each set's outliers are dropped (:func:`inliers`); d minimises the mean squared difference of log modulus over the
+    overlap, measured both ways (the set interpolated at the reference's samples and the reference at the set's,
+    linear in log-log): a global scan of every d that gives an overlap, then a bounded refinement. Sets whose moduli
+    do not overlap at any shift are bridged by extrapolating their smooth curves (:func:`_bridge_shift`).
+    """
+    o = np.argsort(logx_ref)
+    xr, yr = logx_ref[o], logy_ref[o]
+    o = np.argsort(logx)
+    xs, ys = logx[o], logy[o]
+    mr, ms = inliers(xr, yr), inliers(xs, ys)
+    xr, yr, xs, ys = xr[mr], yr[mr], xs[ms], ys[ms]
+    lo, hi = xr.min() - xs.max(), xr.max() - xs.min()
+
+    def cost(d):
+        xx = xs + d
+        k1 = (xx >= xr[0]) & (xx <= xr[-1])
+        k2 = (xr >= xx[0]) & (xr <= xx[-1])
+        n = int(k1.sum() + k2.sum())
+        if n < MIN_OVERLAP:
+            return math.inf
+        r1 = np.interp(xx[k1], xr, yr) - ys[k1]
+        r2 = np.interp(xr[k2], xx, ys) - yr[k2]
+        return float((r1 @ r1 + r2 @ r2) / n)
+
+    grid = np.linspace(lo, hi, 401)
+    costs = np.array([cost(d) for d in grid])
+    if not np.isfinite(costs).any() or not _levels_overlap(yr, ys):
+        d = _bridge_shift(xr, yr, xs, ys)
+        if math.isfinite(d):
+            return d
+    if not np.isfinite(costs).any():
+        raise InputError("two neighbouring sets cannot be overlaid (too few samples in common at any shift)")
+    b = grid[int(np.nanargmin(costs))]
+    step = grid[1] - grid[0]
+    res = minimize_scalar(cost, bounds=(b - step, b + step), method="bounded")
+    return float(res.x) if res.fun <= costs.min() else float(b)
+
+
+def _levels_overlap(yr: np.ndarray, ys: np.ndarray) -> bool:
+    """The two sets share a range of modulus (else no shift can overlay them; their shift is an extrapolation)."""
+    return max(yr.min(), ys.min()) < min(yr.max(), ys.max())
+
+
+def find_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: Sequence[np.ndarray], T_ref: float,
+                       *, domain: str = "freq") -> tuple[np.ndarray, np.ndarray]:
+    """log10 a_T of every set from the data (see the module docstring).
+
+    Parameters
+    ----------
+    T : (K,) set temperatures (deg C); T_ref must be one of them (within 0.5 C)
+    logx, logy : per set, log10 frequency (Hz) or time (s), and log10 modulus
+    domain : ``"freq"`` (reduced frequency f a_T) or ``"time"`` (reduced time t / a_T)
+
+    Returns
+    -------
+    (log_aT, pair_shift) each (K,)
+    """
+    T = np.asarray(T, float)
+    order = np.argsort(T, kind="stable")
+    k_ref = int(np.argmin(np.abs(T - T_ref)))
+    sign = 1.0 if domain == "freq" else -1.0
+    log_aT = np.zeros(T.size)
+    pair = np.zeros(T.size)
+    pos = int(np.flatnonzero(order == k_ref)[0])
+    for direction in (-1, 1):
+        prev = order[pos]
+        j = pos + direction
+        while 0 <= j < order.size:
+            cur = order[j]
+            ref_x = logx[prev] + sign * log_aT[prev]
+            d = pair_shift(ref_x, logy[prev], logx[cur], logy[cur])  # reduced log x = log x + d
+            log_aT[cur] = sign * d
+            pair[cur] = log_aT[cur] - log_aT[prev]
+            prev = cur
+            j += direction
+    return log_aT, pair
+
+
+def fit_wlf(T: np.ndarray, log_aT: np.ndarray, T_ref: float) -> dict | None:
+    """WLF constants C1 (decades), C2 (C) with standard errors, by least squares; None when it does not fit
+    (fewer than 3 temperatures or a pole inside the temperature range)."""
+    T = np.asarray(T, float)
+    y = np.asarray(log_aT, float)
+    if T.size < 3:
+        return None
+    d = T - T_ref
+    best = None
+    for C2 in (30.0, 51.6, 100.0, 200.0, 500.0):
+        C2 = max(C2, -d.min() + 1.0)
+        C1 = float(np.sum(-d / (C2 + d) * y) / max(np.sum((d / (C2 + d)) ** 2), 1e-300))
+
+        def res(p):
+            return wlf(T, T_ref, p[0], p[1]) - y
+
+        lo2 = -d.min() + 1e-3
+        try:
+            sol = least_squares(res, [C1, C2], bounds=([-np.inf, lo2], [np.inf, 1e5]), method="trf")
+        except ValueError:
+            continue
+        if best is None or sol.cost < best.cost:
+            best = sol
+    if best is None:
+        return None
+    r = best.fun
+    dof = max(T.size - 2, 1)
+    s2 = float(r @ r) / dof
+    try:
+        cov = np.linalg.inv(best.jac.T @ best.jac) * s2
+        se = np.sqrt(np.abs(np.diag(cov)))
+    except np.linalg.LinAlgError:
+        se = np.array([np.nan, np.nan])
+    return {"C1": float(best.x[0]), "C2": float(best.x[1]), "T_ref": float(T_ref), "se_C1": float(se[0]),
+            "se_C2": float(se[1]), "rmse": float(np.sqrt(np.mean(r ** 2)))}
+
+
+def fit_poly(T: np.ndarray, log_aT: np.ndarray, T_ref: float, degree: int = POLY_DEGREE) -> dict | None:
+    """Polynomial in (T - T_ref) by least squares, with standard errors of its coefficients."""
+    T = np.asarray(T, float)
+    y = np.asarray(log_aT, float)
+    deg = min(degree, T.size - 2)
+    if deg < 1:
+        return None
+    scale = float(np.max(np.abs(T - T_ref))) or 1.0
+    V = np.polynomial.polynomial.polyvander((T - T_ref) / scale, deg)  # scaled: a well-conditioned basis
+    q, rr = np.linalg.qr(V)
+    cs = np.linalg.solve(rr, q.T @ y)
+    r = y - V @ cs
+    dof = max(T.size - deg - 1, 1)
+    s2 = float(r @ r) / dof
+    rinv = np.linalg.inv(rr)
+    se_s = np.sqrt(np.abs(np.diag(rinv @ rinv.T) * s2))
+    powers = scale ** -np.arange(deg + 1.0)
+    coef, se = cs * powers, se_s * powers
+    return {"degree": int(deg), "variable": "T - T_ref (C)", "coefficients": [float(c) for c in coef],
+            "se": [float(s) for s in se], "rmse": float(np.sqrt(np.mean(r ** 2)))}
+
+
+def read_shift_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """User shift factors: a CSV with columns T (C) and log_aT (pyvisco's ``T, log_aT`` / ``C, -`` format works).
+
+    Returns (T, log_aT); errors name the file and line.
+    """
+    from bpmid.io.relax_logs import _csv_rows, _is_num
+
+    path = Path(path)
+    header, units, rows, hline = _csv_rows(path)
+    names = [h.strip().lower().replace(" ", "") for h in header]
+    try:
+        jt = next(j for j, h in enumerate(names) if h in ("t", "temp", "temperature", "t(c)", "temperature(c)"))
+        ja = next(j for j, h in enumerate(names) if h in ("log_at", "logat", "log10_at", "log10(at)", "log(at)"))
+    except StopIteration:
+        raise InputError(f"a shift-factor file needs columns T (C) and log_aT; found {header}", path=path,
+                         line=hline) from None
+    unit = (units[jt].strip().lower() if units is not None and jt < len(units) else "c")
+    offset = {"c": 0.0, "°c": 0.0, "degc": 0.0, "": 0.0, "k": -273.15}.get(unit)
+    if offset is None:
+        raise InputError(f"unknown temperature unit {unit!r} (C or K)", path=path, line=hline + 1, key=header[jt])
+    T, a = [], []
+    for ln, r in rows:
+        for j in (jt, ja):
+            if j >= len(r) or not _is_num(r[j]) or not np.isfinite(float(r[j])):
+                raise InputError(f"column {header[j]!r}: {r[j] if j < len(r) else ''!r} is not a number", path=path,
+                                 line=ln)
+        T.append(float(r[jt]) + offset)
+        a.append(float(r[ja]))
+    if not T:
+        raise InputError("no shift factors in the file", path=path, line=hline)
+    return np.array(T), np.array(a)
+
+
+def shift_from_user(T_sets: np.ndarray, T_user: np.ndarray, a_user: np.ndarray, T_ref: float, path) -> np.ndarray:
+    """The user's log_aT at each set temperature (within 0.5 C), re-referenced to T_ref (log_aT(T_ref) = 0)."""
+    out = np.empty(T_sets.size)
+    for i, t in enumerate(T_sets):
+        k = np.flatnonzero(np.abs(T_user - t) <= 0.5)
+        if k.size == 0:
+            raise InputError(f"no shift factor for the set at {t:g} C (the file gives "
+                             f"{', '.join(format(v, 'g') for v in T_user)} C)", path=path, key="T")
+        out[i] = a_user[k[0]]
+    k = np.flatnonzero(np.abs(T_user - T_ref) <= 0.5)
+    ref = a_user[k[0]] if k.size else float(np.interp(T_ref, np.sort(T_user), a_user[np.argsort(T_user)]))
+    return out - ref
+
+
+def shift_result(T: np.ndarray, log_aT: np.ndarray, T_ref: float, source: str, pair=None) -> ShiftResult:
+    return ShiftResult(float(T_ref), np.asarray(T, float), np.asarray(log_aT, float), source,
+                       fit_wlf(T, log_aT, T_ref), fit_poly(T, log_aT, T_ref), pair)
+
+
+def shift_body(sh: ShiftResult) -> dict:
+    """The ``shift`` block of the result YAML."""
+    def clean(d):
+        if d is None:
+            return None
+        return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
+
+    order = np.argsort(sh.T)
+    return {
+        "T_ref": sh.T_ref, "T_unit": "C", "source": sh.source,
+        "convention": "f_reduced = f * a_T, t_reduced = t / a_T; log_aT is log10",
+        "log_aT": {format(float(t), "g"): float(a) for t, a in zip(sh.T[order], sh.log_aT[order])},
+        "wlf": clean(sh.wlf), "poly": clean(sh.poly),
+    }

@@ -1,0 +1,149 @@
+"""Time-temperature superposition: shift factors from raw sets, WLF and polynomial shift functions, the master-curve
+fit (frequency and time domain), user shift factors and bad input."""
+import os
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+from bpmid.io.relax_logs import read_material_file
+from bpmid.relax import tts
+from bpmid.relax.freq import complex_modulus
+from bpmid.relax.material import fit_material
+
+runner = CliRunner()
+
+# a broad, smooth relaxation spectrum (four terms per decade, 1e-8 ... 1e8 s) and WLF shifts about 20 C
+TAU = np.logspace(-8, 8, 65)
+E_TERMS = 3000.0 * np.exp(-0.5 * ((np.log10(TAU) - 0.0) / 4.0) ** 2) / 24.0
+C1, C2, TREF = 12.0, 90.0, 20.0
+TEMPS = np.arange(-10.0, 61.0, 5.0)
+
+
+def ref(repo_root, name):
+    return os.path.join(repo_root, "datasets", "reference", "pyvisco-frequency", name)
+
+
+def raw_file(path, *, domain="freq", transient=True, seed=5):
+    """Synthetic raw sets (10 points per set at 0.1..100 Hz) made by shifting a known series; the first point of each
+    set carries a settling transient (5 % low, as in the measured sweeps) and every point 0.2 % noise."""
+    rng = np.random.default_rng(seed)
+    f = np.logspace(-1, 2, 10)
+    rows = ["f,E_stor,E_loss,T,Set\nHz,MPa,MPa,C,-\n" if domain == "freq" else "t,E_relax,T,Set\ns,MPa,C,-\n"]
+    for k, T in enumerate(TEMPS):
+        aT = 10.0 ** tts.wlf(T, TREF, C1, C2)
+        if domain == "freq":
+            s, l = complex_modulus(f * aT, 5.0, E_TERMS, TAU)
+        else:
+            t = 1.0 / f[::-1]
+            s = 5.0 + np.exp(-(t / aT)[:, None] / TAU[None, :]) @ E_TERMS
+            l = s
+        s = s * (1 + 0.002 * rng.standard_normal(s.size))
+        l = l * (1 + 0.002 * rng.standard_normal(l.size))
+        if transient:
+            s[0] *= 0.95
+        for i in range(s.size):
+            Tm = T + 0.05 * rng.standard_normal()
+            if domain == "freq":
+                rows.append(f"{f[i]:.6g},{s[i]:.8g},{l[i]:.8g},{Tm:.3f},{k}\n")
+            else:
+                rows.append(f"{1 / f[::-1][i]:.6g},{s[i]:.8g},{Tm:.3f},{k}\n")
+    path.write_text("".join(rows))
+    return path
+
+
+@pytest.mark.parametrize("domain", ["freq", "time"])
+def test_recovers_known_shift_factors_and_wlf(tmp_path, domain):
+    d = read_material_file(raw_file(tmp_path / f"raw_{domain}.csv", domain=domain))
+    assert d.is_raw and d.domain == domain and [t for t, _ in d.sets()] == TEMPS.tolist()
+    mf = fit_material([d], ref_temp=TREF, terms=8)
+    true = tts.wlf(mf.shift.T, TREF, C1, C2)
+    assert np.max(np.abs(mf.shift.log_aT - true)) < 0.1
+    assert mf.shift.wlf["C1"] == pytest.approx(C1, rel=0.05) and mf.shift.wlf["C2"] == pytest.approx(C2, rel=0.05)
+    assert mf.shift.wlf["se_C1"] > 0 and mf.shift.poly["rmse"] < 0.05 and mf.shift.source == "data"
+    assert mf.fit.m == 8 and mf.domain == domain
+
+
+def test_reference_temperature_between_sets_and_user_shift(tmp_path):
+    d = read_material_file(raw_file(tmp_path / "raw.csv"))
+    mf = fit_material([d], ref_temp=25.0, terms=4)  # between the 20 and 30 C sets
+    assert np.max(np.abs(mf.shift.log_aT - tts.wlf(mf.shift.T, 25.0, *_wlf_at(25.0)))) < 0.06
+    sf = tmp_path / "shift.csv"
+    sf.write_text("T,log_aT\nK,-\n" + "".join(f"{T + 273.15:.2f},{-0.1 * (T - 20):.3f}\n" for T in TEMPS))
+    mf = fit_material([d], ref_temp=20.0, shift_file=sf, terms=4)
+    assert mf.shift.source == "user" and np.allclose(mf.shift.log_aT, -0.1 * (TEMPS - 20))
+
+
+def _wlf_at(T_new):
+    """WLF constants re-referenced to T_new (the WLF form is closed under a change of reference)."""
+    c2 = C2 + T_new - TREF
+    c1 = C1 * C2 / c2
+    return c1, c2
+
+
+@pytest.mark.parametrize("name", ["freq_user_raw", "freq_Eplexor_raw"])
+def test_measured_sweeps_match_pyvisco_within_0_3_decades(repo_root, name):
+    src = ref(repo_root, name + (".xls" if "Eplexor" in name else ".csv"))
+    d = read_material_file(src)
+    T, log_aT, _ = _shift_only(d)
+    Tp, ap = tts.read_shift_file(ref(repo_root, f"pyvisco_2.1.3_shift_factors_{name}.csv"))
+    want = tts.shift_from_user(T, Tp, ap, -5.0, name)
+    assert T.size == 21 and np.max(np.abs(log_aT - want)) < 0.3
+
+
+def _shift_only(d):
+    sets = d.sets()
+    T = np.array([s[0] for s in sets])
+    a, pair = tts.find_shift_factors(T, [np.log10(d.x[i]) for _, i in sets],
+                                     [np.log10(d.storage[i]) for _, i in sets], -5.0)
+    return T, a, pair
+
+
+def test_cli_raw_sweeps_write_the_shift_block(repo_root, tmp_path):
+    out = tmp_path / "raw.yaml"
+    res = runner.invoke(app, ["fit", "relax", ref(repo_root, "freq_user_raw.csv"), "--ref-temp", "-5", "--terms",
+                              "10", "--no-figure", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "WLF: C1 =" in res.output
+    body = yaml.safe_load(out.read_text())
+    sh = body["shift"]
+    assert sh["wlf"]["T_ref"] == -5.0 and sh["wlf"]["C1"] > 0 and sh["wlf"]["C2"] > 0
+    assert len(sh["log_aT"]) == 21 and sh["log_aT"]["-5"] == 0.0 and sh["log_aT"]["-50"] > 9
+    assert sh["poly"]["degree"] == 4 and len(sh["poly"]["se"]) == 5 and body["data"]["sets"] == 21
+
+
+def test_figure_shows_raw_sweeps_master_curve_and_shift_function(tmp_path):
+    import matplotlib.pyplot as plt
+
+    from bpmid.plots.relax import material_figure
+
+    mf = fit_material([read_material_file(raw_file(tmp_path / "raw.csv"))], ref_temp=TREF, terms=5)
+    fig = material_figure(mf, synthetic=True)
+    titles = [ax.get_title() for ax in fig.axes]
+    assert any(t.startswith("(d) raw sets, 15 temperatures") for t in titles)
+    assert any(t.startswith("(e) shifted onto the master curve at 20") for t in titles)
+    ax_f = next(ax for ax in fig.axes if ax.get_title().startswith("(f)"))
+    labels = [ln.get_label() for ln in ax_f.get_lines()]
+    assert any(lb.startswith("WLF C1=") for lb in labels) and any(lb.startswith("polynomial") for lb in labels)
+    ax_d = next(ax for ax in fig.axes if ax.get_title().startswith("(d)"))
+    assert len(ax_d.get_lines()) == 2 * 15 and "(Hz)" in ax_d.get_xlabel() and "(MPa)" in ax_d.get_ylabel()
+    plt.close(fig)
+
+
+def test_bad_raw_input_exits_2(tmp_path):
+    p = raw_file(tmp_path / "raw.csv")
+    res = runner.invoke(app, ["fit", "relax", str(p), "--ref-temp", "200", "--out", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2 and "--ref-temp" in res.output and "outside the set temperatures" in res.output
+    sf = tmp_path / "s.csv"
+    sf.write_text("T,log_aT\nC,-\n0,1\n10,0\n")
+    res = runner.invoke(app, ["fit", "relax", str(p), "--shift", str(sf), "--ref-temp", "20", "--out",
+                              str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2 and "s.csv" in res.output and "no shift factor for the set at -10 C" in res.output
+    dup = tmp_path / "dup.csv"
+    lines = p.read_text().splitlines()
+    dup.write_text("\n".join(lines + [ln[:ln.rindex(",")] + ",99" for ln in lines[2:12]]) + "\n")
+    res = runner.invoke(app, ["fit", "relax", str(dup), "--out", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2 and "two sets at -10 C" in res.output and "dup.csv:" in res.output
+    assert not (tmp_path / "o.yaml").exists()
