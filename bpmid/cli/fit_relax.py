@@ -9,11 +9,12 @@ import typer
 
 from bpmid.cli._app import check_outputs, command, existing_files, fit_app
 
-EPILOG = ("Example (shipped synthetic logs):  bpmid fit relax datasets/relaxation/*.csv --out relax_fit.yaml  "
-          "|  measured master curve, step mode:  bpmid fit relax datasets/reference/pyvisco/time_user_master.csv "
-          "--out master_fit.yaml  |  DMTA storage and loss modulus:  bpmid fit relax "
-          "datasets/reference/pyvisco-frequency/freq_user_master.csv --terms 26 --out freq_fit.yaml  |  raw sweeps at "
-          "21 temperatures, master curve at -5 C:  bpmid fit relax "
+EPILOG = ("\b\nExample (shipped synthetic logs):  bpmid fit relax datasets/relaxation/*.csv --out relax_fit.yaml  |\n"
+          "measured master curve, step mode:  bpmid fit relax datasets/reference/pyvisco/time_user_master.csv "
+          "--out master_fit.yaml  |\n"
+          "DMTA storage and loss modulus:  bpmid fit relax "
+          "datasets/reference/pyvisco-frequency/freq_user_master.csv --terms 26 --out freq_fit.yaml  |\n"
+          "raw sweeps at 21 temperatures, master curve at -5 C:  bpmid fit relax "
           "datasets/reference/pyvisco-frequency/freq_user_raw.csv --ref-temp -5 --out raw_fit.yaml")
 
 
