@@ -229,6 +229,7 @@ def frequency(pv: dict | None, how: str):
     n_pv = len(pv["master"]["alpha"])
     for label, kw in ((f"bpmid, terms = {n_pv} (pyvisco's count)", dict(terms=n_pv)),
                       ("bpmid, terms auto (BIC, max 32)", dict()),
+                      ("bpmid, terms auto (AICc, max 32)", dict(config=RelaxConfig(criterion="aicc"))),
                       ("bpmid, --max-error 7.5 (RMS |E*| error %)", dict(max_error_pct=7.5)),
                       ("bpmid, component weighting, terms auto", dict(config=RelaxConfig(freq_weighting="component")))):
         fit, sec = timed(lambda: fit_frequency(f, s, l, **kw), repeat=1)

@@ -174,3 +174,24 @@ def test_shear_data_are_written_as_shear_and_converted_to_E(tmp_path):
     assert body["shear"]["G_inf"]["value"] == pytest.approx(2.0e6, rel=1e-5)
     assert body["prony"]["E_inf"]["value"] == pytest.approx(2.0e6 * 2 * 1.4, rel=1e-5)
     assert load_relax_fit(out).G == pytest.approx(TRUTH["E"] * 1e6, rel=1e-5)
+
+
+def test_reads_an_xlsx_export_with_sets_from_the_frequency_restart(tmp_path):
+    import openpyxl
+
+    f = np.logspace(-1, 2, 6)
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws.title = "Exported Data"
+    ws.append(["Nr", "Time", "f", "T", "E'", "E''"])
+    ws.append(["", "s", "Hz", "°C", "GPa", "GPa"])
+    for k, T in enumerate((10.0, 30.0)):
+        s, l = complex_modulus(f * 10.0 ** (-k), **TRUTH)
+        for i in range(f.size):
+            ws.append([k * 6 + i + 1, 100.0 * (k * 6 + i), f[i], T + 0.1, s[i] / 1e3, l[i] / 1e3])
+    p = tmp_path / "dma.xlsx"
+    wb.save(p)
+    assert is_material_file(p)
+    d = read_material_file(p)
+    assert d.sheet == "Exported Data" and [t for t, _ in d.sets()] == [10.0, 30.0]
+    assert np.allclose(d.storage[:6], complex_modulus(f, **TRUTH)[0]) and d.lines[0] == 3

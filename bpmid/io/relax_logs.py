@@ -226,13 +226,14 @@ def _mat_role(name: str) -> tuple[str | None, str | None]:
 
 
 def is_material_file(path: str | Path) -> bool:
-    """True for an Excel workbook, a CSV whose header names a frequency or storage/loss column, or a relaxation-modulus
-    curve with a temperature column."""
+    """True for a CSV or Excel file whose header names a frequency or storage/loss column, or a relaxation-modulus
+    curve with a temperature column (time-domain test logs are left to :func:`read_relax_log`)."""
     path = Path(path)
-    if path.suffix.lower() in (".xls", ".xlsx"):
-        return True
     try:
-        header, _units, _rows, _line = _csv_rows(path)
+        if path.suffix.lower() in (".xls", ".xlsx"):
+            header = _xls_rows(path)[0]
+        else:
+            header = _csv_rows(path)[0]
     except InputError:
         return False
     roles = {_mat_role(h)[0] for h in header}

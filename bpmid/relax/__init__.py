@@ -7,6 +7,9 @@ Public API
 - :func:`hold_curve` the step-mode reduction of a ramp-and-hold log to a modulus curve
 - :func:`relax_fit_body` / :func:`write_relax_fit` the ``bpmid.relax/1`` YAML; :func:`load_relax_fit` reads it back
 - :func:`run_fit_relax` what ``bpmid fit relax`` does (read, fit, write YAML and figure)
+- :func:`fit_frequency` storage and loss modulus -> :class:`FreqFit` (one Prony series fitted to both)
+- :func:`fit_material` frequency sweeps or raw sets at several temperatures -> :class:`MaterialFit` (shift factors,
+  WLF and polynomial shift functions, master-curve fit; :mod:`bpmid.relax.tts`)
 """
 from __future__ import annotations
 
@@ -116,5 +119,9 @@ from bpmid.relax.fit import HoldCurve, RelaxFit, fit_relaxation, hold_curve  # n
 from bpmid.relax.result import (RelaxParameters, load_relax_fit, relax_fit_body, run_fit_relax,  # noqa: E402
                                 write_relax_fit)
 
+from bpmid.relax.freq import FreqFit, fit_frequency  # noqa: E402
+from bpmid.relax.material import MaterialFit, fit_material  # noqa: E402
+
 __all__ = ["RelaxConfig", "SpecimenConfig", "PAPER_POISSON", "fit_relaxation", "hold_curve", "HoldCurve", "RelaxFit",
-           "relax_fit_body", "write_relax_fit", "load_relax_fit", "RelaxParameters", "run_fit_relax"]
+           "relax_fit_body", "write_relax_fit", "load_relax_fit", "RelaxParameters", "run_fit_relax", "fit_frequency",
+           "FreqFit", "fit_material", "MaterialFit"]

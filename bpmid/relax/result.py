@@ -121,8 +121,7 @@ def material_fit_body(mf, poisson: float) -> dict:
             "poisson_ratio": float(nu),
             "shear": moduli(g, "G", "G_inf"),
             "bulk": moduli(k, "K", "K_inf"),
-            "metrics": {"rmse": metrics.rmse(y, yf) * MPA * (1.0 if mf.modulus == "E" else 1.0),
-                        "rmse_unit": "Pa", "r2": metrics.r2(y, yf),
+            "metrics": {"rmse": metrics.rmse(y, yf) * MPA, "rmse_unit": "Pa", "r2": metrics.r2(y, yf),
                         "mape_pct": float(100 * np.mean(np.abs((yf - y) / y))),
                         "quantity": f"storage and loss modulus {mf.modulus}', {mf.modulus}''",
                         "rms_rel_storage_pct": fit.rms_rel_storage_pct, "rms_rel_loss_pct": fit.rms_rel_loss_pct,
@@ -147,7 +146,8 @@ def material_fit_body(mf, poisson: float) -> dict:
                      "fit_seconds": round(fit.seconds, 4)},
         }
         if mf.modulus == "G":
-            body["metrics"]["note"] = "fitted to shear moduli G; prony holds E = 2 (1 + nu) G"
+            body["metrics"]["note"] = ("fitted to shear moduli G (the metrics are of G' and G''); prony holds "
+                                       "E = 2 (1 + nu) G")
     if mf.shift is not None:
         body["shift"] = shift_body(mf.shift)
         body["data"]["sets"] = len(mf.sets)
