@@ -228,3 +228,16 @@ def test_every_output_of_a_study_loads(timed_small_study):
     for name, r in res.items():
         assert r == bpmid.load(r.source) and len(repr(r)) < 300, name
         assert r.summary().startswith("[[")
+
+
+def test_run_study_returns_the_study(tmp_path):
+    from test_run import make_study
+
+    cfg = make_study(tmp_path)
+    cfg.write_text(cfg.read_text().replace("run:\n", "run:\n  stages: [relax]\n", 1))
+    study = bpmid.run_study(cfg, tmp_path / "o")
+    status = {s["name"]: s["status"] for s in study.body["stages"]}
+    assert study.schema == "bpmid.run/1" and status["relax"] == "done"
+    assert all(v != "done" for k, v in status.items() if k != "relax")
+    assert study.results["relax"].params["E_inf"].unit == "Pa"
+    assert study == bpmid.load(tmp_path / "o")
