@@ -255,7 +255,9 @@ def predict(logs, params, *, config=None):
     motion, paths = _motion_logs(logs, cfg)
     preds = _predict(motion, model)
     body = predict_yaml_body(preds, params=ppath, model=model)
-    return PredictionResult(body, provenance(list(paths) + ([ppath] if ppath else []), config=cfg), raw=preds)
+    out = PredictionResult(body, provenance(list(paths) + ([ppath] if ppath else []), config=cfg), raw=preds)
+    out._model = model  # what save() hands the writer (the same settings as body["model"])
+    return out
 
 
 def compare(train=None, test=None, *, models: Sequence[str] | str | None = None, relax=None, config=None):
