@@ -60,6 +60,7 @@ _LAZY: dict[str, str] = {
     "discover": "bpmid.discover",
     "control": "bpmid.control",
     "simulate": "bpmid.api:simulate",
+    "run_study": "bpmid.api:run_study",
     "load": "bpmid.results:load",
     # log readers
     "from_arrays": "bpmid.api:from_arrays",

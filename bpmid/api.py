@@ -255,7 +255,9 @@ def predict(logs, params, *, config=None):
     motion, paths = _motion_logs(logs, cfg)
     preds = _predict(motion, model)
     body = predict_yaml_body(preds, params=ppath, model=model)
-    return PredictionResult(body, provenance(list(paths) + ([ppath] if ppath else []), config=cfg), raw=preds)
+    out = PredictionResult(body, provenance(list(paths) + ([ppath] if ppath else []), config=cfg), raw=preds)
+    out._model = model  # what save() hands the writer (the same settings as body["model"])
+    return out
 
 
 def compare(train=None, test=None, *, models: Sequence[str] | str | None = None, relax=None, config=None):
@@ -399,5 +401,31 @@ def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequ
     return out
 
 
+def run_study(config=None, out=None):
+    """The whole study (``bpmid run``): relaxation fit, motion fit, comparison, history modes, discovery and the
+    report, every stage's files in ``out``.
+
+    Parameters
+    ----------
+    config : study config path or Config (default: the shipped ``configs/paper.yaml``)
+    out : output folder (default: ``run.out`` of the config, else ``out/<config name>``)
+
+    Returns
+    -------
+    bpmid.results.StudyResult : ``.results`` maps each stage's output to its result object
+    """
+    from bpmid.results import load
+    from bpmid.run import default_config_path, run_study as _run
+
+    if config is None:
+        config = default_config_path()
+    cfg = _config(config)
+    rc = cfg.section("run")
+    name = Path(cfg.path).stem if cfg.path is not None else "study"
+    out_dir = Path(out) if out is not None else Path(rc.out) if rc.out else Path("out") / name
+    _run(cfg, out_dir)
+    return load(out_dir)
+
+
 __all__ = ["from_arrays", "read_motion_logs", "read_relax_logs", "fit_relaxation", "fit_motion", "predict",
-           "compare", "discover", "simulate", "control"]
+           "compare", "discover", "simulate", "control", "run_study"]

@@ -541,24 +541,10 @@ class PredictionResult(Result):
         if self.raw is not None:
             from bpmid.predict import write_predictions
 
-            m = self.body.get("model") or {}
             write_predictions(path, self.raw, prov=self.provenance, params=self.body.get("params"),
-                              model=_ModelSettings(m) if m else None)
+                              model=getattr(self, "_model", None))
             return Path(path)
         return super().save(path)
-
-
-@dataclasses.dataclass
-class _ModelSettings:
-    """The ``model`` block of predict.yaml as the writer reads it (closure, history, window_s)."""
-
-    block: dict
-
-    def __getattr__(self, name):
-        try:
-            return self.__dict__["block"][name]
-        except KeyError:
-            raise AttributeError(name) from None
 
 
 class ComparisonResult(Result):

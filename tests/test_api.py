@@ -70,7 +70,7 @@ _param = st.fixed_dictionaries({"value": st.floats(-1e9, 1e9, allow_nan=False), 
 
 
 @pytest.mark.parametrize("kind", sorted(KINDS) + ["history_modes"])
-@settings(max_examples=15)
+@settings(max_examples=10)
 @given(body=st.dictionaries(_keys.filter(lambda k: k not in ("schema", "provenance")), _tree, max_size=5),
        prov=st.fixed_dictionaries({"bpmid_version": st.just("0.1.0"), "command": st.text(max_size=20),
                                    "inputs": st.dictionaries(_keys, st.text("0123456789abcdef", min_size=64,
@@ -113,7 +113,7 @@ def test_load_refuses_what_bpmid_did_not_write(tmp_path):
 # ---------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def relax():
-    return bpmid.fit_relaxation(sorted(glob.glob(str(REPO / "datasets/relaxation/*.csv"))))
+    return bpmid.fit_relaxation(sorted(glob.glob(str(REPO / "datasets/relaxation/relax_*_[23]0pct.csv"))))
 
 
 def _round_trip(res: Result, target: Path) -> Result:
@@ -228,3 +228,16 @@ def test_every_output_of_a_study_loads(timed_small_study):
     for name, r in res.items():
         assert r == bpmid.load(r.source) and len(repr(r)) < 300, name
         assert r.summary().startswith("[[")
+
+
+def test_run_study_returns_the_study(tmp_path):
+    from test_run import make_study
+
+    cfg = make_study(tmp_path)
+    cfg.write_text(cfg.read_text().replace("run:\n", "run:\n  stages: [relax]\n", 1))
+    study = bpmid.run_study(cfg, tmp_path / "o")
+    status = {s["name"]: s["status"] for s in study.body["stages"]}
+    assert study.schema == "bpmid.run/1" and status["relax"] == "done"
+    assert all(v != "done" for k, v in status.items() if k != "relax")
+    assert study.results["relax"].params["E_inf"].unit == "Pa"
+    assert study == bpmid.load(tmp_path / "o")
