@@ -184,7 +184,7 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
         rcfg = config.section("relax")
         gap = rcfg.max_gap_factor if rcfg.max_gap_factor is not None else io_cfg.max_gap_factor
         read_relax_logs(inp.relax_logs, column_map=rcfg.columns, gauge_length_mm=rcfg.specimen.gauge_length_mm,
-                        cross_section_mm2=rcfg.specimen.cross_section_mm2, gap_factor=gap)
+                        cross_section_mm2=rcfg.specimen.cross_section_mm2, gap_factor=gap, io_cfg=io_cfg)
     angled: list[Path] = []  # logs whose stage needs measured angles
     if stages & {"motion", "compare"}:
         angled += list(inp.fitting_set)

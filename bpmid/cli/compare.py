@@ -9,6 +9,7 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import app, command, multi_value_command
+from bpmid.cli._logopts import log_options
 
 EPILOG = ("Example (shipped synthetic data):  bpmid compare --train datasets/motion/fitting_set/*.csv "
           "--test datasets/motion/variable_amplitude/*.csv datasets/motion/variable_rate/*.csv "
@@ -20,6 +21,7 @@ MultiValueCommand = multi_value_command("--train", "--test")
 
 
 @command(app, "compare", epilog=EPILOG, cls=MultiValueCommand)
+@log_options("motion")
 def compare(
     train: Optional[List[Path]] = typer.Option(None, "--train", metavar="LOG...",
                                                help="Training motion logs (every model is fitted on these only)."),
@@ -34,13 +36,14 @@ def compare(
                                           "compare.train/test_sets name the logs when --train/--test are not given)."),
     out: Path = typer.Option(..., "--out", help="Output folder: metrics.csv, summary.csv, summary_by_set.csv, "
                              "compare.yaml, predictions/, figures."),
+    logopts=None,
 ):
     """Fit every model on the training logs only, simulate each free-running on every test log, score it."""
     from bpmid.compare import CompareWarning, resolve_inputs, run_compare, verdicts
     from bpmid.config import load_config
     from bpmid.models import parse_model_list
 
-    cfg = load_config(config)
+    cfg = logopts.apply(load_config(config))
     names = parse_model_list(models) if models is not None else None
     train_paths, test_sets, relax_path = resolve_inputs(cfg.section("compare"), cfg, train=train, test=test,
                                                         relax=relax)

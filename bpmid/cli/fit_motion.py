@@ -7,6 +7,7 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import check_outputs, command, existing_files, fit_app
+from bpmid.cli._logopts import log_options
 from bpmid.config import load_config
 from bpmid.io.motion_logs import read_motion_logs
 from bpmid.io.results import provenance
@@ -15,7 +16,10 @@ from bpmid.motion_fit import fit_motion, write_motion_fit
 
 @command(fit_app, "motion", epilog="Example (shipped synthetic logs): bpmid fit relax datasets/relaxation/*.csv "
                                    "--out relax_fit.yaml  then  bpmid fit motion datasets/motion/fitting_set/*.csv "
-                                   "--init relax_fit.yaml --out VBMM.yaml   (writes VBMM.yaml and the figure VBMM.png)")
+                                   "--init relax_fit.yaml --out VBMM.yaml   (writes VBMM.yaml and the figure VBMM.png)  |  "
+                                   "a rig file without units or reference: ... --pressure-unit kPa --pressure-reference "
+                                   "gauge --columns time=Zeit,pressure=Druck,angle=Winkel --time-unit ms")
+@log_options("motion")
 def fit_motion_command(
     logs: List[Path] = typer.Argument(..., metavar="LOG", help="Motion logs (time_s, pressure_bar|kpa|pa, angle_deg), fitted at once."),
     out: Path = typer.Option(..., "--out", help="Output parameter file (schema bpmid.vbmm/1)."),
@@ -24,9 +28,12 @@ def fit_motion_command(
     config: Optional[Path] = typer.Option(None, "--config", help="Config file (sections io, model, motion)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure path (default: --out with .png)."),
     no_plot: bool = typer.Option(False, "--no-plot", help="Write no figure."),
+    logopts=None,
 ):
     """Fit the VBMM's moduli and time constants on motion logs (angle error of the forward model)."""
-    cfg = load_config(config)
+    from bpmid.io import plausibility as plaus
+
+    cfg = logopts.apply(load_config(config))
     paths = existing_files(logs, "motion log")
     if init is not None:
         existing_files([init], "relaxation fit")
@@ -36,7 +43,9 @@ def fit_motion_command(
         check_outputs([figure], paths + [init, config], key="--plot")
     motion = read_motion_logs(paths, cfg.io, require_angle=True)
     result = fit_motion(motion, config=cfg, init=init)
-    prov = provenance(paths + ([init] if init is not None else []), config=cfg)
+    warnings = plaus.reader_warnings(motion) + plaus.motion_fit_warnings(result)
+    plaus.emit(warnings, strict=cfg.io.strict, what=str(out))
+    prov = plaus.attach(provenance(paths + ([init] if init is not None else []), config=cfg), motion, warnings)
     written = write_motion_fit(out, result, prov, figure=figure, synthetic=False)
     m = result.metrics
     typer.echo(f"VBMM fit on {len(motion)} logs: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, "

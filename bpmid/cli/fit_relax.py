@@ -7,6 +7,7 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import check_outputs, command, existing_files, fit_app
+from bpmid.cli._logopts import log_options
 
 EPILOG = ("Example (shipped synthetic logs):  bpmid fit relax datasets/relaxation/*.csv --out relax_fit.yaml  "
           "|  measured master curve, step mode:  bpmid fit relax datasets/reference/pyvisco/time_user_master.csv "
@@ -14,6 +15,7 @@ EPILOG = ("Example (shipped synthetic logs):  bpmid fit relax datasets/relaxatio
 
 
 @command(fit_app, "relax", epilog=EPILOG)
+@log_options("relax")
 def fit_relax(
     logs: List[Path] = typer.Argument(..., metavar="LOG", help="Relaxation logs (CSV): time_s,strain,stress_mpa or "
                                       "time_s,extension_mm,load_n or time_s,modulus_mpa (other header styles too)."),
@@ -28,6 +30,7 @@ def fit_relax(
                                             "(default 0.49933, which reproduces the paper's K values)."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (section relax)."),
     no_figure: bool = typer.Option(False, "--no-figure", help="Do not write the figure."),
+    logopts=None,
 ):
     """Fit a Prony series E(t) = E_inf + sum E_j exp(-t/tau_j) to relaxation logs; write E, G and K."""
     from bpmid.config import load_config
@@ -36,7 +39,7 @@ def fit_relax(
 
     if mode is not None and mode not in ("ramp", "step"):
         raise InputError(f"--mode takes ramp or step, found {mode!r}", key="--mode")
-    cfg = load_config(config)
+    cfg = logopts.apply(load_config(config))
     paths = existing_files(logs, "relaxation log")
     check_outputs([out], paths + [config], suffix=".yaml")
     if not no_figure:

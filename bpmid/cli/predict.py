@@ -7,6 +7,7 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import check_outputs, app, command, existing_files
+from bpmid.cli._logopts import log_options
 from bpmid.config import load_config
 from bpmid.io.motion_logs import read_motion_logs
 from bpmid.io.results import provenance
@@ -16,15 +17,20 @@ from bpmid.predict import predict, write_predictions
 
 @command(app, "predict", epilog="Example (after bpmid fit motion ... --out VBMM.yaml): bpmid predict "
                                 "datasets/motion/variable_amplitude/amp_2p0_r2.csv --params VBMM.yaml --out pred/   "
-                                "(writes pred/amp_2p0_r2.csv with angle_pred_deg)")
+                                "(writes pred/amp_2p0_r2.csv with angle_pred_deg)  |  a rig file in kPa gauge without "
+                                "a unit in its header: ... --pressure-unit kPa --pressure-reference gauge")
+@log_options("motion")
 def predict_command(
     logs: List[Path] = typer.Argument(..., metavar="LOG", help="Motion logs (time_s, pressure_bar|kpa|pa, optional angle_deg)."),
     params: Path = typer.Option(..., "--params", help="Fitted VBMM (bpmid fit motion output, bpmid.vbmm/1)."),
     out: Path = typer.Option(..., "--out", help="Output folder: one <log stem>.csv per log, plus predict.yaml."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config file (sections io, model)."),
+    logopts=None,
 ):
     """Predict the bending angle of new pressure logs with a fitted VBMM."""
-    cfg = load_config(config)
+    from bpmid.io import plausibility as plaus
+
+    cfg = logopts.apply(load_config(config))
     paths = existing_files(logs, "motion log")
     existing_files([params], "params")
     model = load_vbmm(params, cfg.model)
@@ -32,7 +38,9 @@ def predict_command(
                   paths + [params, config])
     motion = read_motion_logs(paths, cfg.io)
     preds = predict(motion, model)
-    prov = provenance(paths + [params], config=cfg)
+    warnings = plaus.reader_warnings(motion) + plaus.prediction_warnings(preds)
+    plaus.emit(warnings, strict=cfg.io.strict, what=str(out))
+    prov = plaus.attach(provenance(paths + [params], config=cfg), motion, warnings)
     written = write_predictions(out, preds, prov=prov, params=params, model=model)
     for p in preds:
         if p.metrics is not None:
