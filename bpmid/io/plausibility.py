@@ -12,7 +12,7 @@ The thresholds are stated here, once:
 - :data:`R2_MIN`: a fit or prediction explaining less than half of the angle's variance
 - :data:`PRESSURE_RANGE_PA`: peak gauge pressures a pneumatic muscle is driven with
 - :data:`RADIAN_MAX`: a degree column whose largest angle stays below 2 pi while the pressure moves
-- :data:`ATMOSPHERE_BAND_PA`: a gauge log that never drops below about one atmosphere
+- :data:`ATMOSPHERE_BAND_PA`: a gauge log that never drops below about one atmosphere (a rest pressure in the band)
 """
 from __future__ import annotations
 
@@ -30,10 +30,11 @@ R2_MIN = 0.5
 PRESSURE_RANGE_PA = (2e3, 2e6)
 #: a degree column whose largest |angle| stays at or below this while the pressure moves looks like radians
 RADIAN_MAX = 2 * math.pi
-#: a gauge log whose lowest pressure lies in this band (Pa) looks like absolute pressure
-ATMOSPHERE_BAND_PA = (0.88e5, 1.12e5)
-#: a parameter within this share of its bound's span (or of its own size) is "at the bound"
-BOUND_SHARE = 1e-4
+#: a gauge log whose lowest pressure lies in this band (Pa) looks like absolute pressure (a muscle at rest is
+#: vented to atmosphere or held at a small preload; absolute logs never drop below about one atmosphere)
+ATMOSPHERE_BAND_PA = (0.88e5, 3.0e5)
+#: a parameter within this share of its bound (or within 1e-6 of the other bound's size of a zero bound) is "at the bound"
+BOUND_SHARE = 1e-3
 
 _P_UNITS = {"pa": 1.0, "kpa": 1e3, "bar": 1e5, "mbar": 1e2, "psi": 6894.757293168, "mpa": 1e6}
 
@@ -60,8 +61,8 @@ def motion_data_warnings(logs: Iterable) -> list[str]:
         lo, hi = PRESSURE_RANGE_PA
         if lg.pressure_reference == "gauge" and p.size and ATMOSPHERE_BAND_PA[0] <= float(np.min(p)) <= \
                 ATMOSPHERE_BAND_PA[1]:
-            out.append(f"{where}: the gauge pressure never drops below {np.min(p) / 1e5:.3g} bar, about one "
-                       f"atmosphere: these look like absolute pressures read as gauge. If so, state "
+            out.append(f"{where}: the gauge pressure never drops below {np.min(p) / 1e5:.3g} bar, one atmosphere "
+                       f"or more: these look like absolute pressures read as gauge. If so, state "
                        f"--pressure-reference absolute (or the line '# pressure_reference: absolute')")
         elif peak < lo and np.ptp(p) > 0:
             fits = [u for u in _units_that_fit(peak_given) if u != unit]
@@ -94,13 +95,15 @@ def motion_data_warnings(logs: Iterable) -> list[str]:
 
 
 def _at_bound(p) -> str | None:
+    """'lower bound x' / 'upper bound x' when the value sits on a bound (relative closeness 1e-3, or exactly 0)."""
     lo, hi, v = float(p.lower), float(p.upper), float(p.value)
-    span = hi - lo if math.isfinite(lo) and math.isfinite(hi) else max(abs(v), abs(lo) if math.isfinite(lo) else 0.0,
-                                                                        1e-300)
-    if math.isfinite(lo) and v - lo <= BOUND_SHARE * span:
-        return f"lower bound {lo:g}"
-    if math.isfinite(hi) and hi - v <= BOUND_SHARE * span:
-        return f"upper bound {hi:g}"
+    for b, word in ((lo, "lower"), (hi, "upper")):
+        if not math.isfinite(b):
+            continue
+        other = hi if word == "lower" else lo
+        scale = abs(b) if b != 0 else 1e-6 * (abs(other) if math.isfinite(other) and other != 0 else 1.0)
+        if abs(v - b) <= BOUND_SHARE * scale:
+            return f"{word} bound {b:g}"
     return None
 
 

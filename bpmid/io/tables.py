@@ -242,6 +242,8 @@ def _parse(name: str, unit_row: str | None = None):
     "unknown unit"."""
     raw, unit = _unit_part(name)
     base = _norm(raw)
+    if base not in ALIASES and "." in base and _norm(base.rsplit(".", 1)[1]):
+        base = _norm(base.rsplit(".", 1)[1])  # a MATLAB struct field: run.t -> t
     if unit is None and unit_row is not None and unit_row.strip():
         unit = unit_row.strip()
     if base in ALIASES:
@@ -703,6 +705,9 @@ def _resolve(grid: Grid, cmap: dict[str, str], units: Mapping[str, str], unit_so
                                  f"pressure_kpa)", path=grid.where, key=h)
             if unit is None:
                 _raw, unit_h = _unit_part(h)
+                words = _norm(_raw).split(" ")
+                if unit_h is None and len(words) > 1 and split_unit(q, words[-1])[0] is not None:
+                    unit_h = words[-1]  # tilt_deg mapped to angle: the unit is the name's suffix
                 if unit_h is None and ur:
                     unit_h = ur
                 if unit_h is not None:
