@@ -755,8 +755,7 @@ def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tup
         k = int(bad[0])
         raise InputError(f"column {header!r}: {texts[k]!r} is neither a number nor an ISO-8601 timestamp "
                          f"(2024-05-01T12:00:00.125)", path=where, line=lines[k] if k < len(lines) else None)
-    ns = ts.to_numpy().astype("datetime64[ns]").astype(np.int64)
-    secs = (ns - ns[0]) / 1e9
+    secs = (ts - ts.iloc[0]).dt.total_seconds().to_numpy(dtype=float)
     return secs, ts.iloc[0].isoformat()
 
 
