@@ -334,7 +334,11 @@ def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     relax = ctx.get("relax_fit")
     prov = _prov(inp.fitting_set + ([relax] if relax else []), config, ctx["seed"], ctx["command"])
     mf = fit_motion(logs, config=config, init=relax)
-    write_motion_fit(out / "vbmm_fit.yaml", mf, prov, figure=out / "vbmm_fit.png", synthetic=ctx["synthetic"])
+    from bpmid.io import plausibility as plaus
+    warnings = plaus.reader_warnings(logs) + plaus.motion_fit_warnings(mf)
+    plaus.emit(warnings, strict=config.section("io").strict, what=str(out / "vbmm_fit.yaml"))
+    write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings), figure=out / "vbmm_fit.png",
+                     synthetic=ctx["synthetic"])
     ctx["vbmm_fit"] = out / "vbmm_fit.yaml"
     # VBMM-mat.: the relaxation constants as they are, scored on the same fitting set
     mat, source = initial_material(config.section("motion"), relax, base_dir=config.base_dir)

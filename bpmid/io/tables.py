@@ -534,7 +534,7 @@ def _xlsx_sheets(path: Path, data: bytes) -> dict[str, list[list]]:
     try:
         import openpyxl
     except ImportError:
-        raise InputError("reading .xlsx needs openpyxl: pip install 'bpmid[formats]' (or pip install openpyxl)",
+        raise InputError("reading .xlsx needs openpyxl (a bpmid dependency): pip install openpyxl",
                          path=path) from None
     try:
         wb = openpyxl.load_workbook(io.BytesIO(data), read_only=True, data_only=True)
@@ -552,7 +552,7 @@ def _xls_sheets(path: Path, data: bytes) -> dict[str, list[list]]:
     try:
         import xlrd
     except ImportError:
-        raise InputError("reading legacy .xls needs xlrd: pip install 'bpmid[formats]' (or pip install xlrd)",
+        raise InputError("reading legacy .xls needs xlrd (a bpmid dependency): pip install xlrd",
                          path=path) from None
     try:
         book = xlrd.open_workbook(file_contents=data)
