@@ -259,3 +259,24 @@ def test_missing_reader_library_says_what_to_install(tmp_path, monkeypatch):
     shutil.copy(DATA / "matlab_v73.mat", f)
     with pytest.raises(InputError, match=r"bpmid\[formats\]"):
         read_motion_log(f)
+
+
+def test_clock_times_and_excel_time_cells(tmp_path):
+    f = tmp_path / "clock.csv"
+    f.write_text("# pressure_reference: gauge\nTime;Pressure (kPa);Angle (deg)\n09:30:00,000;10,5;1\n"
+                 "09:30:00,100;11;2\n09:30:00,250;12;3\n")
+    lg = read_motion_log(f)
+    assert np.allclose(lg.time_s, [0, 0.1, 0.25]) and np.allclose(lg.pressure_pa, [10.5e3, 11e3, 12e3])
+    import datetime as dt
+
+    import openpyxl
+
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws.append(["Time", "Pressure (bar g)", "Angle (deg)"])
+    for i in range(4):
+        ws.append([dt.time(9, 30, i), 0.1 * i, float(i)])
+    x = tmp_path / "clock.xlsx"
+    wb.save(x)
+    lg = read_motion_log(x)
+    assert np.allclose(lg.time_s, [0, 1, 2, 3]) and lg.pressure_reference == "gauge"

@@ -19,8 +19,9 @@ Column names, all mapped to ``(quantity, unit)``:
 Units are never guessed. A column whose unit is stated nowhere (name, units row, a ``# pressure_unit: kPa``
 line, ``io.units`` or the ``--pressure-unit``/``--angle-unit``/``--time-unit`` flags) is refused, naming the
 column and the ways to state it; strain is dimensionless by its name. A unit stated twice must agree. A
-pressure unit may carry its reference (``psig``, ``bar(a)``, ``kPa abs``). Times may be ISO-8601 timestamps
-(or Excel dates) or epoch times (``epoch_s``, ``epoch_ms``); both become seconds since the first sample.
+pressure unit may carry its reference (``psig``, ``bar(a)``, ``kPa abs``). Times may be ISO-8601 timestamps (or
+Excel dates), clock times (``09:30:01.250``) or epoch times (``epoch_s``, ``epoch_ms``); all become seconds since
+the first sample.
 
 Every data row must have exactly the header's fields (a decimal comma in a comma-separated file is refused
 with its line, never read by position). Leading ``# key: value`` lines are metadata; keys are
@@ -104,6 +105,7 @@ _REF_WORDS = {"a": "absolute", "abs": "absolute", "absolute": "absolute", "g": "
               "gage": "gauge", "rel": "gauge", "relative": "gauge"}
 _COMMA_NUM = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
 _DOT_NUM = re.compile(r"^[+-]?\d*\.\d+(?:[eE][+-]?\d+)?$")
+_CLOCK = re.compile(r"^\s*\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?\s*$")
 _SEP_LINE = re.compile(r'^\s*"?sep=(.)"?\s*$', re.IGNORECASE)
 _META = re.compile(r"^\s*([A-Za-z][\w \-./()]*?)\s*[:=]\s*(.*)$")
 _MAGIC_XLSX = b"PK\x03\x04"
@@ -475,7 +477,7 @@ def _text_grid(data: bytes, where: str) -> Grid:
 
 
 def _looks_like_time(row: Sequence[str]) -> bool:
-    return any(re.match(r"^\d{4}-\d{2}-\d{2}", str(c)) for c in row)
+    return any(re.match(r"^\d{4}-\d{2}-\d{2}", str(c)) or _CLOCK.match(str(c)) for c in row)
 
 
 def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
@@ -653,7 +655,8 @@ def _mat_grid(path: Path, data: bytes, kind: str) -> Grid:
     vectors, meta, fmt = _mat_vectors(path, data, kind)
     if not vectors:
         raise InputError(f"no numeric vectors in this MATLAB file (a {kind} needs time, pressure, ... as "
-                         f"variables)", path=path)
+                         f"variables; MATLAB table or timeseries objects cannot be read: save plain vectors, e.g. "
+                         f"s = table2struct(T, 'ToScalar', true); save('log.mat', '-struct', 's'))", path=path)
     header = list(vectors)
     cols = [list(v) for v in vectors.values()]
     n = max(len(c) for c in cols)
@@ -742,10 +745,18 @@ def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tup
 
     texts = []
     for v in values:
-        if isinstance(v, _dt.datetime):
+        if isinstance(v, (_dt.datetime, _dt.time)):
             texts.append(v.isoformat())
         else:
             texts.append(str(v).strip())
+    if texts and all(_CLOCK.match(x) for x in texts):  # clock times of one day: 09:30:01.250
+        td = pd.to_timedelta(pd.Series([x.replace(",", ".") for x in texts]), errors="coerce")
+        bad = np.flatnonzero(td.isna().to_numpy())
+        if bad.size:
+            k = int(bad[0])
+            raise InputError(f"column {header!r}: {texts[k]!r} is not a clock time (hh:mm:ss.fff)", path=where,
+                             line=lines[k] if k < len(lines) else None)
+        return (td - td.iloc[0]).dt.total_seconds().to_numpy(dtype=float), f"clock time {texts[0]}"
     try:
         ts = pd.to_datetime(pd.Series(texts), format="ISO8601", utc=True, errors="coerce")
     except (ValueError, TypeError):
@@ -919,7 +930,8 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
                                  f"state it: {unit_hint(q, h)}", path=where, line=hline, key=h)
             if is_time_text:
                 arr, origin = _parse_times(vals, where, h, lines)
-                col_info_extra = {"time_origin": origin, "timestamps": "ISO-8601, seconds since the first"}
+                col_info_extra = {"time_origin": origin, "timestamps": "ISO-8601 or clock times, seconds since the "
+                                                                       "first"}
                 unit = "iso8601"
             else:
                 arr = _numbers(vals, where, h, lines) * UNITS[q][unit]
@@ -963,7 +975,9 @@ def _time_is_text(vals: list) -> bool:
     import datetime as _dt
 
     for v in vals[:5]:
-        if isinstance(v, _dt.datetime):
+        if isinstance(v, (_dt.datetime, _dt.time)):
+            return True
+        if isinstance(v, str) and _CLOCK.match(v):
             return True
         if isinstance(v, str) and v.strip() and not _is_number(v) and re.match(r"^\s*\d{4}-\d{2}-\d{2}", v):
             return True
