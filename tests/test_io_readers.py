@@ -42,10 +42,15 @@ def test_unstated_unit_is_refused_by_every_command(tmp_path, cmd):
     assert res.exit_code == 2 and "--pressure-unit" in res.output and "bare_pressure_kpa_gauge.csv" in res.output
 
 
-def test_predict_with_flags_and_its_output_reads_back(tmp_path):
-    fit = tmp_path / "V.yaml"
-    res = runner.invoke(app, ["fit", "motion", str(DATA / "clean.csv"), "--out", str(fit), "--no-plot"])
+@pytest.fixture(scope="module")
+def fit(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fit") / "V.yaml"
+    res = runner.invoke(app, ["fit", "motion", str(DATA / "clean.csv"), "--out", str(out), "--no-plot"])
     assert res.exit_code == 0, res.output
+    return out
+
+
+def test_predict_with_flags_and_its_output_reads_back(tmp_path, fit):
     log = DATA / "bare_pressure_kpa_gauge.csv"
     res = runner.invoke(app, ["predict", str(log), "--params", str(fit), "--out", str(tmp_path / "p")])
     assert res.exit_code == 2 and "--pressure-unit" in res.output
@@ -68,9 +73,7 @@ def test_predict_with_flags_and_its_output_reads_back(tmp_path):
     assert res.exit_code == 0, res.output
 
 
-def test_predict_output_without_angle_reads_as_a_pressure_log(tmp_path):
-    fit = tmp_path / "V.yaml"
-    assert runner.invoke(app, ["fit", "motion", str(DATA / "clean.csv"), "--out", str(fit), "--no-plot"]).exit_code == 0
+def test_predict_output_without_angle_reads_as_a_pressure_log(tmp_path, fit):
     lines = (DATA / "clean.csv").read_text().splitlines()
     nolog = tmp_path / "p_only.csv"
     nolog.write_text("\n".join(ln.rsplit(",", 1)[0] if not ln.startswith("#") else ln for ln in lines) + "\n")

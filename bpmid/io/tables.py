@@ -926,7 +926,8 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
             if unit is None and is_time_text:
                 unit, unit_from = "iso8601", "timestamps"
             if unit is None:
-                raise InputError(f"the unit of column {h!r} ({q}) is stated nowhere and bpmid never guesses one; "
+                what = "" if _norm(h) == q else f" ({q})"
+                raise InputError(f"the unit of column {h!r}{what} is stated nowhere and bpmid never guesses one; "
                                  f"state it: {unit_hint(q, h)}", path=where, line=hline, key=h)
             if is_time_text:
                 arr, origin = _parse_times(vals, where, h, lines)
