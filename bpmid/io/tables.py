@@ -428,6 +428,8 @@ def _text_grid(data: bytes, where: str) -> Grid:
         info_delim = "whitespace"
     else:
         def split(line: str, _d=delim) -> list[str]:
+            if '"' not in line:
+                return line.split(_d)
             try:
                 return next(csv.reader([line], delimiter=_d))
             except (csv.Error, StopIteration):
@@ -460,16 +462,16 @@ def _text_grid(data: bytes, where: str) -> Grid:
         rows, row_lines = rows[1:], row_lines[1:]
     # decimal separator: a comma only where the columns are not comma-separated, and never mixed with points
     decimal = "."
-    if delim != ",":
+    if delim != "," and any("," in ln for _, ln in body):
         first_comma = next(((r, c) for r, row in enumerate(rows) for c in row if _COMMA_NUM.match(c)), None)
         if first_comma is not None:
             decimal = ","
-            dot = next(((r, c) for r, row in enumerate(rows) for c in row if _DOT_NUM.match(c)), None)
+            dot = next(((r, c) for r, row in enumerate(rows) for c in row if "." in c and _DOT_NUM.match(c)), None)
             if dot is not None:
                 raise InputError(f"mixed decimal separators: {first_comma[1]!r} (line {row_lines[first_comma[0]]}) "
                                  f"and {dot[1]!r}; export the log with one decimal separator", path=where,
                                  line=row_lines[dot[0]])
-            rows = [[c.replace(",", ".") if _COMMA_NUM.match(c) else c for c in row] for row in rows]
+            rows = [[c.replace(",", ".") for c in row] for row in rows]  # text cells are never used as numbers
     cols = [list(c) for c in zip(*rows)] if rows else [[] for _ in header]
     info = {"format": "text", "encoding": enc, "delimiter": info_delim, "decimal": "comma" if decimal == "," else
             "point"}
@@ -771,6 +773,13 @@ def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tup
 
 
 def _numbers(values: list, where: str, header: str, lines: list[int]) -> np.ndarray:
+    if not any(type(v) is bool for v in values):  # Excel TRUE/FALSE cells are not numbers
+        try:  # the fast path: every cell a number (numpy parses the strings); NaN, inf, empty: the loop below names the line
+            out = np.array(values, dtype=float)
+            if out.ndim == 1 and np.all(np.isfinite(out)):
+                return out
+        except (ValueError, TypeError, OverflowError):
+            pass
     out = np.empty(len(values))
     for r, v in enumerate(values):
         if isinstance(v, bool) or v is None:
