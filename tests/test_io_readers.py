@@ -283,3 +283,11 @@ def test_clock_times_and_excel_time_cells(tmp_path):
     wb.save(x)
     lg = read_motion_log(x)
     assert np.allclose(lg.time_s, [0, 1, 2, 3]) and lg.pressure_reference == "gauge"
+
+
+def test_a_broken_first_row_is_named_not_taken_for_a_header(tmp_path):
+    f = tmp_path / "b.csv"
+    f.write_text("# pressure_reference: gauge\ntime_s,pressure_kpa,angle_deg\n0,1,5,2\n" + "0.1,2,3\n" * 4)
+    with pytest.raises(InputError, match="row has 4 fields, the header has 3") as e:
+        read_motion_log(f)
+    assert e.value.line == 3

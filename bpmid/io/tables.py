@@ -416,6 +416,18 @@ def _text_grid(data: bytes, where: str) -> Grid:
             _meta_from_line(s.lstrip("#%/ ").strip(), meta)
             i += 1
             continue
+        h = _find_header(lines, i, delim_hint)
+        if h > i:
+            # title or 'key: value' lines above the header (instrument exports): metadata
+            for ln in lines[i:h]:
+                t = ln.strip()
+                if not t or _is_comment(t):
+                    continue
+                if _META.match(t):
+                    _meta_from_line(t, meta)
+                else:
+                    meta.setdefault("title", t)
+            i = h
         break
     if i >= len(lines):
         raise InputError("empty log: no header row (expected column names such as time_s)", path=where)
@@ -478,6 +490,34 @@ def _text_grid(data: bytes, where: str) -> Grid:
     return Grid(header, unit_row, cols, row_lines, meta, where, header_line, info)
 
 
+def _fields(line: str, delim: str | None) -> list[str]:
+    if delim is None:
+        return _split_ws(line)
+    try:
+        return next(csv.reader([line], delimiter=delim))
+    except (csv.Error, StopIteration):
+        return line.split(delim)
+
+
+def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int = 30) -> int:
+    """The header's index: the first line (from ``start``, within ``look`` lines) whose next lines have its number
+    of fields, at least two, with a number among them. ``start`` when none does (its errors are then reported)."""
+    cand = [k for k in range(start, min(len(lines), start + look)) if lines[k].strip() and not _is_comment(lines[k])]
+    for n, k in enumerate(cand):
+        nxt = [lines[j] for j in cand[n + 1:n + 4]]
+        if not nxt:
+            break
+        delim = delim_hint if delim_hint is not None else _choose_delimiter(lines[k], nxt)
+        head = _fields(lines[k], delim)
+        width = len(head)
+        if width < 2 or any(_is_number(c) for c in head if c.strip()) or _looks_like_time(head):
+            continue  # a header names its columns: no numbers, no timestamps
+        rows = [_fields(ln, delim) for ln in nxt]
+        if all(len(r) == width for r in rows) and any(_is_number(c) for r in rows for c in r if c.strip()):
+            return k
+    return start
+
+
 def _looks_like_time(row: Sequence[str]) -> bool:
     return any(re.match(r"^\d{4}-\d{2}-\d{2}", str(c)) or _CLOCK.match(str(c)) for c in row)
 
@@ -491,9 +531,14 @@ def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
         if not vals:
             k += 1
             continue
-        if len(vals) == 1 and isinstance(vals[0], str) and (vals[0].lstrip().startswith(("#", "%")) or
-                                                          _META.match(vals[0])):
-            _meta_from_line(vals[0].lstrip("#% ").strip(), meta)
+        if len(vals) == 1 and isinstance(vals[0], str):
+            # one text cell above the header: a comment, a 'key: value' line or a title (a log has two columns
+            # at least, so it is never the header)
+            body = vals[0].lstrip("#% ").strip()
+            if _META.match(body):
+                _meta_from_line(body, meta)
+            else:
+                meta.setdefault("title", body)
             k += 1
             continue
         if all(isinstance(v, str) and _is_comment(v) for v in vals):
@@ -903,6 +948,17 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
                              path=where)
     if n_rows == 0 and found:
         raise InputError(f"empty {kind}: a header but no data rows", path=where, line=hline)
+    unstated = [(q, ents[0][2]) for q, ents in found.items()
+                if ents[0][1] is None and q not in units and f"{q}_unit" not in meta and q != "strain"
+                and not (q == "time" and _time_is_text(grid.cols[ents[0][0]]))]
+    if len(unstated) > 1:  # say every missing unit at once, not one per run
+        cols_txt = ", ".join(f"{h!r} ({q})" for q, h in unstated)
+        flags = " ".join(f"{UNIT_FLAGS[q]} {EXAMPLE_UNIT[q]}" for q, _h in unstated if q in UNIT_FLAGS)
+        raise InputError(f"the units of the columns {cols_txt} are stated nowhere and bpmid never guesses one; state "
+                         f"them (1) in the header ({', '.join(BPMID_NAME[q] for q, _h in unstated)} or "
+                         f"'{unstated[0][1]} ({EXAMPLE_UNIT[unstated[0][0]]})'), (2) in a units row under the header, "
+                         f"or (3) with the flags {flags or '(none)'} (config io.units)", path=where, line=hline,
+                         key=unstated[0][1])
     columns, units_in_file, headers, refs, col_info = {}, {}, {}, {}, {}
     for q, ents in found.items():
         arrays = []

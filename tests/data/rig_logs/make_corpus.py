@@ -95,7 +95,13 @@ def main():
     write("gap_eight_samples.csv", [",".join(g(v) for v in r) for r in zip(t[keep], pb[keep], ang[keep])],
           head=ref_abs + ["time_s,pressure_bar,angle_deg"])
 
+    write("title_and_key_value_lines.csv", [",".join(g(v) for v in r) for r in zip(t, pb, ang)],
+          head=["Bending muscle run 3", "Date: 2024-05-17", "Pressure reference: absolute", "",
+                "Time [s],Pressure [bar],Angle [deg]"])
+
     # --- what must be stated (refused until it is) -----------------------------------------------------
+    write("no_units_at_all.csv", [",".join(g(v) for v in r) for r in zip(t, pb, ang)],
+          head=["Time,Pressure,Angle"])
     write("bare_pressure_kpa_gauge.csv", [f"{g(a)},{g(b, 4)},{g(c)}" for a, b, c in zip(t, kpa_g, ang)],
           head=["time_s,pressure,angle_deg"])
     write("no_units_rig_names.csv", [f"{int(round(a * 1000))};{g(b, 4).replace('.', ',')};{g(c).replace('.', ',')}"
