@@ -291,3 +291,12 @@ def test_a_broken_first_row_is_named_not_taken_for_a_header(tmp_path):
     with pytest.raises(InputError, match="row has 4 fields, the header has 3") as e:
         read_motion_log(f)
     assert e.value.line == 3
+
+
+def test_column_map_entries_for_other_files_are_fine_and_named_when_needed(tmp_path):
+    f = tmp_path / "m.csv"
+    f.write_text("# pressure_reference: gauge\nStoppuhr (s),pressure_kpa,angle_deg\n0,1,2\n0.1,2,3\n")
+    lg = read_motion_log(f, IOConfig(columns={"Stoppuhr (s)": "time", "Uhrzeit": "time", "Kraft": "load_n"}))
+    assert lg.n == 2 and lg.reading["unmatched_map"] == ["uhrzeit", "kraft"]
+    with pytest.raises(InputError, match="the column map names 'stopuhr'"):
+        read_motion_log(f, IOConfig(columns={"Stopuhr": "time"}))

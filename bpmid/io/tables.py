@@ -774,13 +774,9 @@ def _resolve(grid: Grid, cmap: dict[str, str], units: Mapping[str, str], unit_so
                 continue
             unit_from = None if unit is None else ("header" if _parse(h, None)[1] is not None else "units row")
         found.setdefault(q, []).append([j, unit, h, unit_from, ref])
-    missing_map = [k for k in cmap if k not in used_keys]
-    if missing_map:
-        k = missing_map[0]
-        orig = next((c for c in grid.header if _norm(c) == k), None)
-        raise InputError(f"the column map names {k!r}, which is not a column of this file (columns: "
-                         f"{', '.join(repr(h) for h in grid.header)})", path=grid.where, line=grid.header_line or None,
-                         key=orig or k)
+    # map entries for columns this file does not have are fine (one map serves files with different headers);
+    # they are named when a needed column is then missing
+    grid.info["unmatched_map"] = [k for k in cmap if k not in used_keys]
     return found, ignored, unknown
 
 
@@ -928,16 +924,20 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
         cands = [h for h in unknown if q in _unit_quantities(h)]
         if cands:
             h = cands[0]
+            um = grid.info.get("unmatched_map") or []
+            note = f"; the column map names {', '.join(repr(k) for k in um)}, not a column of this file" if um else ""
             raise InputError(f"missing column for {q}: no name bpmid knows, but {h!r} has a {q} unit: map it with "
                              f"--columns "
-                             f"{q}={h} (config io.columns: {{'{h}': {q}}}), or rename it {BPMID_NAME[q]}",
+                             f"{q}={h} (config io.columns: {{'{h}': {q}}}), or rename it {BPMID_NAME[q]}{note}",
                              path=where, line=hline, key=h)
     missing = [q for q in required if q not in found]
     if missing:
         cols = ", ".join(repr(h) for h in grid.header)
         q = missing[0]
+        um = grid.info.get("unmatched_map") or []
+        note = f"; the column map names {', '.join(repr(k) for k in um)}, not a column of this file" if um else ""
         raise InputError(f"missing column for {q} (found columns: {cols}); name it {BPMID_NAME[q]} or map it with "
-                         f"--columns {q}=<your column> (config io.columns)", path=where, line=hline, key=q)
+                         f"--columns {q}=<your column> (config io.columns){note}", path=where, line=hline, key=q)
     lines = list(grid.lines)
     n_rows = max((len(grid.cols[e[0]]) for ents in found.values() for e in ents), default=0)
     if grid.info.get("format", "").startswith("matlab"):
@@ -1024,7 +1024,7 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
         col_info[q] = {"column": h, "unit": unit, "unit_from": unit_from, **({"reference": ref} if ref else {}),
                        **extra}
     first = lines[0] if lines else (grid.header_line + 1)
-    reading = dict(grid.info)
+    reading = {k: v for k, v in grid.info.items() if k != "unmatched_map" or v}
     reading["columns"] = col_info
     if ignored or unknown:
         reading["ignored_columns"] = list(ignored) + list(unknown)
