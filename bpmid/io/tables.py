@@ -262,7 +262,7 @@ def _parse(name: str, unit_row: str | None = None):
                 if unit is not None:  # 'pressure_kpa (bar)': the name and the parentheses disagree or repeat
                     u2, ref2 = _unit_ref(q, unit)
                     if u2 != u:
-                        return q, f"{suffix}' and '{unit}", None, False
+                        return q, f"conflict:{suffix}|{unit}", None, False
                 return q, u, ref, False
     # derived columns: angle_pred_deg, pressure_setpoint_bar (named by a quantity plus a qualifier word)
     if len(words) >= 2 and words[0] in ALIASES and any(w in DERIVED_WORDS for w in words[1:]):
@@ -905,8 +905,7 @@ def read_table(path: str | Path, *, column_map: Mapping[str, str] | None = None,
             raise InputError(f"several sheets hold a {kind} ({', '.join(repr(t.reading['sheet']) for t in candidates)}); "
                              f"choose one with --sheet NAME (config io.sheet)", path=path, key="--sheet")
         return candidates[0]
-    if sheet is not None:
-        pass  # a sheet name means nothing for a text or MATLAB file; not an error (one flag for a batch of files)
+    # a sheet name means nothing for a text or MATLAB file: not an error (one --sheet serves a batch of files)
     grid = _mat_grid(path, data, kind) if fkind == "mat" else _text_grid(data, str(path))
     return _build(path, grid, cmap, units, unit_sources, required, optional, kind)
 
@@ -971,6 +970,10 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
             if stated is not None and stated_u is None:
                 raise InputError(f"unknown unit {stated!r} for {q} (known: {', '.join(_known(q))})", key=src)
             meta_unit = meta.get(f"{q}_unit")
+            if unit is not None and unit.startswith("conflict:"):
+                u1, u2 = unit[len("conflict:"):].split("|", 1)
+                raise InputError(f"the name of column {h!r} says {u1} and its brackets say {u2}; make them agree",
+                                 path=where, line=hline, key=h)
             if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None:
                 raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})", path=where,
                                  line=hline, key=h)
