@@ -300,3 +300,19 @@ def test_column_map_entries_for_other_files_are_fine_and_named_when_needed(tmp_p
     assert lg.n == 2 and lg.reading["unmatched_map"] == ["uhrzeit", "kraft"]
     with pytest.raises(InputError, match="the column map names 'stopuhr'"):
         read_motion_log(f, IOConfig(columns={"Stopuhr": "time"}))
+
+
+@pytest.mark.parametrize("name,io,word", [
+    ("bare_pressure_kpa_gauge.csv", {"units": {"pressure": "Pa"}, "pressure_reference": "gauge"}, "in kpa"),
+    ("bare_pressure_kpa_gauge.csv", {"units": {"pressure": "bar"}, "pressure_reference": "gauge"},
+     "more than a pneumatic muscle takes"),
+    ("no_units_at_all.csv", {"units": {"time": "ms", "pressure": "bar", "angle": "deg"},
+                             "pressure_reference": "absolute"}, "--time-unit s"),
+])
+def test_a_wrong_statement_is_caught_by_the_plausibility_checks(name, io, word):
+    """A unit stated wrongly (a kPa column said to be Pa or bar, seconds said to be ms) is warned about."""
+    from bpmid.io import plausibility as plaus
+
+    w = plaus.motion_data_warnings([read_motion_log(DATA / name, IOConfig(**io))])
+    assert any(word in x for x in w), w
+    assert not plaus.motion_data_warnings([read_motion_log(DATA / "clean.csv")])

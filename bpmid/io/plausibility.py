@@ -13,6 +13,7 @@ The thresholds are stated here, once:
 - :data:`PRESSURE_RANGE_PA`: peak gauge pressures a pneumatic muscle is driven with
 - :data:`RADIAN_MAX`: a degree column whose largest angle stays below 2 pi while the pressure moves
 - :data:`ATMOSPHERE_BAND_PA`: a gauge log that never drops below about one atmosphere (a rest pressure in the band)
+- :data:`MIN_DURATION_S`: a motion log shorter than a second (seconds stated as milliseconds)
 """
 from __future__ import annotations
 
@@ -33,6 +34,8 @@ RADIAN_MAX = 2 * math.pi
 #: a gauge log whose lowest pressure lies in this band (Pa) looks like absolute pressure (a muscle at rest is
 #: vented to atmosphere or held at a small preload; absolute logs never drop below about one atmosphere)
 ATMOSPHERE_BAND_PA = (0.88e5, 3.0e5)
+#: a motion log shorter than this (s) is flagged: a muscle run lasts seconds to minutes (times in ms read as s?)
+MIN_DURATION_S = 1.0
 #: a parameter within this share of its bound (or within 1e-6 of the other bound's size of a zero bound) is "at the bound"
 BOUND_SHARE = 1e-3
 
@@ -91,6 +94,10 @@ def motion_data_warnings(logs: Iterable) -> list[str]:
             if dt >= 0.5 and np.all(t == np.round(t)):
                 out.append(f"{where}: samples are {dt:g} s apart and every time is a whole number: if the times are "
                            f"milliseconds, state --time-unit ms (or name the column time_ms)")
+        if t.size > 2 and float(t[-1] - t[0]) < MIN_DURATION_S:
+            out.append(f"{where}: the log lasts only {float(t[-1] - t[0]):.3g} s ({t.size} samples): if the times are "
+                       f"seconds, not {tcol.get('unit', 'the stated unit')}, state --time-unit s (or name the column "
+                       f"time_s)")
     return out
 
 
