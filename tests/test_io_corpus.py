@@ -85,12 +85,23 @@ def _fit(tmp_path, name, *flags):
 
 def _constants(out):
     d = yaml.safe_load(out.read_text())
+    return _constants_from(d), d
+
+
+def _estimated(d):
+    """name -> (value, stderr) of the constants the fit estimated."""
+    ident = d["uncertainty"]["identifiability"]
+    se = d["uncertainty"]["standard_errors"]
+    vals = _constants_from(d)
+    return {k: (vals[k], se[k]) for k in vals if ident.get(k) == "estimated" and se.get(k)}
+
+
+def _constants_from(d):
     m = d["material"]
     vals = {"K_inf": m["K_inf"]["value"], "G_inf": m["G_inf"]["value"]}
     for i, b in enumerate(m["branches"]):
-        vals[f"K_{i + 1}"] = b["K"]["value"]
-        vals[f"tau_{i + 1}"] = b["tau"]["value"]
-    return vals, d
+        vals.update({f"K_{i + 1}": b["K"]["value"], f"G_{i + 1}": b["G"]["value"], f"tau_{i + 1}": b["tau"]["value"]})
+    return vals
 
 
 @pytest.fixture(scope="module")
@@ -127,7 +138,10 @@ def test_gap_fits_close_to_clean_with_a_warning_and_is_refused_by_max_gap(tmp_pa
     assert res.exit_code == 0 and "gap of 0.9 s" in res.output, res.output
     vals, d = _constants(out)
     assert any("gap of 0.9 s" in w for w in d["warnings"]) and d["provenance"]["warnings"] == d["warnings"]
-    assert vals["K_inf"] == pytest.approx(clean_fit["K_inf"], rel=0.05)   # 8 of 385 samples fewer
+    # 8 of 385 samples fewer, inside a transient: each estimated constant stays within 2 of its standard errors
+    for name, (v, se) in _estimated(d).items():
+        assert abs(v - clean_fit[name]) <= 2 * se, (name, v, clean_fit[name], se)
+    assert len(_estimated(d)) >= 3
     res, out2 = _fit(tmp_path / "b", "gap_eight_samples.csv", "--max-gap", "0.5")
     assert res.exit_code == 2 and "--max-gap" in res.output and not out2.exists()
 
