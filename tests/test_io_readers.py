@@ -316,3 +316,15 @@ def test_a_wrong_statement_is_caught_by_the_plausibility_checks(name, io, word):
     w = plaus.motion_data_warnings([read_motion_log(DATA / name, IOConfig(**io))])
     assert any(word in x for x in w), w
     assert not plaus.motion_data_warnings([read_motion_log(DATA / "clean.csv")])
+
+
+def test_control_references_use_the_same_readers(tmp_path):
+    from bpmid.control import read_reference
+
+    f = tmp_path / "ref.csv"
+    f.write_bytes("Zeit [s];Winkel [°]\r\n0,0;45,0\r\n0,1;46,5\r\n0,2;48,0\r\n".encode("cp1252"))
+    ref = read_reference(f, 10.0)
+    assert np.allclose(ref.angle_deg, [45, 46.5, 48])
+    f.write_text("time_s,angle_deg\n0,45\n0.1,46,5\n0.2,48\n")
+    with pytest.raises(InputError, match="row has 3 fields"):
+        read_reference(f, 10.0)
