@@ -120,3 +120,22 @@ def test_printable_junk_is_refused_by_name(tmp_path):
         assert "junk.csv" in exc.format()
     else:
         raise AssertionError("junk was read")
+
+
+@settings(max_examples=15, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(header=st.lists(st.sampled_from(NAMES), min_size=1, max_size=4),
+       rows=st.lists(st.lists(st.one_of(st.none(), st.booleans(), st.floats(-1e6, 1e6, allow_nan=False),
+                                        st.sampled_from(["x", "1,5", "2024-05-17T09:30:00", "#c", "k: v"])),
+                              max_size=5), max_size=6))
+def test_random_workbooks(tmp_path, header, rows):
+    import openpyxl
+
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws.append(header)
+    for r in rows:
+        ws.append(r)
+    path = tmp_path / "w.xlsx"
+    wb.save(path)
+    _readers(path)
