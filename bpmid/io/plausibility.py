@@ -36,7 +36,8 @@ RADIAN_MAX = 2 * math.pi
 ATMOSPHERE_BAND_PA = (0.88e5, 3.0e5)
 #: a motion log shorter than this (s) is flagged: a muscle run lasts seconds to minutes (times in ms read as s?)
 MIN_DURATION_S = 1.0
-#: a parameter within this share of its bound (or within 1e-6 of the other bound's size of a zero bound) is "at the bound"
+#: a parameter within this share of its bound (for a zero bound: within 1e-6 of the other bound's size) is
+#: "at the bound"
 BOUND_SHARE = 1e-3
 
 _P_UNITS = {"pa": 1.0, "kpa": 1e3, "bar": 1e5, "mbar": 1e2, "psi": 6894.757293168, "mpa": 1e6}

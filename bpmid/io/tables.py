@@ -815,7 +815,8 @@ def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tup
 
 def _numbers(values: list, where: str, header: str, lines: list[int]) -> np.ndarray:
     if not any(type(v) is bool for v in values):  # Excel TRUE/FALSE cells are not numbers
-        try:  # the fast path: every cell a number (numpy parses the strings); NaN, inf, empty: the loop below names the line
+        # the fast path: every cell a number (numpy parses the strings); NaN, inf, empty: the loop below names the line
+        try:
             out = np.array(values, dtype=float)
             if out.ndim == 1 and np.all(np.isfinite(out)):
                 return out
@@ -902,7 +903,8 @@ def read_table(path: str | Path, *, column_map: Mapping[str, str] | None = None,
             detail = "; ".join(f"{n!r}: {e.message}" for n, e in errors)
             raise InputError(f"no sheet holds a {kind} ({detail}); name the sheet with --sheet NAME", path=path)
         if len(candidates) > 1:
-            raise InputError(f"several sheets hold a {kind} ({', '.join(repr(t.reading['sheet']) for t in candidates)}); "
+            names_txt = ", ".join(repr(t.reading["sheet"]) for t in candidates)
+            raise InputError(f"several sheets hold a {kind} ({names_txt}); "
                              f"choose one with --sheet NAME (config io.sheet)", path=path, key="--sheet")
         return candidates[0]
     # a sheet name means nothing for a text or MATLAB file: not an error (one --sheet serves a batch of files)
