@@ -216,6 +216,7 @@ def fit_motion(logs, *, init=None, config=None):
     bpmid.results.VBMMFitResult : ``.model`` is the fitted VBMM
     """
     from bpmid.io.results import provenance
+    from bpmid.io import plausibility as plaus
     from bpmid.models.vbmm.fit import fit_motion as _fit
     from bpmid.results import RelaxationResult, VBMMFitResult
 
@@ -231,7 +232,9 @@ def fit_motion(logs, *, init=None, config=None):
             raise InputError("relaxation fit not found", path=init, key="init")
         inputs.append(Path(init))
     fit = _fit(motion, config=cfg, init=init)
-    return VBMMFitResult(fit.yaml_body(), provenance(inputs, config=cfg), raw=fit)
+    warnings = plaus.reader_warnings(motion) + plaus.motion_fit_warnings(fit)
+    body = {**fit.yaml_body(), "warnings": warnings}
+    return VBMMFitResult(body, plaus.attach(provenance(inputs, config=cfg), motion, warnings), raw=fit)
 
 
 def predict(logs, params, *, config=None):
@@ -247,6 +250,7 @@ def predict(logs, params, *, config=None):
     bpmid.results.PredictionResult : ``.predictions`` maps log name -> predicted angle (deg)
     """
     from bpmid.io.results import provenance
+    from bpmid.io import plausibility as plaus
     from bpmid.predict import predict as _predict, predict_yaml_body
     from bpmid.results import PredictionResult
 
@@ -254,8 +258,10 @@ def predict(logs, params, *, config=None):
     model, ppath = _vbmm(params, cfg.section("model"))
     motion, paths = _motion_logs(logs, cfg)
     preds = _predict(motion, model)
-    body = predict_yaml_body(preds, params=ppath, model=model)
-    out = PredictionResult(body, provenance(list(paths) + ([ppath] if ppath else []), config=cfg), raw=preds)
+    warnings = plaus.reader_warnings(motion) + plaus.prediction_warnings(preds)
+    body = {**predict_yaml_body(preds, params=ppath, model=model), "warnings": warnings}
+    prov = plaus.attach(provenance(list(paths) + ([ppath] if ppath else []), config=cfg), motion, warnings)
+    out = PredictionResult(body, prov, raw=preds)
     out._model = model  # what save() hands the writer (the same settings as body["model"])
     return out
 

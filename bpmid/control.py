@@ -170,30 +170,25 @@ def builtin_reference(name: str, rate_hz: float = 10.0) -> Reference:
 
 
 def read_reference(path: Path, rate_hz: float, name: str | None = None) -> Reference:
-    """A reference CSV (``time_s``, ``angle_deg``), resampled (linear) onto the control grid if needed."""
+    """A reference table (``time_s``, ``angle_deg``; any format :func:`bpmid.io.tables.read_table` reads),
+    resampled (linear) onto the control grid if needed."""
     path = Path(path)
     if not path.is_file():
         raise InputError("reference file not found", path=path)
-    try:
-        df = pd.read_csv(path, comment="#")
-    except Exception as exc:  # pandas raises many kinds
-        raise InputError(f"not a readable CSV: {exc}", path=path) from exc
-    for col in ("time_s", "angle_deg"):
-        if col not in df.columns:
-            raise InputError(f"missing column {col!r} (found: {', '.join(map(str, df.columns))})", path=path, key=col)
-    t = pd.to_numeric(df["time_s"], errors="coerce").to_numpy(float)
-    a = pd.to_numeric(df["angle_deg"], errors="coerce").to_numpy(float)
-    bad = np.flatnonzero(~(np.isfinite(t) & np.isfinite(a)))
-    if bad.size:
-        raise InputError("not a number", path=path, line=int(bad[0]) + 2)
+    from bpmid.io.tables import read_table
+
+    # the log readers (text dialects, encodings, Excel, MATLAB; units stated, never guessed; strict rows)
+    table = read_table(path, required=("time", "angle"), kind="reference")
+    t, a = table.columns["time"], table.columns["angle"]
     if t.size < 2:
         raise InputError("a reference needs at least two samples", path=path)
     step = np.flatnonzero(np.diff(t) <= 0)
     if step.size:
-        raise InputError("time_s must increase strictly", path=path, line=int(step[0]) + 3, key="time_s")
+        raise InputError("time_s must increase strictly", path=path, line=table.line_of(int(step[0]) + 1),
+                         key="time_s")
     if np.any(a < 0) or np.any(a > 180):
         k = int(np.flatnonzero((a < 0) | (a > 180))[0])
-        raise InputError(f"angle {a[k]:g} deg is outside 0..180 deg", path=path, line=k + 2, key="angle_deg")
+        raise InputError(f"angle {a[k]:g} deg is outside 0..180 deg", path=path, line=table.line_of(k), key="angle_deg")
     dt = 1.0 / rate_hz
     if not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-9):
         grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) / dt + 1e-9)) + 1) * dt

@@ -1,6 +1,6 @@
 """Run a fitted VBMM on new pressure logs (``bpmid predict``).
 
-Output per log (CLI.md): ``<log stem>.csv`` with ``time_s``, the pressure column exactly as given
+Output per log (CLI.md): ``<log stem>.csv`` with a ``# pressure_reference:`` line, ``time_s``, the pressure column exactly as given
 (``pressure_bar``, ``pressure_kpa`` or ``pressure_pa``, same reference as the input), ``angle_pred_deg``, and
 ``angle_deg`` when the log had one. When angles are present the metrics are returned too.
 """
@@ -89,10 +89,14 @@ def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov:
     with staged_dir(out_dir) as tmp:
         for p in preds:
             name = f"{p.log.name}.csv"
-            p.frame().to_csv(tmp / name, index=False, lineterminator="\n")
+            # the reference line and unit-suffixed columns let bpmid (and anyone) read the file back unambiguously
+            head = f"# pressure_reference: {p.log.pressure_reference}\n# angle_pred_deg: bpmid predict output\n"
+            (tmp / name).write_text(head + p.frame().to_csv(index=False, lineterminator="\n"), encoding="utf-8")
             names.append(out_dir / name)
         if prov is not None:
             body = {"schema": "bpmid.predict/1", **predict_yaml_body(preds, params=params, model=model)}
+            if "warnings" in prov:
+                body["warnings"] = list(prov["warnings"])
             body["provenance"] = prov
             (tmp / "predict.yaml").write_text(dump_yaml(body), encoding="utf-8")
             names.append(out_dir / "predict.yaml")

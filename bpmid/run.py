@@ -184,7 +184,7 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
         rcfg = config.section("relax")
         gap = rcfg.max_gap_factor if rcfg.max_gap_factor is not None else io_cfg.max_gap_factor
         read_relax_logs(inp.relax_logs, column_map=rcfg.columns, gauge_length_mm=rcfg.specimen.gauge_length_mm,
-                        cross_section_mm2=rcfg.specimen.cross_section_mm2, gap_factor=gap)
+                        cross_section_mm2=rcfg.specimen.cross_section_mm2, gap_factor=gap, io_cfg=io_cfg)
     angled: list[Path] = []  # logs whose stage needs measured angles
     if stages & {"motion", "compare"}:
         angled += list(inp.fitting_set)
@@ -334,7 +334,11 @@ def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     relax = ctx.get("relax_fit")
     prov = _prov(inp.fitting_set + ([relax] if relax else []), config, ctx["seed"], ctx["command"])
     mf = fit_motion(logs, config=config, init=relax)
-    write_motion_fit(out / "vbmm_fit.yaml", mf, prov, figure=out / "vbmm_fit.png", synthetic=ctx["synthetic"])
+    from bpmid.io import plausibility as plaus
+    warnings = plaus.reader_warnings(logs) + plaus.motion_fit_warnings(mf)
+    plaus.emit(warnings, strict=config.section("io").strict, what=str(out / "vbmm_fit.yaml"))
+    write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings), figure=out / "vbmm_fit.png",
+                     synthetic=ctx["synthetic"])
     ctx["vbmm_fit"] = out / "vbmm_fit.yaml"
     # VBMM-mat.: the relaxation constants as they are, scored on the same fitting set
     mat, source = initial_material(config.section("motion"), relax, base_dir=config.base_dir)

@@ -62,7 +62,7 @@ def test_motion_log_absolute_to_gauge(tmp_path):
     ("time_s,pressure_bar,angle_deg\n0,1.2,10\n0.1,nan,11\n", "NaN"),
     ("time_s,pressure_psx,angle_deg\n0,1.2,10\n0.1,1.3,11\n", "unknown unit .psx."),
     ("time_s,pressure_bar,angle_deg\n", "no data rows"),
-    ("time_s,pressure_bar,angle_deg\n0,1.2,10\n0.1,1.3,11\n0.2,1.3,11\n5.0,1.3,11\n", "gap"),
+    # gaps are read with a warning, refused only by --max-gap: tests/test_io_readers.py
 ])
 def test_motion_log_bad_input(tmp_path, body, match):
     f = tmp_path / "bad.csv"

@@ -129,7 +129,7 @@ BAD = {
     "header_only": ("time_s,strain,stress_mpa\n", [], "no data rows", ":1"),
     "misspelt": ("time_s,strain,stres_mpa\n0,0,0\n1,0.1,0.01\n", [], "missing column for stress", ":1"),
     "no_columns": ("time_s,foo\n0,1\n1,2\n", [], "no relaxation columns", ":1"),
-    "nan": (STRESS.replace("\n0.10,", "\n0.10,nan,", 1).replace(",nan,0.", ",nan,"), [], "NaN", ":4"),
+    "nan": (STRESS.replace("\n0.10,0.02000,", "\n0.10,nan,", 1), [], "NaN", ":4"),
     "time_back": (STRESS.replace("\n0.15,", "\n0.05,", 1), [], "time goes backwards", ":5"),
     "unit": ("Time (s),Strain (-),Stress (psx)\n0,0,0\n1,0.1,0.01\n", [], "unknown unit 'psx'", ":1"),
     "negative_modulus": ("time_s,modulus_mpa\n0.1,5\n1,-2\n2,1\n", [], "negative relaxation modulus", ":3"),

@@ -49,13 +49,17 @@ def _refused(res, out, *needles):
 
 
 # ---- 12: a gap in a test log -------------------------------------------------------------------
-def test_gap_in_relax_log_is_refused_with_file_and_line(repo_root, tmp_path):
+def test_gap_in_relax_log_is_warned_with_file_and_line_and_refused_by_max_gap(repo_root, tmp_path):
     lines = _lines(repo_root)
     h = _header_count(lines)
     gap = tmp_path / "gap.csv"
     gap.write_text("".join(lines[:h + 40] + lines[h + 91:]))     # data rows 40..90 lost: ~1 s at 0.02 s sampling
     res, out = _fit(tmp_path, gap)
-    _refused(res, out, "gap in the log", f"gap.csv:{h + 41}")
+    assert res.exit_code == 0 and f"gap.csv:{h + 41}: gap of" in res.output and "--max-gap" in res.output
+    out.unlink()
+    out.with_suffix(".png").unlink()
+    res = runner.invoke(app, ["fit", "relax", str(gap), "--out", str(out), "--max-gap", "0.5"])
+    _refused(res, out, "longer than --max-gap", f"gap.csv:{h + 41}")
 
 
 def test_relax_max_gap_factor_setting(repo_root, tmp_path):
@@ -67,11 +71,11 @@ def test_relax_max_gap_factor_setting(repo_root, tmp_path):
     cfg.write_text("relax:\n  max_gap_factor: 100\n")            # a relax-level setting wins over io.max_gap_factor
     out = tmp_path / "o.yaml"
     res = runner.invoke(app, ["fit", "relax", str(gap), "--out", str(out), "--config", str(cfg), "--no-figure"])
-    assert res.exit_code == 0, res.output
+    assert res.exit_code == 0 and "gap of" not in res.output, res.output   # below the factor: no gap, no warning
     cfg.write_text("io:\n  max_gap_factor: 100\n")               # null relax.max_gap_factor falls back to io's
     out.unlink()
     res = runner.invoke(app, ["fit", "relax", str(gap), "--out", str(out), "--config", str(cfg), "--no-figure"])
-    assert res.exit_code == 0, res.output
+    assert res.exit_code == 0 and "gap of" not in res.output, res.output   # below the factor: no gap, no warning
     cfg.write_text("relax:\n  max_gap_factor: 0.5\n")
     out.unlink()
     res = runner.invoke(app, ["fit", "relax", str(gap), "--out", str(out), "--config", str(cfg)])

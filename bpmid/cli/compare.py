@@ -9,6 +9,7 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import app, command, multi_value_command
+from bpmid.cli._logopts import log_options
 
 EPILOG = ("Example (shipped synthetic data):  bpmid compare --train datasets/motion/fitting_set/*.csv "
           "--test datasets/motion/variable_amplitude/*.csv datasets/motion/variable_rate/*.csv "
@@ -20,6 +21,7 @@ MultiValueCommand = multi_value_command("--train", "--test")
 
 
 @command(app, "compare", epilog=EPILOG, cls=MultiValueCommand)
+@log_options("motion")
 def compare(
     train: Optional[List[Path]] = typer.Option(None, "--train", metavar="LOG...",
                                                help="Training motion logs (every model is fitted on these only)."),
@@ -34,13 +36,14 @@ def compare(
                                           "compare.train/test_sets name the logs when --train/--test are not given)."),
     out: Path = typer.Option(..., "--out", help="Output folder: metrics.csv, summary.csv, summary_by_set.csv, "
                              "compare.yaml, predictions/, figures."),
+    logopts=None,
 ):
     """Fit every model on the training logs only, simulate each free-running on every test log, score it."""
     from bpmid.api import compare
     from bpmid.compare import CompareWarning, verdicts
     from bpmid.config import load_config
 
-    cfg = load_config(config)
+    cfg = logopts.apply(load_config(config))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", CompareWarning)
         res = compare(train, test, models=models, relax=relax, config=cfg)

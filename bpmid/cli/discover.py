@@ -7,6 +7,7 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import app, command, existing_files, multi_value_command
+from bpmid.cli._logopts import log_options
 
 
 #: ``--holdout a.csv b.csv`` takes every following value up to the next option
@@ -26,6 +27,7 @@ def load_base(init: Optional[Path], cfg):
 
 
 @command(app, "discover", epilog=EPILOG, cls=HoldoutCommand)
+@log_options("motion")
 def discover_cmd(
     logs: List[Path] = typer.Argument(..., metavar="LOG", help="Motion logs with measured angles."),
     holdout: Optional[List[Path]] = typer.Option(None, "--holdout", metavar="LOG...",
@@ -34,6 +36,7 @@ def discover_cmd(
                                         "(default: the paper's VBMM-fit)."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (sections io, model, discover)."),
     out: Path = typer.Option(..., "--out", help="Output folder: discovery.yaml, verdict.txt, figures."),
+    logopts=None,
 ):
     """Fit the base VBMM, diagnose the residual, screen every catalogue effect, confirm the best on held-out
     logs, add one effect at a time; write DIR/discovery.yaml, a plain-language verdict and figures."""
@@ -44,16 +47,21 @@ def discover_cmd(
     from bpmid.io.results import provenance
     from bpmid.progress import note
 
-    cfg = load_config(config)
+    from bpmid.io import plausibility as plaus
+
+    cfg = logopts.apply(load_config(config))
     paths = existing_files(list(logs))
     ho_paths = existing_files(list(holdout), "held-out log") if holdout else []
     fit_logs = read_motion_logs(paths, cfg.section("io"), require_angle=True)
     ho_logs = read_motion_logs(ho_paths, cfg.section("io"), require_angle=True) if ho_paths else None
+    all_logs = fit_logs + (ho_logs or [])
+    warnings = plaus.reader_warnings(all_logs) + plaus.motion_data_warnings(all_logs)
+    plaus.emit(warnings, strict=cfg.section("io").strict, what=str(out))
     base, base_from = load_base(init, cfg)
     result = discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
     inputs = list(paths) + list(ho_paths) + ([init] if init else [])
     note("discover: writing figures")
-    write_discovery(out, result, provenance(inputs, config=cfg), base_from=base_from)
+    write_discovery(out, result, plaus.attach(provenance(inputs, config=cfg), all_logs, warnings), base_from=base_from)
     typer.echo(result.verdict)
     typer.echo(f"named effects: {', '.join(result.named_effects) or 'none'}; held-out RMSE "
                f"{result.heldout_before:.3f} -> {result.heldout_after:.3f} deg (noise floor "

@@ -7,11 +7,15 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import check_outputs, command, existing_files, fit_app
+from bpmid.cli._logopts import log_options
 
 
 @command(fit_app, "motion", epilog="Example (shipped synthetic logs): bpmid fit relax datasets/relaxation/*.csv "
                                    "--out relax_fit.yaml  then  bpmid fit motion datasets/motion/fitting_set/*.csv "
-                                   "--init relax_fit.yaml --out VBMM.yaml   (writes VBMM.yaml and the figure VBMM.png)")
+                                   "--init relax_fit.yaml --out VBMM.yaml   (writes VBMM.yaml and the figure VBMM.png)  |  "
+                                   "a rig file without units or reference: ... --pressure-unit kPa --pressure-reference "
+                                   "gauge --columns time=Zeit,pressure=Druck,angle=Winkel --time-unit ms")
+@log_options("motion")
 def fit_motion_command(
     logs: List[Path] = typer.Argument(..., metavar="LOG", help="Motion logs (time_s, pressure_bar|kpa|pa, angle_deg), fitted at once."),
     out: Path = typer.Option(..., "--out", help="Output parameter file (schema bpmid.vbmm/1)."),
@@ -20,12 +24,13 @@ def fit_motion_command(
     config: Optional[Path] = typer.Option(None, "--config", help="Config file (sections io, model, motion)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure path (default: --out with .png)."),
     no_plot: bool = typer.Option(False, "--no-plot", help="Write no figure."),
+    logopts=None,
 ):
     """Fit the VBMM's moduli and time constants on motion logs (angle error of the forward model)."""
     from bpmid.api import fit_motion
     from bpmid.config import load_config
 
-    cfg = load_config(config)
+    cfg = logopts.apply(load_config(config))
     paths = existing_files(logs, "motion log")
     if init is not None:
         existing_files([init], "relaxation fit")
@@ -34,6 +39,9 @@ def fit_motion_command(
     if figure is not None:
         check_outputs([figure], paths + [init, config], key="--plot")
     result = fit_motion(paths, init=init, config=cfg)
+    from bpmid.io import plausibility as plaus
+
+    plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out))
     result.save(out, figure=figure)
     fit = result.raw
     m = fit.metrics

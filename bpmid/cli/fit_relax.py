@@ -8,6 +8,7 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import check_outputs, command, existing_files, fit_app
+from bpmid.cli._logopts import log_options
 
 EPILOG = ("\b\nExample (shipped synthetic logs):  bpmid fit relax datasets/relaxation/*.csv --out relax_fit.yaml  |\n"
           "measured master curve, step mode:  bpmid fit relax datasets/reference/pyvisco/time_user_master.csv "
@@ -19,6 +20,7 @@ EPILOG = ("\b\nExample (shipped synthetic logs):  bpmid fit relax datasets/relax
 
 
 @command(fit_app, "relax", epilog=EPILOG)
+@log_options("relax")
 def fit_relax(
     logs: List[Path] = typer.Argument(..., metavar="LOG", help="Relaxation logs (CSV): time_s,strain,stress_mpa or "
                                       "time_s,extension_mm,load_n or time_s,modulus_mpa (other header styles too); "
@@ -46,6 +48,7 @@ def fit_relax(
                                             "(default 0.49933, which reproduces the paper's K values)."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (section relax)."),
     no_figure: bool = typer.Option(False, "--no-figure", help="Do not write the figure."),
+    logopts=None,
 ):
     """Fit a Prony series E(t) = E_inf + sum E_j exp(-t/tau_j) to relaxation logs or to storage and loss moduli
     (shifting raw sets at several temperatures into a master curve first); write E, G and K."""
@@ -55,7 +58,7 @@ def fit_relax(
 
     if mode is not None and mode not in ("ramp", "step"):
         raise InputError(f"--mode takes ramp or step, found {mode!r}", key="--mode")
-    cfg = load_config(config)
+    cfg = logopts.apply(load_config(config))
     paths = existing_files(logs, "relaxation log")
     if shift is not None:
         existing_files([shift], "shift-factor")

@@ -7,27 +7,34 @@ from typing import List, Optional
 import typer
 
 from bpmid.cli._app import check_outputs, app, command, existing_files
+from bpmid.cli._logopts import log_options
 
 
 @command(app, "predict", epilog="Example (after bpmid fit motion ... --out VBMM.yaml): bpmid predict "
                                 "datasets/motion/variable_amplitude/amp_2p0_r2.csv --params VBMM.yaml --out pred/   "
-                                "(writes pred/amp_2p0_r2.csv with angle_pred_deg)")
+                                "(writes pred/amp_2p0_r2.csv with angle_pred_deg)  |  a rig file in kPa gauge without "
+                                "a unit in its header: ... --pressure-unit kPa --pressure-reference gauge")
+@log_options("motion")
 def predict_command(
     logs: List[Path] = typer.Argument(..., metavar="LOG", help="Motion logs (time_s, pressure_bar|kpa|pa, optional angle_deg)."),
     params: Path = typer.Option(..., "--params", help="Fitted VBMM (bpmid fit motion output, bpmid.vbmm/1)."),
     out: Path = typer.Option(..., "--out", help="Output folder: one <log stem>.csv per log, plus predict.yaml."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config file (sections io, model)."),
+    logopts=None,
 ):
     """Predict the bending angle of new pressure logs with a fitted VBMM."""
     from bpmid.api import predict
     from bpmid.config import load_config
 
-    cfg = load_config(config)
+    cfg = logopts.apply(load_config(config))
     paths = existing_files(logs, "motion log")
     existing_files([params], "params")
     check_outputs([Path(out) / f"{Path(p).stem}.csv" for p in paths] + [Path(out) / "predict.yaml"],
                   paths + [params, config])
     result = predict(paths, params, config=cfg)
+    from bpmid.io import plausibility as plaus
+
+    plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out))
     result.save(out)
     for p in result.raw:
         if p.metrics is not None:

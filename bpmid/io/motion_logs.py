@@ -1,10 +1,12 @@
 """Motion logs: time, pressure, (optionally) bending angle.
 
-Columns: ``time_s``, ``pressure_bar`` (or ``pressure_kpa``, ``pressure_pa``, or any header
-:mod:`bpmid.io.tables` understands), ``angle_deg``. The pressure reference (absolute or gauge) comes
-from a ``# pressure_reference: absolute`` line or the config (``io.pressure_reference``); the file's
-line wins when both are given and agree, and a disagreement is an error. Inside bpmid pressure is
-always gauge, in Pa.
+Columns: ``time_s``, ``pressure_bar`` (or ``pressure_kpa``, ``pressure_psi``, ``Pressure (bar a)``, any header
+:mod:`bpmid.io.tables` understands, in any format it reads: CSV dialects, Excel, MATLAB), ``angle_deg``. Units are
+never guessed (see :mod:`bpmid.io.tables`). The pressure reference (absolute or gauge) comes from a
+``# pressure_reference: absolute`` line (key and value case-insensitive), a unit that carries it (``psig``,
+``bar(a)``) or the config/flag (``io.pressure_reference``, ``--pressure-reference``); when several are given they
+must agree, and none at all is an error that names the three ways. Inside bpmid pressure is always gauge, in Pa.
+Gaps in the time column are read with a warning (``io.max_gap_s`` refuses them).
 """
 from __future__ import annotations
 
@@ -15,41 +17,75 @@ from typing import Literal, Mapping, Optional, Sequence
 import numpy as np
 
 from bpmid.errors import InputError
-from bpmid.io.tables import UNITS, check_time, read_table
+from bpmid.io.tables import UNITS, check_time, read_table, split_unit
 
 ATMOSPHERE_PA = 101325.0
 
 
 @dataclasses.dataclass(frozen=True)
 class IOConfig:
-    """Config section ``io``: how logs are read.
+    """Config section ``io``: how logs are read (the CLI flags ``--columns``, ``--pressure-unit``,
+    ``--angle-unit``, ``--time-unit``, ``--pressure-reference``, ``--sheet``, ``--max-gap`` and ``--strict``
+    override these).
 
     Attributes
     ----------
-    columns : file header -> bpmid column name (``{"Zeit [s]": "time_s"}``)
-    pressure_reference : ``absolute`` or ``gauge`` for logs without a ``# pressure_reference:`` line
+    columns : file header -> bpmid column name (``{"Zeit [s]": "time_s"}``, ``{"Druck": "pressure"}``)
+    units : quantity -> unit for columns whose name states none (``{pressure: kPa, angle: deg, time: ms}``)
+    pressure_reference : ``absolute`` or ``gauge`` for logs that do not say it themselves
     atmosphere_pa : ambient pressure used to turn absolute into gauge pressure (Pa)
-    max_gap_factor : a time step longer than this many median steps is refused as a gap
+    max_gap_factor : a time step longer than this many median steps is a gap: read with a warning naming the line
+    max_gap_s : a time step longer than this (s) is refused (null: gaps are never refused)
+    sheet : the Excel sheet to read (null: the one sheet with the needed columns)
+    strict : warnings (gaps, implausible fits, likely unit or reference slips) end the command with exit 2
     min_gauge_pa : a gauge pressure below this (Pa) is refused: a muscle is not driven by vacuum, so it is
         almost always a wrong pressure reference or unit (default -5000 Pa leaves room for sensor noise at rest)
+    stated_by : setting -> the flag that gave it (filled by the command line, for messages)
     """
 
     columns: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    units: Mapping[str, str] = dataclasses.field(default_factory=dict)
     pressure_reference: Optional[Literal["absolute", "gauge"]] = None
     atmosphere_pa: float = ATMOSPHERE_PA
     max_gap_factor: float = 5.0
+    max_gap_s: Optional[float] = None
+    sheet: Optional[str] = None
+    strict: bool = False
     min_gauge_pa: float = -5000.0
+    stated_by: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
     def validate(self, where, path):
         if not self.max_gap_factor > 1.0:
             raise InputError(f"max_gap_factor must be above 1 (a multiple of the usual time step), found "
                              f"{self.max_gap_factor:g}", path=path, key=f"{where}.max_gap_factor")
+        if self.max_gap_s is not None and not self.max_gap_s > 0:
+            raise InputError(f"max_gap_s must be a positive number of seconds, found {self.max_gap_s:g}", path=path,
+                             key=self.stated_by.get("max_gap_s", f"{where}.max_gap_s"))
         if self.min_gauge_pa > 0:
             raise InputError(f"min_gauge_pa must be 0 or below, found {self.min_gauge_pa:g} Pa", path=path,
                              key=f"{where}.min_gauge_pa")
         if not (50e3 <= self.atmosphere_pa <= 120e3):
             raise InputError(f"atmosphere_pa {self.atmosphere_pa:g} Pa is not an ambient pressure",
                              path=path, key=f"{where}.atmosphere_pa")
+        for q, u in self.units.items():
+            if q not in UNITS:
+                raise InputError(f"no quantity {q!r} (known: {', '.join(sorted(UNITS))})", path=path,
+                                 key=f"{where}.units.{q}")
+            if split_unit(q, str(u))[0] is None:
+                raise InputError(f"unknown unit {u!r} for {q} (known: {', '.join(sorted(k for k in UNITS[q] if k))})",
+                                 path=path, key=self.stated_by.get(f"units.{q}", f"{where}.units.{q}"))
+
+    def unit_sources(self) -> dict[str, str]:
+        """quantity -> where its unit setting came from (a flag or ``io.units.<q>``), for messages."""
+        return {q: self.stated_by.get(f"units.{q}", f"io.units.{q}") for q in self.units}
+
+
+#: spellings of the two pressure references in files and flags
+REFERENCE_WORDS = {"absolute": "absolute", "abs": "absolute", "a": "absolute", "gauge": "gauge", "gage": "gauge",
+                   "g": "gauge", "relative": "gauge", "rel": "gauge", "overpressure": "gauge"}
+
+#: comment keys that state the pressure reference (compared case-insensitively, spaces as underscores)
+REFERENCE_KEYS = ("pressure_reference", "pressure_ref", "reference_pressure")
 
 
 @dataclasses.dataclass
@@ -68,6 +104,8 @@ class MotionLog:
     atmosphere_pa : ambient pressure used for the conversion
     path : source file, or None for an in-memory log
     meta : ``# key: value`` lines of the file
+    reading : what the reader found and assumed (format, columns and units, reference and where it came from)
+    warnings : reader warnings (gaps, ignored columns)
     """
 
     name: str
@@ -80,6 +118,8 @@ class MotionLog:
     atmosphere_pa: float = ATMOSPHERE_PA
     path: Path | None = None
     meta: dict = dataclasses.field(default_factory=dict)
+    reading: dict = dataclasses.field(default_factory=dict)
+    warnings: list = dataclasses.field(default_factory=list)
 
     @property
     def n(self) -> int:
@@ -120,27 +160,45 @@ def from_arrays(name: str, time_s, pressure_pa_gauge, angle_deg=None, **kw) -> M
     return MotionLog(name=name, time_s=t, pressure_pa=p, angle_deg=a, pressure_as_given=p.copy(), **kw)
 
 
+def _reference(table, io_cfg: IOConfig, path: Path) -> tuple[str, str]:
+    """The pressure reference and where it was stated; every statement must agree, none is an error."""
+    stated = []
+    for k in REFERENCE_KEYS:
+        if k in table.meta:
+            v = str(table.meta[k]).strip().lower().split()
+            word = REFERENCE_WORDS.get(v[0] if v else "")
+            if word is None:
+                raise InputError(f"pressure reference must be absolute or gauge, found {table.meta[k]!r}",
+                                 path=table.name, key=k)
+            stated.append((word, f"the line '# {k}: {table.meta[k]}'"))
+    if "pressure" in table.references:
+        stated.append((table.references["pressure"], f"the unit of {table.headers['pressure']!r}"))
+    if io_cfg.pressure_reference is not None:
+        src = io_cfg.stated_by.get("pressure_reference", "io.pressure_reference (config)")
+        stated.append((io_cfg.pressure_reference, src))
+    words = {w for w, _ in stated}
+    if len(words) > 1:
+        a = next(s for s in stated if s[0] == stated[0][0])
+        b = next(s for s in stated if s[0] != stated[0][0])
+        raise InputError(f"the pressure reference is stated twice and disagrees: {a[1]} says {a[0]}, {b[1]} says "
+                         f"{b[0]}; drop or correct one", path=table.name, key="pressure_reference")
+    if not stated:
+        raise InputError("pressure reference unknown (bpmid never guesses it): state it with (1) a line "
+                         "'# pressure_reference: gauge' (or absolute) at the top of the file, (2) the flag "
+                         "--pressure-reference gauge|absolute (config io.pressure_reference), or (3) a unit that "
+                         "carries it (pressure_psig, 'Pressure (bar a)')", path=table.name, key="pressure_reference")
+    return stated[0]
+
+
 def read_motion_log(path: str | Path, io_cfg: IOConfig | None = None, *, require_angle: bool = False) -> MotionLog:
     """Read one motion log (see module docstring). Errors name the file and line."""
     io_cfg = io_cfg or IOConfig()
     path = Path(path)
     required = ("time", "pressure") + (("angle",) if require_angle else ())
-    table = read_table(path, column_map=io_cfg.columns, required=required, kind="motion log")
-    t = check_time(table, kind="motion log", gap_factor=io_cfg.max_gap_factor)
-    ref_file = table.meta.get("pressure_reference")
-    ref_cfg = io_cfg.pressure_reference
-    if ref_file is not None:
-        ref_file = ref_file.strip().lower()
-        if ref_file not in ("absolute", "gauge"):
-            raise InputError(f"pressure_reference must be absolute or gauge, found {ref_file!r}", path=path,
-                             key="pressure_reference")
-        if ref_cfg is not None and ref_cfg != ref_file:
-            raise InputError(f"the file says pressure_reference: {ref_file}, the config io.pressure_reference says "
-                             f"{ref_cfg}", path=path, key="pressure_reference")
-    ref = ref_file or ref_cfg
-    if ref is None:
-        raise InputError("pressure reference unknown: add a line '# pressure_reference: absolute' (or gauge) "
-                         "to the file, or set io.pressure_reference in the config", path=path)
+    table = read_table(path, column_map=io_cfg.columns, required=required, optional=("angle",), kind="motion log",
+                       units=io_cfg.units, unit_sources=io_cfg.unit_sources(), sheet=io_cfg.sheet)
+    t = check_time(table, kind="motion log", gap_factor=io_cfg.max_gap_factor, max_gap_s=io_cfg.max_gap_s)
+    ref, ref_from = _reference(table, io_cfg, path)
     unit = table.units_in_file["pressure"]
     p_pa = table.columns["pressure"]
     given = p_pa / UNITS["pressure"][unit]
@@ -148,14 +206,19 @@ def read_motion_log(path: str | Path, io_cfg: IOConfig | None = None, *, require
     low = np.flatnonzero(gauge < io_cfg.min_gauge_pa)
     if low.size:
         k = int(low[0])
-        raise InputError(f"pressure {given[k]:g} {unit} ({ref}) is {-gauge[k] / 1e5:.3g} bar below atmosphere; a "
-                         f"muscle is not driven by vacuum: check the pressure reference (# pressure_reference: "
-                         f"absolute or gauge) and the unit of the column {table.headers['pressure']!r}",
-                         path=path, line=table.line_of(k))
+        raise InputError(f"pressure {given[k]:g} {unit} ({ref}, from {ref_from}) is {-gauge[k] / 1e5:.3g} bar below "
+                         f"atmosphere; a muscle is not driven by vacuum: check the pressure reference "
+                         f"(--pressure-reference, '# pressure_reference:') and the unit of the column "
+                         f"{table.headers['pressure']!r} (--pressure-unit)", path=table.name, line=table.line_of(k))
     angle = table.columns.get("angle")
+    reading = dict(table.reading)
+    reading["pressure_reference"] = {"reference": ref, "from": ref_from}
+    if ref == "absolute":
+        reading["pressure_reference"]["atmosphere_pa"] = float(io_cfg.atmosphere_pa)
+    warnings = list(table.warnings)
     return MotionLog(name=path.stem, time_s=t, pressure_pa=gauge, angle_deg=angle, pressure_reference=ref,
                      pressure_unit=unit, pressure_as_given=given, atmosphere_pa=io_cfg.atmosphere_pa,
-                     path=path, meta=dict(table.meta))
+                     path=path, meta=dict(table.meta), reading=reading, warnings=warnings)
 
 
 def read_motion_logs(paths: Sequence[str | Path], io_cfg: IOConfig | None = None, *,

@@ -13,8 +13,11 @@ Accepted columns (any header dialect :mod:`bpmid.io.tables` reads, units convert
 Checks beyond the table reader's: a test log (stress/strain or load/extension) is a tension test, so a
 strain (extension) clearly below zero is refused with its line (a compression test must be logged with
 compression positive, strain and stress alike); with ``gap_factor`` a time step longer than that many
-median steps is refused as a gap in the log (samples lost), as for motion logs. Modulus curves are not
-gap-checked: master curves are usually sampled evenly in log time, not in time.
+median steps is a gap in the log (samples lost): read with a warning naming the line, refused only beyond
+``io.max_gap_s`` (``--max-gap``), as for motion logs. Modulus curves are not gap-checked: master curves are
+usually sampled evenly in log time, not in time. The same readers as for motion logs apply (CSV dialects,
+encodings, Excel, MATLAB; units never guessed; ``io.units``, ``io.sheet`` and ``io.columns`` honoured when
+``io_cfg`` is given).
 
 Every error names the file and the line (or the config key).
 """
@@ -56,6 +59,8 @@ class RelaxLog:
     path : the file, or None for an in-memory log
     meta : ``# key: value`` lines of the file
     first_data_line : file line of the first sample (for messages)
+    reading : what the reader found and assumed (format, columns, units and where they came from)
+    warnings : reader warnings (gaps, ignored columns)
     """
 
     name: str
@@ -67,6 +72,8 @@ class RelaxLog:
     path: Path | None = None
     meta: dict = dataclasses.field(default_factory=dict)
     first_data_line: int = 2
+    reading: dict = dataclasses.field(default_factory=dict)
+    warnings: list = dataclasses.field(default_factory=list)
 
     @property
     def is_modulus_curve(self) -> bool:
@@ -109,9 +116,20 @@ def _check_tension(values: np.ndarray, table, path: Path, what: str, unit: str) 
                              "strain" if what == "strain" else "extension"))
 
 
+
+
+def _table_options(column_map, io_cfg) -> dict:
+    """read_table keywords from the relax column map and the io section (the relax map wins per header)."""
+    cmap = dict(io_cfg.columns) if io_cfg is not None else {}
+    cmap.update(column_map or {})
+    if io_cfg is None:
+        return {"column_map": cmap}
+    return {"column_map": cmap, "units": io_cfg.units, "unit_sources": io_cfg.unit_sources(), "sheet": io_cfg.sheet}
+
+
 def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = None,
                    gauge_length_mm: float | None = None, cross_section_mm2: float | None = None,
-                   gap_factor: float | None = None) -> RelaxLog:
+                   gap_factor: float | None = None, io_cfg=None) -> RelaxLog:
     """Read one relaxation log (see the module docstring).
 
     Parameters
@@ -121,9 +139,12 @@ def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = N
     gauge_length_mm, cross_section_mm2 : specimen geometry for load/extension logs (mm, mm^2)
     gap_factor : a time step longer than this many median steps of a test log is refused as a gap (None: not
         checked; ``bpmid fit relax`` passes ``relax.max_gap_factor``, default ``io.max_gap_factor``)
+    io_cfg : the config section ``io`` (:class:`bpmid.io.motion_logs.IOConfig`): units, sheet, column map and
+        ``max_gap_s`` stated there or by the command-line flags
     """
     path = Path(path)
-    table = read_table(path, column_map=column_map, kind=KIND)
+    opts = _table_options(column_map, io_cfg)
+    table = read_table(path, kind=KIND, optional=("time",), **opts)
     if table.has("modulus"):
         need = ("time", "modulus")
     elif table.has("strain") or table.has("stress"):
@@ -136,9 +157,11 @@ def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = N
                          f"load_n, or modulus_mpa (recognised columns: {found})", path=path,
                          line=max(table.first_data_line - 1, 1))
     if any(not table.has(q) for q in need):
-        table = read_table(path, column_map=column_map, required=need, kind=KIND)  # raises, naming the column
-    t = check_time(table, kind=KIND, gap_factor=None if need[1] == "modulus" else gap_factor)
-    common = dict(name=path.stem, time_s=t, path=path, meta=dict(table.meta), first_data_line=table.first_data_line)
+        table = read_table(path, required=need, kind=KIND, **opts)  # raises, naming the column
+    t = check_time(table, kind=KIND, gap_factor=None if need[1] == "modulus" else gap_factor,
+                   max_gap_s=None if io_cfg is None or need[1] == "modulus" else io_cfg.max_gap_s)
+    common = dict(name=path.stem, time_s=t, path=path, meta=dict(table.meta), first_data_line=table.first_data_line,
+                  reading=dict(table.reading), warnings=list(table.warnings))
     if need[1] == "modulus":
         E = table.columns["modulus"]
         bad = np.flatnonzero(E < 0)
@@ -159,12 +182,12 @@ def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = N
 
 def read_relax_logs(paths: Sequence[str | Path], *, column_map: Mapping[str, str] | None = None,
                     gauge_length_mm: float | None = None, cross_section_mm2: float | None = None,
-                    gap_factor: float | None = None) -> list[RelaxLog]:
+                    gap_factor: float | None = None, io_cfg=None) -> list[RelaxLog]:
     """Read several relaxation logs (same options for each)."""
     if not paths:
         raise InputError("no relaxation logs given")
     return [read_relax_log(p, column_map=column_map, gauge_length_mm=gauge_length_mm,
-                           cross_section_mm2=cross_section_mm2, gap_factor=gap_factor) for p in paths]
+                           cross_section_mm2=cross_section_mm2, gap_factor=gap_factor, io_cfg=io_cfg) for p in paths]
 
 
 # ---- material data: frequency sweeps, master curves and raw sets at several temperatures ------------------------

@@ -1,15 +1,33 @@
-"""Read the CSV dialects bpmid meets and bring every column to a canonical quantity and unit.
+"""Read the tables labs export and bring every column to a canonical quantity and unit.
 
-Accepted headers, all mapped to ``(quantity, unit)``:
+Formats (told apart by their bytes, not only by their extension):
 
-- bpmid's own names with a unit suffix: ``time_s``, ``pressure_kpa``, ``stress_mpa``, ``load_n``
-- instrument style, a unit in parentheses or brackets: ``Time (s)``, ``Load [N]``, ``Extension (mm)``
-- two header rows, names then units (pyvisco): ``t,E_relax`` / ``s, MPa``
-- a column map from the config (``io.columns``: file name -> bpmid name)
+- text tables: comma, semicolon (with decimal commas), tab or whitespace separated; UTF-8 with or without
+  BOM, UTF-16 (BOM or not), Latin-1/cp1252; LF, CRLF or CR line ends; an Excel ``sep=;`` first line
+- Excel workbooks: ``.xlsx`` (openpyxl) and legacy ``.xls`` (xlrd); the sheet named by ``sheet`` or the one
+  sheet whose header has the columns the log needs
+- MATLAB files: v5/v7 (scipy.io) and v7.3 (HDF5, h5py); every numeric vector (also struct fields
+  ``s.field`` and matrix columns ``m(:,2)``) is a column named by its variable; char variables are metadata
 
-Leading ``# key: value`` lines are metadata (``# pressure_reference: absolute``). Values are
-converted to each quantity's canonical unit (:data:`CANONICAL`); pressure keeps the unit it was
-logged in as well, so outputs can echo it. Every error names the file and, where it can, the line.
+Column names, all mapped to ``(quantity, unit)``:
+
+- bpmid's own names with a unit suffix: ``time_s``, ``pressure_kpa``, ``stress_mpa``, ``angle_deg``
+- instrument style: ``Time (s)``, ``Load [N]``, ``p / bar``, ``Druck in kPa``
+- names then a units row (pyvisco): ``t,E_relax`` / ``s, MPa``
+- a column map (``io.columns`` / ``--columns``): file header -> bpmid name (``Zeit`` -> ``time`` or ``time_s``)
+
+Units are never guessed. A column whose unit is stated nowhere (name, units row, a ``# pressure_unit: kPa``
+line, ``io.units`` or the ``--pressure-unit``/``--angle-unit``/``--time-unit`` flags) is refused, naming the
+column and the ways to state it; strain is dimensionless by its name. A unit stated twice must agree. A
+pressure unit may carry its reference (``psig``, ``bar(a)``, ``kPa abs``). Times may be ISO-8601 timestamps (or
+Excel dates), clock times (``09:30:01.250``) or epoch times (``epoch_s``, ``epoch_ms``); all become seconds since
+the first sample.
+
+Every data row must have exactly the header's fields (a decimal comma in a comma-separated file is refused
+with its line, never read by position). Leading ``# key: value`` lines are metadata; keys are
+case-insensitive (``# Pressure reference: Absolute``). What the reader found and assumed is in
+:attr:`Table.reading` (it goes into every output's provenance). Every error names the file and, where it
+can, the line.
 """
 from __future__ import annotations
 
@@ -18,7 +36,7 @@ import dataclasses
 import io
 import re
 from pathlib import Path
-from typing import Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -32,45 +50,87 @@ CANONICAL = {
 
 #: quantity -> {unit spelling (lower case) -> factor to the canonical unit}
 UNITS: dict[str, dict[str, float]] = {
-    "time": {"s": 1.0, "sec": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0},
+    "time": {"s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3, "msec": 1e-3,
+             "us": 1e-6, "µs": 1e-6, "min": 60.0, "h": 3600.0, "epoch_s": 1.0, "epoch_ms": 1e-3,
+             "unix_s": 1.0, "unix_ms": 1e-3, "iso8601": 1.0},
     "strain": {"1": 1.0, "-": 1.0, "": 1.0, "mm/mm": 1.0, "m/m": 1.0, "%": 0.01, "pct": 0.01},
-    "stress": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3},
-    "load": {"n": 1.0, "kn": 1e3, "mn": 1e-3},
-    "extension": {"mm": 1.0, "m": 1e3, "um": 1e-3, "µm": 1e-3, "cm": 10.0},
-    "modulus": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3},
-    "pressure": {"pa": 1.0, "kpa": 1e3, "bar": 1e5, "mbar": 1e2, "mpa": 1e6, "psi": 6894.757293168},
-    "angle": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "°": 1.0, "rad": 180.0 / np.pi},
+    "stress": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "n/mm²": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3,
+               "psi": 6894.757293168e-6},
+    "load": {"n": 1.0, "kn": 1e3, "mn": 1e-3, "lbf": 4.4482216152605},
+    "extension": {"mm": 1.0, "m": 1e3, "um": 1e-3, "µm": 1e-3, "cm": 10.0, "in": 25.4},
+    "modulus": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "n/mm²": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3},
+    "pressure": {"pa": 1.0, "hpa": 1e2, "kpa": 1e3, "bar": 1e5, "mbar": 1e2, "mpa": 1e6, "psi": 6894.757293168},
+    "angle": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "°": 1.0, "rad": 180.0 / np.pi, "mrad": 0.18 / np.pi},
 }
+
+#: time units that are points in time (epoch), turned into seconds since the first sample
+EPOCH_UNITS = ("epoch_s", "epoch_ms", "unix_s", "unix_ms")
 
 #: header base names (lower case, spaces/underscores folded) -> quantity
 ALIASES = {
-    "time": "time", "t": "time", "zeit": "time",
+    "time": "time", "t": "time", "zeit": "time", "timestamp": "time", "time stamp": "time", "datetime": "time",
+    "date time": "time", "elapsed time": "time", "elapsed": "time",
     "strain": "strain", "eps": "strain", "epsilon": "strain", "tensile strain": "strain",
     "stress": "stress", "sigma": "stress", "tensile stress": "stress",
-    "load": "load", "force": "load",
+    "load": "load", "force": "load", "kraft": "load",
     "extension": "extension", "elongation": "extension", "displacement": "extension",
     "crosshead": "extension",
-    "modulus": "modulus", "e_relax": "modulus", "e relax": "modulus", "relaxation modulus": "modulus",
+    "modulus": "modulus", "e relax": "modulus", "relaxation modulus": "modulus",
     "e": "modulus", "e(t)": "modulus",
-    "pressure": "pressure", "p": "pressure",
-    "angle": "angle", "beta": "angle", "bending angle": "angle",
+    "pressure": "pressure", "p": "pressure", "druck": "pressure", "supply pressure": "pressure",
+    "angle": "angle", "beta": "angle", "bending angle": "angle", "theta": "angle", "bend angle": "angle",
+    "winkel": "angle", "biegewinkel": "angle",
 }
 
-_PAREN = re.compile(r"^(.*?)\s*[\(\[]\s*([^\)\]]*)\s*[\)\]]\s*$")
+#: how a user states the unit of each quantity on the command line (others: the config's io.units)
+UNIT_FLAGS = {"time": "--time-unit", "pressure": "--pressure-unit", "angle": "--angle-unit"}
+
+#: an example unit per quantity (messages)
+EXAMPLE_UNIT = {"time": "s", "pressure": "kPa", "angle": "deg", "stress": "MPa", "load": "N", "extension": "mm",
+                "modulus": "MPa", "strain": "1"}
+
+#: bpmid's name for each quantity in canonical unit (messages, ``--columns``)
+BPMID_NAME = {"time": "time_s", "pressure": "pressure_kpa", "angle": "angle_deg", "strain": "strain",
+              "stress": "stress_mpa", "load": "load_n", "extension": "extension_mm", "modulus": "modulus_mpa"}
+
+#: words in a column name that mark it as derived from a quantity, not the quantity itself
+#: (bpmid's own outputs: ``angle_pred_deg``, ``angle_ref_deg``; rigs: ``pressure_setpoint_bar``)
+DERIVED_WORDS = {"pred", "predicted", "model", "sim", "simulated", "ref", "reference", "cmd", "command",
+                 "setpoint", "set", "target", "residual", "error", "err", "fit", "filtered", "std", "sd"}
+
+_PAREN = re.compile(r"^(.*?)\s*[\(\[\{]\s*([^\)\]\}]*)\s*[\)\]\}]\s*$")
+_SLASH = re.compile(r"^(.*?\S)\s+(?:/|in)\s+(\S+)$")
+_PRESSURE_REF = re.compile(r"^(pa|hpa|kpa|mpa|mbar|bar|psi)(a|abs|absolute|g|gauge|gage|rel|relative)?$")
+_REF_WORDS = {"a": "absolute", "abs": "absolute", "absolute": "absolute", "g": "gauge", "gauge": "gauge",
+              "gage": "gauge", "rel": "gauge", "relative": "gauge"}
+_COMMA_NUM = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
+_DOT_NUM = re.compile(r"^[+-]?\d*\.\d+(?:[eE][+-]?\d+)?$")
+_CLOCK = re.compile(r"^\s*\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?\s*$")
+_SEP_LINE = re.compile(r'^\s*"?sep=(.)"?\s*$', re.IGNORECASE)
+_META = re.compile(r"^\s*([A-Za-z][\w \-./()]*?)\s*[:=]\s*(.*)$")
+_MAGIC_XLSX = b"PK\x03\x04"
+_MAGIC_OLE = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"
+_MAGIC_HDF5 = b"\x89HDF\r\n\x1a\n"
+_MAX_BYTES = 1 << 30
 
 
 @dataclasses.dataclass
 class Table:
-    """A CSV file's columns in canonical units.
+    """A log's columns in canonical units.
 
     Attributes
     ----------
     path : Path
     columns : dict quantity -> float array (canonical unit, see :data:`CANONICAL`)
-    units_in_file : dict quantity -> unit as written in the file (lower case)
+    units_in_file : dict quantity -> unit as stated (lower case)
     headers : dict quantity -> header text as written
-    meta : dict from ``# key: value`` lines
+    meta : dict from ``# key: value`` lines (keys lower case, spaces as underscores)
     first_data_line : 1-based line number of the first data row (for error messages)
+    lines : file line (text), sheet row (Excel) or sample number (MATLAB) of each data row
+    references : quantity -> pressure reference stated with the unit (``psig``, ``bar(a)``)
+    reading : what was read and assumed (format, encoding, separators, column units and where they came from)
+    warnings : things the user should know (gaps, ignored columns); printed and written by the commands
+    where : the file as named in messages (``log.xlsx[Sheet1]``)
     """
 
     path: Path
@@ -79,160 +139,964 @@ class Table:
     headers: dict[str, str]
     meta: dict[str, str]
     first_data_line: int
+    lines: np.ndarray | None = None
+    references: dict[str, str] = dataclasses.field(default_factory=dict)
+    reading: dict = dataclasses.field(default_factory=dict)
+    warnings: list[str] = dataclasses.field(default_factory=list)
+    where: str | None = None
 
     def has(self, quantity: str) -> bool:
         return quantity in self.columns
 
     def line_of(self, row: int) -> int:
         """File line number of data row ``row`` (0-based)."""
+        if self.lines is not None and 0 <= int(row) < len(self.lines):
+            return int(self.lines[int(row)])
         return self.first_data_line + int(row)
 
+    @property
+    def name(self) -> str:
+        return self.where or str(self.path)
 
+
+@dataclasses.dataclass
+class Grid:
+    """A table before its columns are understood: header, optional units row, cells column by column."""
+
+    header: list[str]
+    unit_row: list[str] | None
+    cols: list[list]
+    lines: list[int]
+    meta: dict[str, str]
+    where: str
+    header_line: int
+    info: dict
+
+
+# ---------------------------------------------------------------------------------------------------------
+# names and units
+# ---------------------------------------------------------------------------------------------------------
 def _norm(name: str) -> str:
-    return re.sub(r"[\s_]+", " ", name.strip().lower())
+    return re.sub(r"[\s_]+", " ", str(name).strip().lower()).strip()
+
+
+def meta_key(key: str) -> str:
+    """``'Pressure reference'`` -> ``'pressure_reference'`` (comment keys are case-insensitive)."""
+    return re.sub(r"[\s\-]+", "_", str(key).strip().lower())
+
+
+def _clean_unit(unit: str) -> str:
+    u = str(unit).strip().strip('"').strip().lower()
+    u = u.strip("()[]{} ")
+    return u.replace("°c", "degc")
+
+
+def split_unit(quantity: str, unit: str) -> tuple[str | None, str | None]:
+    """A unit spelling -> (unit known to :data:`UNITS`, pressure reference it carries or None).
+
+    ``'psig'`` -> ``('psi', 'gauge')``; ``'bar(a)'`` -> ``('bar', 'absolute')``; ``'kPa abs'`` ->
+    ``('kpa', 'absolute')``; an unknown spelling -> ``(None, None)``.
+    """
+    u = _clean_unit(unit)
+    if quantity == "angle" and u in ("°", "grad", "deg."):
+        return "deg", None
+    if quantity == "time" and u in ("iso", "iso8601", "iso-8601", "datetime"):
+        return "iso8601", None
+    if quantity == "time" and u in ("epoch", "unix", "posix", "epoch s", "unix s"):
+        return "epoch_s", None
+    if quantity == "time" and u in ("epoch ms", "unix ms"):
+        return "epoch_ms", None
+    if u in UNITS[quantity]:
+        return u, None
+    if quantity == "pressure":
+        m = _PRESSURE_REF.match(re.sub(r"[\s()\[\]._\-]+", "", u))
+        if m:
+            return m.group(1), (_REF_WORDS[m.group(2)] if m.group(2) else None)
+    return None, None
+
+
+def _unit_part(name: str) -> tuple[str, str | None]:
+    """``'Time (s)'`` -> ``('time', 's')``, ``'p / bar'`` -> ``('p', 'bar')``; else (name, None)."""
+    raw = str(name).strip().strip('"').strip()
+    m = _PAREN.match(raw)
+    if m and m.group(1).strip():
+        return m.group(1), m.group(2).strip()
+    m = _SLASH.match(raw)
+    if m:
+        return m.group(1), m.group(2).strip()
+    return raw, None
 
 
 def parse_header(name: str, unit_row: str | None = None) -> tuple[str | None, str | None]:
     """``'Time (s)'`` -> ``('time', 's')``; ``'pressure_kpa'`` -> ``('pressure', 'kpa')``.
 
-    Returns (None, None) for a column bpmid does not know (it is ignored).
+    The unit is ``None`` when the name states none (the caller decides whether that is allowed).
+    Returns (None, None) for a column bpmid does not know.
     """
-    raw = name.strip().strip('"')
-    unit = None
-    m = _PAREN.match(raw)
-    if m:
-        raw, unit = m.group(1), m.group(2).strip().lower()
+    q, unit, _ref, _derived = _parse(name, unit_row)
+    return q, unit
+
+
+def _parse(name: str, unit_row: str | None = None):
+    """(quantity, unit or None, reference or None, derived) of a header; quantity None if unknown.
+
+    ``unit`` is the spelling as written (lower case) when it is not one bpmid knows, so that the caller can say
+    "unknown unit"."""
+    raw, unit = _unit_part(name)
     base = _norm(raw)
-    if unit_row is not None and unit is None:
-        unit = unit_row.strip().lower()
+    if base not in ALIASES and "." in base and _norm(base.rsplit(".", 1)[1]):
+        base = _norm(base.rsplit(".", 1)[1])  # a MATLAB struct field: run.t -> t
+    if unit is None and unit_row is not None and unit_row.strip():
+        unit = unit_row.strip()
     if base in ALIASES:
-        return ALIASES[base], unit
-    # suffix form: time_s, pressure_kpa, stress_mpa, angle_deg, load_n ...
-    parts = base.rsplit(" ", 1)
-    if len(parts) == 2 and _norm(parts[0]) in ALIASES:
-        q = ALIASES[_norm(parts[0])]
-        suf = parts[1]
-        if suf in UNITS[q] or unit is None:
-            return q, (suf if unit is None else unit)
-    return None, None
+        q = ALIASES[base]
+        return (q,) + _unit_ref(q, unit) + (False,)
+    words = base.split(" ")
+    # suffix forms: time_s, pressure_kpa, angle_deg, pressure_bar_abs, pressure_kpa_g, theta_rad
+    for cut in (1, 2):
+        if len(words) > cut and " ".join(words[:-cut]) in ALIASES:
+            q = ALIASES[" ".join(words[:-cut])]
+            suffix = " ".join(words[-cut:])
+            u, ref = split_unit(q, suffix)
+            if u is not None:
+                if unit is not None:  # 'pressure_kpa (bar)': the name and the parentheses disagree or repeat
+                    u2, ref2 = _unit_ref(q, unit)
+                    if u2 != u:
+                        return q, f"conflict:{suffix}|{unit}", None, False
+                return q, u, ref, False
+    # derived columns: angle_pred_deg, pressure_setpoint_bar (named by a quantity plus a qualifier word)
+    if len(words) >= 2 and words[0] in ALIASES and any(w in DERIVED_WORDS for w in words[1:]):
+        return None, None, None, True
+    if unit is None and len(words) == 2 and words[0] in ALIASES:
+        # 'pressure psx': a suffix that is no unit bpmid knows
+        q = ALIASES[words[0]]
+        return q, words[1], None, False
+    return None, None, None, False
 
 
-def _is_number(s: str) -> bool:
+def _unit_ref(q: str, unit: str | None) -> tuple[str | None, str | None]:
+    if unit is None:
+        return None, None
+    u, ref = split_unit(q, unit)
+    if u is None:
+        return _clean_unit(unit), None
+    return u, ref
+
+
+def _unit_quantities(name: str) -> list[str]:
+    """Quantities whose units the name's suffix or parentheses carry (``theta_deg`` -> ``['angle']``)."""
+    raw, unit = _unit_part(name)
+    if unit is None:
+        words = _norm(raw).split(" ")
+        if len(words) < 2:
+            return []
+        unit = words[-1]
+    return [q for q in ("pressure", "angle", "time", "stress", "load", "extension") if split_unit(q, unit)[0]
+            and _clean_unit(unit) not in ("", "-", "1", "m", "in")]
+
+
+def _is_number(s: Any) -> bool:
+    if isinstance(s, bool):
+        return False
+    if isinstance(s, (int, float, np.number)):
+        return True
     try:
-        float(s)
+        float(str(s).strip().replace(",", "."))
         return True
     except ValueError:
         return False
 
 
+def unit_hint(q: str, header: str | None = None) -> str:
+    """The ways to state the unit of quantity ``q`` (for messages)."""
+    ex = EXAMPLE_UNIT.get(q, "unit")
+    col = header or q
+    ways = [f"in the header ({BPMID_NAME.get(q, q).split('_')[0]}_{ex.lower()} or '{col} ({ex})')",
+            f"a units row under the header ({ex})"]
+    if q in UNIT_FLAGS:
+        ways.append(f"the flag {UNIT_FLAGS[q]} {ex} (config: io.units: {{{q}: {ex}}})")
+    else:
+        ways.append(f"the config (io.units: {{{q}: {ex}}}) or a line '# {q}_unit: {ex}'")
+    return "; ".join(f"({i + 1}) {w}" for i, w in enumerate(ways))
+
+
+# ---------------------------------------------------------------------------------------------------------
+# raw grids: text, Excel, MATLAB
+# ---------------------------------------------------------------------------------------------------------
+def _decode(data: bytes, where: str) -> tuple[str, str]:
+    """Bytes -> text and the encoding used (BOM, UTF-16 without BOM, UTF-8, else cp1252/Latin-1)."""
+    if data.startswith(b"\xef\xbb\xbf"):
+        enc = "utf-8-sig"
+    elif data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        enc = "utf-16"
+    else:
+        head = data[:4000]
+        even, odd = head[0::2], head[1::2]
+        if len(head) >= 4 and odd.count(0) > 0.4 * len(odd) and even.count(0) < 0.1 * len(even):
+            enc = "utf-16-le"
+        elif len(head) >= 4 and even.count(0) > 0.4 * len(even) and odd.count(0) < 0.1 * len(odd):
+            enc = "utf-16-be"
+        else:
+            enc = None
+    if enc is not None:
+        try:
+            return data.decode(enc), enc.replace("-sig", " with BOM")
+        except UnicodeDecodeError:
+            raise InputError(f"not a readable text table: it starts like {enc} but does not decode as such",
+                             path=where) from None
+    if b"\x00" in data:
+        raise InputError("not a text table (binary data): bpmid reads CSV/TSV/text, Excel (.xlsx, .xls) and MATLAB "
+                         "(.mat) files; export the log as one of those", path=where)
+    try:
+        return data.decode("utf-8"), "utf-8"
+    except UnicodeDecodeError:
+        pass
+    try:
+        return data.decode("cp1252"), "cp1252"
+    except UnicodeDecodeError:
+        return data.decode("latin-1"), "latin-1"
+
+
+def _split_ws(line: str) -> list[str]:
+    toks = line.split()
+    out: list[str] = []
+    for tok in toks:  # 'Time (s)' written with spaces: a unit in brackets belongs to the name before it
+        if out and tok[:1] in "([{" and not _is_number(tok):
+            out[-1] += " " + tok
+        else:
+            out.append(tok)
+    return out
+
+
+def _choose_delimiter(header: str, sample: Sequence[str]) -> str | None:
+    """The separator of a text table: the header's most frequent of tab ; , | (None: whitespace)."""
+    counts = {d: header.count(d) for d in ("\t", ";", ",", "|")}
+    best = max(counts, key=lambda d: counts[d])
+    if counts[best] == 0:
+        return None
+    if best == "," and counts[";"] == 0 and counts["\t"] == 0:
+        return ","
+    # a tie ("a;b,c"): prefer the one the data rows repeat as often as the header
+    tied = [d for d in ("\t", ";", ",", "|") if counts[d] == counts[best]]
+    if len(tied) > 1 and sample:
+        for d in tied:
+            if all(s.count(d) == counts[d] for s in sample):
+                return d
+    return tied[0]
+
+
+def _is_comment(line: str) -> bool:
+    s = line.lstrip()
+    return s.startswith("#") or s.startswith("%") or s.startswith("//")
+
+
+def _meta_from_line(body: str, meta: dict) -> None:
+    m = _META.match(body)
+    if m:
+        meta[meta_key(m.group(1))] = m.group(2).strip()
+
+
+def _text_grid(data: bytes, where: str) -> Grid:
+    text, enc = _decode(data, where)
+    lines = re.split(r"\r\n|\r|\n", text)
+    meta: dict[str, str] = {}
+    i = 0
+    delim_hint = None
+    while i < len(lines):
+        s = lines[i].strip().lstrip("\ufeff")
+        if not s:
+            i += 1
+            continue
+        m = _SEP_LINE.match(s)
+        if m:
+            delim_hint = m.group(1)
+            i += 1
+            continue
+        if _is_comment(s):
+            _meta_from_line(s.lstrip("#%/ ").strip(), meta)
+            i += 1
+            continue
+        h = _find_header(lines, i, delim_hint)
+        if h > i:
+            # title or 'key: value' lines above the header (instrument exports): metadata
+            for ln in lines[i:h]:
+                t = ln.strip()
+                if not t or _is_comment(t):
+                    continue
+                if _META.match(t):
+                    _meta_from_line(t, meta)
+                else:
+                    meta.setdefault("title", t)
+            i = h
+        break
+    if i >= len(lines):
+        raise InputError("empty log: no header row (expected column names such as time_s)", path=where)
+    header_line = i + 1
+    header_text = lines[i].lstrip("\ufeff")
+    body = [(k + 1, ln) for k, ln in enumerate(lines[i + 1:], start=i + 1) if ln.strip() and not _is_comment(ln)]
+    delim = delim_hint if delim_hint is not None else _choose_delimiter(header_text, [ln for _, ln in body[:5]])
+    if delim is None:
+        split = _split_ws
+        info_delim = "whitespace"
+    else:
+        def split(line: str, _d=delim) -> list[str]:
+            if '"' not in line:
+                return line.split(_d)
+            try:
+                return next(csv.reader([line], delimiter=_d))
+            except (csv.Error, StopIteration):
+                return line.split(_d)
+        info_delim = {"\t": "tab", ",": "comma", ";": "semicolon", "|": "pipe"}.get(delim, repr(delim))
+    header = [h.strip().strip('"').strip() for h in split(header_text)]
+    if not any(header):
+        raise InputError("the header row is empty", path=where, line=header_line)
+    if all(_is_number(h) for h in header if h):
+        raise InputError("the log has no header row (expected column names such as time_s, pressure_kpa, "
+                         "angle_deg)", path=where, line=header_line)
+    rows: list[list[str]] = []
+    row_lines: list[int] = []
+    for ln_no, ln in body:
+        cells = [c.strip() for c in split(ln)]
+        if len(cells) != len(header):
+            hint = ""
+            if delim == "," and any(_COMMA_NUM.match(f"{a},{b}") for a, b in zip(cells, cells[1:])):
+                hint = ("; a decimal comma in a comma-separated file? Export with a point as the decimal "
+                        "separator, or separate the columns with ';'")
+            elif len(cells) > len(header):
+                hint = "; a decimal comma or a separator inside a cell? Quote such cells or export again"
+            raise InputError(f"row has {len(cells)} fields, the header has {len(header)}{hint}", path=where,
+                             line=ln_no)
+        rows.append(cells)
+        row_lines.append(ln_no)
+    unit_row = None
+    if rows and not any(_is_number(c) for c in rows[0] if c) and any(rows[0]) and not _looks_like_time(rows[0]):
+        unit_row = rows[0]
+        rows, row_lines = rows[1:], row_lines[1:]
+    # decimal separator: a comma only where the columns are not comma-separated, and never mixed with points
+    decimal = "."
+    if delim != "," and any("," in ln for _, ln in body):
+        first_comma = next(((r, c) for r, row in enumerate(rows) for c in row if _COMMA_NUM.match(c)), None)
+        if first_comma is not None:
+            decimal = ","
+            dot = next(((r, c) for r, row in enumerate(rows) for c in row if "." in c and _DOT_NUM.match(c)), None)
+            if dot is not None:
+                raise InputError(f"mixed decimal separators: {first_comma[1]!r} (line {row_lines[first_comma[0]]}) "
+                                 f"and {dot[1]!r}; export the log with one decimal separator", path=where,
+                                 line=row_lines[dot[0]])
+            rows = [[c.replace(",", ".") for c in row] for row in rows]  # text cells are never used as numbers
+    cols = [list(c) for c in zip(*rows)] if rows else [[] for _ in header]
+    info = {"format": "text", "encoding": enc, "delimiter": info_delim, "decimal": "comma" if decimal == "," else
+            "point"}
+    return Grid(header, unit_row, cols, row_lines, meta, where, header_line, info)
+
+
+def _fields(line: str, delim: str | None) -> list[str]:
+    if delim is None:
+        return _split_ws(line)
+    try:
+        return next(csv.reader([line], delimiter=delim))
+    except (csv.Error, StopIteration):
+        return line.split(delim)
+
+
+def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int = 30) -> int:
+    """The header's index: the first line (from ``start``, within ``look`` lines) whose next lines have its number
+    of fields, at least two, with a number among them. ``start`` when none does (its errors are then reported)."""
+    cand = [k for k in range(start, min(len(lines), start + look)) if lines[k].strip() and not _is_comment(lines[k])]
+    for n, k in enumerate(cand):
+        nxt = [lines[j] for j in cand[n + 1:n + 4]]
+        if not nxt:
+            break
+        delim = delim_hint if delim_hint is not None else _choose_delimiter(lines[k], nxt)
+        head = _fields(lines[k], delim)
+        width = len(head)
+        if width < 2 or any(_is_number(c) for c in head if c.strip()) or _looks_like_time(head):
+            continue  # a header names its columns: no numbers, no timestamps
+        rows = [_fields(ln, delim) for ln in nxt]
+        if all(len(r) == width for r in rows) and any(_is_number(c) for r in rows for c in r if c.strip()):
+            return k
+    return start
+
+
+def _looks_like_time(row: Sequence[str]) -> bool:
+    return any(re.match(r"^\d{4}-\d{2}-\d{2}", str(c)) or _CLOCK.match(str(c)) for c in row)
+
+
+def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
+    """A grid from spreadsheet rows (values: str, float, int, datetime, None); row numbers are 1-based."""
+    meta: dict[str, str] = {}
+    k = 0
+    while k < len(rows):
+        vals = [v for v in rows[k] if v is not None and str(v).strip() != ""]
+        if not vals:
+            k += 1
+            continue
+        if len(vals) == 1 and isinstance(vals[0], str):
+            # one text cell above the header: a comment, a 'key: value' line or a title (a log has two columns
+            # at least, so it is never the header)
+            body = vals[0].lstrip("#% ").strip()
+            if _META.match(body):
+                _meta_from_line(body, meta)
+            else:
+                meta.setdefault("title", body)
+            k += 1
+            continue
+        if all(isinstance(v, str) and _is_comment(v) for v in vals):
+            k += 1
+            continue
+        break
+    if k >= len(rows):
+        raise InputError("empty sheet: no header row", path=where)
+    hdr = list(rows[k])
+    while hdr and (hdr[-1] is None or str(hdr[-1]).strip() == ""):
+        hdr.pop()
+    header = ["" if h is None else str(h).strip() for h in hdr]
+    header_line = k + 1
+    if all(_is_number(h) for h in hdr if h is not None and str(h).strip()):
+        raise InputError("the sheet has no header row (expected column names such as time_s)", path=where,
+                         line=header_line)
+    width = len(header)
+    data, lines = [], []
+    for r in range(k + 1, len(rows)):
+        row = list(rows[r])
+        if all(v is None or str(v).strip() == "" for v in row):
+            continue
+        if isinstance(row[0], str) and _is_comment(row[0]) and all(v is None for v in row[1:]):
+            continue
+        extra = [v for v in row[width:] if v is not None and str(v).strip() != ""]
+        if extra:
+            raise InputError(f"row has a value beyond the header's {width} columns ({extra[0]!r})", path=where,
+                             line=r + 1)
+        row = (row + [None] * width)[:width]
+        data.append(["" if v is None else (v.strip() if isinstance(v, str) else v) for v in row])
+        lines.append(r + 1)
+    unit_row = None
+    if data and all(isinstance(v, str) for v in data[0]) and not any(_is_number(v) for v in data[0] if v) \
+            and any(data[0]) and not _looks_like_time(data[0]):
+        unit_row = [str(v) for v in data[0]]
+        data, lines = data[1:], lines[1:]
+    cols = [list(c) for c in zip(*data)] if data else [[] for _ in header]
+    return Grid(header, unit_row, cols, lines, meta, where, header_line, info)
+
+
+def _xlsx_sheets(path: Path, data: bytes) -> dict[str, list[list]]:
+    try:
+        import openpyxl
+    except ImportError:
+        raise InputError("reading .xlsx needs openpyxl (a bpmid dependency): pip install openpyxl",
+                         path=path) from None
+    try:
+        wb = openpyxl.load_workbook(io.BytesIO(data), read_only=True, data_only=True)
+        try:
+            return {ws.title: [list(r) for r in ws.iter_rows(values_only=True)] for ws in wb.worksheets}
+        finally:
+            wb.close()
+    except InputError:
+        raise
+    except Exception as exc:  # a broken zip or workbook: the library's words, as bad input
+        raise InputError(f"not a readable Excel workbook ({type(exc).__name__}: {exc})", path=path) from None
+
+
+def _xls_sheets(path: Path, data: bytes) -> dict[str, list[list]]:
+    try:
+        import xlrd
+    except ImportError:
+        raise InputError("reading legacy .xls needs xlrd (a bpmid dependency): pip install xlrd",
+                         path=path) from None
+    try:
+        book = xlrd.open_workbook(file_contents=data)
+        out = {}
+        for sh in book.sheets():
+            rows = []
+            for r in range(sh.nrows):
+                row = []
+                for c in range(sh.ncols):
+                    cell = sh.cell(r, c)
+                    if cell.ctype == xlrd.XL_CELL_DATE:
+                        row.append(xlrd.xldate.xldate_as_datetime(cell.value, book.datemode))
+                    elif cell.ctype in (xlrd.XL_CELL_EMPTY, xlrd.XL_CELL_BLANK):
+                        row.append(None)
+                    elif cell.ctype == xlrd.XL_CELL_ERROR:
+                        row.append("#ERROR")
+                    else:
+                        row.append(cell.value)
+                rows.append(row)
+            out[sh.name] = rows
+        return out
+    except InputError:
+        raise
+    except Exception as exc:
+        raise InputError(f"not a readable .xls workbook ({type(exc).__name__}: {exc})", path=path) from None
+
+
+def _mat_vectors(path: Path, data: bytes, kind: str) -> tuple[dict[str, np.ndarray], dict[str, str], str]:
+    """Numeric vectors (name -> 1-D array) and char variables (metadata) of a MATLAB file."""
+    vectors: dict[str, np.ndarray] = {}
+    meta: dict[str, str] = {}
+
+    def add(name: str, val) -> None:
+        if isinstance(val, str):
+            meta[meta_key(name)] = val.strip()
+            return
+        if isinstance(val, dict):
+            for k, v in val.items():
+                add(f"{name}.{k}", v)
+            return
+        arr = np.asarray(val)
+        if arr.dtype.kind in "U S":
+            if arr.size == 1:
+                meta[meta_key(name)] = str(arr.reshape(-1)[0]).strip()
+            return
+        if arr.dtype.kind not in "fiub" or arr.size < 1:
+            return
+        arr = np.squeeze(arr)
+        if arr.ndim == 1:
+            vectors[name] = arr.astype(float)
+        elif arr.ndim == 2:
+            n = max(arr.shape)
+            if arr.shape[0] != n:
+                arr = arr.T
+            for j in range(arr.shape[1]):
+                vectors[f"{name}(:,{j + 1})"] = arr[:, j].astype(float)
+
+    if data[512:520] == _MAGIC_HDF5 or data.startswith(_MAGIC_HDF5):
+        try:
+            import h5py
+        except ImportError:
+            raise InputError("reading MATLAB v7.3 files needs h5py: pip install 'bpmid[formats]' (or pip install "
+                             "h5py)", path=path) from None
+        try:
+            with h5py.File(io.BytesIO(data), "r") as f:
+                def visit(name, obj):
+                    if not isinstance(obj, h5py.Dataset) or name.startswith("#"):
+                        return
+                    cls = obj.attrs.get("MATLAB_class", b"")
+                    cls = cls.decode() if isinstance(cls, bytes) else str(cls)
+                    val = obj[()]
+                    if cls == "char":
+                        add(name.replace("/", "."), "".join(chr(int(c)) for c in np.ravel(val, order="F")))
+                    elif np.ndim(val) >= 1:
+                        add(name.replace("/", "."), np.asarray(val).T)
+                f.visititems(visit)
+        except InputError:
+            raise
+        except Exception as exc:
+            raise InputError(f"not a readable MATLAB v7.3 (HDF5) file ({type(exc).__name__}: {exc})",
+                             path=path) from None
+        return vectors, meta, "matlab v7.3 (HDF5, h5py)"
+    try:
+        import scipy.io
+    except ImportError:  # pragma: no cover - scipy is a core dependency
+        raise InputError("reading .mat needs scipy", path=path) from None
+    try:
+        mat = scipy.io.loadmat(io.BytesIO(data), squeeze_me=True, simplify_cells=True)
+    except Exception as exc:
+        raise InputError(f"not a readable MATLAB file ({type(exc).__name__}: {exc})", path=path) from None
+    for k, v in mat.items():
+        if not k.startswith("__"):
+            add(k, v)
+    return vectors, meta, "matlab v5 (scipy.io)"
+
+
+def _mat_grid(path: Path, data: bytes, kind: str) -> Grid:
+    vectors, meta, fmt = _mat_vectors(path, data, kind)
+    if not vectors:
+        raise InputError(f"no numeric vectors in this MATLAB file (a {kind} needs time, pressure, ... as "
+                         f"variables; MATLAB table or timeseries objects cannot be read: save plain vectors, e.g. "
+                         f"s = table2struct(T, 'ToScalar', true); save('log.mat', '-struct', 's'))", path=path)
+    header = list(vectors)
+    cols = [list(v) for v in vectors.values()]
+    n = max(len(c) for c in cols)
+    return Grid(header, None, cols, list(range(1, n + 1)), meta, str(path), 0,
+                {"format": fmt, "rows": "sample numbers (1-based) stand for lines in messages"})
+
+
+def _file_kind(path: Path, data: bytes) -> str:
+    suffix = path.suffix.lower()
+    if data.startswith(_MAGIC_XLSX) and suffix not in (".csv", ".txt", ".tsv", ".dat"):
+        return "xlsx"
+    if data.startswith(_MAGIC_OLE):
+        return "xls"
+    if data.startswith(b"MATLAB") or data[512:520] == _MAGIC_HDF5 or data.startswith(_MAGIC_HDF5):
+        return "mat"
+    if suffix == ".mat":
+        return "mat"
+    if suffix in (".xlsx", ".xlsm"):
+        return "xlsx"
+    if suffix == ".xls":
+        return "xls"
+    return "text"
+
+
+# ---------------------------------------------------------------------------------------------------------
+# columns
+# ---------------------------------------------------------------------------------------------------------
+def _column_map(column_map: Mapping[str, str] | None) -> dict[str, str]:
+    return {_norm(k): str(v) for k, v in (column_map or {}).items()}
+
+
+def _resolve(grid: Grid, cmap: dict[str, str], units: Mapping[str, str], unit_sources: Mapping[str, str],
+             wanted: Sequence[str]) -> tuple[dict, list, list]:
+    """quantity -> list of (column index, unit, header, unit_from, reference); derived and unknown columns."""
+    found: dict[str, list] = {}
+    ignored, unknown = [], []
+    used_keys = set()
+    for j, h in enumerate(grid.header):
+        if not h:
+            continue
+        ur = grid.unit_row[j] if grid.unit_row is not None and j < len(grid.unit_row) else None
+        mapped = cmap.get(_norm(h))
+        if mapped is not None:
+            used_keys.add(_norm(h))
+            q, unit, ref, derived = _parse(mapped, None)
+            if q is None:
+                raise InputError(f"the column map sends {h!r} to {mapped!r}, which is no bpmid column (known: "
+                                 f"{', '.join(sorted(set(ALIASES.values())))}, optionally with a unit: time_s, "
+                                 f"pressure_kpa)", path=grid.where, key=h)
+            if unit is None:
+                _raw, unit_h = _unit_part(h)
+                words = _norm(_raw).split(" ")
+                if unit_h is None and len(words) > 1 and split_unit(q, words[-1])[0] is not None:
+                    unit_h = words[-1]  # tilt_deg mapped to angle: the unit is the name's suffix
+                if unit_h is None and ur:
+                    unit_h = ur
+                if unit_h is not None:
+                    unit, ref = _unit_ref(q, unit_h)
+                    unit_from = "header" if ur is None or _unit_part(h)[1] is not None else "units row"
+                else:
+                    unit_from = None
+            else:
+                unit_from = "column map"
+        else:
+            q, unit, ref, derived = _parse(h, ur)
+            if q is None:
+                (ignored if derived else unknown).append(h)
+                continue
+            unit_from = None if unit is None else ("header" if _parse(h, None)[1] is not None else "units row")
+        found.setdefault(q, []).append([j, unit, h, unit_from, ref])
+    # map entries for columns this file does not have are fine (one map serves files with different headers);
+    # they are named when a needed column is then missing
+    grid.info["unmatched_map"] = [k for k in cmap if k not in used_keys]
+    return found, ignored, unknown
+
+
+def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tuple[np.ndarray, str]:
+    """ISO-8601 strings or datetimes -> seconds since the first, and the first as ISO text."""
+    import datetime as _dt
+
+    import pandas as pd
+
+    texts = []
+    for v in values:
+        if isinstance(v, (_dt.datetime, _dt.time)):
+            texts.append(v.isoformat())
+        else:
+            texts.append(str(v).strip())
+    if texts and all(_CLOCK.match(x) for x in texts):  # clock times of one day: 09:30:01.250
+        td = pd.to_timedelta(pd.Series([x.replace(",", ".") for x in texts]), errors="coerce")
+        bad = np.flatnonzero(td.isna().to_numpy())
+        if bad.size:
+            k = int(bad[0])
+            raise InputError(f"column {header!r}: {texts[k]!r} is not a clock time (hh:mm:ss.fff)", path=where,
+                             line=lines[k] if k < len(lines) else None)
+        return (td - td.iloc[0]).dt.total_seconds().to_numpy(dtype=float), f"clock time {texts[0]}"
+    try:
+        ts = pd.to_datetime(pd.Series(texts), format="ISO8601", utc=True, errors="coerce")
+    except (ValueError, TypeError):
+        ts = pd.to_datetime(pd.Series(texts), utc=True, errors="coerce")
+    bad = np.flatnonzero(ts.isna().to_numpy())
+    if bad.size:
+        k = int(bad[0])
+        raise InputError(f"column {header!r}: {texts[k]!r} is neither a number nor an ISO-8601 timestamp "
+                         f"(2024-05-01T12:00:00.125)", path=where, line=lines[k] if k < len(lines) else None)
+    secs = (ts - ts.iloc[0]).dt.total_seconds().to_numpy(dtype=float)
+    return secs, ts.iloc[0].isoformat()
+
+
+def _numbers(values: list, where: str, header: str, lines: list[int]) -> np.ndarray:
+    if not any(type(v) is bool for v in values):  # Excel TRUE/FALSE cells are not numbers
+        # the fast path: every cell a number (numpy parses the strings); NaN, inf, empty: the loop below names the line
+        try:
+            out = np.array(values, dtype=float)
+            if out.ndim == 1 and np.all(np.isfinite(out)):
+                return out
+        except (ValueError, TypeError, OverflowError):
+            pass
+    out = np.empty(len(values))
+    for r, v in enumerate(values):
+        if isinstance(v, bool) or v is None:
+            v = "" if v is None else str(v)
+        if isinstance(v, (int, float, np.number)):
+            x = float(v)
+        else:
+            cell = str(v).strip()
+            try:
+                x = float(cell)
+            except ValueError:
+                what = "an empty cell" if not cell else f"{cell!r} is not a number"
+                raise InputError(f"column {header!r}: {what}", path=where,
+                                 line=lines[r] if r < len(lines) else None) from None
+        if not np.isfinite(x):
+            raise InputError(f"column {header!r}: {v!r} (NaN or infinite values are not allowed)", path=where,
+                             line=lines[r] if r < len(lines) else None)
+        out[r] = x
+    return out
+
+
 def read_table(path: str | Path, *, column_map: Mapping[str, str] | None = None,
-               required: tuple[str, ...] = (), kind: str = "log") -> Table:
-    """Read a CSV log into a :class:`Table`.
+               required: tuple[str, ...] = (), optional: tuple[str, ...] = (), kind: str = "log",
+               units: Mapping[str, str] | None = None, unit_sources: Mapping[str, str] | None = None,
+               sheet: str | None = None) -> Table:
+    """Read a log (text, Excel or MATLAB) into a :class:`Table`.
 
     Parameters
     ----------
     path : the file
-    column_map : file header -> bpmid name (``{"Zeit": "time_s"}``), from the config
+    column_map : file header (or MATLAB variable) -> bpmid name (``{"Zeit": "time_s"}``, ``{"Druck": "pressure"}``)
     required : quantities that must be present (checked here so the message names them)
+    optional : quantities the caller uses when present (an unknown column whose unit says it could be one of
+        these is refused rather than ignored: ``tilt_deg`` when there is no angle column)
     kind : words for messages ("relaxation log", "motion log")
+    units : quantity -> unit for columns whose name states none (flags or config ``io.units``)
+    unit_sources : quantity -> where ``units`` came from, for messages (``--pressure-unit``)
+    sheet : Excel sheet name (default: the one sheet with the required columns)
     """
     path = Path(path)
     if not path.is_file():
         raise InputError("file not found", path=path)
     try:
-        text = path.read_text("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise InputError("not a UTF-8 text file", path=path) from exc
-    lines = text.splitlines()
-    meta: dict[str, str] = {}
-    i = 0
-    while i < len(lines) and (lines[i].lstrip().startswith("#") or not lines[i].strip()):
-        body = lines[i].lstrip().lstrip("#").strip()
-        if ":" in body:
-            k, v = body.split(":", 1)
-            meta[k.strip().lower()] = v.strip()
-        i += 1
-    if i >= len(lines):
-        raise InputError(f"empty {kind}: no header row", path=path)
-    dialect_delim = "\t" if "\t" in lines[i] and "," not in lines[i] else (";" if ";" in lines[i] and "," not in lines[i] else ",")
-    rows = list(csv.reader(io.StringIO("\n".join(lines[i:])), delimiter=dialect_delim))
-    header = [h.strip() for h in rows[0]]
-    header_line = i + 1
-    if header and all(_is_number(h) for h in header if h):
-        raise InputError(f"{kind} has no header row (expected column names such as time_s)", path=path,
-                         line=header_line)
-    data_rows = rows[1:]
-    unit_row = None
-    if data_rows and data_rows[0] and not any(_is_number(c) for c in data_rows[0] if c.strip()):
-        unit_row = [c.strip() for c in data_rows[0]]
-        data_rows = data_rows[1:]
-    first_data_line = header_line + (2 if unit_row is not None else 1)
-    cmap = {str(k).strip(): str(v) for k, v in (column_map or {}).items()}
-    index: dict[str, tuple[int, str, str]] = {}
-    for j, h in enumerate(header):
-        name = cmap.get(h, h)
-        q, unit = parse_header(name, unit_row[j] if unit_row is not None and j < len(unit_row) else None)
-        if q is None:
-            continue
-        if q in index:
-            raise InputError(f"two columns give {q}: {header[index[q][0]]!r} and {h!r}", path=path,
-                             line=header_line, key=h)
-        if unit is None:
-            unit = CANONICAL[q].lower()
-        if unit not in UNITS[q]:
-            raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(sorted(k for k in UNITS[q] if k))})",
-                             path=path, line=header_line, key=h)
-        index[q] = (j, unit, h)
-    missing = [q for q in required if q not in index]
-    if missing:
-        found = ", ".join(repr(h) for h in header)
-        raise InputError(f"missing column for {missing[0]} (found columns: {found})", path=path,
-                         line=header_line, key=missing[0])
-    data_rows = [r for r in data_rows if any(c.strip() for c in r)]
-    if not data_rows:
-        raise InputError(f"empty {kind}: a header but no data rows", path=path, line=header_line)
-    columns, units, headers = {}, {}, {}
-    for q, (j, unit, h) in index.items():
-        vals = np.empty(len(data_rows))
-        for r, row in enumerate(data_rows):
-            cell = row[j].strip() if j < len(row) else ""
+        size = path.stat().st_size
+        if size > _MAX_BYTES:
+            raise InputError(f"file of {size / 2 ** 30:.1f} GiB is larger than bpmid reads (1 GiB)", path=path)
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(f"cannot read the file ({exc.strerror or exc})", path=path) from None
+    if not data.strip():
+        raise InputError(f"empty {kind}: the file has no content", path=path)
+    fkind = _file_kind(path, data)
+    units = {str(k): str(v) for k, v in (units or {}).items()}
+    unit_sources = dict(unit_sources or {})
+    cmap = _column_map(column_map)
+    if fkind in ("xlsx", "xls"):
+        sheets = _xlsx_sheets(path, data) if fkind == "xlsx" else _xls_sheets(path, data)
+        info = {"format": "excel .xlsx (openpyxl)" if fkind == "xlsx" else "excel .xls (xlrd)"}
+        if sheet is not None:
+            if sheet not in sheets:
+                raise InputError(f"no sheet {sheet!r} (sheets: {', '.join(repr(s) for s in sheets)})", path=path,
+                                 key="--sheet")
+            names = [sheet]
+        else:
+            names = list(sheets)
+        candidates, errors = [], []
+        for name in names:
+            where = f"{path}[{name}]"
             try:
-                v = float(cell)
-            except ValueError:
-                raise InputError(f"column {h!r}: {cell!r} is not a number", path=path,
-                                 line=first_data_line + r) from None
-            if not np.isfinite(v):
-                raise InputError(f"column {h!r}: {cell!r} (NaN or infinite values are not allowed)",
-                                 path=path, line=first_data_line + r)
-            vals[r] = v
-        columns[q] = vals * UNITS[q][unit]
-        units[q] = unit
+                grid = _sheet_grid(sheets[name], where, dict(info, sheet=name))
+                table = _build(path, grid, cmap, units, unit_sources, required, optional, kind)
+            except InputError as exc:
+                if len(names) == 1:
+                    raise
+                errors.append((name, exc))
+                continue
+            candidates.append(table)
+        if not candidates:
+            detail = "; ".join(f"{n!r}: {e.message}" for n, e in errors)
+            raise InputError(f"no sheet holds a {kind} ({detail}); name the sheet with --sheet NAME", path=path)
+        if len(candidates) > 1:
+            names_txt = ", ".join(repr(t.reading["sheet"]) for t in candidates)
+            raise InputError(f"several sheets hold a {kind} ({names_txt}); "
+                             f"choose one with --sheet NAME (config io.sheet)", path=path, key="--sheet")
+        return candidates[0]
+    # a sheet name means nothing for a text or MATLAB file: not an error (one --sheet serves a batch of files)
+    grid = _mat_grid(path, data, kind) if fkind == "mat" else _text_grid(data, str(path))
+    return _build(path, grid, cmap, units, unit_sources, required, optional, kind)
+
+
+def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional, kind) -> Table:
+    where = grid.where
+    hline = grid.header_line or None
+    found, ignored, unknown = _resolve(grid, cmap, units, unit_sources, tuple(required) + tuple(optional))
+    meta = dict(grid.meta)
+    wanted = tuple(required) + tuple(q for q in optional if q not in required)
+    # a column that could be a wanted quantity by its unit but whose name bpmid does not know: refuse, never ignore
+    for q in wanted:
+        if q in found:
+            continue
+        cands = [h for h in unknown if q in _unit_quantities(h)]
+        if cands:
+            h = cands[0]
+            um = grid.info.get("unmatched_map") or []
+            note = f"; the column map names {', '.join(repr(k) for k in um)}, not a column of this file" if um else ""
+            raise InputError(f"missing column for {q}: no name bpmid knows, but {h!r} has a {q} unit: map it with "
+                             f"--columns "
+                             f"{q}={h} (config io.columns: {{'{h}': {q}}}), or rename it {BPMID_NAME[q]}{note}",
+                             path=where, line=hline, key=h)
+    missing = [q for q in required if q not in found]
+    if missing:
+        cols = ", ".join(repr(h) for h in grid.header)
+        q = missing[0]
+        um = grid.info.get("unmatched_map") or []
+        note = f"; the column map names {', '.join(repr(k) for k in um)}, not a column of this file" if um else ""
+        raise InputError(f"missing column for {q} (found columns: {cols}); name it {BPMID_NAME[q]} or map it with "
+                         f"--columns {q}=<your column> (config io.columns){note}", path=where, line=hline, key=q)
+    lines = list(grid.lines)
+    n_rows = max((len(grid.cols[e[0]]) for ents in found.values() for e in ents), default=0)
+    if grid.info.get("format", "").startswith("matlab"):
+        lens = {e[2]: len(grid.cols[e[0]]) for ents in found.values() for e in ents}
+        if len(set(lens.values())) > 1:
+            desc = ", ".join(f"{h} ({n})" for h, n in lens.items())
+            raise InputError(f"the variables bpmid uses differ in length: {desc}; map the right ones with --columns",
+                             path=where)
+    if n_rows == 0 and found:
+        raise InputError(f"empty {kind}: a header but no data rows", path=where, line=hline)
+    unstated = [(q, ents[0][2]) for q, ents in found.items()
+                if ents[0][1] is None and q not in units and f"{q}_unit" not in meta and q != "strain"
+                and not (q == "time" and _time_is_text(grid.cols[ents[0][0]]))]
+    if len(unstated) > 1:  # say every missing unit at once, not one per run
+        cols_txt = ", ".join(f"{h!r} ({q})" for q, h in unstated)
+        flags = " ".join(f"{UNIT_FLAGS[q]} {EXAMPLE_UNIT[q]}" for q, _h in unstated if q in UNIT_FLAGS)
+        raise InputError(f"the units of the columns {cols_txt} are stated nowhere and bpmid never guesses one; state "
+                         f"them (1) in the header ({', '.join(BPMID_NAME[q] for q, _h in unstated)} or "
+                         f"'{unstated[0][1]} ({EXAMPLE_UNIT[unstated[0][0]]})'), (2) in a units row under the header, "
+                         f"or (3) with the flags {flags or '(none)'} (config io.units)", path=where, line=hline,
+                         key=unstated[0][1])
+    columns, units_in_file, headers, refs, col_info = {}, {}, {}, {}, {}
+    for q, ents in found.items():
+        arrays = []
+        for ent in ents:
+            j, unit, h, unit_from, ref = ent
+            vals = grid.cols[j]
+            stated = units.get(q)
+            stated_u, stated_ref = (split_unit(q, stated) if stated is not None else (None, None))
+            src = unit_sources.get(q, f"io.units.{q}")
+            if stated is not None and stated_u is None:
+                raise InputError(f"unknown unit {stated!r} for {q} (known: {', '.join(_known(q))})", key=src)
+            meta_unit = meta.get(f"{q}_unit")
+            if unit is not None and unit.startswith("conflict:"):
+                u1, u2 = unit[len("conflict:"):].split("|", 1)
+                raise InputError(f"the name of column {h!r} says {u1} and its brackets say {u2}; make them agree",
+                                 path=where, line=hline, key=h)
+            if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None:
+                raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})", path=where,
+                                 line=hline, key=h)
+            if unit is not None and stated_u is not None and stated_u != unit:
+                raise InputError(f"the file says the unit of {h!r} is {unit}, {src} says {stated}; drop one or make "
+                                 f"them agree", path=where, line=hline, key=h)
+            if unit is None and stated_u is not None:
+                unit, ref, unit_from = stated_u, stated_ref, src
+            if unit is None and meta_unit is not None:
+                mu, mref = split_unit(q, meta_unit)
+                if mu is None:
+                    raise InputError(f"unknown unit {meta_unit!r} for {q} (known: {', '.join(_known(q))})",
+                                     path=where, key=f"{q}_unit")
+                unit, ref, unit_from = mu, mref, f"'# {q}_unit:' line"
+            is_time_text = q == "time" and _time_is_text(vals)
+            if unit is None and q == "strain":
+                unit, unit_from = "1", "dimensionless by its name"
+            if unit is None and is_time_text:
+                unit, unit_from = "iso8601", "timestamps"
+            if unit is None:
+                what = "" if _norm(h) == q else f" ({q})"
+                raise InputError(f"the unit of column {h!r}{what} is stated nowhere and bpmid never guesses one; "
+                                 f"state it: {unit_hint(q, h)}", path=where, line=hline, key=h)
+            if is_time_text:
+                arr, origin = _parse_times(vals, where, h, lines)
+                col_info_extra = {"time_origin": origin, "timestamps": "ISO-8601 or clock times, seconds since the "
+                                                                       "first"}
+                unit = "iso8601"
+            else:
+                arr = _numbers(vals, where, h, lines) * UNITS[q][unit]
+                col_info_extra = {}
+                if unit in EPOCH_UNITS:
+                    import datetime as _dt
+                    origin = _dt.datetime.fromtimestamp(float(arr[0]), _dt.timezone.utc).isoformat() \
+                        if abs(arr[0]) < 1e11 else f"{arr[0]:.6f} s"
+                    arr = arr - arr[0]
+                    col_info_extra = {"time_origin": origin, "timestamps": f"epoch ({unit}), seconds since the first"}
+            arrays.append((arr, unit, h, unit_from, ref, col_info_extra))
+        arr, unit, h, unit_from, ref, extra = arrays[0]
+        for arr2, _u2, h2, *_rest in arrays[1:]:
+            if arr2.shape != arr.shape or not np.allclose(arr2, arr, rtol=1e-5, atol=1e-9 * max(1.0, float(np.max(
+                    np.abs(arr))) if arr.size else 1.0)):
+                raise InputError(f"two columns give {q}: {h!r} and {h2!r}, and they disagree; map the one to use with "
+                                 f"--columns {q}=<column>", path=where, line=hline, key=h2)
+            ignored.append(h2)
+        columns[q] = arr
+        units_in_file[q] = unit
         headers[q] = h
-    return Table(path, columns, units, headers, meta, first_data_line)
+        if ref is not None:
+            refs[q] = ref
+        col_info[q] = {"column": h, "unit": unit, "unit_from": unit_from, **({"reference": ref} if ref else {}),
+                       **extra}
+    first = lines[0] if lines else (grid.header_line + 1)
+    reading = {k: v for k, v in grid.info.items() if k != "unmatched_map" or v}
+    reading["columns"] = col_info
+    if ignored or unknown:
+        reading["ignored_columns"] = list(ignored) + list(unknown)
+    table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
+                  reading, [], where)
+    return table
 
 
-def check_time(table: Table, *, kind: str = "log", gap_factor: float | None = None) -> np.ndarray:
-    """The time column, checked to rise strictly (and, optionally, to have no gaps).
+def _known(q: str) -> list[str]:
+    return sorted(k for k in UNITS[q] if k)
+
+
+def _time_is_text(vals: list) -> bool:
+    import datetime as _dt
+
+    for v in vals[:5]:
+        if isinstance(v, (_dt.datetime, _dt.time)):
+            return True
+        if isinstance(v, str) and _CLOCK.match(v):
+            return True
+        if isinstance(v, str) and v.strip() and not _is_number(v) and re.match(r"^\s*\d{4}-\d{2}-\d{2}", v):
+            return True
+    return False
+
+
+def check_time(table: Table, *, kind: str = "log", gap_factor: float | None = None,
+               max_gap_s: float | None = None) -> np.ndarray:
+    """The time column, checked to rise strictly; gaps are warned about (or refused beyond ``max_gap_s``).
 
     Parameters
     ----------
-    gap_factor : a step longer than this many times the median step is a gap (None: no gap check)
+    gap_factor : a step longer than this many times the median step is a gap: the log is still read (the
+        hereditary recursion is exact for any step), with a warning naming the line and what is assumed
+        across the gap (None: gaps are not looked for)
+    max_gap_s : a step longer than this (s) is refused (``--max-gap`` / ``io.max_gap_s``; None: never)
     """
     t = table.columns["time"]
     if t.size < 2:
-        raise InputError(f"{kind} needs at least two samples, found {t.size}", path=table.path)
+        raise InputError(f"{kind} needs at least two samples, found {t.size}", path=table.name)
     dt = np.diff(t)
     bad = np.flatnonzero(dt <= 0)
     if bad.size:
         r = int(bad[0]) + 1
         what = "repeats" if dt[bad[0]] == 0 else "goes backwards"
         raise InputError(f"time {what} ({t[r - 1]:g} s then {t[r]:g} s); time must increase",
-                         path=table.path, line=table.line_of(r))
+                         path=table.name, line=table.line_of(r))
+    if max_gap_s is not None:
+        over = np.flatnonzero(dt > max_gap_s)
+        if over.size:
+            r = int(over[0]) + 1
+            raise InputError(f"gap of {dt[over[0]]:g} s between samples, longer than --max-gap {max_gap_s:g} s "
+                             f"(io.max_gap_s); raise or drop that setting to read the log", path=table.name,
+                             line=table.line_of(r))
     if gap_factor is not None:
         med = float(np.median(dt))
         gaps = np.flatnonzero(dt > gap_factor * med)
         if gaps.size:
             r = int(gaps[0]) + 1
-            raise InputError(f"gap in the log: {dt[gaps[0]]:g} s between samples where the usual step is {med:g} s",
-                             path=table.path, line=table.line_of(r))
+            longest = int(gaps[np.argmax(dt[gaps])]) + 1
+            more = "" if gaps.size == 1 else (f" ({gaps.size} gaps; the longest {dt[longest - 1]:g} s at line "
+                                              f"{table.line_of(longest)})")
+            table.warnings.append(
+                f"{table.name}:{table.line_of(r)}: gap of {dt[gaps[0]]:g} s between samples where the usual step "
+                f"is {med:g} s{more}; read anyway: across a gap the input is taken to hold its last sample and "
+                f"change in one step at the next (the hereditary recursion is exact for that input). Refuse such "
+                f"logs with --max-gap SECONDS (io.max_gap_s)")
+            table.reading["gaps"] = {"count": int(gaps.size), "first_line": table.line_of(r),
+                                     "longest_s": float(dt[longest - 1]),
+                                     "assumed": "input held at its last sample across the gap, stepping at the next"}
     return t

@@ -380,15 +380,20 @@ def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | i
     if max_error_pct is None:
         max_error_pct = cfg.max_error_pct
     records = read_relax_logs(paths, column_map=cfg.columns, gauge_length_mm=cfg.specimen.gauge_length_mm,
-                              cross_section_mm2=cfg.specimen.cross_section_mm2, gap_factor=gap)
+                              cross_section_mm2=cfg.specimen.cross_section_mm2, gap_factor=gap,
+                              io_cfg=config.section("io"))
     fit = fit_relaxation(records, terms=terms, mode=mode, config=cfg, max_error_pct=max_error_pct)
+    from bpmid.io import plausibility as plaus
+    checks = plaus.reader_warnings(records) + plaus.relax_warnings(records, fit)
     for w in fit.warnings:
         print(f"warning: {w}", file=sys.stderr, flush=True)
+    plaus.emit(checks, strict=config.section("io").strict, what=str(out))
+    fit.warnings = list(fit.warnings) + checks
     out = Path(out)
     fig_path = None
     if figure:
         fig_path = out.with_suffix(".png") if figure is True else Path(figure)
-    prov = provenance(paths, config=config)
+    prov = plaus.attach(provenance(paths, config=config), records, checks)
     synthetic = any(str(r.meta.get("synthetic", "")).lower() in ("true", "yes", "1") for r in records)
     if fig_path is not None:
         from bpmid.plots.common import save_figure

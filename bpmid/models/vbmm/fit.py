@@ -628,6 +628,8 @@ def write_motion_fit(out: str | Path, result: MotionFit, prov: dict, *, figure: 
         raise InputError("--out must be a file name (VBMM.yaml), found a folder", path=out)
     data = {"schema": SCHEMA}
     data.update(result.yaml_body())
+    if "warnings" in prov:  # plausibility warnings (bpmid.io.plausibility), also kept in the provenance
+        data["warnings"] = list(prov["warnings"])
     data["provenance"] = prov
     text = dump_yaml(data)
     png = None

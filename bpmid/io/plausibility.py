@@ -1,0 +1,215 @@
+"""Plausibility checks after reading, fitting and predicting: catch what a unit or reference slip looks like.
+
+A reader that never guesses a unit still cannot tell a correct statement from a wrong one (``--pressure-unit
+kPa`` on a column in bar, ``angle_deg`` holding radians, absolute pressures under ``# pressure_reference:
+gauge``). These checks look at the numbers and the fit, and return warnings that name the likely cause and the
+fix; every command that fits or predicts prints them on stderr (``warning: ...``), writes them into its output
+file (``provenance.warnings``, and ``warnings`` where the file has such a list) and, with ``--strict``
+(``io.strict``), ends with exit 2 instead.
+
+The thresholds are stated here, once:
+
+- :data:`R2_MIN`: a fit or prediction explaining less than half of the angle's variance
+- :data:`PRESSURE_RANGE_PA`: peak gauge pressures a pneumatic muscle is driven with
+- :data:`RADIAN_MAX`: a degree column whose largest angle stays below 2 pi while the pressure moves
+- :data:`ATMOSPHERE_BAND_PA`: a gauge log that never drops below about one atmosphere (a rest pressure in the band)
+- :data:`MIN_DURATION_S`: a motion log shorter than a second (seconds stated as milliseconds)
+"""
+from __future__ import annotations
+
+import math
+import sys
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from bpmid.errors import InputError
+
+#: a fit or prediction with R^2 below this is flagged
+R2_MIN = 0.5
+#: peak gauge pressure (Pa) of a pneumatic muscle run: below or above is flagged as a likely unit slip
+PRESSURE_RANGE_PA = (2e3, 2e6)
+#: a degree column whose largest |angle| stays at or below this while the pressure moves looks like radians
+RADIAN_MAX = 2 * math.pi
+#: a gauge log whose lowest pressure lies in this band (Pa) looks like absolute pressure (a muscle at rest is
+#: vented to atmosphere or held at a small preload; absolute logs never drop below about one atmosphere)
+ATMOSPHERE_BAND_PA = (0.88e5, 3.0e5)
+#: a motion log shorter than this (s) is flagged: a muscle run lasts seconds to minutes (times in ms read as s?)
+MIN_DURATION_S = 1.0
+#: a parameter within this share of its bound (for a zero bound: within 1e-6 of the other bound's size) is
+#: "at the bound"
+BOUND_SHARE = 1e-3
+
+_P_UNITS = {"pa": 1.0, "kpa": 1e3, "bar": 1e5, "mbar": 1e2, "psi": 6894.757293168, "mpa": 1e6}
+
+
+def _name(lg) -> str:
+    return str(lg.path) if getattr(lg, "path", None) is not None else str(lg.name)
+
+
+def _units_that_fit(peak_given: float) -> list[str]:
+    lo, hi = PRESSURE_RANGE_PA
+    return [u for u, f in _P_UNITS.items() if lo <= peak_given * f <= hi * 0.5]
+
+
+def motion_data_warnings(logs: Iterable) -> list[str]:
+    """Warnings about motion logs whose numbers a unit or reference slip explains (no fit needed)."""
+    out: list[str] = []
+    for lg in logs:
+        where = _name(lg)
+        p = np.asarray(lg.pressure_pa, float)
+        peak = float(np.max(np.abs(p))) if p.size else 0.0
+        unit = str(getattr(lg, "pressure_unit", "pa"))
+        given = np.asarray(lg.pressure_as_given if lg.pressure_as_given is not None else p, float)
+        peak_given = float(np.max(np.abs(given))) if given.size else 0.0
+        lo, hi = PRESSURE_RANGE_PA
+        if lg.pressure_reference == "gauge" and p.size and ATMOSPHERE_BAND_PA[0] <= float(np.min(p)) <= \
+                ATMOSPHERE_BAND_PA[1]:
+            out.append(f"{where}: the gauge pressure never drops below {np.min(p) / 1e5:.3g} bar, one atmosphere "
+                       f"or more: these look like absolute pressures read as gauge. If so, state "
+                       f"--pressure-reference absolute (or the line '# pressure_reference: absolute')")
+        elif peak < lo and np.ptp(p) > 0:
+            fits = [u for u in _units_that_fit(peak_given) if u != unit]
+            hint = f"; in {' or '.join(fits)} it would make sense" if fits else ""
+            out.append(f"{where}: the pressure peaks at {peak:.4g} Pa ({peak_given:g} {unit}), too little to drive a "
+                       f"pneumatic muscle: likely a unit slip{hint}. State the column's unit (--pressure-unit, or a "
+                       f"header such as pressure_kpa)")
+        elif peak > hi:
+            fits = [u for u in _units_that_fit(peak_given) if u != unit]
+            hint = f"; in {' or '.join(fits)} it would make sense" if fits else ""
+            out.append(f"{where}: the pressure peaks at {peak / 1e5:.4g} bar ({peak_given:g} {unit}), more than a "
+                       f"pneumatic muscle takes: likely a unit slip{hint}. State the column's unit (--pressure-unit, "
+                       f"or a header such as pressure_kpa)")
+        a = getattr(lg, "angle_deg", None)
+        stated = (getattr(lg, "reading", {}) or {}).get("columns", {}).get("angle", {}).get("unit", "deg")
+        if a is not None and np.size(a) and stated in ("deg", "degree", "degrees", "°"):
+            amax = float(np.max(np.abs(a)))
+            if 0.05 < amax <= RADIAN_MAX and np.ptp(p) > 0.2 * max(peak, 1.0):
+                out.append(f"{where}: the bending angle never exceeds {amax:.3g} deg while the pressure moves: these "
+                           f"look like radians in a degree column. If so, state --angle-unit rad (or name the column "
+                           f"angle_rad)")
+        t = np.asarray(lg.time_s, float)
+        tcol = (getattr(lg, "reading", {}) or {}).get("columns", {}).get("time", {})
+        if t.size > 2 and tcol.get("unit") == "s":
+            dt = float(np.median(np.diff(t)))
+            if dt >= 0.5 and np.all(t == np.round(t)):
+                out.append(f"{where}: samples are {dt:g} s apart and every time is a whole number: if the times are "
+                           f"milliseconds, state --time-unit ms (or name the column time_ms)")
+        if t.size > 2 and float(t[-1] - t[0]) < MIN_DURATION_S:
+            out.append(f"{where}: the log lasts only {float(t[-1] - t[0]):.3g} s ({t.size} samples): if the times are "
+                       f"seconds, not {tcol.get('unit', 'the stated unit')}, state --time-unit s (or name the column "
+                       f"time_s)")
+    return out
+
+
+def _at_bound(p) -> str | None:
+    """'lower bound x' / 'upper bound x' when the value sits on a bound (relative closeness 1e-3, or exactly 0)."""
+    lo, hi, v = float(p.lower), float(p.upper), float(p.value)
+    for b, word in ((lo, "lower"), (hi, "upper")):
+        if not math.isfinite(b):
+            continue
+        other = hi if word == "lower" else lo
+        scale = abs(b) if b != 0 else 1e-6 * (abs(other) if math.isfinite(other) and other != 0 else 1.0)
+        if abs(v - b) <= BOUND_SHARE * scale:
+            return f"{word} bound {b:g}"
+    return None
+
+
+def motion_fit_warnings(result) -> list[str]:
+    """Warnings after ``fit motion``: the data checks, a poor fit, constants stuck at a bound."""
+    out = motion_data_warnings(result.logs)
+    r2 = float(result.metrics.get("r2", float("nan")))
+    if not r2 >= R2_MIN:
+        out.append(f"the fit explains little of the angle (R^2 {r2:.3g} < {R2_MIN:g}): the constants are not to be "
+                   f"trusted. Likely a unit or reference slip (check --pressure-unit, --pressure-reference, "
+                   f"--angle-unit against the rig) or the wrong column (--columns)")
+    free = set(getattr(result.fit, "free_names", ()))
+    for p in result.fit.params:
+        if p.name not in free:
+            continue
+        b = _at_bound(p)
+        if b is not None:
+            out.append(f"{p.name} = {p.value:.6g} {p.unit} sits at its {b}: the data push it out of the range "
+                       f"the model allows, which a unit or reference slip often does; check the units, or widen "
+                       f"motion.bounds.{p.name} if the value is physical")
+    return out
+
+
+def prediction_warnings(preds: Sequence) -> list[str]:
+    """Warnings after ``predict``: the data checks, and a poor match where the log has angles."""
+    out = motion_data_warnings([p.log for p in preds])
+    for p in preds:
+        if p.metrics is None:
+            continue
+        r2 = float(p.metrics.get("r2", float("nan")))
+        if not r2 >= R2_MIN:
+            out.append(f"{_name(p.log)}: the prediction explains little of the measured angle (R^2 {r2:.3g} < "
+                       f"{R2_MIN:g}): check the log's units and pressure reference (--pressure-unit, "
+                       f"--pressure-reference, --angle-unit) and that the parameters are for this muscle")
+    return out
+
+
+def relax_warnings(records: Sequence, fit) -> list[str]:
+    """Warnings after ``fit relax``: strain that looks like percent, a modulus no elastomer has, a poor fit."""
+    out: list[str] = []
+    for r in records:
+        where = _name(r)
+        if r.strain is not None and r.strain.size and float(np.max(r.strain)) > 1.0:
+            out.append(f"{where}: the strain reaches {float(np.max(r.strain)):.4g} (over 100 %): if the column is "
+                       f"in percent, say so (strain_pct or 'Strain (%)')")
+    r2 = float(getattr(fit, "r2", float("nan")))
+    if not r2 >= R2_MIN:
+        out.append(f"the relaxation fit explains little (R^2 {r2:.3g} < {R2_MIN:g}): check the stress and time units "
+                   f"(--time-unit, io.units) and the columns used (--columns)")
+    E0 = float(fit.E_inf + np.sum(fit.E))
+    if E0 > 1e4 or 0 < E0 < 1e-4:
+        out.append(f"the instantaneous modulus is {E0:.4g} MPa, outside what rubbers and soft polymers have "
+                   f"(1e-4 to 1e4 MPa): likely a stress, load or strain unit slip; state the units in the header "
+                   f"(stress_mpa, load_n, strain or strain_pct)")
+    return out
+
+
+def reader_warnings(logs: Iterable) -> list[str]:
+    """The readers' own warnings (gaps, ignored columns) of every log, once each."""
+    seen, out = set(), []
+    for lg in logs:
+        for w in getattr(lg, "warnings", None) or []:
+            if w not in seen:
+                seen.add(w)
+                out.append(w)
+    return out
+
+
+def reading_block(logs: Iterable) -> dict:
+    """log name -> what its reader found and assumed (for the output's provenance)."""
+    return {str(lg.name): dict(getattr(lg, "reading", {}) or {}) for lg in logs}
+
+
+def emit(warnings: Sequence[str], *, strict: bool = False, what: str = "the result") -> None:
+    """Print each warning on stderr; with ``strict``, refuse (exit 2) before anything is written."""
+    for w in warnings:
+        print(f"warning: {w}", file=sys.stderr, flush=True)
+    if strict and warnings:
+        more = f" (and {len(warnings) - 1} more above)" if len(warnings) > 1 else ""
+        raise InputError(f"--strict: {what} was not written because of {len(warnings)} warning(s){more}: "
+                         f"{warnings[0]}", key="--strict")
+
+
+def attach(prov: dict, logs: Iterable, warnings: Sequence[str]) -> dict:
+    """Add the reading record and the warnings to a provenance block (in place; returned for chaining)."""
+    prov["reading"] = reading_block(logs)
+    prov["warnings"] = list(warnings)
+    return prov
+
+
+def compare_warnings(summary) -> list[str]:
+    """Warnings after ``compare``: when even the best model explains little of the test angles."""
+    try:
+        r2 = np.asarray(summary["r2"], float)
+    except (KeyError, TypeError, ValueError):
+        return []
+    if r2.size and not np.nanmax(r2) >= R2_MIN:
+        return [f"no model explains much of the test logs (best R^2 {np.nanmax(r2):.3g} < {R2_MIN:g}): likely a unit "
+                f"or reference slip in the logs (--pressure-unit, --pressure-reference, --angle-unit) or the wrong "
+                f"columns (--columns)"]
+    return []
