@@ -589,5 +589,93 @@ def export_c(fit_path: str | Path, out_dir: str | Path, model: str | None = None
     return [out_dir / name for name in FILES]
 
 
-__all__ = ["export_c", "c_sources", "load_vbmm_fit", "effects_from_yaml", "causal_vbmm", "CausalVBMM",
+# ---------------------------------------------------------------------------------------------
+# building and loading the exported code (tests, benchmarks, a Python host through ctypes)
+# ---------------------------------------------------------------------------------------------
+STRICT_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2")
+
+
+def find_cc() -> str | None:
+    """A C compiler on PATH ($CC, cc, gcc or clang), or None."""
+    import os
+    import shutil
+
+    for name in (os.environ.get("CC"), "cc", "gcc", "clang"):
+        if name and shutil.which(name):
+            return shutil.which(name)
+    return None
+
+
+def build_c(src_dir: str | Path, out: str | Path, *, shared: bool = False, single: bool = False,
+            flags: Sequence[str] = STRICT_FLAGS, cc: str | None = None) -> Path:
+    """Compile the exported folder: the stdin filter (``main.c`` + model) or, with ``shared``, a shared
+    library of the model alone. ``single`` adds -DBPMID_FLOAT. Raises RuntimeError with the compiler's
+    message when it fails."""
+    import subprocess
+
+    cc = cc or find_cc()
+    if cc is None:
+        raise RuntimeError("no C compiler found (cc, gcc or clang)")
+    src_dir = Path(src_dir)
+    srcs = [str(src_dir / "bpmid_model.c")] + ([] if shared else [str(src_dir / "main.c")])
+    cmd = [cc, *flags, *(["-DBPMID_FLOAT"] if single else []), *(["-shared", "-fPIC"] if shared else []),
+           *srcs, "-o", str(out), "-lm"]
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed:\n{res.stderr}")
+    return Path(out)
+
+
+class CModel:
+    """An exported model loaded from its shared library with ctypes: one state, stepped from Python.
+
+    >>> m = CModel("libbpmid.so")               # doctest: +SKIP
+    >>> angle_deg = m.forward(0.0, 30000.0)    # gauge Pa in, deg out
+    """
+
+    def __init__(self, lib_path: str | Path):
+        import ctypes
+
+        self.lib = ctypes.CDLL(str(lib_path))
+        self.lib.bpmid_state_bytes.restype = ctypes.c_int
+        self.state_bytes = int(self.lib.bpmid_state_bytes())
+        self._buf = ctypes.create_string_buffer(self.state_bytes)
+        for name in ("bpmid_step_forward", "bpmid_step_inverse"):
+            fn = getattr(self.lib, name)
+            fn.restype = ctypes.c_double
+            fn.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double]
+        self.lib.bpmid_status.restype = ctypes.c_int
+        self.lib.bpmid_status.argtypes = [ctypes.c_void_p]
+        self._ptr = ctypes.cast(self._buf, ctypes.c_void_p)
+        self.lib.bpmid_init(self._ptr)
+
+    def reset(self) -> None:
+        self.lib.bpmid_reset(self._ptr)
+
+    def forward(self, t: float, pressure_gauge_pa: float) -> float:
+        return self.lib.bpmid_step_forward(self._ptr, t, pressure_gauge_pa)
+
+    def inverse(self, t: float, angle_deg: float) -> float:
+        return self.lib.bpmid_step_inverse(self._ptr, t, angle_deg)
+
+    @property
+    def status(self) -> int:
+        return int(self.lib.bpmid_status(self._ptr))
+
+    def run_forward(self, t, p):
+        """Angles (deg) for a whole pressure history (gauge Pa), from a fresh state."""
+        import numpy as np
+
+        self.reset()
+        return np.array([self.forward(float(a), float(b)) for a, b in zip(t, p)])
+
+    def run_inverse(self, t, angle_deg):
+        """Gauge pressures (Pa) for a whole angle history (deg), from a fresh state."""
+        import numpy as np
+
+        self.reset()
+        return np.array([self.inverse(float(a), float(b)) for a, b in zip(t, angle_deg)])
+
+
+__all__ = ["find_cc", "build_c", "CModel", "STRICT_FLAGS", "export_c", "c_sources", "load_vbmm_fit", "effects_from_yaml", "causal_vbmm", "CausalVBMM",
            "load_maxwell_slip", "MaxwellSlipMap", "FILES", "MODELS", "EXPORTABLE_EFFECTS"]
