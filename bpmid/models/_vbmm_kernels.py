@@ -64,16 +64,31 @@ def pressure_at(beta, geo, closure, G0, K0, cG1, cG2, cK1, cK2, scale, stiff):  
     return th / R * (s2 + s1 * e1 / (1.0 - ca))
 
 
-@numba.njit(cache=True, inline="always", error_model="numpy")
-def pressure_slope(beta, geo, closure, G0, K0, cG1, cG2, cK1, cK2, scale, stiff):  # pragma: no cover
-    """(P, dP/dbeta): the gauge pressure (Pa) of :func:`pressure_at` and its analytic derivative (Pa/rad),
-    term by term as in the exported C (bpmid/export/templates/vbmm.c.in)."""
+@numba.njit(cache=True, error_model="numpy")
+def geometry_constants(geo):  # pragma: no cover - compiled
+    """(10,) constants of the kinematics and closures from ``geo`` (th, alpha0, R0, l0, n), computed once per
+    solve instead of once per evaluation: th, R0, l0, 4 pi^2 n^2, D, E, A, B, l0 cos(alpha0), cos(alpha0)."""
     th, alpha0, R0, l0, n = geo[0], geo[1], geo[2], geo[3], geo[4]
     pn2 = 4.0 * math.pi * math.pi * n * n
-    D = l0 * l0 + pn2 * R0 * R0
-    E = pn2 * pn2 * R0 * R0
-    A = -math.pi * math.pi * n * n / (l0 * l0)
-    B = -4.0 * math.pi * math.pi * n * n * R0 / (l0 * l0)
+    gc = np.empty(10)
+    gc[0] = th
+    gc[1] = R0
+    gc[2] = l0
+    gc[3] = pn2
+    gc[4] = l0 * l0 + pn2 * R0 * R0
+    gc[5] = pn2 * pn2 * R0 * R0
+    gc[6] = -math.pi * math.pi * n * n / (l0 * l0)
+    gc[7] = -4.0 * math.pi * math.pi * n * n * R0 / (l0 * l0)
+    gc[8] = l0 * math.cos(alpha0)
+    gc[9] = math.cos(alpha0)
+    return gc
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def pressure_slope(beta, gc, closure, G0, K0, cG1, cG2, cK1, cK2, scale, stiff):  # pragma: no cover
+    """(P, dP/dbeta): the gauge pressure (Pa) of :func:`pressure_at` and its analytic derivative (Pa/rad),
+    term by term as in the exported C (bpmid/export/templates/vbmm.c.in). ``gc``: :func:`geometry_constants`."""
+    th, R0, l0, pn2, D, E, A, B, l0ca, ca0 = gc[0], gc[1], gc[2], gc[3], gc[4], gc[5], gc[6], gc[7], gc[8], gc[9]
     q = beta * beta + pn2
     rt = math.sqrt(D * beta * beta + E)
     num = 2.0 * rt - 2.0 * l0 * beta
@@ -103,7 +118,6 @@ def pressure_slope(beta, geo, closure, G0, K0, cG1, cG2, cK1, cK2, scale, stiff)
     Rm = R0 + 0.5 * u3
     dRm = 0.5 * du
     if closure == 0:
-        l0ca = l0 * math.cos(alpha0)
         gb = l0ca * (1.0 + u3 / R0)
         dgb = l0ca * de2
         den = 1.0 - 2.0 * gb * F
@@ -111,7 +125,6 @@ def pressure_slope(beta, geo, closure, G0, K0, cG1, cG2, cK1, cK2, scale, stiff)
         inner = s2 + nm / den
         dinner = ds2 + ((ds2 * gb + s2 * dgb + ds1 * e1 + s1 * dF) * den + nm * 2.0 * (dgb * F + gb * dF)) / (den * den)
     else:
-        ca0 = math.cos(alpha0)
         ca = ca0 * (1.0 + e2)
         dca = ca0 * de2
         inner = s2 + s1 * e1 / (1.0 - ca)
@@ -119,7 +132,7 @@ def pressure_slope(beta, geo, closure, G0, K0, cG1, cG2, cK1, cK2, scale, stiff)
     return th / Rm * inner, th * (dinner * Rm - inner * dRm) / (Rm * Rm)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def instantaneous(Minf, M):  # pragma: no cover - compiled
     """M(0) = M_inf + sum_j M_j: the modulus that acts on a step's own strain increment."""
     m0 = Minf
@@ -128,14 +141,14 @@ def instantaneous(Minf, M):  # pragma: no cover - compiled
     return m0
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def decay(a, dt, tau, r):  # pragma: no cover - compiled
     """a_j = exp(-dt / (tau_j r)): the decay of each branch over this step (r: fall ratio, 1 = symmetric)."""
     for j in range(tau.size):
         a[j] = math.exp(-dt / (tau[j] * r))
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def recursion_const(M, a, h, xprev):  # pragma: no cover - compiled
     """c_k of M-hat[x]_k = M0 x_k + c_k for the exact recursion (VBMM.md section 3), from the branch
     states h of the previous step and this step's decays a."""
@@ -145,7 +158,7 @@ def recursion_const(M, a, h, xprev):  # pragma: no cover - compiled
     return c
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(cache=True, inline="always", error_model="numpy")
 def commit(a, h, dx):  # pragma: no cover - compiled
     """Commit this step's strain increment dx to the branch states: h_j = a_j h_j + dx."""
     for j in range(h.size):
@@ -154,6 +167,12 @@ def commit(a, h, dx):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, error_model="numpy")
 def solve_beta(p, b_start, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff):  # pragma: no cover
+    """:func:`solve_beta_gc` with the geometry constants computed from ``geo`` (th, alpha0, R0, l0, n)."""
+    return solve_beta_gc(p, b_start, geometry_constants(geo), closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)
+
+
+@numba.njit(cache=True, inline="always", error_model="numpy")
+def solve_beta_gc(p, b_start, gc, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff):  # pragma: no cover
     """beta (rad) with pressure_at(beta) = p (gauge Pa): Newton's method with the analytic derivative,
     bracketed on [0, 4 pi], from ``b_start`` (the caller's warm start). Returns (beta, status). At or below
     the pressure that holds u3 = 0 the answer is 0 (the muscle does not bend backwards).
@@ -165,7 +184,7 @@ def solve_beta(p, b_start, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff):
     checked_hi = False
     x = min(max(b_start, 1e-9), BETA_MAX - 1e-9)
     for _ in range(100):
-        fx, d = pressure_slope(x, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)
+        fx, d = pressure_slope(x, gc, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)
         fx -= p
         if fx > 0.0:
             hi = x
@@ -175,11 +194,11 @@ def solve_beta(p, b_start, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff):
         if not (lo < xn and xn < hi):
             if lo == 0.0 and not checked_lo:
                 checked_lo = True
-                if pressure_slope(0.0, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)[0] - p >= 0.0:
+                if pressure_slope(0.0, gc, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)[0] - p >= 0.0:
                     return 0.0, STATUS_OK
             if hi == BETA_MAX and not checked_hi:
                 checked_hi = True
-                if pressure_slope(BETA_MAX, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)[0] - p < 0.0:
+                if pressure_slope(BETA_MAX, gc, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)[0] - p < 0.0:
                     return BETA_MAX, STATUS_ABOVE_RANGE
             xn = 0.5 * (lo + hi)
         if abs(xn - x) < 1e-13 or hi - lo < 1e-14:
@@ -259,7 +278,7 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
     per-step modulus scale (thermal softening). Defaults 1, 0, ones give the plain VBMM.
     """
     n = t.size
-    R0, l0, nn = geo[2], geo[3], geo[4]
+    R0, l0 = geo[2], geo[3]
     beta = np.zeros(n)
     e1 = np.zeros(n)
     e2 = np.zeros(n)
@@ -272,6 +291,7 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
     aK = np.ones(Kj.size)
     G0full = instantaneous(Ginf, Gj)
     K0full = instantaneous(Kinf, Kj)
+    gc = geometry_constants(geo)
     shared = Gj.size == Kj.size
     if shared:
         for j in range(Gj.size):
@@ -318,10 +338,11 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
         x0 = b_prev
         if k > 1 and dt_prev > 0.0:
             x0 = b_prev + (b_prev - b_prev2) * (dt / dt_prev)
-        b, status[k] = solve_beta(p[k], x0, geo, closure, G0, K0, cG1, cG2, cK1, cK2, scale[k], stiff)
+        b, status[k] = solve_beta_gc(p[k], x0, gc, closure, G0, K0, cG1, cG2, cK1, cK2, scale[k], stiff)
         beta[k] = b
-        u3 = u3_from_beta(b, R0, l0, nn)
-        e1[k] = stretch(u3, R0, l0, nn) - 1.0
+        # u3_from_beta and stretch with the constants of gc (the same values, computed once per log)
+        u3 = -2.0 * R0 + (2.0 * math.sqrt(gc[4] * b * b + gc[5]) - 2.0 * l0 * b) / (b * b + gc[3])
+        e1[k] = math.sqrt(1.0 + gc[6] * u3 * u3 + gc[7] * u3) - 1.0
         e2[k] = u3 / R0
         if k > 0:
             commit(aG, hG1, e1[k] - e1[k - 1])
