@@ -85,7 +85,7 @@ def test_forward_equals_bpmid_predict_and_inverse_gives_the_pressure_back_on_eve
         worst_fwd = max(worst_fwd, float(np.max(np.abs(ang - pr.angle_pred_deg))))
         back = run_filter(exe, lg.time_s, ang, inverse=True)
         worst_inv = max(worst_inv, float(np.max(np.abs(back - lg.pressure_pa))) / 1e3)
-    assert worst_fwd < 1e-6, worst_fwd
+    assert worst_fwd < 1e-9, worst_fwd  # the kernel and the C take the same steps (issue 19: same to 1e-9 deg)
     assert worst_inv < 1e-6, worst_inv  # kPa
 
 
@@ -132,7 +132,7 @@ def test_branches_split_tau_consistent_closure_and_a_float_build(tmp_path_factor
         ref = model.forward_deg(lg.time_s, lg.pressure_pa)
         worst = max(worst, float(np.max(np.abs(run_filter(exe, lg.time_s, lg.pressure_pa) - ref))))
         worst_float = max(worst_float, float(np.max(np.abs(run_filter(single, lg.time_s, lg.pressure_pa) - ref))))
-    assert worst < 1e-6
+    assert worst < 1e-9
     assert worst_float < 0.05  # single precision: measured and stated in the README
 
 

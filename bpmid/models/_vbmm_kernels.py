@@ -191,6 +191,9 @@ def solve_beta_gc(p, b_start, gc, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff
         else:
             lo = x
         xn = x - fx / d if d > 0.0 else 0.5 * (lo + hi)
+        if d > 0.0 and lo < xn and xn < hi and abs(xn - x) < 1e-7:
+            # quadratic convergence: after a Newton step this small the error is of order its square
+            return xn, STATUS_OK
         if not (lo < xn and xn < hi):
             if lo == 0.0 and not checked_lo:
                 checked_lo = True
