@@ -220,7 +220,8 @@ def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
     fields += ["    double dt_a;       /* dt and fall ratio the cached decays belong to */",
                "    bpmid_real r_a;",
                "    bpmid_real dt_prev;   /* previous step (s), for the extrapolated start */",
-               "    bpmid_real p_prev;    /* pressure the rubber saw at the previous step (Pa) */",
+               "    bpmid_real p_prev, p_prev2;   /* pressures the rubber saw at the previous two steps (Pa) */",
+               "    bpmid_real d_prev;    /* dP/dbeta at the last evaluation (Pa/rad), for the start of the next solve */",
                "    bpmid_real e1, e2;    /* strains of the previous step */",
                "    bpmid_real b1, b2;    /* angles (rad) of the previous two steps */"]
     for j in range(nb):

@@ -167,15 +167,17 @@ def commit(a, h, dx):  # pragma: no cover - compiled
 
 @numba.njit(cache=True, error_model="numpy")
 def solve_beta(p, b_start, geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff):  # pragma: no cover
-    """:func:`solve_beta_gc` with the geometry constants computed from ``geo`` (th, alpha0, R0, l0, n)."""
-    return solve_beta_gc(p, b_start, geometry_constants(geo), closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)
+    """:func:`solve_beta_gc` with the geometry constants computed from ``geo`` (th, alpha0, R0, l0, n);
+    returns (beta, status)."""
+    b, st, _slope = solve_beta_gc(p, b_start, geometry_constants(geo), closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)
+    return b, st
 
 
 @numba.njit(cache=True, inline="always", error_model="numpy")
 def solve_beta_gc(p, b_start, gc, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff):  # pragma: no cover
     """beta (rad) with pressure_at(beta) = p (gauge Pa): Newton's method with the analytic derivative,
     bracketed on [0, 4 pi], from ``b_start`` (the caller's warm start). Returns (beta, status). At or below
-    the pressure that holds u3 = 0 the answer is 0 (the muscle does not bend backwards).
+    the pressure that holds u3 = 0 the answer is 0 (the muscle does not bend backwards). Returns (beta, status, dP/dbeta at the last evaluation).
 
     The bracket ends are evaluated only when a Newton step leaves the bracket (P rises with beta, so a
     root inside means both ends have the right sign); the same solve as the exported C."""
@@ -183,6 +185,7 @@ def solve_beta_gc(p, b_start, gc, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff
     checked_lo = False
     checked_hi = False
     x = min(max(b_start, 1e-9), BETA_MAX - 1e-9)
+    d = 0.0
     for _ in range(100):
         fx, d = pressure_slope(x, gc, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)
         fx -= p
@@ -193,21 +196,21 @@ def solve_beta_gc(p, b_start, gc, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff
         xn = x - fx / d if d > 0.0 else 0.5 * (lo + hi)
         if d > 0.0 and lo < xn and xn < hi and abs(xn - x) < 1e-7:
             # quadratic convergence: after a Newton step this small the error is of order its square
-            return xn, STATUS_OK
+            return xn, STATUS_OK, d
         if not (lo < xn and xn < hi):
             if lo == 0.0 and not checked_lo:
                 checked_lo = True
                 if pressure_slope(0.0, gc, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)[0] - p >= 0.0:
-                    return 0.0, STATUS_OK
+                    return 0.0, STATUS_OK, d
             if hi == BETA_MAX and not checked_hi:
                 checked_hi = True
                 if pressure_slope(BETA_MAX, gc, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)[0] - p < 0.0:
-                    return BETA_MAX, STATUS_ABOVE_RANGE
+                    return BETA_MAX, STATUS_ABOVE_RANGE, d
             xn = 0.5 * (lo + hi)
         if abs(xn - x) < 1e-13 or hi - lo < 1e-14:
-            return xn, STATUS_OK
+            return xn, STATUS_OK, d
         x = xn
-    return x, STATUS_NO_CONVERGENCE
+    return x, STATUS_NO_CONVERGENCE, d
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -304,6 +307,7 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
     b_prev = 0.0
     b_prev2 = 0.0
     dt_prev = 0.0
+    d_prev = 0.0
     dt_a = -1.0  # the step length and fall ratio the decays aG, aK were computed for
     r_a = -1.0
     for k in range(n):
@@ -338,10 +342,13 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
                 cG1, cG2, cK1, cK2 = _history_consts_sum(k, start, lumped, t, e1, e2, Ginf, Gj, tauG,
                                                          Kinf, Kj, tauK, shared)
         # warm start: the angle extrapolated linearly from the last two steps
+        # corrected by the pressure's departure from its own extrapolation through the last slope dP/dbeta
         x0 = b_prev
         if k > 1 and dt_prev > 0.0:
             x0 = b_prev + (b_prev - b_prev2) * (dt / dt_prev)
-        b, status[k] = solve_beta_gc(p[k], x0, gc, closure, G0, K0, cG1, cG2, cK1, cK2, scale[k], stiff)
+            if d_prev > 0.0:
+                x0 = x0 + (p[k] - (p[k - 1] + (p[k - 1] - p[k - 2]) * (dt / dt_prev))) / d_prev
+        b, status[k], d_prev = solve_beta_gc(p[k], x0, gc, closure, G0, K0, cG1, cG2, cK1, cK2, scale[k], stiff)
         beta[k] = b
         # u3_from_beta and stretch with the constants of gc (the same values, computed once per log)
         u3 = -2.0 * R0 + (2.0 * math.sqrt(gc[4] * b * b + gc[5]) - 2.0 * l0 * b) / (b * b + gc[3])
