@@ -264,3 +264,19 @@ def test_cli_export_and_refusals(plain, tmp_path):
     res = CliRunner().invoke(app, ["export", str(fit), "--to", "fortran", "--out", str(tmp_path / "o4")])
     assert res.exit_code == 2 and "--to" in res.output
     assert not any((tmp_path / f"o{i}").exists() for i in (2, 3, 4))
+
+
+def test_vbmm_model_of_a_comparison_equals_its_simulate(tmp_path_factory, logs):
+    from bpmid.models.vbmm_family import VBMMMatModel
+
+    fam = VBMMMatModel()
+    params = fam.default_params()
+    d = tmp_path_factory.mktemp("cmp_vbmm")
+    fit = d / "compare.yaml"
+    fit.write_text(dump_yaml({"schema": "bpmid.compare/1", "models": {"vbmm-mat": fam.describe(params)},
+                              "provenance": {"bpmid_version": "test"}}), encoding="utf-8")
+    _dd, _exe, lib = exported(tmp_path_factory, "cmp_vbmm_c", fit, model="vbmm-mat")
+    for lg in logs[::11]:
+        assert np.max(np.abs(lib.run_forward(lg.time_s, lg.pressure_pa) - fam.simulate(params, lg))) < 1e-9
+    res = CliRunner().invoke(app, ["export", str(fit), "--to", "c", "--model", "vbmm-fit", "--out", str(d / "x")])
+    assert res.exit_code == 2 and "models.vbmm-fit" in res.output

@@ -21,7 +21,8 @@ def export_command(
     to: str = typer.Option(..., "--to", help="Target: c (C99 for a controller: bpmid_model.h, bpmid_model.c, main.c), "
                                              "abaqus, ansys or comsol (material cards of a relaxation fit)."),
     out: Path = typer.Option(..., "--out", help="Output folder (written whole or not at all)."),
-    model: Optional[str] = typer.Option(None, "--model", help="For --to c: vbmm (default for a bpmid.vbmm/1 file) or "
+    model: Optional[str] = typer.Option(None, "--model", help="For --to c: vbmm (default for a bpmid.vbmm/1 file); "
+                                                              "vbmm-fit or vbmm-mat (that model of a compare result); "
                                                               "maxwell-slip (the Maxwell-slip model of a compare "
                                                               "result, or the MS-PI feedforward of a control result)."),
 ):

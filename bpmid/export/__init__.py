@@ -1,7 +1,8 @@
 """``bpmid export``: a fitted model in another tool's format, dispatched by target (``--to``).
 
-- ``c``: dependency-free C99 of a ``bpmid.vbmm/1`` fit (or, with ``model="maxwell-slip"``, of the
-  Maxwell-slip model in a ``bpmid.compare/1`` or ``bpmid.control/1`` file): :mod:`bpmid.export.c`
+- ``c``: dependency-free C99 of a ``bpmid.vbmm/1`` fit (or, with ``model``, of the vbmm-fit, vbmm-mat or
+  Maxwell-slip model in a ``bpmid.compare/1`` file, or the MS-PI feedforward of a ``bpmid.control/1`` file):
+  :mod:`bpmid.export.c`
 - ``abaqus``, ``ansys``, ``comsol``: material cards of a ``bpmid.relax/1`` fit (:mod:`bpmid.export.fea`)
 """
 from __future__ import annotations
@@ -32,8 +33,13 @@ def export(fit_path: str | Path, to: str, out_dir: str | Path, *, model: str | N
     if to == "c":
         if model is None or model == "vbmm":
             schemas = ("bpmid.vbmm/",)
+        elif model in ("vbmm-fit", "vbmm-mat"):
+            schemas = ("bpmid.compare/",)
         elif model == "maxwell-slip":
             schemas = ("bpmid.compare/", "bpmid.control/")
+        else:
+            raise InputError(f"unknown model {model!r} for --to c (known: vbmm, vbmm-fit, vbmm-mat, maxwell-slip)",
+                             key="--model")
     read_result(fit_path, schemas)
     if to == "c":
         from bpmid.export.c import export_c

@@ -36,7 +36,7 @@ from typing import Sequence
 from bpmid.errors import InputError
 
 FILES = ("bpmid_model.h", "bpmid_model.c", "main.c")
-MODELS = ("vbmm", "maxwell-slip")
+MODELS = ("vbmm", "vbmm-fit", "vbmm-mat", "maxwell-slip")
 #: catalogue effects this exporter turns into C (every other id is refused, naming it)
 EXPORTABLE_EFFECTS = ("pressure_lag", "braid_friction", "angle_offset", "second_relaxation", "strain_stiffening",
                       "asymmetric_relaxation", "thermal_softening")
@@ -185,6 +185,40 @@ def load_vbmm_fit(path: str | Path):
     base = load_vbmm(path)
     effects, params = effects_from_yaml(data.get("effects"), path)
     return AugmentedVBMM(base, effects, params)
+
+
+def load_vbmm_from_compare(path: str | Path, name: str):
+    """The VBMM family ``name`` (vbmm-fit or vbmm-mat) of a ``bpmid.compare/1`` file, as an
+    :class:`~bpmid.effects.base.AugmentedVBMM` without effects (recursive history)."""
+    from bpmid.effects.base import AugmentedVBMM
+    from bpmid.io.results import read_result, require
+    from bpmid.models.vbmm import VBMM, geometry_from_yaml
+    from bpmid.motion_fit import material_from_params
+    from bpmid.params import Param, ParamSet, parse_param_entry
+
+    path = Path(path)
+    data = read_result(path, "bpmid.compare/")
+    models = data.get("models")
+    if not isinstance(models, dict) or not isinstance(models.get(name), dict):
+        raise InputError(f"the comparison holds no {name} model (run bpmid compare with --models ...,{name})",
+                         path=path, key=f"models.{name}")
+    key = f"models.{name}"
+    prm = require(data, f"{key}.parameters", path)
+    if not isinstance(prm, dict):
+        raise InputError("expected a mapping name -> {value, stderr, unit}", path=path, key=f"{key}.parameters")
+    params = ParamSet(Param(n, parse_param_entry(v, path=path, key=f"{key}.parameters.{n}")[0],
+                            (v.get("unit") if isinstance(v, dict) else None) or "") for n, v in prm.items())
+    try:
+        mat = material_from_params(params)
+    except KeyError as exc:
+        raise InputError("missing key", path=path, key=f"{key}.parameters.{exc.args[0]}") from None
+    except InputError as exc:
+        raise InputError(exc.message, path=path, key=f"{key}.parameters") from None
+    closure = require(data, f"{key}.closure", path)
+    if closure not in ("paper", "consistent"):
+        raise InputError(f"unknown closure {closure!r} (paper or consistent)", path=path, key=f"{key}.closure")
+    geo = geometry_from_yaml(require(data, f"{key}.geometry", path), path)
+    return AugmentedVBMM(VBMM(material=mat, geometry=geo, closure=closure))
 
 
 def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
@@ -555,7 +589,8 @@ def _ms_sources(ms: MaxwellSlipMap, meta: dict) -> dict[str, str]:
 # ---------------------------------------------------------------------------------------------
 def c_sources(fit_path: str | Path, model: str | None = None, *, command: str | None = None) -> dict[str, str]:
     """The three C files for ``fit_path`` as {file name: text}. ``model``: "vbmm" (default for a
-    ``bpmid.vbmm/1`` file) or "maxwell-slip" (a ``bpmid.compare/1`` or ``bpmid.control/1`` file)."""
+    ``bpmid.vbmm/1`` file), "vbmm-fit" or "vbmm-mat" (that model of a ``bpmid.compare/1`` file) or
+    "maxwell-slip" (a ``bpmid.compare/1`` or ``bpmid.control/1`` file)."""
     from bpmid import __version__
     from bpmid.io.results import command_line, read_result
 
@@ -570,6 +605,10 @@ def c_sources(fit_path: str | Path, model: str | None = None, *, command: str | 
     if model == "vbmm":
         cv = causal_vbmm(load_vbmm_fit(fit_path), fit_path)
         meta["title"] = "the fitted VBMM as C99"
+        return _vbmm_sources(cv, meta)
+    if model in ("vbmm-fit", "vbmm-mat"):
+        cv = causal_vbmm(load_vbmm_from_compare(fit_path, model), fit_path)
+        meta["title"] = f"the {model} model of a comparison as C99"
         return _vbmm_sources(cv, meta)
     ms = load_maxwell_slip(fit_path)
     meta["title"] = "the fitted Maxwell-slip model as C99"
@@ -678,5 +717,6 @@ class CModel:
         return np.array([self.inverse(float(a), float(b)) for a, b in zip(t, angle_deg)])
 
 
-__all__ = ["find_cc", "build_c", "CModel", "STRICT_FLAGS", "export_c", "c_sources", "load_vbmm_fit", "effects_from_yaml", "causal_vbmm", "CausalVBMM",
+__all__ = ["find_cc", "build_c", "CModel", "STRICT_FLAGS", "export_c", "c_sources", "load_vbmm_fit",
+           "load_vbmm_from_compare", "effects_from_yaml", "causal_vbmm", "CausalVBMM",
            "load_maxwell_slip", "MaxwellSlipMap", "FILES", "MODELS", "EXPORTABLE_EFFECTS"]
