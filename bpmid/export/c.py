@@ -600,8 +600,9 @@ def c_sources(fit_path: str | Path, model: str | None = None, *, command: str | 
         model = "vbmm" if data["schema"].startswith("bpmid.vbmm/") else "maxwell-slip"
     if model not in MODELS:
         raise InputError(f"unknown model {model!r} for --to c (known: {', '.join(MODELS)})", key="--model")
-    meta = {"version": __version__, "fit_name": fit_path.name, "fit_sha256": _sha256(fit_path),
-            "command": (command or command_line()).replace("*/", "* /")}
+    safe_name = "".join(ch if ch.isprintable() else "?" for ch in fit_path.name).replace("*/", "* /")
+    meta = {"version": __version__, "fit_name": safe_name, "fit_sha256": _sha256(fit_path),
+            "command": "".join(ch if ch.isprintable() else " " for ch in (command or command_line())).replace("*/", "* /")}
     if model == "vbmm":
         cv = causal_vbmm(load_vbmm_fit(fit_path), fit_path)
         meta["title"] = "the fitted VBMM as C99"
@@ -668,6 +669,9 @@ def build_c(src_dir: str | Path, out: str | Path, *, shared: bool = False, singl
 
 class CModel:
     """An exported model loaded from its shared library with ctypes: one state, stepped from Python.
+
+    The system loader keeps a library per path for the life of the process: build each model to its own path
+    (a library rebuilt at a path already loaded is not reloaded).
 
     >>> m = CModel("libbpmid.so")               # doctest: +SKIP
     >>> angle_deg = m.forward(0.0, 30000.0)    # gauge Pa in, deg out
