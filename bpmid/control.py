@@ -456,8 +456,12 @@ class Run:
 
 def simulate_loop(controller: str, ref: Reference, model: VBMM, plant: Plant, cfg: ControlConfig, *,
                   ms_ff: MSFeedforward | None = None, kp: float | None = None, ki: float | None = None,
-                  noise: np.ndarray | None = None) -> Run:
-    """Run ``controller`` on ``plant`` tracking ``ref``; ``model`` is the controller's VBMM."""
+                  noise: np.ndarray | None = None, feedforward=None) -> Run:
+    """Run ``controller`` on ``plant`` tracking ``ref``; ``model`` is the controller's VBMM.
+
+    ``feedforward``: optional callable ``(t_s, angle_deg) -> gauge pressure (Pa)`` that replaces the
+    controller's own feedforward (e.g. exported C code loaded with ctypes); it is called once per reference
+    sample, in time order, as the loop would call it."""
     if controller not in _KIND:
         raise InputError(f"unknown controller {controller!r} (known: {', '.join(CONTROLLERS)})", key="--controller")
     kp = cfg.kp_bar_per_deg if kp is None else kp
@@ -477,10 +481,14 @@ def simulate_loop(controller: str, ref: Reference, model: VBMM, plant: Plant, cf
         ms_ff = MSFeedforward(np.zeros(1), np.zeros(0), np.zeros(0), 0.0)
         if controller == "ms-pi":
             ms_ff = fit_ms_feedforward(model, cfg)
+    kind, ff_given = _KIND[controller], np.zeros(0)
+    if feedforward is not None and controller != "pi":
+        kind = CK.CTRL_GIVEN
+        ff_given = np.array([feedforward(float(tk), float(ak)) for tk, ak in zip(t, ref.angle_deg)], float)
     t0 = time.perf_counter()
     u, pm, pe, beta, y, ff, sat, status = CK.closed_loop(
-        t, ref_rad, _KIND[controller], kp * PA_PER_BAR, ki * PA_PER_BAR / cfg.rate_hz, lo, hi, atm, p_start, bool(cfg.preview),
-        *pack_model(model), ms_ff.poly, ms_ff.k, ms_ff.D,
+        t, ref_rad, kind, kp * PA_PER_BAR, ki * PA_PER_BAR / cfg.rate_hz, lo, hi, atm, p_start, bool(cfg.preview),
+        *pack_model(model), ms_ff.poly, ms_ff.k, ms_ff.D, ff_given,
         *pack_model(pmodel), scale, *terms.arrays(), float(terms.gain), float(terms.offset_deg),
         np.ascontiguousarray(noise, float), float(plant.sensors.angle_resolution_deg), bool(plant.pressure_dynamics),
         plant.pneumatics.vector(atm))

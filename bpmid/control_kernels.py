@@ -25,7 +25,7 @@ from bpmid.models._vbmm_kernels import recursion_const as _hist
 from bpmid.models._vbmm_kernels import solve_beta as _solve_beta
 from bpmid.pneumatics import muscle_volume, pressure_period, IDX_DEAD
 
-CTRL_PI, CTRL_VBMM, CTRL_MS = 0, 1, 2
+CTRL_PI, CTRL_VBMM, CTRL_MS, CTRL_GIVEN = 0, 1, 2, 3  # CTRL_GIVEN: feedforward precomputed by the caller
 
 SAT_NONE, SAT_HIGH, SAT_LOW = 0, 1, -1
 
@@ -189,6 +189,8 @@ def closed_loop(t, ref, kind, kp, ki, p_lo, p_hi, atm, p_start, preview,
                 c_geo, c_closure, c_Ginf, c_Gj, c_tauG, c_Kinf, c_Kj, c_tauK, c_fall, c_stiff,
                 # Maxwell-slip inverse feedforward (angle deg -> gauge bar)
                 ms_poly, ms_k, ms_D,
+                # CTRL_GIVEN: feedforward gauge pressure (Pa) per reference sample, computed causally by the caller
+                ff_given,
                 # plant
                 geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, fall, stiff, scale,
                 ch_op, ch_par, ch_cnt, gain, offset_deg, noise_deg, quant_deg, pneu, pneu_prm):  # pragma: no cover - compiled
@@ -293,6 +295,8 @@ def closed_loop(t, ref, kind, kp, ki, p_lo, p_hi, atm, p_start, preview,
                     ms_d[i] = di
                     v += ms_k[i] * di
                 ffv = atm + v * 1e5
+            elif kind == CTRL_GIVEN:
+                ffv = atm + ff_given[fj]
             else:
                 ffv = 0.0
             fj += 1

@@ -33,6 +33,7 @@ from bpmid.errors import ConvergenceError, InputError
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models.vbmm import VBMM
 from bpmid.progress import Progress, note
+from bpmid.relax._blas import one_blas_thread
 
 
 @dataclasses.dataclass(frozen=True)
@@ -241,6 +242,7 @@ def split_logs(logs: Sequence[MotionLog], holdout: Sequence[MotionLog] | None, c
     return fit, ho, how
 
 
+@one_blas_thread  # a sequence of small solves: one BLAS thread (bpmid.relax._blas is the one place that sets it)
 def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionLog] | None = None,
              cfg: DiscoverConfig | None = None, effects: Sequence[Effect] | None = None) -> DiscoveryResult:
     """Run the discovery loop (see module docstring).

@@ -1,15 +1,19 @@
-"""Run small dense linear algebra on one BLAS thread.
+"""Run small dense linear algebra on one BLAS thread: the one place bpmid sets the BLAS thread count.
 
 The variable-projection fit does thousands of QR/SVD factorisations of matrices of a few hundred by
-a few dozen entries. Multi-threaded OpenBLAS is 10-20x *slower* on such sizes when the cores are
-shared, so the fit runs inside :func:`single_thread_blas`. This finds the OpenBLAS libraries numpy
-and scipy loaded (from ``/proc/self/maps``) and sets their thread count with ctypes, restoring it on
-exit; where that is not possible it does nothing.
+a few dozen entries, and the motion fit and discovery a sequence of small least-squares solves between
+runs of the compiled forward model. Multi-threaded BLAS is 10-20x *slower* on such sizes when the cores
+are shared (and its spinning threads double the kernel's cost per step), so this work runs inside
+:func:`single_thread_blas` (or a function decorated with :func:`one_blas_thread`): the relaxation fit,
+``fit motion`` and ``discover``. With threadpoolctl installed it sets every BLAS it knows; otherwise this
+finds the OpenBLAS libraries numpy and scipy loaded (from ``/proc/self/maps``) and sets their thread
+count with ctypes, restoring it on exit; where neither is possible it does nothing.
 """
 from __future__ import annotations
 
 import contextlib
 import ctypes
+import functools
 from typing import Iterator
 
 _SETTERS = ("scipy_openblas_set_num_threads64_", "scipy_openblas_set_num_threads", "openblas_set_num_threads64_",
@@ -40,7 +44,15 @@ def _openblas_libs() -> list[tuple[object, object]]:
 
 @contextlib.contextmanager
 def single_thread_blas() -> Iterator[None]:
-    """Context in which OpenBLAS uses one thread (no-op when OpenBLAS is not found)."""
+    """Context in which BLAS uses one thread (no-op when no BLAS library can be set)."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        threadpool_limits = None
+    if threadpool_limits is not None:
+        with threadpool_limits(limits=1, user_api="blas"):
+            yield
+        return
     libs = _openblas_libs()
     old = []
     for get, set_ in libs:
@@ -54,3 +66,14 @@ def single_thread_blas() -> Iterator[None]:
     finally:
         for set_, n in old:
             set_(n)
+
+
+def one_blas_thread(fn):
+    """Decorator: run ``fn`` inside :func:`single_thread_blas` (for entry points made of many small solves)."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        with single_thread_blas():
+            return fn(*args, **kwargs)
+
+    return wrapper

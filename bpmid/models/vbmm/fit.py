@@ -38,6 +38,7 @@ from bpmid.models import _vbmm_kernels as VK
 from bpmid.models.vbmm import VBMM, Material, VBMMConfig, material_params, vbmm_yaml_body
 from bpmid.params import ParamSet
 from bpmid.progress import note
+from bpmid.relax._blas import one_blas_thread
 
 #: paper's name for each built-in prior
 PRIORS = {"paper-mat": Material.paper_mat, "paper-fit": Material.paper_fit}
@@ -484,6 +485,7 @@ def log_metrics(y, y_hat) -> dict:
     return out
 
 
+@one_blas_thread  # a sequence of small solves: one BLAS thread (bpmid.relax._blas is the one place that sets it)
 def fit_motion(logs: Sequence[MotionLog], *, config=None, init=None, params: ParamSet | None = None) -> MotionFit:
     """Fit the VBMM to motion logs (all at once) and report uncertainties and identifiability.
 

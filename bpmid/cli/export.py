@@ -1,0 +1,46 @@
+"""``bpmid export``: a fitted model in another tool's format (library: :mod:`bpmid.export`)."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from bpmid.cli._app import app, check_outputs, command, existing_files
+
+
+@command(app, "export", epilog=(
+    "Examples: bpmid export VBMM.yaml --to c --out vbmm_c/   (then: cc -std=c99 -O2 vbmm_c/*.c -lm -o vbmm; "
+    "./vbmm < time_s,pressure_gauge_pa lines);   "
+    "bpmid export out/paper/compare/compare.yaml --to c --model maxwell-slip --out ms_c/;   "
+    "bpmid export relax_fit.yaml --to abaqus --out fea/"))
+def export_command(
+    fit: Path = typer.Argument(..., metavar="FIT.yaml", help="A fit file: bpmid.vbmm/1 (--to c), bpmid.compare/1 or "
+                                                            "bpmid.control/1 (--to c --model maxwell-slip), "
+                                                            "bpmid.relax/1 (--to abaqus|ansys|comsol)."),
+    to: str = typer.Option(..., "--to", help="Target: c (C99 for a controller: bpmid_model.h, bpmid_model.c, main.c), "
+                                             "abaqus, ansys or comsol (material cards of a relaxation fit)."),
+    out: Path = typer.Option(..., "--out", help="Output folder (written whole or not at all)."),
+    model: Optional[str] = typer.Option(None, "--model", help="For --to c: vbmm (default for a bpmid.vbmm/1 file); "
+                                                              "vbmm-fit or vbmm-mat (that model of a compare result); "
+                                                              "maxwell-slip (the Maxwell-slip model of a compare "
+                                                              "result, or the MS-PI feedforward of a control result)."),
+):
+    """Write a fitted model for another tool: dependency-free C for a real-time controller, or FEA material cards."""
+    from bpmid.errors import InputError
+    from bpmid.export import TARGETS, export
+
+    existing_files([fit], "fit")
+    if to not in TARGETS:
+        raise InputError(f"unknown target {to!r} (known: {', '.join(TARGETS)})", key="--to")
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError("--out must be a folder, found a file", path=out, key="--out")
+    if to == "c":
+        from bpmid.export.c import FILES
+
+        check_outputs([out / f for f in FILES], [fit])
+    written = export(fit, to, out, model=model)
+    typer.echo(f"wrote {len(written)} files to {out}: {', '.join(p.name for p in written)}")
+    if to == "c":
+        typer.echo(f"build: cc -std=c99 -O2 {out}/bpmid_model.c {out}/main.c -lm -o bpmid_model")

@@ -1,0 +1,726 @@
+"""A fitted model as dependency-free C99 for a real-time controller (``bpmid export FIT.yaml --to c``).
+
+Writes ``bpmid_model.h``, ``bpmid_model.c`` and ``main.c`` (a stdin filter) into a folder, whole or not
+at all. The model code has no heap allocation and no global state and includes only ``<math.h>``; its
+state is one struct whose size is fixed at compile time; the fit's constants are baked in as exact
+double literals, and the header comment carries the provenance (bpmid version, sha256 of the fit file).
+
+Two model kinds:
+
+- ``vbmm`` (a ``bpmid.vbmm/1`` file): the VBMM with any number of branches, either closure, shared or
+  split time constants, recursive (exact) history, plus the catalogue effects of an optional
+  ``effects`` list in the file (see :func:`effects_from_yaml`): pressure_lag (first-order lag; a dead
+  time is refused), braid_friction (mean of play operators), angle_offset, second_relaxation (one more
+  branch), strain_stiffening, asymmetric_relaxation and thermal_softening. ``step_forward`` is the
+  forward model of ``bpmid predict``; ``step_inverse`` is the feedforward of eq. 20 (closed form),
+  followed by the exact causal inverses of the pressure terms (lag: the discrete lag solved for its
+  input; plays: the smallest input move that gives the wanted output).
+- ``maxwell-slip`` (``--model maxwell-slip``): the Maxwell-slip model of a ``bpmid.compare/1`` file
+  (pressure in bar gauge -> angle in deg; ``step_inverse`` solves it for the pressure) or the MS-PI
+  feedforward of a ``bpmid.control/1`` file (angle in deg -> pressure in bar gauge, seed 003's inverse
+  form; ``step_forward`` solves it for the angle). The solve takes the root nearest the previous input
+  (exact where the map is strictly monotone; on a flat stretch the smallest move).
+
+Units at the C interface: time s, gauge pressure Pa, angle deg.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import math
+from importlib import resources
+from pathlib import Path
+from string import Template
+from typing import Sequence
+
+from bpmid.errors import InputError
+
+FILES = ("bpmid_model.h", "bpmid_model.c", "main.c")
+MODELS = ("vbmm", "vbmm-fit", "vbmm-mat", "maxwell-slip")
+#: catalogue effects this exporter turns into C (every other id is refused, naming it)
+EXPORTABLE_EFFECTS = ("pressure_lag", "braid_friction", "angle_offset", "second_relaxation", "strain_stiffening",
+                      "asymmetric_relaxation", "thermal_softening")
+PA_PER_BAR = 1e5
+
+
+def _lit(x: float) -> str:
+    """An exact C literal of the double ``x`` (shortest round-trip repr), cast to the build's real type."""
+    x = float(x)
+    if not math.isfinite(x):
+        raise InputError(f"a constant of the fit is not finite ({x!r}); it cannot be exported")
+    return f"R({x!r})"
+
+
+def _template(name: str) -> Template:
+    return Template(resources.files("bpmid.export").joinpath("templates", name).read_text(encoding="utf-8"))
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _comment(lines: Sequence[str]) -> str:
+    return "".join(f" * {ln}\n".replace(" \n", "\n") for ln in lines)
+
+
+# ---------------------------------------------------------------------------------------------
+# the VBMM with its causal effects
+# ---------------------------------------------------------------------------------------------
+def effects_from_yaml(block, path=None):
+    """The optional ``effects`` list of a ``bpmid.vbmm/1`` file: the effects and one ParamSet of their constants.
+
+    Each entry is ``{id: <catalogue id>, parameters: {<name>: {value, stderr, unit}}, settings: {...}}``
+    (parameter names with or without the ``<id>.`` prefix; ``settings`` optional), in the order the
+    effects act. Returns (effects tuple, ParamSet).
+    """
+    from bpmid.effects import CATALOGUE, get_effect
+    from bpmid.params import ParamSet, parse_param_entry
+
+    if block is None:
+        return (), ParamSet([])
+    if not isinstance(block, list):
+        raise InputError("effects must be a list of {id, parameters, settings}", path=path, key="effects")
+    effects, params, seen = [], [], set()
+    for i, entry in enumerate(block):
+        key = f"effects[{i}]"
+        if not isinstance(entry, dict):
+            raise InputError("expected a mapping {id, parameters, settings}", path=path, key=key)
+        for k in entry:
+            if k not in ("id", "parameters", "settings"):
+                raise InputError("unknown key (known: id, parameters, settings)", path=path, key=f"{key}.{k}")
+        eid = entry.get("id")
+        if not isinstance(eid, str) or eid not in CATALOGUE:
+            raise InputError(f"unknown effect {eid!r} (known: {', '.join(CATALOGUE)})", path=path, key=f"{key}.id")
+        if eid in seen:
+            raise InputError(f"effect {eid} is listed twice", path=path, key=f"{key}.id")
+        seen.add(eid)
+        settings = entry.get("settings") or {}
+        if not isinstance(settings, dict):
+            raise InputError("settings must be a mapping", path=path, key=f"{key}.settings")
+        try:
+            effect = get_effect(eid, **settings)
+        except InputError as exc:
+            raise InputError(exc.message, path=path, key=f"{key}.settings") from None
+        except TypeError:
+            known = ", ".join(getattr(type(get_effect(eid)), "SETTINGS", ())) or "none"
+            raise InputError(f"unknown setting for {eid} (known: {known})", path=path, key=f"{key}.settings") from None
+        defaults = effect.default_params()
+        given = entry.get("parameters")
+        if not isinstance(given, dict):
+            raise InputError("parameters must be a mapping name -> {value, stderr, unit}", path=path,
+                             key=f"{key}.parameters")
+        values = {}
+        for name, val in given.items():
+            full = name if str(name).startswith(eid + ".") else f"{eid}.{name}"
+            pkey = f"{key}.parameters.{name}"
+            if full not in defaults:
+                known = ", ".join(n.split(".", 1)[1] for n in defaults.names())
+                raise InputError(f"unknown parameter of {eid} (known: {known})", path=path, key=pkey)
+            v, _se, unit = parse_param_entry(val, path=path, key=pkey)
+            if unit is not None and unit != defaults[full].unit:
+                raise InputError(f"unit {unit!r} where {defaults[full].unit!r} is expected", path=path, key=pkey)
+            values[full] = v
+        for name in defaults.names():
+            if name not in values:
+                raise InputError("missing key", path=path, key=f"{key}.parameters.{name.split('.', 1)[1]}")
+        effects.append(effect)
+        params.extend(defaults.with_values(values))
+    return tuple(effects), ParamSet(params)
+
+
+@dataclasses.dataclass(frozen=True)
+class CausalVBMM:
+    """The VBMM of a fit split into what the C code steps: the VBMM (structural effects applied), the
+    pressure terms in order (("lag", tau_s) or ("plays", radii_pa)), the modulus scale of thermal
+    softening ((amount, T_s) or None) and the angle offset (deg)."""
+
+    model: object
+    chain: tuple = ()
+    thermal: tuple | None = None
+    offset_deg: float = 0.0
+    effect_ids: tuple = ()
+
+
+def causal_vbmm(aug, path=None) -> CausalVBMM:
+    """Split an :class:`~bpmid.effects.base.AugmentedVBMM` into its causal C form; an effect without
+    one is refused (InputError naming it and why)."""
+    chain, thermal, offset = [], None, 0.0
+    p = aug.params
+    for i, e in enumerate(aug.effects):
+        if e.id not in EXPORTABLE_EFFECTS:
+            raise InputError(f"effect {e.id} has no causal C form in this exporter (exportable: "
+                             f"{', '.join(EXPORTABLE_EFFECTS)}); export the fit without it", path=path,
+                             key=f"effects[{i}].id")
+        if e.id == "pressure_lag":
+            if getattr(e, "dead_time", 0.0) != 0.0:
+                raise InputError("pressure_lag with a dead time cannot be exported: a dead time needs a sample "
+                                 "buffer whose length depends on the sample rate, and its inverse (the "
+                                 "feedforward) would need the future", path=path, key=f"effects[{i}].settings.dead_time")
+            tau = p.value("pressure_lag.tau")
+            if tau != 0.0:
+                chain.append(("lag", float(tau)))
+        elif e.id == "braid_friction":
+            r = p.value("braid_friction.r")
+            if r != 0.0:
+                chain.append(("plays", tuple(float(v) for v in e.radii(r))))
+        elif e.id == "angle_offset":
+            offset += p.value("angle_offset.offset")
+        elif e.id == "thermal_softening":
+            a = p.value("thermal_softening.amount")
+            if a != 0.0:
+                thermal = (float(a), float(p.value("thermal_softening.T")))
+    model = aug.model().replace(history="recursive")
+    return CausalVBMM(model, tuple(chain), thermal, float(offset), tuple(e.id for e in aug.effects))
+
+
+def load_vbmm_fit(path: str | Path):
+    """The :class:`~bpmid.effects.base.AugmentedVBMM` of a ``bpmid.vbmm/1`` file (its ``effects`` list
+    included; recursive history)."""
+    from bpmid.effects.base import AugmentedVBMM
+    from bpmid.io.results import read_result
+    from bpmid.models.vbmm import load_vbmm
+
+    path = Path(path)
+    data = read_result(path, "bpmid.vbmm/")
+    base = load_vbmm(path)
+    effects, params = effects_from_yaml(data.get("effects"), path)
+    return AugmentedVBMM(base, effects, params)
+
+
+def load_vbmm_from_compare(path: str | Path, name: str):
+    """The VBMM family ``name`` (vbmm-fit or vbmm-mat) of a ``bpmid.compare/1`` file, as an
+    :class:`~bpmid.effects.base.AugmentedVBMM` without effects (recursive history)."""
+    from bpmid.effects.base import AugmentedVBMM
+    from bpmid.io.results import read_result, require
+    from bpmid.models.vbmm import VBMM, geometry_from_yaml
+    from bpmid.motion_fit import material_from_params
+    from bpmid.params import Param, ParamSet, parse_param_entry
+
+    path = Path(path)
+    data = read_result(path, "bpmid.compare/")
+    models = data.get("models")
+    if not isinstance(models, dict) or not isinstance(models.get(name), dict):
+        raise InputError(f"the comparison holds no {name} model (run bpmid compare with --models ...,{name})",
+                         path=path, key=f"models.{name}")
+    key = f"models.{name}"
+    prm = require(data, f"{key}.parameters", path)
+    if not isinstance(prm, dict):
+        raise InputError("expected a mapping name -> {value, stderr, unit}", path=path, key=f"{key}.parameters")
+    params = ParamSet(Param(n, parse_param_entry(v, path=path, key=f"{key}.parameters.{n}")[0],
+                            (v.get("unit") if isinstance(v, dict) else None) or "") for n, v in prm.items())
+    try:
+        mat = material_from_params(params)
+    except KeyError as exc:
+        raise InputError("missing key", path=path, key=f"{key}.parameters.{exc.args[0]}") from None
+    except InputError as exc:
+        raise InputError(exc.message, path=path, key=f"{key}.parameters") from None
+    closure = require(data, f"{key}.closure", path)
+    if closure not in ("paper", "consistent"):
+        raise InputError(f"unknown closure {closure!r} (paper or consistent)", path=path, key=f"{key}.closure")
+    geo = geometry_from_yaml(require(data, f"{key}.geometry", path), path)
+    return AugmentedVBMM(VBMM(material=mat, geometry=geo, closure=closure))
+
+
+def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
+    m = cv.model
+    g = m.geometry
+    mat = m.material
+    th, alpha0, R0, l0, n = g.th, g.alpha0, g.R0, g.l0, g.n
+    # the same double arithmetic as bpmid.models._vbmm_kernels, done once here
+    pn2 = 4.0 * math.pi * math.pi * n * n
+    consts = {
+        "TH": th, "R0": R0, "L0": l0, "PN2": pn2, "DD": l0 * l0 + pn2 * R0 * R0, "EE": pn2 * pn2 * R0 * R0,
+        "AA": -math.pi * math.pi * n * n / (l0 * l0), "BB": -4.0 * math.pi * math.pi * n * n * R0 / (l0 * l0),
+        "L0CA": l0 * math.cos(alpha0), "CA0": math.cos(alpha0), "BETA_MAX": 4.0 * math.pi,
+        "GINF": mat.G_inf, "KINF": mat.K_inf,
+    }
+    g0 = mat.G_inf
+    for v in mat.G:
+        g0 += v
+    k0 = mat.K_inf
+    for v in mat.K:
+        k0 += v
+    consts["G0FULL"] = g0
+    consts["K0FULL"] = k0
+    if m.fall_ratio != 1.0:
+        consts["FALL"] = m.fall_ratio
+    if m.stiffening != 0.0:
+        consts["STIFF"] = m.stiffening
+    const_lines = [f"#define {k} {_lit(v)}" for k, v in consts.items()]
+    const_lines.append(f"#define ANGLE_OFFSET_DEG {float(cv.offset_deg)!r}")
+    nb = mat.n_branches
+    shared = (not mat.split) or all(a == b for a, b in zip(mat.tauG, mat.tau_K))
+    fields, decay, hist, commit, reset = [], [], [], [], []
+    fields += ["    double dt_a;       /* dt and fall ratio the cached decays belong to */",
+               "    bpmid_real r_a;",
+               "    bpmid_real dt_prev;   /* previous step (s), for the extrapolated start */",
+               "    bpmid_real p_prev, p_prev2;   /* pressures the rubber saw at the previous two steps (Pa) */",
+               "    bpmid_real d_prev;    /* dP/dbeta at the last evaluation (Pa/rad), for the start of the next solve */",
+               "    bpmid_real e1, e2;    /* strains of the previous step */",
+               "    bpmid_real b1, b2;    /* angles (rad) of the previous two steps */"]
+    for j in range(nb):
+        taus = [("", mat.tauG[j])] if shared else [("G", mat.tauG[j]), ("K", mat.tau_K[j])]
+        for tag, tau in taus:
+            fields.append(f"    bpmid_real a{tag}{j};   /* decay of branch {j + 1} over the step (tau {tau!r} s) */")
+            decay.append(f"        s->a{tag}{j} = B_EXP(-dt / ({_lit(tau)} * r));")
+        aG = f"s->a{'' if shared else 'G'}{j}"
+        aK = f"s->a{'' if shared else 'K'}{j}"
+        fields.append(f"    bpmid_real hG1_{j}, hG2_{j}, hK1_{j}, hK2_{j};   /* branch {j + 1} states */")
+        for c, M, a, h, x in (("cG1", mat.G[j], aG, f"hG1_{j}", "e1"), ("cG2", mat.G[j], aG, f"hG2_{j}", "e2"),
+                              ("cK1", mat.K[j], aK, f"hK1_{j}", "e1"), ("cK2", mat.K[j], aK, f"hK2_{j}", "e2")):
+            hist.append(f"    c->{c} += {_lit(M)} * ({a} * s->{h} - s->{x});")
+            commit.append(f"        s->{h} = {a} * s->{h} + d{x[-1]};")
+            reset.append(f"    s->{h} = R(0.0);")
+        for tag, _tau in taus:
+            reset.append(f"    s->a{tag}{j} = R(1.0);")
+    # strain stiffening and the thermal modulus scale (as pressure_at: s = scale (1 + c e1^2))
+    if m.stiffening != 0.0:
+        scale = ("    const bpmid_real s = c->sc * (R(1.0) + STIFF * e1 * e1);\n"
+                 "    const bpmid_real ds = c->sc * STIFF * R(2.0) * e1 * dF;\n")
+    else:
+        scale = "    const bpmid_real s = c->sc;\n    const bpmid_real ds = R(0.0);\n"
+    if m.closure == "paper":
+        closure = ("    const bpmid_real gb = L0CA * (R(1.0) + u3 / R0);\n"
+                   "    const bpmid_real dgb = L0CA * de2;\n"
+                   "    const bpmid_real den = R(1.0) - R(2.0) * gb * F;\n"
+                   "    const bpmid_real nm = s2 * gb + s1 * e1;\n"
+                   "    const bpmid_real in = s2 + nm / den;\n"
+                   "    const bpmid_real din = ds2 + ((ds2 * gb + s2 * dgb + ds1 * e1 + s1 * dF) * den\n"
+                   "                                  + nm * R(2.0) * (dgb * F + gb * dF)) / (den * den);\n")
+    else:
+        closure = ("    const bpmid_real ca = CA0 * (R(1.0) + e2);\n"
+                   "    const bpmid_real dca = CA0 * de2;\n"
+                   "    const bpmid_real in = s2 + s1 * e1 / (R(1.0) - ca);\n"
+                   "    const bpmid_real din = ds2 + ((ds1 * e1 + s1 * dF) * (R(1.0) - ca) + s1 * e1 * dca)\n"
+                   "                                 / ((R(1.0) - ca) * (R(1.0) - ca));\n")
+    if cv.thermal is not None:
+        a, T = cv.thermal
+        thermal = (f"    /* thermal softening: moduli times 1 - {a!r} (1 - exp(-(t - t0) / {T!r} s)) */\n"
+                   f"    return (bpmid_real)(1.0 - {a!r} * (1.0 - exp(-(t - s->t0) / {T!r})));\n")
+    else:
+        thermal = "    return R(1.0);\n"
+    if m.fall_ratio != 1.0:
+        fall_f = "    if (s->k > 0 && p < s->p_prev) {\n        r = FALL;\n    }\n"
+        fall_i = "    if (s->k > 0 && b < s->b1) {\n        r = FALL;\n    }\n"
+    else:
+        fall_f = fall_i = ""
+    chain_code, chain_fields, chain_reset = _chain_sources(cv.chain)
+    fields += chain_fields
+    reset += chain_reset
+    desc = _vbmm_description(cv, meta)
+    subs = dict(meta, description=_comment(desc), state_fields="".join(f + "\n" for f in fields),
+                constants="\n".join(const_lines) + "\n", scale_code=scale, closure_code=closure,
+                decay_code="".join(d + "\n" for d in decay), history_code="".join(h + "\n" for h in hist),
+                commit_code="".join(c + "\n" for c in commit), thermal_code=thermal,
+                reset_code="".join(r + "\n" for r in reset), chain_code=chain_code, fall_forward=fall_f,
+                fall_inverse=fall_i)
+    return {"bpmid_model.h": _template("common.h.in").substitute(subs),
+            "bpmid_model.c": _template("vbmm.c.in").substitute(subs),
+            "main.c": _template("main.c.in").substitute(subs)}
+
+
+def _chain_sources(chain) -> tuple[str, list[str], list[str]]:
+    """C of the pressure terms: ``pressure_chain_forward`` (logged -> rubber pressure) and
+    ``pressure_chain_inverse`` (rubber -> logged pressure, exact causal inverses, reverse order)."""
+    fields, reset, fwd, inv = [], [], [], []
+    for i, (op, val) in enumerate(chain):
+        if op == "lag":
+            fields.append(f"    bpmid_real lag{i}_x, lag{i}_y, lag{i}_a;   /* pressure lag {val!r} s: input, output, decay */")
+            fields.append(f"    double lag{i}_dt;")
+            reset.append(f"    s->lag{i}_x = s->lag{i}_y = R(0.0);\n    s->lag{i}_a = R(1.0);\n    s->lag{i}_dt = -1.0;")
+            tau = _lit(val)
+            fwd.append(
+                f"    /* first-order lag, tau = {val!r} s, exact for an input linear between samples */\n"
+                f"    if (s->k == 0) {{\n        y = x;\n    }} else {{\n"
+                f"        if (dt != s->lag{i}_dt) {{\n            s->lag{i}_a = B_EXP(-dt / {tau});\n"
+                f"            s->lag{i}_dt = dt;\n        }}\n"
+                f"        y = s->lag{i}_a * s->lag{i}_y + (R(1.0) - s->lag{i}_a) * s->lag{i}_x\n"
+                f"            + (x - s->lag{i}_x) * (R(1.0) - {tau} * (R(1.0) - s->lag{i}_a) / dt);\n    }}\n"
+                f"    s->lag{i}_x = x;\n    s->lag{i}_y = y;\n    x = y;\n")
+            inv.append(
+                f"    /* inverse of the lag: its input for the wanted output */\n"
+                f"    if (s->k == 0) {{\n        x = y;\n    }} else {{\n"
+                f"        if (dt != s->lag{i}_dt) {{\n            s->lag{i}_a = B_EXP(-dt / {tau});\n"
+                f"            s->lag{i}_dt = dt;\n        }}\n"
+                f"        x = s->lag{i}_x + (y - s->lag{i}_a * s->lag{i}_y - (R(1.0) - s->lag{i}_a) * s->lag{i}_x)\n"
+                f"            / (R(1.0) - {tau} * (R(1.0) - s->lag{i}_a) / dt);\n    }}\n"
+                f"    s->lag{i}_x = x;\n    s->lag{i}_y = y;\n    y = x;\n")
+        else:
+            radii = list(val)
+            nr = len(radii)
+            fields.append(f"    bpmid_real play{i}_v[{nr}];   /* play operators (dead bands {', '.join(repr(r) for r in radii)} Pa) */")
+            fields.append(f"    bpmid_real play{i}_x;")
+            reset.append(f"    {{\n        int e;\n        for (e = 0; e < {nr}; ++e) {{\n            s->play{i}_v[e] = R(0.0);\n"
+                         f"        }}\n    }}\n    s->play{i}_x = R(0.0);")
+            rad = "{" + ", ".join(_lit(r) for r in radii) + "}"
+            fwd.append(
+                f"    /* braid friction: the mean of {nr} play operator(s) */\n"
+                f"    {{\n        static const bpmid_real rr[{nr}] = {rad};\n        bpmid_real acc = R(0.0);\n        int e;\n"
+                f"        for (e = 0; e < {nr}; ++e) {{\n"
+                f"            bpmid_real v = s->k == 0 ? x : s->play{i}_v[e];\n"
+                f"            if (v < x - rr[e]) {{\n                v = x - rr[e];\n            }} else if (v > x + rr[e]) {{\n"
+                f"                v = x + rr[e];\n            }}\n"
+                f"            s->play{i}_v[e] = v;\n            acc += v;\n        }}\n"
+                f"        s->play{i}_x = x;\n        x = acc / R({float(nr)!r});\n    }}\n")
+            inv.append(
+                f"    /* inverse of the plays: the smallest move of their input that gives the wanted mean */\n"
+                f"    {{\n        static const bpmid_real rr[{nr}] = {rad};\n"
+                f"        x = play_inverse(s->play{i}_v, rr, {nr}, s->play{i}_x, y, s->k == 0);\n"
+                f"        s->play{i}_x = x;\n        y = x;\n    }}\n")
+    helpers = ""
+    if any(op == "plays" for op, _v in chain):
+        helpers = f"#define PLAY_MAX {max(len(v) for op, v in chain if op == 'plays')}\n" + _PLAY_INVERSE
+    code = helpers
+    code += ("/* The logged pressure (Pa) -> the pressure the rubber sees, through the pressure terms in order. */\n"
+             "static bpmid_real pressure_chain_forward(bpmid_state *s, bpmid_real dt, bpmid_real x)\n{\n"
+             "    bpmid_real y = x;\n    (void)s;\n    (void)dt;\n    (void)y;\n" + "".join(fwd) + "    return x;\n}\n\n")
+    code += ("/* The rubber's pressure (Pa) -> the logged pressure that gives it (the terms inverted, in reverse order). */\n"
+             "static bpmid_real pressure_chain_inverse(bpmid_state *s, bpmid_real dt, bpmid_real y)\n{\n"
+             "    bpmid_real x = y;\n    (void)s;\n    (void)dt;\n    (void)x;\n" + "".join(reversed(inv)) + "    return y;\n}\n")
+    return code, fields, reset
+
+
+_PLAY_INVERSE = """/* Input x of n play operators (states v, dead bands r, previous input xp) whose mean output is y; the
+ * states are committed. The mean is non-decreasing and piecewise linear in x: walk its breakpoints
+ * from xp in the direction of y and solve on the segment that holds y (the smallest move). */
+static bpmid_real play_inverse(bpmid_real *v, const bpmid_real *r, int n, bpmid_real xp, bpmid_real y, int first)
+{
+    bpmid_real cur = R(0.0), x = xp, bp[PLAY_MAX];
+    int idx[PLAY_MAX], e, m, used[PLAY_MAX];
+    if (first) {
+        for (e = 0; e < n; ++e) {
+            v[e] = y;
+        }
+        return y;
+    }
+    for (e = 0; e < n; ++e) {
+        cur += v[e];
+    }
+    cur = cur / (bpmid_real)n;
+    if (y != cur) {
+        const int up = y > cur;
+        /* breakpoints where element e starts to move: v + r (rising) or v - r (falling), nearest first */
+        for (e = 0; e < n; ++e) {
+            int j = e;
+            bpmid_real b = up ? v[e] + r[e] : v[e] - r[e];
+            while (j > 0 && (up ? bp[j - 1] > b : bp[j - 1] < b)) {
+                bp[j] = bp[j - 1];
+                idx[j] = idx[j - 1];
+                --j;
+            }
+            bp[j] = b;
+            idx[j] = e;
+            used[e] = 0;
+        }
+        for (m = 1; m <= n; ++m) {
+            bpmid_real rest = R(0.0), sr = R(0.0);
+            used[idx[m - 1]] = 1;
+            for (e = 0; e < n; ++e) {
+                if (used[e]) {
+                    sr += r[e];
+                } else {
+                    rest += v[e];
+                }
+            }
+            /* the m moving elements give x -+ r each, the others hold */
+            x = up ? ((bpmid_real)n * y - rest + sr) / (bpmid_real)m : ((bpmid_real)n * y - rest - sr) / (bpmid_real)m;
+            if (m == n || (up ? x <= bp[m] : x >= bp[m])) {
+                break;
+            }
+        }
+    }
+    for (e = 0; e < n; ++e) {
+        if (v[e] < x - r[e]) {
+            v[e] = x - r[e];
+        } else if (v[e] > x + r[e]) {
+            v[e] = x + r[e];
+        }
+    }
+    return x;
+}
+
+"""
+
+
+def _vbmm_description(cv: CausalVBMM, meta: dict) -> list[str]:
+    m = cv.model
+    mat = m.material
+    out = [f"Model: VBMM, {m.closure} closure, {mat.n_branches} Prony branch(es), time constants "
+           f"{'split' if mat.split else 'shared'}, recursive (exact) history.",
+           f"Geometry (m, rad): th {m.geometry.th!r}, alpha0 {m.geometry.alpha0!r}, R0 {m.geometry.R0!r}, "
+           f"l0 {m.geometry.l0!r}, n {m.geometry.n!r}.",
+           f"Material (Pa, s): G_inf {mat.G_inf!r}, K_inf {mat.K_inf!r}"]
+    for j in range(mat.n_branches):
+        tau = f"tau {mat.tauG[j]!r}" if not mat.split else f"tauG {mat.tauG[j]!r}, tauK {mat.tau_K[j]!r}"
+        out.append(f"  branch {j + 1}: G {mat.G[j]!r}, K {mat.K[j]!r}, {tau}")
+    if cv.effect_ids:
+        out.append(f"Effects (in the order they act): {', '.join(cv.effect_ids)}.")
+        for op, v in cv.chain:
+            out.append(f"  pressure lag, tau {v!r} s" if op == "lag" else
+                       f"  braid friction: mean of {len(v)} play operator(s), dead bands {', '.join(repr(r) for r in v)} Pa")
+        if m.fall_ratio != 1.0:
+            out.append(f"  asymmetric relaxation: tau times {m.fall_ratio!r} while the pressure falls (forward) or "
+                       "the angle falls (inverse)")
+        if m.stiffening != 0.0:
+            out.append(f"  strain stiffening: moduli times 1 + {m.stiffening!r} eps1^2")
+        if cv.thermal is not None:
+            out.append(f"  thermal softening: moduli times 1 - {cv.thermal[0]!r} (1 - exp(-(t - t0) / {cv.thermal[1]!r} s))")
+        if cv.offset_deg:
+            out.append(f"  angle offset {cv.offset_deg!r} deg")
+    else:
+        out.append("Effects: none.")
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Maxwell-slip
+# ---------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class MaxwellSlipMap:
+    """out = s(in) + sign sum_i k_i d_i, d_i = clamp(d_i + in - in_prev, -D_i, D_i) (elements start at 0).
+
+    direct : "forward" (in = gauge pressure in bar, out = angle in deg: the compare model) or "inverse"
+        (in = angle in deg, out = gauge pressure in bar: the MS-PI feedforward)
+    """
+
+    poly: tuple
+    k: tuple
+    D: tuple
+    sign: float
+    direct: str
+    source: str
+
+
+def load_maxwell_slip(path: str | Path) -> MaxwellSlipMap:
+    """The Maxwell-slip model of a ``bpmid.compare/1`` file (``models.maxwell-slip``) or the MS-PI
+    feedforward of a ``bpmid.control/1`` file (``ms_feedforward``)."""
+    from bpmid.io.results import read_result, require
+    from bpmid.params import parse_param_entry
+
+    path = Path(path)
+    data = read_result(path, ("bpmid.compare/", "bpmid.control/"))
+    if data["schema"].startswith("bpmid.compare/"):
+        ms = require(data, "models", path).get("maxwell-slip") if isinstance(data.get("models"), dict) else None
+        if not isinstance(ms, dict):
+            raise InputError("the comparison holds no maxwell-slip model (run bpmid compare with --models "
+                             "...,maxwell-slip)", path=path, key="models.maxwell-slip")
+        prm = require(data, "models.maxwell-slip.parameters", path)
+        st = require(data, "models.maxwell-slip.settings", path)
+        if st.get("input_unit", "bar") != "bar" or st.get("output_unit", "deg") != "deg":
+            raise InputError("expected a muscle model with input_unit bar and output_unit deg", path=path,
+                             key="models.maxwell-slip.settings")
+
+        def val(name):
+            return parse_param_entry(require(data, f"models.maxwell-slip.parameters.{name}", path), path=path,
+                                     key=f"models.maxwell-slip.parameters.{name}")[0]
+
+        deg = int(st.get("poly_degree", sum(1 for n in prm if n.startswith("s") and n[1:].isdigit()) - 1))
+        nel = int(st.get("n_elements", sum(1 for n in prm if n.startswith("k") and n[1:].isdigit())))
+        poly = tuple(val(f"s{j}") for j in range(deg + 1))
+        k = tuple(val(f"k{i + 1}") for i in range(nel))
+        D = tuple(val(f"D{i + 1}") for i in range(nel))
+        sign = val("loop_sign") if "loop_sign" in prm else 1.0
+        out = MaxwellSlipMap(poly, k, D, float(sign), "forward", "compare: models.maxwell-slip")
+    else:
+        ff = require(data, "ms_feedforward", path)
+        if not isinstance(ff, dict):
+            raise InputError("expected a mapping", path=path, key="ms_feedforward")
+        poly = require(data, "ms_feedforward.poly_bar_per_deg_j", path)
+        k = require(data, "ms_feedforward.k_bar_per_deg", path)
+        D = require(data, "ms_feedforward.D_deg", path)
+        for name, v in (("poly_bar_per_deg_j", poly), ("k_bar_per_deg", k), ("D_deg", D)):
+            if not isinstance(v, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and
+                                                  math.isfinite(x) for x in v):
+                raise InputError("expected a list of finite numbers", path=path, key=f"ms_feedforward.{name}")
+        if len(k) != len(D) or not poly:
+            raise InputError("k_bar_per_deg and D_deg need one entry per element, poly at least one", path=path,
+                             key="ms_feedforward")
+        out = MaxwellSlipMap(tuple(map(float, poly)), tuple(map(float, k)), tuple(map(float, D)), 1.0, "inverse",
+                             "control: ms_feedforward (MS-PI)")
+    if any(v < 0 for v in out.D):
+        raise InputError("slip limits must be >= 0", path=path)
+    if len(out.poly) > 4:
+        raise InputError("the static polynomial may have degree 3 at most", path=path)
+    return out
+
+
+def _ms_sources(ms: MaxwellSlipMap, meta: dict) -> dict[str, str]:
+    n = len(ms.k)
+    fwd = ms.direct == "forward"
+    desc = [f"Model: Maxwell-slip ({ms.source}), {n} element(s), static polynomial of degree {len(ms.poly) - 1}.",
+            ("Direct map: gauge pressure (bar) -> angle (deg); step_forward evaluates it, step_inverse solves it."
+             if fwd else
+             "Direct map: angle (deg) -> gauge pressure (bar), the MS-PI feedforward; step_inverse evaluates it, "
+             "step_forward solves it."),
+            "  out = s(in) + sign sum_i k_i d_i,  d_i = clamp(d_i + in - in_prev, -D_i, D_i),  d_i = 0 at the start",
+            f"  s coefficients: {', '.join(repr(v) for v in ms.poly)}",
+            f"  k: {', '.join(repr(v) for v in ms.k)};  D: {', '.join(repr(v) for v in ms.D)};  sign {ms.sign!r}",
+            "The solve takes the root nearest the previous input (exact where the map is strictly monotone)."]
+    nn = max(n, 1)
+    fields = [f"    bpmid_real d[{nn}];   /* element deflections (input unit) */",
+              "    bpmid_real in_prev;  /* previous input of the direct map */"]
+    consts = [f"#define NEL {n}", f"#define NPOLY {len(ms.poly)}", f"#define SIGN {_lit(ms.sign)}"]
+    arrays = ("    static const bpmid_real poly[NPOLY] = {" + ", ".join(_lit(v) for v in ms.poly) + "};\n")
+    if n:
+        arrays += ("    static const bpmid_real kk[NEL] = {" + ", ".join(_lit(v) for v in ms.k) + "};\n"
+                   "    static const bpmid_real DD[NEL] = {" + ", ".join(_lit(v) for v in ms.D) + "};\n")
+    else:
+        arrays += "    static const bpmid_real kk[1] = {R(0.0)};\n    static const bpmid_real DD[1] = {R(0.0)};\n"
+    if fwd:
+        forward_body = ("    const bpmid_real y = direct_map(s, (bpmid_real)(pressure_gauge_pa / 1e5), s->k == 0);\n"
+                        "    s->status = BPMID_STATUS_OK;\n    return (double)y;")
+        inverse_body = ("    const bpmid_real x = solve_map(s, (bpmid_real)angle_deg, &s->status);\n"
+                        "    return (double)x * 1e5;")
+    else:
+        forward_body = ("    const bpmid_real x = solve_map(s, (bpmid_real)(pressure_gauge_pa / 1e5), &s->status);\n"
+                        "    return (double)x;")
+        inverse_body = ("    const bpmid_real y = direct_map(s, (bpmid_real)angle_deg, s->k == 0);\n"
+                        "    s->status = BPMID_STATUS_OK;\n    return (double)y * 1e5;")
+    subs = dict(meta, description=_comment(desc), state_fields="".join(f + "\n" for f in fields),
+                constants="\n".join(consts) + "\n", arrays=arrays, forward_body=forward_body,
+                inverse_body=inverse_body)
+    return {"bpmid_model.h": _template("common.h.in").substitute(subs),
+            "bpmid_model.c": _template("maxwell_slip.c.in").substitute(subs),
+            "main.c": _template("main.c.in").substitute(subs)}
+
+
+# ---------------------------------------------------------------------------------------------
+# the command
+# ---------------------------------------------------------------------------------------------
+def c_sources(fit_path: str | Path, model: str | None = None, *, command: str | None = None) -> dict[str, str]:
+    """The three C files for ``fit_path`` as {file name: text}. ``model``: "vbmm" (default for a
+    ``bpmid.vbmm/1`` file), "vbmm-fit" or "vbmm-mat" (that model of a ``bpmid.compare/1`` file) or
+    "maxwell-slip" (a ``bpmid.compare/1`` or ``bpmid.control/1`` file)."""
+    from bpmid import __version__
+    from bpmid.io.results import command_line, read_result
+
+    fit_path = Path(fit_path)
+    if model is None:
+        data = read_result(fit_path, ("bpmid.vbmm/", "bpmid.compare/", "bpmid.control/"))
+        model = "vbmm" if data["schema"].startswith("bpmid.vbmm/") else "maxwell-slip"
+    if model not in MODELS:
+        raise InputError(f"unknown model {model!r} for --to c (known: {', '.join(MODELS)})", key="--model")
+    safe_name = "".join(ch if ch.isprintable() else "?" for ch in fit_path.name).replace("*/", "* /")
+    meta = {"version": __version__, "fit_name": safe_name, "fit_sha256": _sha256(fit_path),
+            "command": "".join(ch if ch.isprintable() else " " for ch in (command or command_line())).replace("*/", "* /")}
+    if model == "vbmm":
+        cv = causal_vbmm(load_vbmm_fit(fit_path), fit_path)
+        meta["title"] = "the fitted VBMM as C99"
+        return _vbmm_sources(cv, meta)
+    if model in ("vbmm-fit", "vbmm-mat"):
+        cv = causal_vbmm(load_vbmm_from_compare(fit_path, model), fit_path)
+        meta["title"] = f"the {model} model of a comparison as C99"
+        return _vbmm_sources(cv, meta)
+    ms = load_maxwell_slip(fit_path)
+    meta["title"] = "the fitted Maxwell-slip model as C99"
+    return _ms_sources(ms, meta)
+
+
+def export_c(fit_path: str | Path, out_dir: str | Path, model: str | None = None, *,
+             command: str | None = None) -> list[Path]:
+    """Write ``bpmid_model.h``, ``bpmid_model.c`` and ``main.c`` for ``fit_path`` into ``out_dir``, whole or
+    not at all. Returns the paths written."""
+    from bpmid.io.atomic import staged_dir
+
+    sources = c_sources(fit_path, model, command=command)
+    out_dir = Path(out_dir)
+    with staged_dir(out_dir) as tmp:
+        for name in FILES:
+            (tmp / name).write_text(sources[name], encoding="utf-8")
+    return [out_dir / name for name in FILES]
+
+
+# ---------------------------------------------------------------------------------------------
+# building and loading the exported code (tests, benchmarks, a Python host through ctypes)
+# ---------------------------------------------------------------------------------------------
+STRICT_FLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2")
+
+
+def find_cc() -> str | None:
+    """A C compiler on PATH ($CC, cc, gcc or clang), or None."""
+    import os
+    import shutil
+
+    for name in (os.environ.get("CC"), "cc", "gcc", "clang"):
+        if name and shutil.which(name):
+            return shutil.which(name)
+    return None
+
+
+def build_c(src_dir: str | Path, out: str | Path, *, shared: bool = False, single: bool = False,
+            flags: Sequence[str] = STRICT_FLAGS, cc: str | None = None) -> Path:
+    """Compile the exported folder: the stdin filter (``main.c`` + model) or, with ``shared``, a shared
+    library of the model alone. ``single`` adds -DBPMID_FLOAT. Raises RuntimeError with the compiler's
+    message when it fails."""
+    import subprocess
+
+    cc = cc or find_cc()
+    if cc is None:
+        raise RuntimeError("no C compiler found (cc, gcc or clang)")
+    src_dir = Path(src_dir)
+    srcs = [str(src_dir / "bpmid_model.c")] + ([] if shared else [str(src_dir / "main.c")])
+    cmd = [cc, *flags, *(["-DBPMID_FLOAT"] if single else []), *(["-shared", "-fPIC"] if shared else []),
+           *srcs, "-o", str(out), "-lm"]
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed:\n{res.stderr}")
+    return Path(out)
+
+
+class CModel:
+    """An exported model loaded from its shared library with ctypes: one state, stepped from Python.
+
+    The system loader keeps a library per path for the life of the process: build each model to its own path
+    (a library rebuilt at a path already loaded is not reloaded).
+
+    >>> m = CModel("libbpmid.so")               # doctest: +SKIP
+    >>> angle_deg = m.forward(0.0, 30000.0)    # gauge Pa in, deg out
+    """
+
+    def __init__(self, lib_path: str | Path):
+        import ctypes
+
+        self.lib = ctypes.CDLL(str(lib_path))
+        self.lib.bpmid_state_bytes.restype = ctypes.c_int
+        self.state_bytes = int(self.lib.bpmid_state_bytes())
+        self._buf = ctypes.create_string_buffer(self.state_bytes)
+        for name in ("bpmid_step_forward", "bpmid_step_inverse"):
+            fn = getattr(self.lib, name)
+            fn.restype = ctypes.c_double
+            fn.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double]
+        self.lib.bpmid_status.restype = ctypes.c_int
+        self.lib.bpmid_status.argtypes = [ctypes.c_void_p]
+        self._ptr = ctypes.cast(self._buf, ctypes.c_void_p)
+        self.lib.bpmid_init(self._ptr)
+
+    def reset(self) -> None:
+        self.lib.bpmid_reset(self._ptr)
+
+    def forward(self, t: float, pressure_gauge_pa: float) -> float:
+        return self.lib.bpmid_step_forward(self._ptr, t, pressure_gauge_pa)
+
+    def inverse(self, t: float, angle_deg: float) -> float:
+        return self.lib.bpmid_step_inverse(self._ptr, t, angle_deg)
+
+    @property
+    def status(self) -> int:
+        return int(self.lib.bpmid_status(self._ptr))
+
+    def run_forward(self, t, p):
+        """Angles (deg) for a whole pressure history (gauge Pa), from a fresh state."""
+        import numpy as np
+
+        self.reset()
+        return np.array([self.forward(float(a), float(b)) for a, b in zip(t, p)])
+
+    def run_inverse(self, t, angle_deg):
+        """Gauge pressures (Pa) for a whole angle history (deg), from a fresh state."""
+        import numpy as np
+
+        self.reset()
+        return np.array([self.inverse(float(a), float(b)) for a, b in zip(t, angle_deg)])
+
+
+__all__ = ["find_cc", "build_c", "CModel", "STRICT_FLAGS", "export_c", "c_sources", "load_vbmm_fit",
+           "load_vbmm_from_compare", "effects_from_yaml", "causal_vbmm", "CausalVBMM",
+           "load_maxwell_slip", "MaxwellSlipMap", "FILES", "MODELS", "EXPORTABLE_EFFECTS"]
