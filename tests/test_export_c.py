@@ -97,7 +97,7 @@ def test_forward_equals_the_predict_command_csv(plain, tmp_path):
     assert res.exit_code == 0, res.output
     import pandas as pd
 
-    df = pd.read_csv(tmp_path / "pred" / "rate_0p114_r1.csv")
+    df = pd.read_csv(tmp_path / "pred" / "rate_0p114_r1.csv", comment="#")
     lg = read_motion_logs([log])[0]
     ang = run_filter(exe, lg.time_s, lg.pressure_pa)
     assert np.max(np.abs(ang - df["angle_pred_deg"].to_numpy())) <= 1e-6
