@@ -201,7 +201,7 @@ def frequency(pv: dict | None, how: str):
     from bpmid.relax import RelaxConfig
     from bpmid.relax.freq import complex_modulus, fit_frequency, rms_rel_pct
     from bpmid.relax.material import fit_material
-    from bpmid.relax.tts import shift_from_user, read_shift_file
+    from bpmid.relax.tts import fit_wlf, overlap_rms, read_shift_file, shift_from_user
 
     if pv is None:
         print(f"pyvisco could not be run ({how}); comparing with the shipped pyvisco 2.1.3 outputs instead")
@@ -271,6 +271,22 @@ def frequency(pv: dict | None, how: str):
               f"(RMSE {w['rmse']:.2f} decades); pyvisco C1 = {p['C1']:.2f}, C2 = {p['C2']:.1f} C")
         print(f"master-curve fit (20 terms): RMS rel E' {mf.fit.rms_rel_storage_pct:.2f} %, E'' "
               f"{mf.fit.rms_rel_loss_pct:.1f} %")
+        if ship:
+            wf = fit_wlf(sh.T, file_vals, -5.0)
+            print(f"WLF fitted to the shipped file: C1 = {wf['C1']:.2f} +- {wf['se_C1']:.2f}, C2 = {wf['C2']:.1f} +- "
+                  f"{wf['se_C2']:.1f} C (RMSE {wf['rmse']:.2f} decades)")
+            print("superposition of neighbouring sets: RMS of log10 E' difference over their overlap (decades)")
+            print(f"{'pair C':>12s} {'bpmid':>8s} {'pyvisco':>8s} {'file':>8s}")
+            sets = d.sets()
+            k_of = {float(t): i for t, i in sets}
+            lx = {t: np.log10(d.x[i]) for t, i in k_of.items()}
+            ly = {t: np.log10(d.storage[i]) for t, i in k_of.items()}
+            Ts_sorted = sh.T[o]
+            for a_, b_ in zip(Ts_sorted[:-1], Ts_sorted[1:]):
+                ia, ib = int(np.flatnonzero(sh.T == a_)[0]), int(np.flatnonzero(sh.T == b_)[0])
+                vals = [overlap_rms(lx[a_] + v[ia], ly[a_], lx[b_] + v[ib], ly[b_])[0]
+                        for v in (sh.log_aT, want, file_vals)]
+                print(f"{a_:5.0f}..{b_:5.0f} " + " ".join(f"{v:8.4f}" for v in vals))
         print()
 
 

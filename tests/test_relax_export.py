@@ -68,11 +68,18 @@ def parse_abaqus(text):
     return E0, nu, a[:, 0], a[:, 1], a[:, 2], wlf
 
 
-def parse_ansys(text):
-    """APDL: MP values, and per TB table the TBDATA values (which run on from their start index)."""
+def parse_ansys(text, *, ansys_written=False):
+    """APDL: MP values, and per TB table the TBDATA values (which run on from their start index). Ours has only MP,
+    TB, TBDATA and ``!`` comment lines; a table ANSYS wrote (``ansys_written``) also has /COM, TBDEL, TBFIELD, TBIN...,
+    which are skipped, and abbreviates labels to four letters (PRON, SHEA)."""
     mp, tables, cur = {}, {}, None
     for ln in text.splitlines():
         f = [x.strip() for x in ln.split(",")]
+        if ansys_written:
+            if f[0] == "TB":
+                f[1], f[5] = {"PRON": "PRONY"}.get(f[1], f[1]), {"SHEA": "SHEAR", "BULK": "BULK"}.get(f[5], f[5])
+            elif f[0] not in ("MP", "TBDATA"):
+                continue
         if f[0] == "MP":
             mp[f[1]] = float(f[3])
         elif f[0] == "TB":
@@ -83,7 +90,7 @@ def parse_ansys(text):
             for i, v in enumerate(f[2:]):
                 tables[cur]["vals"][start + i] = float(v)
         else:
-            assert ln.startswith("/COM,") and ln.count(",") == 1, ln
+            assert ln.startswith("! "), ln
     return mp, {k: (v["npts"], np.array([v["vals"][i] for i in sorted(v["vals"])])) for k, v in tables.items()}
 
 
@@ -121,10 +128,30 @@ def test_ansys_file_parses_back_to_the_fit(tmp_path):
     assert np.allclose(shift, [20.0, 8.86, 101.6])
 
 
-def test_comsol_parameter_list_and_no_shift(tmp_path):
+def test_ansys_reference_tables_have_our_layout(repo_root):
+    """The .MPL tables ANSYS itself wrote: TB,PRON,mat,NTEMP=1,NPTS=number of pairs,SHEA, then TBDATA runs of
+    (alpha_i, tau_i) from STLOC 1 -- the layout our TB,PRONY lines use."""
+    import os
+
+    for name, n_pairs in (("ansys_prony_terms_freq_user_master.MPL", 27), ("ansys_prony_terms_freq_Eplexor_raw.MPL", 34)):
+        text = open(os.path.join(repo_root, "datasets", "reference", "pyvisco-frequency", name)).read()
+        tb = [ln.split(",") for ln in text.splitlines() if ln.startswith("TB,")]
+        assert [f.strip() for f in tb[0][3:6:2]] == ["1", "SHEA"]
+        _, tables = parse_ansys(text, ansys_written=True)
+        npts, vals = tables[("PRONY", "SHEAR")]
+        alpha, tau = vals[0::2], vals[1::2]
+        assert npts == n_pairs == alpha.size == tau.size and vals.size == 2 * npts
+        assert np.all(np.diff(np.log10(tau)) > 0) and 0 < alpha.sum() < 1
+
+
+def test_comsol_parameter_list_branch_table_and_no_shift(tmp_path):
     p = fit_file(tmp_path, wlf=False)
     params = load_relax_fit(p)
-    (out,) = export_fea(p, "comsol", tmp_path / "fea")
+    out, table = export_fea(p, "comsol", tmp_path / "fea")
+    assert table.name == "fit_comsol_branches.txt" and table.name in out.read_text()
+    rows = np.array([[float(v) for v in ln.split(" ")] for ln in table.read_text().splitlines()])
+    assert rows.shape == (params.tau.size, 3) and np.array_equal(rows[:, 0], np.arange(1, params.tau.size + 1))
+    assert np.allclose(rows[:, 1], params.G, rtol=1e-9) and np.allclose(rows[:, 2], params.tau, rtol=1e-9)
     vals = {}
     for ln in out.read_text().splitlines():
         if ln.startswith("#"):

@@ -4,19 +4,25 @@
   TIME=PRONY`` with one data line per term ``g_i, k_i, tau_i`` (shear and bulk relaxation modulus ratios and the
   relaxation time), and, when the fit has a WLF shift, ``*TRS, DEFINITION=WLF`` with ``theta_0, C1, C2``.
   Abaqus needs sum g_i < 1 (a positive long-term modulus); a fit with E_inf = 0 is refused for it.
-- **ANSYS** Mechanical APDL (``<stem>_ansys.mac``): ``MP,EX`` and ``MP,PRXY`` (instantaneous), ``TB,PRONY,...,SHEAR``
-  and ``TB,PRONY,...,BULK`` tables (``TBDATA`` pairs alpha_i, tau_i, six values per command), and, with a WLF shift,
-  ``TB,SHIFT,...,WLF`` with ``TBDATA,1,T_r,C1,C2``.
-- **COMSOL** (``<stem>_comsol.txt``): a parameter list for Global Definitions > Parameters > Load from File
-  (``name value[unit] "description"`` per line): long-term shear modulus ``G_inf``, branch shear moduli ``G_i`` and
-  relaxation times ``tau_i`` of the generalized Maxwell model, the bulk modulus, and ``T_ref``, ``C1_WLF``,
-  ``C2_WLF`` for the WLF shift function.
+- **ANSYS** Mechanical APDL (``<stem>_ansys.mac``): ``MP,EX`` and ``MP,PRXY`` (instantaneous), ``TB,PRONY,mat,1,n,SHEAR``
+  and ``TB,PRONY,mat,1,n,BULK`` tables (NTEMP = 1, NPTS = n, the number of Prony pairs, as in the tables ANSYS itself
+  writes: ``datasets/reference/pyvisco-frequency/ansys_prony_terms_*.MPL``), their ``TBDATA,STLOC,...`` runs of pairs
+  (alpha_i, tau_i), six values per command (the most ``TBDATA`` takes), and, with a WLF shift, ``TB,SHIFT,mat,1,3,WLF``
+  with ``TBDATA,1,T_r,C1,C2``. Comments are ``!`` lines (APDL ignores everything after ``!``).
+- **COMSOL** (two files). ``<stem>_comsol.txt``: a parameter list for Global Definitions > Parameters > Load from File
+  (``name value[unit] "description"`` per line, ``#`` comments): long-term shear modulus ``G_inf``, branch shear
+  moduli ``G_i`` and relaxation times ``tau_i`` of the generalized Maxwell model, the bulk modulus, and ``T_ref``,
+  ``C1_WLF``, ``C2_WLF`` for the WLF shift function. ``<stem>_comsol_branches.txt``: the branch table for the
+  Viscoelasticity node's own Load from File button, in the format COMSOL documents for it: three space-separated
+  columns, branch number, shear modulus (Pa), relaxation time (s); numbers only.
 
 Relative moduli: g_i = G_i / G0 with G0 = G_inf + sum G_i (the instantaneous shear modulus), k_i = K_i / K0 likewise;
 alpha_i (ANSYS) are the same ratios. Units are SI (Pa, s); temperatures are those of the fit (deg C). The WLF form
 is log10 a_T = -C1 (T - T_ref) / (C2 + T - T_ref), relaxation times at T being tau_i a_T (bpmid's, pyvisco's and
-Abaqus' convention; ANSYS and COMSOL take the same positive C1, C2). Every file starts with comment lines giving
-the provenance: bpmid version, the fit file and its sha256, and the fit's own command and inputs.
+Abaqus' convention, whose ``*TRS`` data line is theta_0, C1, C2; ANSYS and COMSOL take the same positive C1, C2:
+ANSYS writes its shift as log10 A = C1 (T - T_r)/(C2 + T - T_r) with A multiplying time, A = 1/a_T). Every file but
+the numbers-only branch table starts with comment lines giving the provenance: bpmid version, the fit file and its
+sha256, and the fit's own command and inputs. Sources: docs/notes/i17b-shift.md.
 """
 from __future__ import annotations
 
@@ -30,6 +36,8 @@ from bpmid.errors import InputError
 
 TOOLS = ("abaqus", "ansys", "comsol")
 SUFFIX = {"abaqus": "_abaqus.inp", "ansys": "_ansys.mac", "comsol": "_comsol.txt"}
+#: the COMSOL branch table (Viscoelasticity node > Load from File)
+COMSOL_BRANCHES = "_comsol_branches.txt"
 
 
 def _wlf(data: dict, path: Path) -> dict | None:
@@ -69,7 +77,7 @@ def _provenance_lines(fit_path: Path, data: dict, params, wlf: dict | None) -> l
         lines.append(f"fit input: {name} (sha256 {sha})")
     if wlf is not None:
         lines.append(f"WLF shift: log10 aT = -C1 (T - T_ref)/(C2 + T - T_ref); T in C; T_ref = {wlf['T_ref']:g} C")
-    # one comment line stays short (input readers limit line length) and free of commas (APDL splits fields on them)
+    # one comment line stays short (input readers limit line length) and free of commas
     out = []
     for ln in lines:
         ln = ln.replace(",", ";")
@@ -116,7 +124,7 @@ def ansys_text(params, wlf: dict | None, prov: list[str], mat: int = 1) -> str:
     G0, K0, g, k = _ratios(params)
     E0 = params.E_inf + float(params.E.sum())
     n = params.tau.size
-    out = [f"/COM, {ln}" for ln in prov]
+    out = [f"! {ln}" for ln in prov]
     out += [f"MP,EX,{mat},{_num(E0)}", f"MP,PRXY,{mat},{params.poisson_ratio:.10g}",
             f"TB,PRONY,{mat},1,{n},SHEAR"]
     out += _tbdata([v for pair in zip(g, params.tau) for v in pair])
@@ -127,9 +135,17 @@ def ansys_text(params, wlf: dict | None, prov: list[str], mat: int = 1) -> str:
     return "\n".join(out) + "\n"
 
 
-def comsol_text(params, wlf: dict | None, prov: list[str]) -> str:
+def comsol_branch_table(params) -> str:
+    """The Viscoelasticity node's branch table: ``branch shear_modulus relaxation_time`` per line (Pa, s), numbers
+    only (COMSOL's documented Load from File format for that table)."""
+    return "".join(f"{j} {_num(Gj)} {_num(tj)}\n" for j, (Gj, tj) in enumerate(zip(params.G, params.tau), start=1))
+
+
+def comsol_text(params, wlf: dict | None, prov: list[str], branches: str | None = None) -> str:
     G0, K0, _, _ = _ratios(params)
     out = [f"# {ln}" for ln in prov]
+    if branches:
+        out.append(f"# the same branches as a table for the Viscoelasticity node (Load from File): {branches}")
     out.append('# generalized Maxwell model: G(t) = G_inf + sum_i G_i exp(-t/tau_i); the bulk modulus is elastic '
                "(the instantaneous K0)")
     out.append(f'G_inf {_num(params.G_inf)}[Pa] "long-term shear modulus"')
@@ -148,7 +164,7 @@ def comsol_text(params, wlf: dict | None, prov: list[str]) -> str:
 def export_fea(fit_path: Path, tool: str, out_dir: Path) -> list[Path]:
     """Write the Prony constants of a ``bpmid.relax/1`` fit for ``tool`` (abaqus, ansys or comsol) into ``out_dir``.
 
-    Returns the paths written (one file). Bad input raises :class:`bpmid.errors.InputError` naming the key; the file
+    Returns the paths written (one file; two for COMSOL: the parameter list and the branch table). Bad input raises :class:`bpmid.errors.InputError` naming the key; the file
     is written atomically (whole or not at all).
     """
     from bpmid.io.atomic import write_text
@@ -176,7 +192,7 @@ def export_fea(fit_path: Path, tool: str, out_dir: Path) -> list[Path]:
         elif tool == "ansys":
             text = ansys_text(params, wlf, prov)
         else:
-            text = comsol_text(params, wlf, prov)
+            text = comsol_text(params, wlf, prov, f"{stem}{COMSOL_BRANCHES}")
     except InputError as exc:
         if exc.path is None:
             raise InputError(exc.message, path=fit_path, key=exc.key) from None
@@ -186,4 +202,8 @@ def export_fea(fit_path: Path, tool: str, out_dir: Path) -> list[Path]:
         raise InputError("--out must be a folder, found a file", path=out_dir, key="--out")
     out = out_dir / f"{stem}{SUFFIX[tool]}"
     write_text(out, text)
-    return [out]
+    if tool != "comsol":
+        return [out]
+    table = out_dir / f"{stem}{COMSOL_BRANCHES}"
+    write_text(table, comsol_branch_table(params))
+    return [out, table]

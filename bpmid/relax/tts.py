@@ -236,6 +236,21 @@ def _levels_overlap(yr: np.ndarray, ys: np.ndarray) -> bool:
     return max(yr.min(), ys.min()) < min(yr.max(), ys.max())
 
 
+def overlap_rms(logx_a: np.ndarray, logy_a: np.ndarray, logx_b: np.ndarray, logy_b: np.ndarray) -> tuple[float, int]:
+    """How well two (already shifted) sets superpose: RMS difference of log modulus (decades) where their log-x ranges
+    overlap, measured both ways (each set interpolated linearly in log-log at the other's samples), and the number of
+    samples it is taken over; (nan, 0) without overlap. The quality measure the shift factors of a master curve are
+    judged by (every sample counts, outliers included)."""
+    oa, ob = np.argsort(logx_a), np.argsort(logx_b)
+    xa, ya, xb, yb = logx_a[oa], logy_a[oa], logx_b[ob], logy_b[ob]
+    k1 = (xb >= xa[0]) & (xb <= xa[-1])
+    k2 = (xa >= xb[0]) & (xa <= xb[-1])
+    r = np.concatenate([np.interp(xb[k1], xa, ya) - yb[k1], np.interp(xa[k2], xb, yb) - ya[k2]])
+    if r.size == 0:
+        return math.nan, 0
+    return float(np.sqrt(np.mean(r ** 2))), int(r.size)
+
+
 def find_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: Sequence[np.ndarray], T_ref: float,
                        *, domain: str = "freq") -> tuple[np.ndarray, np.ndarray]:
     """log10 a_T of every set from the data (see the module docstring).
