@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 from bpmid.cli import app
 
 COMMANDS = [["fit", "relax"], ["fit", "motion"], ["predict"], ["compare"], ["discover"], ["report"],
-            ["simulate"], ["run"], ["control"]]
+            ["simulate"], ["run"], ["control"], ["export"], ["calibrate"], ["shipped"]]
 
 
 @pytest.mark.parametrize("cmd", COMMANDS, ids=lambda c: " ".join(c))
