@@ -171,6 +171,17 @@ def initial_material(cfg: MotionFitConfig, init=None, *, base_dir: Path | None =
     return _adapt_branches(mat, cfg), source
 
 
+#: default bounds of a time constant (s)
+TAU_BOUNDS = (1e-3, 1e3)
+
+
+def _slower(tau: float) -> float:
+    """The time constant of an added, slower branch: 10x ``tau``, but inside the default bounds (between ``tau``
+    and the upper bound, geometrically, once 10x would leave them)."""
+    hi = TAU_BOUNDS[1]
+    return 10.0 * tau if 10.0 * tau <= 0.5 * hi else math.sqrt(min(tau, 0.99 * hi) * hi)
+
+
 def _adapt_branches(mat: Material, cfg: MotionFitConfig) -> Material:
     """Match the branch count and tau sharing the config asks for."""
     m = mat.n_branches
@@ -183,8 +194,8 @@ def _adapt_branches(mat: Material, cfg: MotionFitConfig) -> Material:
         # a new, slower branch: 10x the last time constant, 30 % of its moduli (or of the long-term ones)
         G.append(0.3 * (G[-1] if G else mat.G_inf))
         Kk.append(0.3 * (Kk[-1] if Kk else mat.K_inf))
-        tG.append(10.0 * tG[-1] if tG else 0.4)
-        tK.append(10.0 * tK[-1] if tK else 0.4)
+        tG.append(_slower(tG[-1]) if tG else 0.4)
+        tK.append(_slower(tK[-1]) if tK else 0.4)
     split = cfg.split_tau or mat.split
     if mat.split and not cfg.split_tau:
         raise InputError("the initial material has separate time constants for G and K; set motion.split_tau: true",
@@ -204,10 +215,10 @@ def params_from_material(mat: Material, cfg: MotionFitConfig | None = None, *, a
         i = j + 1
         ps += [Param(f"G_{i}", mat.G[j], "Pa", 0.0, math.inf), Param(f"K_{i}", mat.K[j], "Pa", 0.0, math.inf)]
         if mat.split:
-            ps += [Param(f"tauG_{i}", mat.tauG[j], "s", 1e-3, 1e3, log_scale=True),
-                   Param(f"tauK_{i}", mat.tauK[j], "s", 1e-3, 1e3, log_scale=True)]
+            ps += [Param(f"tauG_{i}", mat.tauG[j], "s", *TAU_BOUNDS, log_scale=True),
+                   Param(f"tauK_{i}", mat.tauK[j], "s", *TAU_BOUNDS, log_scale=True)]
         else:
-            ps.append(Param(f"tau_{i}", mat.tauG[j], "s", 1e-3, 1e3, log_scale=True))
+            ps.append(Param(f"tau_{i}", mat.tauG[j], "s", *TAU_BOUNDS, log_scale=True))
     params = ParamSet(ps)
     for what, names in (("start", cfg.start), ("fixed", cfg.fixed), ("bounds", cfg.bounds)):
         for name in names:
@@ -220,8 +231,13 @@ def params_from_material(mat: Material, cfg: MotionFitConfig | None = None, *, a
         params = params.replace(name, lower=float(lo), upper=float(hi))
     for p in params:
         if not p.lower <= p.value <= p.upper:
-            raise InputError(f"start value {p.value:g} {p.unit} lies outside its bounds [{p.lower:g}, {p.upper:g}]",
-                             key=f"motion.bounds.{p.name}")
+            # name the key the user wrote (bounds or start); else the start came from the initial material
+            key = (f"motion.bounds.{p.name}" if p.name in cfg.bounds else f"motion.start.{p.name}"
+                   if p.name in cfg.start else None)
+            raise InputError(f"start value {p.value:g} {p.unit} of {p.name} lies outside its bounds "
+                             f"[{p.lower:g}, {p.upper:g}]" + ("" if key else
+                             " (the start comes from the initial material: set motion.start." + p.name
+                             + " or motion.bounds." + p.name + ")"), key=key)
         if p.log_scale and p.value <= 0:
             raise InputError("a time constant must be positive", key=f"motion.start.{p.name}")
     for name in cfg.fixed:
