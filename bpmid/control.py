@@ -172,6 +172,9 @@ def read_reference(path: Path, rate_hz: float, name: str | None = None) -> Refer
     path = Path(path)
     if not path.is_file():
         raise InputError("reference file not found", path=path)
+    from bpmid.io.atomic import note_input
+
+    note_input(path)
     try:
         df = pd.read_csv(path, comment="#")
     except Exception as exc:  # pandas raises many kinds
