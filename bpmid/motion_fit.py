@@ -583,6 +583,11 @@ def fit_motion(logs: Sequence[MotionLog], *, config=None, init=None, params: Par
         per_log[lg.name] = log_metrics(lg.angle_deg, preds[lg.name])
     y = np.concatenate([lg.angle_deg for lg in logs])
     yh = np.concatenate([preds[lg.name] for lg in logs])
+    from bpmid.fitting import check_explained
+
+    check_explained(y, yh, quantity="angle", unit="deg", paths=[lg.path or lg.name for lg in logs],
+                    hint="fit on logs whose pressure program moves the muscle (ramps, steps, cycles) and check "
+                         "the pressure and angle columns and their units")
     sens = sensitivity(model, logs, res.params, yh)
     return MotionFit(model, res, prior, source, linear, logs, preds, log_metrics(y, yh), per_log, sens,
                      time.perf_counter() - t0, mcfg)

@@ -230,6 +230,12 @@ def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | i
     records = read_relax_logs(paths, column_map=cfg.columns, gauge_length_mm=cfg.specimen.gauge_length_mm,
                               cross_section_mm2=cfg.specimen.cross_section_mm2, gap_factor=gap)
     fit = fit_relaxation(records, terms=terms, mode=mode, config=cfg)
+    from bpmid.fitting import check_explained  # R^2 <= 0 or NaN: no constants are written
+
+    check_explained(np.concatenate([lf.y for lf in fit.logs]), np.concatenate([lf.y_fit for lf in fit.logs]),
+                    quantity=fit.quantity, unit="MPa", paths=paths,
+                    hint="a relaxation log needs a stress (or modulus) that follows a strain step and relaxes; "
+                         "check the stress column and its unit")
     for w in fit.warnings:
         print(f"warning: {w}", file=sys.stderr, flush=True)
     out = Path(out)
