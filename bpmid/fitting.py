@@ -275,8 +275,13 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
     raise RuntimeError("identifiability loop did not terminate")  # pragma: no cover
 
 
+#: an R^2 at or below this is "none of the variation explained" (a constant at the data's mean gives 0 up to rounding)
+R2_MIN = 1e-6
+
+
 def check_explained(y, y_hat, *, quantity: str, unit: str, paths=(), hint: str = "") -> float:
-    """Refuse (InputError) a fit that explains none of the variation of the data: R^2 <= 0 or not a number.
+    """Refuse (InputError) a fit that explains none of the variation of the data: R^2 <= 0 (up to
+    :data:`R2_MIN`) or not a number.
 
     Such a fit's constants are not measurements, whatever their standard errors say: either the data barely
     vary (a constant-pressure or constant-stress log: R^2 is then 0/0 or a huge negative number) or the model
@@ -296,7 +301,7 @@ def check_explained(y, y_hat, *, quantity: str, unit: str, paths=(), hint: str =
     ss_tot = float(np.sum((yy - yy.mean()) ** 2)) if yy.size else 0.0
     ss_res = float(np.sum((yy - yh) ** 2)) if yy.size else math.nan
     r2 = 1.0 - ss_res / ss_tot if ss_tot > 0 else math.nan
-    if r2 > 0:
+    if r2 > R2_MIN:
         return r2
     paths = [p for p in paths if p is not None]
     spread = float(np.ptp(yy)) if yy.size else 0.0
@@ -305,7 +310,7 @@ def check_explained(y, y_hat, *, quantity: str, unit: str, paths=(), hint: str =
         why = (f"the measured {quantity} does not vary (range {spread:.3g} {unit}), so no fit can be judged "
                "against it and its dynamic constants are not determined")
     else:
-        why = (f"the fit explains none of the variation of the {quantity} (R^2 = {r2:.3g}; RMSE "
+        why = (f"the fit explains none of the variation of the {quantity} (R^2 = {r2:.3g} <= 0; RMSE "
                f"{math.sqrt(ss_res / max(yy.size, 1)):.3g} {unit} against a spread of {spread:.3g} {unit}): its "
                "constants are not estimates")
     from bpmid.errors import InputError

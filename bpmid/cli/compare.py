@@ -44,6 +44,13 @@ def compare(
     names = parse_model_list(models) if models is not None else None
     train_paths, test_sets, relax_path = resolve_inputs(cfg.section("compare"), cfg, train=train, test=test,
                                                         relax=relax)
+    from bpmid.io.atomic import check_outputs_not_inputs  # before any work: no output may replace an input
+
+    tests = [p for v in test_sets.values() for p in v]
+    check_outputs_not_inputs([Path(out) / n for n in ("metrics.csv", "summary.csv", "summary_by_set.csv",
+                                                      "compare.yaml")]
+                             + [Path(out) / "predictions" / f"{Path(p).stem}.csv" for p in tests],
+                             list(train_paths) + tests + [relax_path, config])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", CompareWarning)
         result = run_compare(train_paths, test_sets, out, models=names, config=cfg, relax_fit=relax_path)

@@ -68,6 +68,11 @@ def control(
         dataclasses.replace(cfg, controllers=tuple(controllers)).validate()
     except InputError as exc:
         raise InputError(exc.message, key="--controller") from None
+    from bpmid.io.atomic import check_outputs_not_inputs  # before any work: no output may replace an input
+
+    check_outputs_not_inputs([out / n for n in ("summary.csv", "control.yaml", "fig18.png")],
+                             [params, plant_params, config] + [Path(r.strip()) for r in reference.split(",")
+                                                                if r.strip() and Path(r.strip()).is_file()])
     model_cfg = cfg_all.section("model")
     model = load_vbmm(params, model_cfg)
     plant_base = load_vbmm(plant_params, model_cfg) if plant_params is not None else model
