@@ -246,17 +246,18 @@ class OutputJournal:
             top = top.parent
         self.created_top = top  # the outermost folder this run will create (when out does not exist)
         try:
-            self.out.mkdir(parents=True, exist_ok=True)
-            self.journal = Journal(self.out)
-            if not self.existed:  # a killed run's folder goes again when the next command rolls it back
+            if self.existed:
+                self.journal = Journal(self.out)
+                self.journal.snapshot(self._own_files())
+            else:  # the folder appears with its journal inside; a rollback removes it (and parents made for it)
                 d, dirs = self.out, []
                 while True:
                     dirs.append(str(d))
                     if d == top:
                         break
                     d = d.parent
-                self.journal.data["created_dirs"] = dirs
-            self.journal.snapshot(self._own_files() if self.existed else [])
+                self.out.parent.mkdir(parents=True, exist_ok=True)
+                self.journal = Journal.new_folder(self.out, len(dirs))
         except OSError as exc:
             self._remove_created()
             raise os_error(exc, out) from exc

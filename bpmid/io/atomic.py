@@ -471,6 +471,35 @@ class Journal:
         self.data.update(before=before, saved=saved)
         self._write()
 
+    @classmethod
+    def new_folder(cls, out: str | Path, created_levels: int = 1) -> "Journal":
+        """Make the folder ``out`` (which does not exist) with an in-place journal already inside it: the folder
+        is made as a hidden, locked staging folder beside ``out``, the journal written into it, and then renamed
+        to ``out``, so that no instant shows ``out`` without its journal. A rollback removes ``out`` and the
+        ``created_levels - 1`` parents made for it, when they are empty (levels, not paths: a copied folder
+        recovers on its own)."""
+        out = Path(os.path.abspath(out))
+        area = _LockedDir(STAGE_PREFIX, out.parent)
+        try:
+            journal = cls(area.path)
+            journal.data["created_levels"] = int(created_levels)
+            journal.snapshot([])
+            os.rename(area.path, out)
+        except BaseException:
+            journal_fd = locals().get("journal")
+            if journal_fd is not None:
+                journal_fd._close()
+                if journal_fd.backup is not None:
+                    journal_fd.backup.release(remove=False)
+            area.release(remove=True)
+            raise
+        area.release(remove=False)
+        journal.out = out
+        journal.data["out"] = str(out)
+        journal.path = out / journal.path.name
+        journal.backup.path = out / journal.backup.path.name
+        return journal
+
     # -- moves ------------------------------------------------------------------------------------
     def plan(self, files: list[str], new_dirs: list[str]) -> None:
         """Record the switch of ``files`` (relative paths) before the first one moves."""
@@ -532,7 +561,10 @@ def _rollback(out: Path, data: dict) -> None:
             if any(part.startswith(HIDDEN_PREFIXES) for part in rel.parts):
                 continue
             for n in files:
-                if not n.startswith(HIDDEN_PREFIXES) and str(rel / n) not in keep:
+                if n.startswith(TMP_PREFIX) and rel.parts and not _is_live(here / n):
+                    with contextlib.suppress(OSError):  # a half-written file in a subfolder
+                        (here / n).unlink()
+                elif not n.startswith(HIDDEN_PREFIXES) and str(rel / n) not in keep:
                     with contextlib.suppress(OSError):
                         (here / n).unlink()
             for n in dirs:
@@ -595,8 +627,10 @@ def recover(folder: str | Path) -> list[str]:
                 done.append(f"rolled back an interrupted write in {folder} (journal {j.name})")
             with contextlib.suppress(OSError):
                 j.unlink()
-            if isinstance(data, dict):
-                _remove_empty(data.get("created_dirs", []))
+            if isinstance(data, dict) and isinstance(data.get("created_levels"), int):
+                # the folder (and the parents made for it) did not exist before: remove them when empty
+                levels = max(0, min(int(data["created_levels"]), len(folder.parts) - 1))
+                _remove_empty([folder, *list(folder.parents)[: max(levels - 1, 0)]])
         if not folder.is_dir():
             return done
         for p in entries:
