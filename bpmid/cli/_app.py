@@ -101,9 +101,12 @@ def command(typer_app: typer.Typer, name: str, **kw):
                     fail("interrupted", 130)
                 raise
             except OSError as exc:
-                # the file system said no (a folder that cannot be made, no permission, disk full): the user can fix it
-                where = exc.filename if exc.filename is not None else "output"
-                fail(f"{where}: cannot read or write it ({exc.strerror or exc})", 2)
+                # the file system said no (a folder that cannot be made, no permission, disk full, read-only):
+                # the user can fix it
+                from bpmid.io.atomic import os_error
+
+                fail(os_error(exc, exc.filename if exc.filename is not None else "output",
+                              "read or write").format(), 2)
             except Exception as exc:  # an internal failure: say so, keep the traceback one variable away
                 if os.environ.get("BPMID_DEBUG"):
                     raise
@@ -138,7 +141,7 @@ def _recover_outputs(kwargs) -> None:
     from bpmid.io.atomic import recover
 
     out = kwargs.get("out")
-    if isinstance(out, Path) and str(out) not in ("", "."):
+    if isinstance(out, Path) and str(out):
         recover(out if out.is_dir() else out.parent)
     elif isinstance(kwargs.get("out_dir"), Path):  # bpmid report DIR: never read a half-switched folder
         recover(kwargs["out_dir"])

@@ -244,7 +244,9 @@ def sigterm_as_interrupt() -> Iterator[None]:
 # --------------------------------------------------------------------------------------------------
 def _lock_fd(fd: int) -> None:
     if fcntl is not None:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        # a file system without locks (some network mounts): the file works, recover() just never takes it
+        with contextlib.suppress(OSError):
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
 
 
 def _is_live(path: Path) -> bool:
