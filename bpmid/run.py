@@ -248,7 +248,7 @@ class OutputJournal:
         try:
             if self.existed:
                 self.journal = Journal(self.out)
-                self.journal.snapshot(self._own_files())
+                self.journal.snapshot(self._own_files(), walk=RUN_FOLDERS)
             else:  # the folder appears with its journal inside; a rollback removes it (and parents made for it)
                 d, dirs = self.out, []
                 while True:

@@ -179,6 +179,8 @@ def _old_state(out: Path, mode: str, exists: bool) -> None:
             (out / f"f{i:03d}.csv").write_text(f"old {i}\n")
     else:
         (out / "config.yaml").write_text("run: {}\n")
+        (out / "data").mkdir()  # a folder of the user's that the run does not write into
+        (out / "data" / "raw.csv").write_text("time_s\n0\n")
         for name in ("relax_fit.yaml", "relax_fit.png", "run.yaml"):
             (out / name).write_text(f"old {name}\n")
         (out / "compare").mkdir()

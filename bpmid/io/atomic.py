@@ -455,14 +455,24 @@ class Journal:
         return self.backup.path
 
     # -- in place ---------------------------------------------------------------------------------
-    def snapshot(self, own: Iterable[str], backup_prefix: str = RUN_UNDO_PREFIX) -> None:
-        """Copy the files ``own`` (relative to ``out``) into the backup, record every name now in ``out``,
-        then write the journal. Nothing in ``out`` is changed."""
-        before = []
-        for root, dirs, files in os.walk(self.out):
-            rel = Path(root).relative_to(self.out)
-            dirs[:] = [d for d in dirs if not d.startswith(HIDDEN_PREFIXES)]
-            before += [str(rel / n) for n in dirs + files if not n.startswith(HIDDEN_PREFIXES)]
+    def snapshot(self, own: Iterable[str], backup_prefix: str = RUN_UNDO_PREFIX,
+                 walk: Iterable[str] | None = None) -> None:
+        """Copy the files ``own`` (relative to ``out``) into the backup, record the names now in ``out``, then
+        write the journal. Nothing in ``out`` is changed.
+
+        ``walk``: the subfolders the command writes into (recorded whole); other subfolders are recorded by name
+        only, so a folder full of unrelated data (``--out .``) costs nothing. None records everything."""
+        before: list[str] = []
+        walk = None if walk is None else [str(w) for w in walk]
+        roots = [self.out] if walk is None else [self.out / w for w in walk
+                                                 if (self.out / w).is_dir() and not (self.out / w).is_symlink()]
+        if walk is not None:
+            before += [p.name for p in self.out.iterdir() if not p.name.startswith(HIDDEN_PREFIXES)]
+        for top in roots:
+            for root, dirs, files in os.walk(top):
+                rel = Path(root).relative_to(self.out)
+                dirs[:] = [d for d in dirs if not d.startswith(HIDDEN_PREFIXES)]
+                before += [str(rel / n) for n in dirs + files if not n.startswith(HIDDEN_PREFIXES)]
         backup = self._make_backup(backup_prefix)
         saved = []
         for rel in own:
@@ -470,7 +480,7 @@ class Journal:
             dst.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(src, dst)
             saved.append(str(rel))
-        self.data.update(before=before, saved=saved)
+        self.data.update(before=before, saved=saved, walk=walk)
         self._write()
 
     @classmethod
@@ -557,26 +567,17 @@ def _rollback(out: Path, data: dict) -> None:
     before = data.get("before")
     if before is not None:  # in place: every name that was not there goes
         keep = set(before)
-        for root, dirs, files in os.walk(out, topdown=False):
-            here = Path(root)
-            rel = here.relative_to(out)
-            if any(part.startswith(HIDDEN_PREFIXES) for part in rel.parts):
-                continue
-            for n in files:
-                if n.startswith(TMP_PREFIX) and rel.parts and not _is_live(here / n):
-                    with contextlib.suppress(OSError):  # a half-written file in a subfolder
-                        (here / n).unlink()
-                elif not n.startswith(HIDDEN_PREFIXES) and str(rel / n) not in keep:
-                    with contextlib.suppress(OSError):
-                        (here / n).unlink()
-            for n in dirs:
-                if not n.startswith(HIDDEN_PREFIXES) and str(rel / n) not in keep:
-                    p = here / n
-                    if p.is_symlink():
-                        with contextlib.suppress(OSError):
-                            p.unlink()
-                    else:
-                        shutil.rmtree(p, ignore_errors=True)
+        walk = data.get("walk")
+        if walk is None:
+            _prune(out, out, keep)
+        else:
+            for p in list(out.iterdir()) if out.is_dir() else []:
+                if not p.name.startswith(HIDDEN_PREFIXES) and p.name not in keep:
+                    _remove(p)
+            for w in walk:
+                p = out / w
+                if w in keep and p.is_dir() and not p.is_symlink():
+                    _prune(out, p, keep)
     for rel in data.get("new", []):
         with contextlib.suppress(OSError):
             (out / rel).unlink()
@@ -590,6 +591,25 @@ def _rollback(out: Path, data: dict) -> None:
             (out / rel).rmdir()
     if backup is not None:
         shutil.rmtree(backup, ignore_errors=True)
+
+
+def _prune(out: Path, top: Path, keep: set[str]) -> None:
+    """Remove under ``top`` every name (relative to ``out``) not in ``keep``, and half-written temporary files."""
+    for root, dirs, files in os.walk(top, topdown=False):
+        here = Path(root)
+        rel = here.relative_to(out)
+        if any(part.startswith(HIDDEN_PREFIXES) for part in rel.parts):
+            continue
+        for n in files:
+            if n.startswith(TMP_PREFIX) and rel.parts and not _is_live(here / n):
+                with contextlib.suppress(OSError):  # a half-written file in a subfolder
+                    (here / n).unlink()
+            elif not n.startswith(HIDDEN_PREFIXES) and str(rel / n) not in keep:
+                with contextlib.suppress(OSError):
+                    (here / n).unlink()
+        for n in dirs:
+            if not n.startswith(HIDDEN_PREFIXES) and str(rel / n) not in keep:
+                _remove(here / n)
 
 
 def recover(folder: str | Path) -> list[str]:

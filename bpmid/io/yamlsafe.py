@@ -29,10 +29,10 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from bpmid.errors import InputError
 
-try:  # the C parser when PyYAML was built with libyaml (same results, faster)
-    from yaml import CSafeLoader as _Base
-except ImportError:  # pragma: no cover - depends on the PyYAML build
-    from yaml import SafeLoader as _Base
+# The pure-Python parser, not libyaml's: the C composer recurses on the C stack and a document nested
+# 100,000 levels deep ("[[[[...") crashes the interpreter (SIGSEGV); the Python one stops at the recursion
+# limit, which is reported as bad input. bpmid's YAML files are small, so speed does not matter here.
+from yaml import SafeLoader as _Base
 
 #: largest YAML document read (bytes); BPMID_MAX_YAML_BYTES overrides
 MAX_BYTES = 16 * 2**20
