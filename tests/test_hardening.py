@@ -160,12 +160,14 @@ def test_yaml_reads_exponent_numbers_as_floats_and_refuses_python_tags():
     data = loads("a: 5e6\nb: 1E-3\nc: .5\nd: 7\ne: 1_000\nf: 12:30\ng: '5e6'\nh: .inf\n")
     assert data == {"a": 5e6, "b": 1e-3, "c": 0.5, "d": 7, "e": 1000, "f": "12:30", "g": "5e6", "h": float("inf")}
     assert isinstance(data["a"], float) and isinstance(data["d"], int)
-    for bad, where in (("x: !!python/object:os.system {}\n", "!!python/object"),
+    for bad, where in (("a: " + "[" * 100_000 + "]" * 100_000, "nested too deeply"),  # libyaml: SIGSEGV
+                       ("a: \x00\n", "characters are not allowed"),
+                       ("x: !!python/object:os.system {}\n", "!!python/object"),
                        ("x: !!python/name:os.system\n", "!!python/object"),
                        ("a: 1\nb: 2\na: 3\n", "given twice")):
         with pytest.raises(InputError, match=where) as exc:
             loads(bad, path="c.yaml")
-        assert exc.value.path == "c.yaml" and exc.value.line is not None
+        assert exc.value.path == "c.yaml" and "\n" not in exc.value.message
 
 
 @pytest.mark.parametrize("text, key, expected", [
@@ -499,7 +501,7 @@ def _configs(draw):
     return cfg
 
 
-@settings(max_examples=150, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=100, suppress_health_check=[HealthCheck.too_slow])
 @given(_configs())
 def test_random_configs_load_or_name_the_key(cfg):
     t0 = time.perf_counter()

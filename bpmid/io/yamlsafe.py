@@ -129,6 +129,27 @@ def _expanded_size(root: Node, budget: int) -> int:
     return memo.get(id(root), 1)
 
 
+#: deepest nesting of flow collections (``[[[...`` or ``{a: {b: ...``) read; PyYAML's parser spends quadratic
+#: time on such a document before its recursion limit stops it
+MAX_FLOW_DEPTH = 100
+_QUOTED = re.compile(r"'(?:[^'\n]|'')*'|\"(?:[^\"\\\n]|\\.)*\"")
+_BRACKETS = re.compile(r"[\[\]{}]")
+
+
+def _flow_depth(text: str) -> int:
+    """Deepest nesting of ``[`` and ``{`` outside quoted text (comments are not told apart: a rough upper bound)."""
+    depth = top = 0
+    for m in _BRACKETS.finditer(_QUOTED.sub("", text)):
+        if m.group() in "[{":
+            depth += 1
+            top = max(top, depth)
+            if top > MAX_FLOW_DEPTH:
+                break
+        else:
+            depth = max(depth - 1, 0)
+    return top
+
+
 def _count_aliases(text: str, loader_cls) -> int:
     n = 0
     for event in yaml.parse(text, Loader=loader_cls):
@@ -141,6 +162,9 @@ def loads(text: str, *, path: str | Path | None = None) -> Any:
     """Parse one YAML document from ``text`` under the limits of this module (InputError naming ``path``)."""
     max_aliases = limit("BPMID_MAX_YAML_ALIASES", MAX_ALIASES)
     max_nodes = limit("BPMID_MAX_YAML_NODES", MAX_EXPANDED_NODES)
+    if ("[" in text or "{" in text) and _flow_depth(text) > MAX_FLOW_DEPTH:
+        raise InputError(f"not valid YAML: nested too deeply (more than {MAX_FLOW_DEPTH} levels of [ ] or {{ }})",
+                         path=path)
     try:
         if "*" in text:  # aliases are rare: only then pay for the event walk
             n = _count_aliases(text, StrictLoader)
@@ -164,7 +188,7 @@ def loads(text: str, *, path: str | Path | None = None) -> Any:
             loader.dispose()
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
-        problem = getattr(exc, "problem", None) or str(exc)
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
         if "could not determine a constructor" in str(exc) or "!!python" in str(problem):
             problem = (f"{problem} (only plain data is read: mappings, lists, text, numbers, booleans; "
                        "tags such as !!python/object are refused)")
