@@ -47,6 +47,8 @@ CONFIG_LIMITS: dict[str, Limit] = {
     "control.ms_poly_degree": Limit(50, "polynomial degree of the Maxwell-slip feedforward", 0.01),
 }
 
+#: most log files one protocol may generate (``BPMID_MAX_FILES`` overrides)
+MAX_FILES = 10_000
 #: most samples in one generated log, and in all logs of one command together
 MAX_SAMPLES_PER_LOG = 5_000_000
 MAX_SAMPLES_TOTAL = 10_000_000
@@ -135,3 +137,12 @@ def check_samples(counts: dict[str, float], *, path=None, key: str | None = None
         raise InputError(f"the {what}s would have {total:.3g} samples together, more than the limit of "
                          f"{total_max:,.0f} ({cost(total)}); {hint}, or raise the limit with "
                          "BPMID_MAX_SAMPLES_TOTAL=N", path=path, key=key)
+
+
+def check_file_count(n: float, *, path=None, key: str | None = None, what: str = "log files") -> None:
+    """InputError when a protocol would write more than :data:`MAX_FILES` files (``BPMID_MAX_FILES``)."""
+    top = _env_number("BPMID_MAX_FILES") or MAX_FILES
+    if not math.isfinite(n) or n > top:
+        raise InputError(f"{n:.3g} {what} would be written, more than the limit of {top:,.0f}; lower the replicates "
+                         "or the number of logs, or raise the limit with BPMID_MAX_FILES=N", path=path, key=key)
+

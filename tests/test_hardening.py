@@ -236,7 +236,8 @@ def test_oversized_yaml_is_refused(tmp_path, monkeypatch):
 @pytest.mark.parametrize("change, message", [
     ("sampling_hz: 1e8", "BPMID_MAX_SAMPLES"),
     ("cycles", "program pieces"),
-    ("replicates: 100000000", "BPMID_MAX_SAMPLES_TOTAL"),
+    ("replicates: 100000000", "BPMID_MAX_FILES"),
+    ("replicates: 5000\nsampling_hz: 500", "BPMID_MAX_SAMPLES_TOTAL"),
 ])
 def test_protocol_sizes_are_checked_before_rendering(tmp_path, change, message):
     p = tmp_path / "p.yaml"
@@ -244,7 +245,7 @@ def test_protocol_sizes_are_checked_before_rendering(tmp_path, change, message):
         p.write_text("kind: motion\nlogs:\n  - name: big\n    program:\n"
                      "      - triangle: {low: 1.1, high: 2.0, rate: 0.1, cycles: 100000000}\n")
     else:
-        _tiny_protocol(p, **dict([change.split(": ")]))
+        _tiny_protocol(p, **dict(kv.split(": ") for kv in change.split("\n")))
     t0 = time.perf_counter()
     res = _run(["simulate", p, "--out", tmp_path / "s"])
     assert res.exit_code == 2 and message in res.output and "p.yaml" in res.output

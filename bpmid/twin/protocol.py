@@ -336,11 +336,13 @@ MAX_PIECES = 1_000_000
 
 def _check_size(proto: "Protocol", path) -> None:
     """Refuse, before anything is rendered, a protocol whose logs are too large (:mod:`bpmid.limits`)."""
-    from bpmid.limits import check_samples
+    from bpmid.limits import check_file_count, check_samples
 
     counts: dict[str, float] = {}
     if proto.kind == "relaxation":
         spec = proto.relaxation
+        check_file_count(len(spec.crosshead_mm_per_min) * len(spec.strain_levels), path=path,
+                         key="relaxation.strain_levels", what="relaxation tests")
         for r in spec.crosshead_mm_per_min:
             for e in spec.strain_levels:
                 ramp_s = e * spec.gauge_length_mm / (r / 60.0)
@@ -348,6 +350,7 @@ def _check_size(proto: "Protocol", path) -> None:
         check_samples(counts, path=path, key="relaxation.logging_hz", what="test",
                       hint="lower relaxation.logging_hz, hold_s or the number of rates and strain levels")
         return
+    check_file_count(sum(float(s.replicates or proto.replicates) for s in proto.logs), path=path, key="logs")
     for i, spec in enumerate(proto.logs):
         start = spec.start if spec.start is not None else _first_level(spec.program)
         dur, pieces, _x = _extent(spec.program, start)
@@ -500,7 +503,9 @@ def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Pro
     if proto.kind in ("motion", "reference") and not proto.logs:
         raise InputError("a motion or reference protocol needs at least one log", path=path, key="logs")
     names = [n for n, _s, _k in proto.runs()]
-    dup = sorted({n for n in names if names.count(n) > 1})
+    from collections import Counter
+
+    dup = sorted(n for n, c in Counter(names).items() if c > 1)
     if dup:
         raise InputError(f"two logs would share the file name {dup[0]!r}", path=path, key="logs")
     if proto.kind == "motion":
