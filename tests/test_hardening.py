@@ -471,8 +471,29 @@ def test_a_dead_journal_is_rolled_back_by_the_next_command(tmp_path):
     (out / ".bpmid-undo.x" / "keep.txt").write_text("user file\n")
     (out / "keep.txt").write_text("changed\n")
     (out / ".bpmid-journal.x.json").write_text(json.dumps(
-        {"version": 1, "backup": ".bpmid-undo.x", "saved": ["keep.txt"], "new": [], "new_dirs": []}))
+        {"version": 1, "out": str(out), "backup": ".bpmid-undo.x", "saved": ["keep.txt"], "new": [],
+         "new_dirs": []}))
     assert recover(out) and (out / "keep.txt").read_text() == "user file\n" and _hidden(out) == []
+
+
+@pytest.mark.parametrize("journal", [
+    {"out": "elsewhere", "before": []},                    # a journal copied in from another folder
+    {"out": None, "new": ["../victim.txt"]},               # a path leaving the folder
+    {"out": None, "backup": "../x", "saved": ["keep.txt"]},
+])
+def test_a_hostile_journal_deletes_nothing(tmp_path, journal):
+    import json
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("data\n")
+    (tmp_path / "victim.txt").write_text("outside\n")
+    body = {"version": 1, **journal}
+    body["out"] = str(out) if body["out"] is None else str(tmp_path / body["out"])
+    (out / ".bpmid-journal.evil.json").write_text(json.dumps(body))
+    done = recover(out)
+    assert any("left" in d for d in done)
+    assert (out / "keep.txt").read_text() == "data\n" and (tmp_path / "victim.txt").is_file()
 
 
 # --------------------------------------------------------------------------------------------------

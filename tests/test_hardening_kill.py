@@ -4,13 +4,15 @@
 Two layers, both seeded:
 
 - the commit machinery itself (:func:`bpmid.io.atomic.staged_dir` and the in-place journal of ``bpmid run``),
-  run in a forked child and killed at >= 60 random instants over its whole life, some of them again while the
-  next process recovers the folder;
-- real ``bpmid run`` processes (a small config: one relaxation stage of ~1 s), killed with SIGKILL at random
-  instants inside the stage, and one with SIGTERM (handled like Ctrl-C: the process rolls back itself).
+  run in children forked from a lean helper process and killed right after a random file-system step
+  (60 instants), every third one again while the next process recovers the folder;
+- ``bpmid run`` on a small config (one relaxation stage): a real process killed with SIGKILL at a random instant
+  inside its stage, then the next command on its folder; and a run sent SIGTERM (handled like Ctrl-C: the
+  command rolls back itself and exits 143).
 """
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import signal
@@ -37,6 +39,14 @@ def _snapshot(folder: Path):
         rel = str(p.relative_to(folder))
         snap[rel] = p.read_bytes() if p.is_file() else "<dir>"
     return snap
+
+
+def _copy_folder(src: Path, dst: Path, out: str = "") -> None:
+    """Copy a folder with the journals of ``src / out`` rewritten for the copy (a journal acts only on the
+    folder it names)."""
+    shutil.copytree(src, dst)
+    for j in (dst / out).glob(".bpmid-journal.*.json") if (dst / out).is_dir() else []:
+        j.write_text(j.read_text().replace(json.dumps(str(src / out))[1:-1], json.dumps(str(dst / out))[1:-1]))
 
 
 def _hidden(folder: Path) -> list[str]:
@@ -225,7 +235,7 @@ def test_commit_machinery_killed_at_random_instants(fast_tmp, helper, mode, exis
         _n, status = helper.run(mode, out, stop)
         assert os.WIFSIGNALED(status) == (stop <= steps)
         if k % 3 == 2:  # the next process is killed too while it recovers; the one after finishes the job
-            shutil.copytree(case, rec_ref.parent)
+            _copy_folder(case, rec_ref.parent, "out")
             rec_steps, _st = helper.run("recover", rec_ref, float("inf"))
             shutil.rmtree(rec_ref.parent)
             helper.run("recover", out, int(rng.integers(1, rec_steps + 2)))
@@ -266,54 +276,65 @@ def test_bpmid_run_killed_inside_its_stage_leaves_old_or_new(repo_root, tmp_path
 
     env = {**os.environ, "PYTHONPATH": repo_root + os.pathsep + os.environ.get("PYTHONPATH", "")}
     rng = np.random.default_rng(1515)
-    plan = [("KILL", float(rng.uniform(0.0, 0.5))), ("TERM", float(rng.uniform(0.0, 0.3)))]
-    procs, outs = [], []
-    for i, (_sig, _delay) in enumerate(plan):
-        out = tmp_path / f"run{i}"
-        shutil.copytree(base, out)
-        outs.append(out)
-        procs.append(subprocess.Popen([sys.executable, "-m", "bpmid", "run", str(cfg_new), "--out", str(out)],
-                                      stderr=subprocess.DEVNULL, stdout=subprocess.DEVNULL, env=env))
 
-    def signal_inside_run(p, out, sig, delay):
+    def started(out, alive):
         # the run has started on its folder once its journal is there (written before the first stage)
-        while p.poll() is None and not list(out.glob(".bpmid-journal.*.json")):
+        while alive() and not list(out.glob(".bpmid-journal.*.json")):
             time.sleep(0.005)
-        time.sleep(delay)
-        if p.poll() is None:
-            p.send_signal(signal.SIGKILL if sig == "KILL" else signal.SIGTERM)
 
-    threads = [threading.Thread(target=signal_inside_run, args=(p, o, s, d))
-               for p, o, (s, d) in zip(procs, outs, plan)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join(timeout=120)
-    codes = [p.wait(timeout=120) for p in procs]
+    # SIGKILL: a real process, killed at a random instant inside its stage
+    killed = tmp_path / "killed"
+    shutil.copytree(base, killed)
+    proc = subprocess.Popen([sys.executable, "-m", "bpmid", "run", str(cfg_new), "--out", str(killed)],
+                            stderr=subprocess.DEVNULL, stdout=subprocess.DEVNULL, env=env)
+    started(killed, lambda: proc.poll() is None)
+    time.sleep(float(rng.uniform(0.0, 0.5)))
+    proc.send_signal(signal.SIGKILL)
+    assert proc.wait(timeout=120) in (-signal.SIGKILL, 0)
 
-    for (sig, _d), code, out in zip(plan, codes, outs):
-        if sig == "TERM":  # handled like Ctrl-C: the process itself leaves the old run (or finished first)
-            assert code in (143, 0), code
-            assert _hidden(out) == []
-            check = out
-        else:
-            assert code in (-signal.SIGKILL, 0), code
-            check = tmp_path / "recovered"  # recovered on a copy: the original is for the next command below
-            shutil.copytree(out, check)
+    # SIGTERM (what kill, timeout and CI send): handled like Ctrl-C, the command rolls back itself (exit 143)
+    termed = tmp_path / "termed"
+    shutil.copytree(base, termed)
+    late = []
+    previous = signal.signal(signal.SIGTERM, lambda *_a: late.append(1))  # a signal after the command: harmless
+    done = threading.Event()
+
+    def terminate():
+        started(termed, lambda: not done.is_set())
+        time.sleep(float(rng.uniform(0.0, 0.3)))
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    t = threading.Thread(target=terminate)
+    t.start()
+    try:
+        res = runner.invoke(app, ["--quiet", "run", str(cfg_new), "--out", str(termed)])
+    finally:
+        done.set()
+        t.join(timeout=60)
+        signal.signal(signal.SIGTERM, previous)
+    assert res.exit_code in (143, 0), res.output
+    assert res.exit_code == 0 or "terminated" in res.output
+    assert _hidden(termed) == []
+
+    for name, out in (("KILL", killed), ("TERM", termed)):
+        check = out
+        if name == "KILL":  # recovered on a copy: the original is for the next command below
+            check = tmp_path / "recovered"
+            _copy_folder(out, check)
         recover(check)
         snap = _snapshot(check)
         assert _hidden(check) == []
         if snap != old:  # the new complete run: its run.yaml and the fit of the new config (2 terms)
-            assert snap.keys() == old.keys() and snap["run.yaml"] != old["run.yaml"], f"{sig}: a mixed folder"
-            assert snap["relax_fit.yaml"] != old["relax_fit.yaml"], f"{sig}: run.yaml new but the fit old"
+            assert snap.keys() == old.keys() and snap["run.yaml"] != old["run.yaml"], f"{name}: a mixed folder"
+            assert snap["relax_fit.yaml"] != old["relax_fit.yaml"], f"{name}: run.yaml new but the fit old"
     recovered = _snapshot(tmp_path / "recovered")
 
     # the next command on the killed folder recovers it first (here a tiny simulate into the same folder)
     proto = tmp_path / "p.yaml"
     proto.write_text("kind: motion\nsampling_hz: 5\nlogs:\n  - name: sim\n    start: 1.1\n    program:\n"
                      "      - ramp: {to: 1.5, rate: 0.1}\n")
-    res = runner.invoke(app, ["simulate", str(proto), "--out", str(outs[0])])
+    res = runner.invoke(app, ["simulate", str(proto), "--out", str(killed)])
     assert res.exit_code == 0, res.output
-    after = _snapshot(outs[0])
-    assert _hidden(outs[0]) == [] and {k: after[k] for k in recovered} == recovered
+    after = _snapshot(killed)
+    assert _hidden(killed) == [] and {k: after[k] for k in recovered} == recovered
     assert set(after) - set(recovered) == {"sim.csv", "manifest.yaml"}

@@ -494,6 +494,7 @@ class Journal:
         area = _LockedDir(STAGE_PREFIX, out.parent)
         try:
             journal = cls(area.path)
+            journal.data["out"] = str(out)  # where the folder will be: the journal is for it, not the stage
             journal.data["created_levels"] = int(created_levels)
             journal.snapshot([])
             os.rename(area.path, out)
@@ -507,7 +508,6 @@ class Journal:
             raise
         area.release(remove=False)
         journal.out = out
-        journal.data["out"] = str(out)
         journal.path = out / journal.path.name
         journal.backup.path = out / journal.backup.path.name
         return journal
@@ -644,12 +644,16 @@ def recover(folder: str | Path) -> list[str]:
                 data = json.loads(j.read_text("utf-8"))
             except (OSError, ValueError):
                 data = None
-            if isinstance(data, dict) and data.get("version") == 1:
-                _rollback(folder, data)
-                done.append(f"rolled back an interrupted write in {folder} (journal {j.name})")
+            if not _journal_of(data, folder):
+                # not a journal this folder's commands wrote (copied or moved here, or made by hand): act on
+                # nothing it says -- a journal names files to delete
+                done.append(f"left {j.name} alone: it is not a journal of {folder}")
+                continue
+            _rollback(folder, data)
+            done.append(f"rolled back an interrupted write in {folder} (journal {j.name})")
             with contextlib.suppress(OSError):
                 j.unlink()
-            if isinstance(data, dict) and isinstance(data.get("created_levels"), int):
+            if isinstance(data.get("created_levels"), int):
                 # the folder (and the parents made for it) did not exist before: remove them when empty
                 levels = max(0, min(int(data["created_levels"]), len(folder.parts) - 1))
                 _remove_empty([folder, *list(folder.parents)[: max(levels - 1, 0)]])
@@ -661,6 +665,36 @@ def recover(folder: str | Path) -> list[str]:
                 _remove(p)
                 done.append(f"removed {p.name} (left by a command that was killed)")
     return done
+
+
+def _safe_rel(rel) -> bool:
+    """A relative path that stays inside its folder (no absolute path, no ``..``)."""
+    if not isinstance(rel, str) or not rel or os.path.isabs(rel):
+        return False
+    return ".." not in Path(rel).parts
+
+
+def _journal_of(data, folder: Path) -> bool:
+    """True when ``data`` is a well-formed journal written for ``folder`` itself (by path), naming only files
+    inside it."""
+    if not isinstance(data, dict) or data.get("version") != 1:
+        return False
+    out = data.get("out")
+    if not isinstance(out, str) or (os.path.abspath(out) != os.path.abspath(folder)
+                                    and _resolved(out) != _resolved(folder)):
+        return False
+    backup = data.get("backup")
+    if backup is not None and (not isinstance(backup, str) or "/" in backup or os.sep in backup
+                               or not backup.startswith((UNDO_PREFIX, RUN_UNDO_PREFIX))):
+        return False
+    for key in ("saved", "new", "new_dirs", "before", "walk"):
+        v = data.get(key)
+        if v is None:
+            continue
+        if not isinstance(v, list) or not all(_safe_rel(r) for r in v):
+            return False
+    lv = data.get("created_levels")
+    return lv is None or (isinstance(lv, int) and not isinstance(lv, bool) and 0 <= lv <= 64)
 
 
 def _remove_empty(dirs) -> None:
