@@ -501,9 +501,13 @@ def test_a_hostile_journal_deletes_nothing(tmp_path, journal):
 # --------------------------------------------------------------------------------------------------
 _scalars = st.one_of(st.none(), st.booleans(), st.integers(-10**30, 10**30), st.floats(allow_nan=True),
                      st.text(max_size=6), st.sampled_from(["5e6", "1e9", "auto", "paper", "recursive"]))
-_values = st.recursive(_scalars, lambda inner: st.one_of(st.lists(inner, max_size=3),
-                                                         st.dictionaries(st.text(max_size=8), inner, max_size=3)),
-                       max_leaves=8)
+
+
+def _nested(children):
+    return st.lists(children, max_size=3) | st.dictionaries(st.text(max_size=8), children, max_size=3)
+
+
+_values = st.recursive(_scalars, _nested, max_leaves=8)
 _KEYS = {"io": ["columns", "pressure_reference", "atmosphere_pa", "max_gap_factor"],
          "model": ["closure", "history", "window_s", "geometry"],
          "motion": ["branches", "start", "fixed", "bounds", "max_nfev", "tau_grid", "split_tau"],

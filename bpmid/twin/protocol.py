@@ -355,9 +355,11 @@ def _check_size(proto: "Protocol", path) -> None:
         start = spec.start if spec.start is not None else _first_level(spec.program)
         dur, pieces, _x = _extent(spec.program, start)
         if pieces > MAX_PIECES:
+            from bpmid.limits import human_bytes
+
             raise InputError(f"log {spec.name!r} would have {pieces:.3g} program pieces (ramps, holds, half cycles), "
-                             f"more than {MAX_PIECES:,}; lower its cycles or repeat times", path=path,
-                             key=f"logs[{i}].program")
+                             f"more than {MAX_PIECES:,} (estimated {human_bytes(pieces * 200.0)} of memory before a "
+                             "single sample); lower its cycles or repeat times", path=path, key=f"logs[{i}].program")
         n = dur * proto.sampling_hz + 1
         reps = spec.replicates or proto.replicates
         for k in range(min(reps, 2)):  # every replicate is the same size: two stand for all in the total
