@@ -234,6 +234,7 @@ class OutputJournal:
     """
 
     def __init__(self, out: Path):
+        import contextlib
         import os
 
         from bpmid.io.atomic import Journal, os_error, recover
@@ -245,8 +246,12 @@ class OutputJournal:
         while not top.parent.exists() and top.parent != top:
             top = top.parent
         self.created_top = top  # the outermost folder this run will create (when out does not exist)
+        from bpmid.io.atomic import folder_lock
+
+        self.lock = contextlib.ExitStack()
         try:
-            if self.existed:
+            if self.existed:  # one writer at a time: a second command into this folder is refused, not mixed in
+                self.lock.enter_context(folder_lock(self.out, wait_s=0.0))
                 self.journal = Journal(self.out)
                 self.journal.snapshot(self._own_files(), walk=RUN_FOLDERS)
             else:  # the folder appears with its journal inside; a rollback removes it (and parents made for it)
@@ -258,10 +263,13 @@ class OutputJournal:
                     d = d.parent
                 self.out.parent.mkdir(parents=True, exist_ok=True)
                 self.journal = Journal.new_folder(self.out, len(dirs))
+                self.lock.enter_context(folder_lock(self.out, wait_s=0.0))
         except OSError as exc:
+            self.lock.close()
             self._remove_created()
             raise os_error(exc, out) from exc
         except BaseException:
+            self.lock.close()
             self._remove_created()
             raise
 
@@ -281,9 +289,11 @@ class OutputJournal:
 
     def commit(self) -> None:
         self.journal.commit()
+        self.lock.close()
 
     def rollback(self) -> None:
         self.journal.rollback()
+        self.lock.close()
         if not self.existed:
             self._remove_created()
 

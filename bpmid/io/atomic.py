@@ -282,6 +282,59 @@ class _LockedDir:
             shutil.rmtree(self.path, ignore_errors=True)
 
 
+#: how long a command waits for another one's hold on its output folder before it is refused (s)
+COMMIT_WAIT_S = 10.0
+_HELD_FOLDERS: dict[str, list] = {}  # resolved folder -> [fd, depth] of the folder locks this process holds
+
+
+@contextlib.contextmanager
+def folder_lock(folder: str | Path, wait_s: float = 10.0) -> Iterator[None]:
+    """Hold the folder ``folder`` for one writer: a second bpmid command that switches files into it waits up to
+    ``wait_s`` seconds, then is refused (InputError) instead of mixing its files with ours. Re-entrant within
+    one process (a run's stages may write into the folder the run holds)."""
+    key = _resolved(folder)
+    held = _HELD_FOLDERS.get(key)
+    if held is not None:
+        held[1] += 1
+        try:
+            yield
+        finally:
+            held[1] -= 1
+        return
+    try:
+        fd = os.open(key, os.O_RDONLY)
+    except OSError as exc:
+        raise os_error(exc, folder, "open") from exc
+    try:
+        if fcntl is not None:
+            deadline = _now() + wait_s
+            while True:
+                try:
+                    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    break
+                except BlockingIOError:
+                    if _now() >= deadline:
+                        raise InputError("another bpmid command is writing into this folder; wait for it to "
+                                         "finish or choose another output folder (--out)", path=folder) from None
+                    import time
+
+                    time.sleep(0.05)
+                except OSError:
+                    break  # a file system without locks
+        _HELD_FOLDERS[key] = [fd, 1]
+        yield
+    finally:
+        if _HELD_FOLDERS.get(key, [None])[0] == fd:
+            del _HELD_FOLDERS[key]
+        os.close(fd)  # closing the only descriptor releases the lock
+
+
+def _now() -> float:
+    import time
+
+    return time.monotonic()
+
+
 def _umask_mode() -> int:
     """0666 less the process umask: the mode an ordinary ``open()`` would give a new file."""
     mask = os.umask(0)
@@ -791,7 +844,10 @@ def staged_dir(out_dir: str | Path) -> Iterator[Path]:
             if target.is_dir() and not target.is_symlink():
                 raise InputError("the output would replace a folder of the same name; choose another --out",
                                  path=given / rel)
-        with signals_held():
+        lock = contextlib.ExitStack()
+        if out.exists():  # one writer at a time (waits for another command's commit, not for its work)
+            lock.enter_context(folder_lock(out, COMMIT_WAIT_S))
+        with lock, signals_held():
             if not out.exists() and not inside:
                 mask = os.umask(0)
                 os.umask(mask)
