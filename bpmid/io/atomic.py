@@ -78,11 +78,17 @@ def os_error(exc: OSError, where: str | Path, doing: str = "write") -> InputErro
     elif code == errno.EXDEV:
         msg = ("the output crosses file systems and could not be copied across either; choose an output folder "
                "on one disk")
-    elif code == errno.ENOTDIR:
-        msg = "a part of this path is a file, not a folder"
+    elif code in (errno.ENOTDIR, errno.EEXIST):
+        msg = "a part of this path is a file, not a folder; choose another output path"
+    elif code == errno.ENOENT:
+        msg = "a folder on this path cannot be made here; choose another output path"
     else:
         msg = f"cannot {doing} it ({exc.strerror or exc})"
-    return InputError(msg, path=exc.filename if exc.filename is not None else where)
+    # name what the user gave, not one of our hidden staging names
+    name = exc.filename
+    if name is None or any(pref in os.fspath(name) for pref in HIDDEN_PREFIXES):
+        name = where
+    return InputError(msg, path=name)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -819,6 +825,12 @@ def staged_dir(out_dir: str | Path) -> Iterator[Path]:
     if given.exists() and not given.is_dir():
         raise InputError("--out must be a folder, found a file", path=given)
     out = Path(_resolved(given))  # a symlinked --out: stage beside where the files will really go
+    for anc in out.parents:  # the nearest existing ancestor must be a folder
+        if anc.exists():
+            if not anc.is_dir():
+                raise InputError("a part of the output path is a file, not a folder; choose another output path",
+                                 path=anc)
+            break
     recover(out)
     created: list[Path] = []
     top = out
