@@ -345,6 +345,13 @@ def test_read_only_and_full_disks_are_named_plainly(tmp_path, monkeypatch, code,
     assert res.exit_code == 2 and words in res.output
 
 
+def test_an_output_path_through_a_file_is_named_plainly(tmp_path):
+    (tmp_path / "notes.txt").write_text("a file\n")
+    res = _run(["simulate", _tiny_protocol(tmp_path / "p.yaml"), "--out", tmp_path / "notes.txt" / "sim"])
+    assert res.exit_code == 2 and "notes.txt" in res.output and "is a file, not a folder" in res.output
+    assert ".bpmid-" not in res.output and _hidden(tmp_path) == []
+
+
 # --------------------------------------------------------------------------------------------------
 # 8. honest edges
 # --------------------------------------------------------------------------------------------------
