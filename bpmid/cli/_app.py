@@ -52,11 +52,13 @@ class PlainUsageCommand(TyperCommand):
         args = list(args)
         for i, tok in enumerate(args):
             if tok.startswith("--") and tok.endswith("=") and len(tok) > 3:
-                ctx.fail(f"option {tok[:-1]} was given an empty value; give a file or folder name (e.g. --out results/)")
+                ctx.fail(f"option {tok[:-1]} was given an empty value; give one (a path: a file or folder name, "
+                         "e.g. --out results/)")
             if tok.strip() == "" and (i == 0 or args[i - 1] != "--"):
                 prev = args[i - 1] if i > 0 and args[i - 1].startswith("-") else None
                 what = f"option {prev}" if prev else "an argument"
-                ctx.fail(f"{what} was given an empty value; give a file or folder name (e.g. --out results/)")
+                ctx.fail(f"{what} was given an empty value; give one (a path: a file or folder name, "
+                         "e.g. --out results/)")
         return super().parse_args(ctx, args)
 
     def collect_usage_pieces(self, ctx):
