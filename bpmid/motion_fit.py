@@ -140,6 +140,11 @@ def material_from_relax(source, path=None) -> Material:
         raise TypeError(f"relax fit must be a path or a mapping, not {type(source).__name__}")
     if not rf.K_inf > 0:
         raise InputError("bulk.K_inf must be positive", path=path, key="bulk.K_inf")
+    from bpmid.models.vbmm import MAX_BRANCHES
+
+    if len(rf.tau) > MAX_BRANCHES:  # a resource limit: every term becomes a branch of every simulated step
+        raise InputError(f"{len(rf.tau)} Prony terms, more than the {MAX_BRANCHES} a relaxation fit can have",
+                         path=path, key="prony")
     try:
         return Material(float(rf.G_inf), float(rf.K_inf), tuple(map(float, rf.G)), tuple(map(float, rf.K)),
                         tuple(map(float, rf.tau)), None)

@@ -459,6 +459,7 @@ def _vbmm_file(tmp_path, repo_root, edit) -> Path:
     (lambda b: b["model"].update(history="bogus"), "model.history"),
     (lambda b: b["model"].update(window_s=-1), "model.window_s"),
     (lambda b: b["model"].update(speed="fast"), "model.speed"),
+    (lambda b: b["material"].update(branches=b["material"]["branches"] * 500), "material.branches"),
 ])
 def test_params_files_refuse_unknown_entry_keys_and_a_bogus_model_block(repo_root, tmp_path, edit, key):
     params = _vbmm_file(tmp_path, repo_root, edit)

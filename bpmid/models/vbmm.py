@@ -385,6 +385,8 @@ def _asymmetric_states(t, x, tau, ratio, direction):
 # parameter files (schema bpmid.vbmm/1)
 # ---------------------------------------------------------------------------------------------
 _MATERIAL_KEYS = ("G_inf", "K_inf", "branches")
+#: most Prony branches a parameter file may give (relax.terms allows up to 200)
+MAX_BRANCHES = 200
 _BRANCH_KEYS = ("G", "K", "tau", "tauG", "tauK")
 
 
@@ -411,6 +413,9 @@ def material_from_yaml(data: dict, path=None) -> Material:
     branches = mat.get("branches", [])
     if not isinstance(branches, list):
         raise InputError("material.branches must be a list of {G, K, tau}", path=path, key="material.branches")
+    if len(branches) > MAX_BRANCHES:  # a resource limit: every branch is a state of every simulated step
+        raise InputError(f"{len(branches)} Prony branches, more than the {MAX_BRANCHES} a relaxation fit can have",
+                         path=path, key="material.branches")
     G, Kk, tG, tK, split = [], [], [], [], False
     for j, b in enumerate(branches):
         key = f"material.branches[{j}]"
