@@ -10,17 +10,18 @@ Relative paths inside a config are resolved against the config file's folder by
 """
 from __future__ import annotations
 
+import collections.abc
 import dataclasses
 import hashlib
+import math
 import os
 import types
 import typing
 from pathlib import Path
 from typing import Any, Mapping
 
-import yaml
-
 from bpmid.errors import InputError
+from bpmid.limits import check_config_value
 from bpmid.registry import lookup
 
 #: section name -> "module:Class" (the class is a frozen dataclass with defaults for every field)
@@ -76,8 +77,22 @@ def _is_dataclass_type(tp) -> bool:
     return isinstance(tp, type) and dataclasses.is_dataclass(tp)
 
 
+_MAPPINGS = (dict, Mapping, collections.abc.Mapping, collections.abc.MutableMapping, typing.Dict)
+_SEQUENCES = (list, tuple, collections.abc.Sequence, typing.List, typing.Tuple)
+
+
+def _shown(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def _convert(tp, value, where: str, path):
-    """Convert a YAML value to the annotated type ``tp`` (best effort, with clear errors)."""
+    """Convert a YAML value to the annotated type ``tp``; an InputError naming the dotted key ``where`` when the
+    value does not have that type. Works inside mappings and lists at any depth (``motion.start.K_inf``,
+    ``compare.test_sets.a[2]``).
+
+    Numbers: a float field takes any finite or infinite number but not NaN; a whole-number field also takes a
+    float with no fractional part (``1e3``: YAML 1.2 reads it as a float). Text fields take text only."""
     origin = typing.get_origin(tp)
     args = typing.get_args(tp)
     if tp is Any:
@@ -93,39 +108,60 @@ def _convert(tp, value, where: str, path):
                 return _convert(a, value, where, path)
             except InputError as exc:
                 errors.append(exc.message)
-        raise InputError(f"invalid value {value!r}: " + "; ".join(errors), path=path, key=where)
+        if value is None:
+            raise InputError("a value is needed here (found nothing)", path=path, key=where)
+        raise InputError(f"invalid value {_shown(value)}: " + "; or ".join(dict.fromkeys(errors)), path=path,
+                         key=where)
     if origin is typing.Literal:
-        if value not in args:
-            raise InputError(f"expected one of {list(args)}, found {value!r}", path=path, key=where)
+        if isinstance(value, bool) or value not in args or type(value) not in {type(a) for a in args}:
+            raise InputError(f"expected one of {list(args)}, found {_shown(value)}", path=path, key=where)
         return value
     if _is_dataclass_type(tp):
         return build_dataclass(tp, value, where, path)
-    if origin in (list, tuple):
+    if origin in _SEQUENCES or tp in (list, tuple):
         if not isinstance(value, (list, tuple)):
-            raise InputError(f"expected a list, found {value!r}", path=path, key=where)
+            raise InputError(f"expected a list, found {_shown(value)}", path=path, key=where)
+        if origin is tuple and args and args[-1] is not Ellipsis:  # a fixed-length tuple
+            if len(value) != len(args):
+                raise InputError(f"expected a list of {len(args)} values, found {len(value)}", path=path, key=where)
+            return tuple(_convert(a, v, f"{where}[{i}]", path) for i, (a, v) in enumerate(zip(args, value)))
         inner = args[0] if args else Any
         return tuple(_convert(inner, v, f"{where}[{i}]", path) for i, v in enumerate(value))
-    if origin in (dict, Mapping) or tp is dict:
+    if origin in _MAPPINGS or tp in (dict, Mapping):
         if not isinstance(value, dict):
-            raise InputError(f"expected a mapping, found {value!r}", path=path, key=where)
+            raise InputError(f"expected a mapping, found {_shown(value)}", path=path, key=where)
+        kt = args[0] if len(args) == 2 else Any
         vt = args[1] if len(args) == 2 else Any
-        return types.MappingProxyType({str(k): _convert(vt, v, f"{where}.{k}", path) for k, v in value.items()})
+        out = {}
+        for k, v in value.items():
+            if kt is str and not isinstance(k, (str, int, float)) or isinstance(k, bool) or k is None:
+                raise InputError(f"a key here is a name, found {_shown(k)}", path=path, key=f"{where}.{k}")
+            out[str(k)] = _convert(vt, v, f"{where}.{k}", path)
+        return types.MappingProxyType(out)
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise InputError(f"expected a number, found {value!r}", path=path, key=where)
+            raise InputError(f"expected a number, found {_shown(value)}", path=path, key=where)
+        if isinstance(value, float) and math.isnan(value):
+            raise InputError("expected a number, found .nan (not a number)", path=path, key=where)
         return float(value)
     if tp is int:
+        if isinstance(value, float) and math.isfinite(value) and value.is_integer():
+            value = int(value)  # 1e3 is a float in YAML 1.2
         if isinstance(value, bool) or not isinstance(value, int):
-            raise InputError(f"expected a whole number, found {value!r}", path=path, key=where)
+            raise InputError(f"expected a whole number, found {_shown(value)}", path=path, key=where)
         return int(value)
     if tp is bool:
         if not isinstance(value, bool):
-            raise InputError(f"expected true or false, found {value!r}", path=path, key=where)
+            raise InputError(f"expected true or false, found {_shown(value)}", path=path, key=where)
         return value
     if tp is str:
-        if not isinstance(value, (str, int, float)) or isinstance(value, bool):
-            raise InputError(f"expected text, found {value!r}", path=path, key=where)
-        return str(value)
+        if not isinstance(value, str):
+            raise InputError(f"expected text, found {_shown(value)} (quote it if it is meant as text)", path=path,
+                             key=where)
+        return value
+    if isinstance(tp, type) and tp not in (object,):
+        if not isinstance(value, tp):
+            raise InputError(f"expected {tp.__name__}, found {_shown(value)}", path=path, key=where)
     return value
 
 
@@ -146,6 +182,7 @@ def build_dataclass(cls: type, data: Any, where: str = "", path=None):
     for k, v in data.items():
         full = f"{where}.{k}" if where else str(k)
         kwargs[k] = _convert(hints[k], v, full, path)
+        check_config_value(full, kwargs[k], path=path)  # stated resource limits (bpmid.limits)
     try:
         obj = cls(**kwargs)
     except InputError:
@@ -173,24 +210,16 @@ def parse_config(data: Any, path: Path | None = None, sha256: str | None = None)
 
 
 def read_yaml(path: str | Path, what: str = "file") -> tuple[Any, str]:
-    """Parse a YAML file; errors name the file and the line. Returns (data, sha256 of the bytes).
+    """Parse a YAML file with bpmid's strict loader (:mod:`bpmid.io.yamlsafe`: bounded size and aliases, YAML 1.2
+    numbers, plain data only); errors name the file and the line. Returns (data, sha256 of the bytes).
 
     Parameters
     ----------
     what : words for the not-found message ("config file", "protocol file", ...)
     """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{what} not found", path=path)
-    raw = path.read_bytes()
-    try:
-        data = yaml.safe_load(raw.decode("utf-8"))
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        raise InputError(f"not valid YAML: {getattr(exc, 'problem', exc)}", path=path,
-                         line=None if mark is None else mark.line + 1) from exc
-    except UnicodeDecodeError as exc:
-        raise InputError("not a UTF-8 text file", path=path) from exc
+    from bpmid.io.yamlsafe import load_file
+
+    data, raw = load_file(path, what)
     return data, hashlib.sha256(raw).hexdigest()
 
 

@@ -6,6 +6,8 @@
   the ratio N / N_eff, where N_eff = sum over logs of n (1 - rho1) / (1 + rho1) (rho1: lag-1
   autocorrelation of that log's residual). This is the "effective sample size" method; it is named in
   every output (:data:`UNCERTAINTY_METHOD`).
+- A free parameter the residual does not depend on (zero sensitivity: :func:`zero_sensitivity`) is never
+  estimated, whether or not identifiability is checked: it is held at its prior value with that reason.
 - Identifiability: a free parameter whose relative standard error is above ``rel_se_max``, that sits
   on a bound, or that is almost perfectly correlated with another (|r| > ``corr_max``) is reported as
   not identifiable, held at its prior (starting) value and the fit is repeated without it. It is
@@ -82,6 +84,40 @@ def covariance_from_jacobian(jac: np.ndarray, residual: np.ndarray, n_eff: float
         inv[null, :] = np.inf
         inv[:, null] = np.inf
     return s2 * inflate * inv
+
+
+#: the verdict of a parameter the residual does not depend on
+ZERO_SENSITIVITY = "the data do not depend on it (zero sensitivity)"
+#: a parameter whose sensitivity is below this share of the largest one's is taken as having none: a
+#: two-point finite difference of a forward model that ignores the parameter gives about 1e-8 of it from
+#: rounding alone
+SENSITIVITY_REL_MIN = 1e-6
+#: ... or below this in absolute terms (root-mean-square residual change for a 100 % change of the parameter)
+SENSITIVITY_ABS_MIN = 1e-12
+
+
+def sensitivities(jac: np.ndarray, params: ParamSet) -> np.ndarray:
+    """Root-mean-square change of the residual for a 100 % change of each free parameter (the data's unit).
+
+    ``jac`` is the Jacobian in optimiser space (log of the value for log-scaled parameters), shape (N, n_free).
+    A parameter at 0 is measured per unit change."""
+    jac = np.asarray(jac, float)
+    if jac.size == 0:
+        return np.zeros(jac.shape[1] if jac.ndim == 2 else 0)
+    rms = np.sqrt(np.mean(np.where(np.isfinite(jac), jac, 0.0) ** 2, axis=0))
+    scale = np.array([1.0 if p.log_scale else (abs(p.value) if p.value != 0 else 1.0) for p in params.free()])
+    return rms * scale
+
+
+def zero_sensitivity(jac: np.ndarray, params: ParamSet) -> list[int]:
+    """Indices (among the free parameters) whose sensitivity is zero for practical purposes (see the thresholds
+    above). Such a parameter cannot be estimated, however small its standard error comes out (with a perfect
+    fit the error is 0 times anything)."""
+    s = sensitivities(jac, params)
+    if s.size == 0:
+        return []
+    top = float(np.max(s))
+    return [i for i, v in enumerate(s) if v <= SENSITIVITY_ABS_MIN or v <= SENSITIVITY_REL_MIN * top]
 
 
 def correlation(cov: np.ndarray) -> np.ndarray:
@@ -194,9 +230,14 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
         corr = correlation(cov)
         names = fitted.free_names()
         bad: dict[str, str] = {}
+        insensitive = zero_sensitivity(sol.jac, fitted)
+        for i in insensitive:  # never "estimated", identifiability check or not: the data say nothing about it
+            bad[names[i]] = ZERO_SENSITIVITY
         if check_identifiability:
             span = hi - lo
             for i, name in enumerate(names):
+                if name in bad:
+                    continue
                 p = fitted[name]
                 at_bound = (np.isfinite(lo[i]) and sol.x[i] - lo[i] <= 1e-6 * max(1.0, abs(span[i]) if np.isfinite(span[i]) else 1.0)) or \
                            (np.isfinite(hi[i]) and hi[i] - sol.x[i] <= 1e-6 * max(1.0, abs(span[i]) if np.isfinite(span[i]) else 1.0))
@@ -227,7 +268,54 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
             return FitResult(out, names, cov, corr, r, r.size, n_eff, bool(sol.success), str(sol.message),
                              int(sol.nfev), held)
         # hold the worst offender at its prior value and refit (one at a time: the others may recover)
-        worst = max(bad, key=lambda n: (0 if "correlated" in bad[n] else 1, se[names.index(n)] / max(abs(fitted[n].value), 1e-300)))
+        worst = max(bad, key=lambda n: (2 if bad[n] == ZERO_SENSITIVITY else 0 if "correlated" in bad[n] else 1,
+                                        se[names.index(n)] / max(abs(fitted[n].value), 1e-300)))
         held[worst] = bad[worst]
         current = fitted.replace(worst, value=prior[worst].value, fixed=True)
     raise RuntimeError("identifiability loop did not terminate")  # pragma: no cover
+
+
+#: an R^2 at or below this is "none of the variation explained" (a constant at the data's mean gives 0 up to rounding)
+R2_MIN = 1e-6
+
+
+def check_explained(y, y_hat, *, quantity: str, unit: str, paths=(), hint: str = "") -> float:
+    """Refuse (InputError) a fit that explains none of the variation of the data: R^2 <= 0 (up to
+    :data:`R2_MIN`) or not a number.
+
+    Such a fit's constants are not measurements, whatever their standard errors say: either the data barely
+    vary (a constant-pressure or constant-stress log: R^2 is then 0/0 or a huge negative number) or the model
+    does worse than the mean. Returns R^2 when it is positive.
+
+    Parameters
+    ----------
+    y, y_hat : data and fit, pooled over the logs (same unit)
+    quantity, unit : words for the message ("angle", "deg")
+    paths : the logs (named in the message; the only one becomes the message's file)
+    hint : what the user can do
+    """
+    y = np.asarray(y, float)
+    y_hat = np.asarray(y_hat, float)
+    ok = np.isfinite(y) & np.isfinite(y_hat)
+    yy, yh = y[ok], y_hat[ok]
+    ss_tot = float(np.sum((yy - yy.mean()) ** 2)) if yy.size else 0.0
+    ss_res = float(np.sum((yy - yh) ** 2)) if yy.size else math.nan
+    r2 = 1.0 - ss_res / ss_tot if ss_tot > 0 else math.nan
+    if r2 > R2_MIN:
+        return r2
+    paths = [p for p in paths if p is not None]
+    spread = float(np.ptp(yy)) if yy.size else 0.0
+    scale = max(float(np.max(np.abs(yy))) if yy.size else 0.0, 1e-300)
+    if spread <= 1e-9 * scale or ss_tot == 0:
+        why = (f"the measured {quantity} does not vary (range {spread:.3g} {unit}), so no fit can be judged "
+               "against it and its dynamic constants are not determined")
+    else:
+        why = (f"the fit explains none of the variation of the {quantity} (R^2 = {r2:.3g} <= 0; RMSE "
+               f"{math.sqrt(ss_res / max(yy.size, 1)):.3g} {unit} against a spread of {spread:.3g} {unit}): its "
+               "constants are not estimates")
+    from bpmid.errors import InputError
+
+    where = paths[0] if len(paths) == 1 else None
+    logs = "" if len(paths) <= 1 else f" (logs: {', '.join(str(p) for p in paths[:4])}{', ...' if len(paths) > 4 else ''})"
+    raise InputError(why + logs + (f"; {hint}" if hint else ""), path=where)
+

@@ -169,6 +169,10 @@ class ParamSet:
         return out
 
 
+#: the keys of a parameter entry in a results file (what :meth:`Param.to_yaml` writes)
+PARAM_ENTRY_KEYS = ("value", "stderr", "unit", "fixed", "identifiable", "note")
+
+
 def parse_param_entry(entry, *, path=None, key: str = "") -> tuple[float, float | None, str | None]:
     """Read ``{value, stderr, unit}`` (or a bare number) from a results file.
 
@@ -180,12 +184,21 @@ def parse_param_entry(entry, *, path=None, key: str = "") -> tuple[float, float 
         return float(entry), None, None
     if not isinstance(entry, dict) or "value" not in entry:
         raise InputError("expected a parameter mapping {value, stderr, unit}", path=path, key=key)
+    for k in entry:
+        if k not in PARAM_ENTRY_KEYS:
+            raise InputError(f"unknown key in a parameter entry (known: {', '.join(PARAM_ENTRY_KEYS)})", path=path,
+                             key=f"{key}.{k}")
     v = entry["value"]
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
         raise InputError(f"value must be a finite number, found {v!r}", path=path, key=f"{key}.value")
     se = entry.get("stderr")
-    if se is not None and (isinstance(se, bool) or not isinstance(se, (int, float))):
-        raise InputError(f"stderr must be a number or null, found {se!r}", path=path, key=f"{key}.stderr")
+    if se is not None and (isinstance(se, bool) or not isinstance(se, (int, float)) or not se >= 0):
+        raise InputError(f"stderr must be a non-negative number or null, found {se!r}", path=path,
+                         key=f"{key}.stderr")
+    for k, want in (("fixed", bool), ("identifiable", bool), ("note", str)):
+        if entry.get(k) is not None and not isinstance(entry[k], want):
+            raise InputError(f"{k} must be {'true or false' if want is bool else 'text'}, found {entry[k]!r}",
+                             path=path, key=f"{key}.{k}")
     unit = entry.get("unit")
     if unit is not None and not isinstance(unit, str):
         raise InputError(f"unit must be text, found {unit!r}", path=path, key=f"{key}.unit")

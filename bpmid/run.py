@@ -219,44 +219,65 @@ RUN_FOLDERS = ("compare", "discover", "report_figures")
 
 
 class OutputJournal:
-    """Undo for a run that writes into ``out`` in place: :meth:`rollback` removes every file and folder the run
-    created and puts back every file it replaced or removed; :meth:`commit` forgets the backup.
+    """Undo for a run that writes into ``out`` in place, safe against a kill at any instant.
 
     Before the run, the files under the run's own names (:data:`RUN_FILES`, :data:`RUN_FOLDERS`) are copied into
-    a hidden backup folder in ``out``. Nothing is moved, so an input that lives in ``out`` (a relaxation fit of
-    an earlier run, say) stays where the config says it is. When ``out`` does not exist, the
-    rollback removes it, and any parent folder the run made for it.
+    a hidden backup folder in ``out`` and every name in ``out`` is recorded in a journal
+    (:class:`bpmid.io.atomic.Journal`, written before the first stage writes). Nothing is moved, so an input that
+    lives in ``out`` (a relaxation fit of an earlier run, say) stays where the config says it is.
+    :meth:`rollback` removes every file and folder the run created and puts back every file it replaced or
+    removed; :meth:`commit` removes the journal (the commit point) and then the backup. A run killed outright
+    (SIGKILL) leaves the journal: the next command on the folder (:func:`bpmid.io.atomic.recover`) rolls it back,
+    so the folder holds the earlier complete run again. When ``out`` does not exist, the rollback removes it, and
+    any parent folder the run made for it; a kill before the commit leaves ``out`` without ``run.yaml`` and with
+    its journal, and the next command removes what the run wrote.
     """
 
     def __init__(self, out: Path):
+        import contextlib
         import os
-        import shutil
-        import tempfile
+
+        from bpmid.io.atomic import Journal, os_error, recover
 
         self.out = Path(os.path.abspath(out))
+        recover(self.out)  # a run killed earlier: put its folder back first
         self.existed = self.out.is_dir()
-        self.before: set[str] = set()
-        self.backup: Path | None = None
-        self.saved: set[str] = set()
-        if not self.existed:
-            top = self.out
-            while not top.parent.exists() and top.parent != top:
-                top = top.parent
-            self.created_top = top  # the outermost folder this run will create
-            return
-        for root, dirs, files in os.walk(self.out):
-            rel = Path(root).relative_to(self.out)
-            self.before.update(str(rel / n) for n in dirs + files)
-        self.backup = Path(tempfile.mkdtemp(prefix=".bpmid-run-undo.", dir=self.out))
+        top = self.out
+        while not top.parent.exists() and top.parent != top:
+            top = top.parent
+        self.created_top = top  # the outermost folder this run will create (when out does not exist)
+        from bpmid.io.atomic import folder_lock
+
+        self.lock = contextlib.ExitStack()
         try:
-            for rel in self._own_files():
-                src, dst = self.out / rel, self.backup / rel
-                dst.parent.mkdir(parents=True, exist_ok=True)
-                shutil.copy2(src, dst)
-                self.saved.add(rel)
+            if self.existed:  # one writer at a time: a second command into this folder is refused, not mixed in
+                self.lock.enter_context(folder_lock(self.out, wait_s=0.0))
+                self.journal = Journal(self.out)
+                self.journal.snapshot(self._own_files(), walk=RUN_FOLDERS)
+            else:  # the folder appears with its journal inside; a rollback removes it (and parents made for it)
+                d, dirs = self.out, []
+                while True:
+                    dirs.append(str(d))
+                    if d == top:
+                        break
+                    d = d.parent
+                self.out.parent.mkdir(parents=True, exist_ok=True)
+                self.journal = Journal.new_folder(self.out, len(dirs))
+                self.lock.enter_context(folder_lock(self.out, wait_s=0.0))
+        except OSError as exc:
+            self.lock.close()
+            self._remove_created()
+            raise os_error(exc, out) from exc
         except BaseException:
-            shutil.rmtree(self.backup, ignore_errors=True)
+            self.lock.close()
+            self._remove_created()
             raise
+
+    def _remove_created(self) -> None:
+        import shutil
+
+        if not self.existed:
+            shutil.rmtree(self.created_top, ignore_errors=True)
 
     def _own_files(self) -> list[str]:
         out = [n for n in RUN_FILES if (self.out / n).is_file() and not (self.out / n).is_symlink()]
@@ -267,41 +288,14 @@ class OutputJournal:
         return out
 
     def commit(self) -> None:
-        import shutil
-
-        if self.backup is not None:
-            shutil.rmtree(self.backup, ignore_errors=True)
-            self.backup = None
+        self.journal.commit()
+        self.lock.close()
 
     def rollback(self) -> None:
-        import contextlib
-        import os
-        import shutil
-
+        self.journal.rollback()
+        self.lock.close()
         if not self.existed:
-            shutil.rmtree(self.created_top, ignore_errors=True)
-            return
-        # files and folders this run created
-        for root, dirs, files in os.walk(self.out, topdown=False):
-            here = Path(root)
-            if self.backup is not None and (here == self.backup or self.backup in here.parents):
-                continue
-            rel = here.relative_to(self.out)
-            dirs = [n for n in dirs if self.backup is None or here / n != self.backup]
-            for n in files:
-                if str(rel / n) not in self.before and str(rel / n) not in self.saved:
-                    with contextlib.suppress(OSError):
-                        (Path(root) / n).unlink()
-            for n in dirs:
-                if str(rel / n) not in self.before:
-                    shutil.rmtree(Path(root) / n, ignore_errors=True)
-        # files it replaced or removed
-        for rel in sorted(self.saved):
-            src, dst = self.backup / rel, self.out / rel
-            with contextlib.suppress(OSError):
-                dst.parent.mkdir(parents=True, exist_ok=True)
-                os.replace(src, dst)
-        self.commit()
+            self._remove_created()
 
 
 def _prov(inputs, config, seed, command):
@@ -418,6 +412,39 @@ def _missing_inputs(stage: str, inp: RunInputs) -> str | None:
     return None
 
 
+def _param_inputs(config, rc: "RunConfig", inp: RunInputs) -> list[Path]:
+    """The parameter files the config names for the stages that will run (they may live in DIR)."""
+    stages = set(stages_to_run(rc, inp))
+    out = []
+    if "relax" not in stages:
+        m, c = config.section("motion"), config.section("compare")
+        if "motion" in stages and m.relax_fit is not None:
+            out.append(config.resolve_path(m.relax_fit))
+        if "compare" in stages and c.relax is not None:
+            out.append(config.resolve_path(c.relax))
+    return out
+
+
+def check_run_outputs(out: Path, inputs) -> None:
+    """Before any stage runs: refuse when an input (config, log, parameter file) sits in DIR under a name the
+    run writes (:data:`RUN_FILES`, or inside :data:`RUN_FOLDERS`), by resolved path or as the same file."""
+    import os
+
+    from bpmid.io.atomic import check_outputs_not_inputs
+
+    out_real = Path(os.path.realpath(out))
+    targets = [out / n for n in RUN_FILES]
+    for p in inputs:
+        if p is None:
+            continue
+        real = Path(os.path.realpath(p))
+        for d in RUN_FOLDERS:
+            if out_real / d == real or out_real / d in real.parents:
+                raise InputError(f"the input {p} lies in {d}/, which this run rewrites; move it or choose another "
+                                 "output folder (--out)", path=out / d, key="--out")
+    check_outputs_not_inputs(targets, inputs)
+
+
 def run_study(config, out_dir: str | Path, *, command: str | None = None) -> list[StageRecord]:
     """Run every stage of ``config.run.stages`` into ``out_dir`` (see module docstring); returns the records.
 
@@ -437,6 +464,7 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
         raise InputError("--out must be a folder, found a file", path=out)
     # every input of every stage read and checked before the first stage runs (and before DIR is touched)
     motion_logs = check_stage_inputs(config, inp, stages_to_run(rc, inp))
+    check_run_outputs(out, [config.path] + inp.all() + _param_inputs(config, rc, inp))
     ctx = {"seed": rc.seed, "command": command or command_line(),
            "synthetic": is_synthetic(motion_logs) if motion_logs else True}
     journal = OutputJournal(out)

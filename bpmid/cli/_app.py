@@ -46,6 +46,21 @@ class PlainUsageCommand(TyperCommand):
     """A command whose usage line names the arguments as click does (``LOG...``, ``DIR``, ``[CONFIG]``);
     typer writes required ones in braces (``{LOG}...``)."""
 
+    def parse_args(self, ctx, args):
+        # an empty value (``--out ''``) would mean the current folder for a path: no bpmid option or argument
+        # takes empty text, so refuse it by name instead of writing into the working directory
+        args = list(args)
+        for i, tok in enumerate(args):
+            if tok.startswith("--") and tok.endswith("=") and len(tok) > 3:
+                ctx.fail(f"option {tok[:-1]} was given an empty value; give one (a path: a file or folder name, "
+                         "e.g. --out results/)")
+            if tok.strip() == "" and (i == 0 or args[i - 1] != "--"):
+                prev = args[i - 1] if i > 0 and args[i - 1].startswith("-") else None
+                what = f"option {prev}" if prev else "an argument"
+                ctx.fail(f"{what} was given an empty value; give one (a path: a file or folder name, "
+                         "e.g. --out results/)")
+        return super().parse_args(ctx, args)
+
     def collect_usage_pieces(self, ctx):
         pieces = [self.options_metavar] if self.options_metavar else []
         for p in self.get_params(ctx):
@@ -61,8 +76,16 @@ def command(typer_app: typer.Typer, name: str, **kw):
     def deco(fn):
         @functools.wraps(fn)
         def wrapper(*args, **kwargs):
+            from bpmid.io.atomic import Terminated, guard_inputs, sigterm_as_interrupt
+
             try:
-                return fn(*args, **kwargs)
+                # the output discipline (bpmid.io.atomic): no input replaced, SIGTERM rolls back like Ctrl-C,
+                # leftovers of a killed command in the output folder recovered first
+                with sigterm_as_interrupt(), guard_inputs(_path_inputs(kwargs)):
+                    _recover_outputs(kwargs)
+                    return fn(*args, **kwargs)
+            except Terminated as exc:
+                fail(f"terminated ({exc}); nothing was left half-written", 143)
             except InputError as exc:
                 fail(exc.format(), 2)
             except (typer.Exit, typer.Abort, SystemExit):
@@ -80,9 +103,12 @@ def command(typer_app: typer.Typer, name: str, **kw):
                     fail("interrupted", 130)
                 raise
             except OSError as exc:
-                # the file system said no (a folder that cannot be made, no permission, disk full): the user can fix it
-                where = exc.filename if exc.filename is not None else "output"
-                fail(f"{where}: cannot read or write it ({exc.strerror or exc})", 2)
+                # the file system said no (a folder that cannot be made, no permission, disk full, read-only):
+                # the user can fix it
+                from bpmid.io.atomic import os_error
+
+                fail(os_error(exc, exc.filename if exc.filename is not None else "output",
+                              "read or write").format(), 2)
             except Exception as exc:  # an internal failure: say so, keep the traceback one variable away
                 if os.environ.get("BPMID_DEBUG"):
                     raise
@@ -94,6 +120,33 @@ def command(typer_app: typer.Typer, name: str, **kw):
         return typer_app.command(name, **kw)(wrapper)
 
     return deco
+
+
+#: command options that name what a command writes (everything else that is a path is read)
+OUTPUT_OPTIONS = ("out", "plot")
+
+
+def _path_inputs(kwargs) -> list[Path]:
+    """Existing files among a command's path arguments other than its outputs (they must not be replaced)."""
+    found = []
+    for name, v in kwargs.items():
+        if name in OUTPUT_OPTIONS:
+            continue
+        for p in (v if isinstance(v, (list, tuple)) else [v]):
+            if isinstance(p, Path) and p.is_file():
+                found.append(p)
+    return found
+
+
+def _recover_outputs(kwargs) -> None:
+    """Roll back or remove what a killed command left in (or beside) this command's output."""
+    from bpmid.io.atomic import recover
+
+    out = kwargs.get("out")
+    if isinstance(out, Path) and str(out):
+        recover(out if out.is_dir() else out.parent)
+    elif isinstance(kwargs.get("out_dir"), Path):  # bpmid report DIR: never read a half-switched folder
+        recover(kwargs["out_dir"])
 
 
 def check_outputs(outputs, inputs, *, suffix: str | None = None, key: str = "--out") -> None:

@@ -44,6 +44,17 @@ def compare(
     from bpmid.config import load_config
 
     cfg = logopts.apply(load_config(config))
+    from bpmid.compare import resolve_inputs
+
+    train_paths, test_sets, relax_path = resolve_inputs(cfg.section("compare"), cfg, train=train, test=test,
+                                                        relax=relax)
+    from bpmid.io.atomic import check_outputs_not_inputs  # before any work: no output may replace an input
+
+    tests = [p for v in test_sets.values() for p in v]
+    check_outputs_not_inputs([Path(out) / n for n in ("metrics.csv", "summary.csv", "summary_by_set.csv",
+                                                      "compare.yaml")]
+                             + [Path(out) / "predictions" / f"{Path(p).stem}.csv" for p in tests],
+                             list(train_paths) + tests + [relax_path, config])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", CompareWarning)
         res = compare(train, test, models=models, relax=relax, config=cfg)

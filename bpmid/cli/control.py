@@ -66,6 +66,11 @@ def control(
         dataclasses.replace(cfg, controllers=tuple(controllers)).validate()
     except InputError as exc:
         raise InputError(exc.message, key="--controller") from None
+    from bpmid.io.atomic import check_outputs_not_inputs  # before any work: no output may replace an input
+
+    check_outputs_not_inputs([out / n for n in ("summary.csv", "control.yaml", "fig18.png")],
+                             [params, plant_params, config] + [Path(r.strip()) for r in reference.split(",")
+                                                                if r.strip() and Path(r.strip()).is_file()])
     result = control(params, reference=reference, controllers=controllers, plant_params=plant_params,
                      plant_effects=plant_effect or [], config=cfg_all, **changes)
     result.save(out, figure=not no_figure)

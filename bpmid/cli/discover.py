@@ -52,6 +52,10 @@ def discover_cmd(
     cfg = logopts.apply(load_config(config))
     paths = existing_files(list(logs))
     ho_paths = existing_files(list(holdout), "held-out log") if holdout else []
+    from bpmid.io.atomic import check_outputs_not_inputs  # before any work: no output may replace an input
+
+    check_outputs_not_inputs([out / "discovery.yaml", out / "verdict.txt"], list(paths) + list(ho_paths)
+                             + [init, config])
     fit_logs = read_motion_logs(paths, cfg.section("io"), require_angle=True)
     ho_logs = read_motion_logs(ho_paths, cfg.section("io"), require_angle=True) if ho_paths else None
     all_logs = fit_logs + (ho_logs or [])

@@ -33,7 +33,9 @@ SCHEMA = "bpmid.discover-thresholds/1"
 def load_thresholds(path: str | Path | None = None) -> dict:
     """The calibrated thresholds (``heldout_gain_min_sigma``, ``delta_bic_max``)."""
     path = Path(path) if path else THRESHOLDS_PATH
-    data = yaml.safe_load(path.read_text("utf-8"))
+    from bpmid.io.yamlsafe import loads
+
+    data = loads(path.read_text("utf-8"), path=path)
     if not isinstance(data, dict) or data.get("schema") != SCHEMA:
         raise RuntimeError(f"{path}: not a {SCHEMA} file")
     return {k: float(data[k]) for k in THRESHOLD_KEYS}

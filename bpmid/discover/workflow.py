@@ -265,11 +265,26 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     if effects is None:
         effects = [get_effect(i) for i in (cfg.candidates or tuple(CATALOGUE))]
     fit_logs, ho_logs, how = split_logs(logs, holdout, cfg)
+    if holdout is not None:  # a held-out score on a fitting log tests nothing: the verdict would rest on it
+        from bpmid.compare import overlap_warnings
+
+        same = overlap_warnings(fit_logs, ho_logs)
+        if same:
+            bad = next((lg for lg in ho_logs if lg.path is not None and str(lg.path) in same[0]), None)
+            raise InputError(same[0].replace("test log", "held-out log").replace("training log", "fitting log")
+                             .replace("its score is not a test of prediction",
+                                      "the held-out check would score the fit on its own data")
+                             + "; give it either as a LOG or after --holdout, not both",
+                             path=None if bad is None else bad.path)
     noise = noise_floor(list(fit_logs) + list(ho_logs))
     floor = noise["sigma_deg"]
     if not (np.isfinite(floor) and floor > 0):
-        raise InputError("cannot judge: the measured angle shows no noise at all (noise floor 0); "
-                         "discovery needs raw measurements, not smoothed or simulated noise-free data")
+        quiet = [lg for lg in list(fit_logs) + list(ho_logs) if not noise["per_log"].get(lg.name, 0.0) > 0]
+        names = ", ".join(str(lg.path or lg.name) for lg in quiet[:4]) + (", ..." if len(quiet) > 4 else "")
+        raise InputError("cannot judge: the measured angle shows no noise at all (noise floor 0"
+                         + (f"; logs without noise: {names}" if quiet else "") + "); discovery needs raw "
+                         "measurements, not smoothed or simulated noise-free data",
+                         path=quiet[0].path if quiet and quiet[0].path is not None else None)
 
     note(f"discover: fitting the base VBMM on {len(fit_logs)} log(s), {len(ho_logs)} held out")
     state, res = fit_state(ModelState.start(base), fit_logs, max_nfev=cfg.base_max_nfev, check_identifiability=False)

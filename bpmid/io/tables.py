@@ -41,6 +41,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from bpmid.errors import InputError
+from bpmid.io.atomic import note_input
 
 #: quantity -> canonical unit
 CANONICAL = {
@@ -864,6 +865,7 @@ def read_table(path: str | Path, *, column_map: Mapping[str, str] | None = None,
     path = Path(path)
     if not path.is_file():
         raise InputError("file not found", path=path)
+    note_input(path)  # the command that reads it must not replace it (bpmid.io.atomic)
     try:
         size = path.stat().st_size
         if size > _MAX_BYTES:

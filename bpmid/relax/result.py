@@ -383,6 +383,12 @@ def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | i
                               cross_section_mm2=cfg.specimen.cross_section_mm2, gap_factor=gap,
                               io_cfg=config.section("io"))
     fit = fit_relaxation(records, terms=terms, mode=mode, config=cfg, max_error_pct=max_error_pct)
+    from bpmid.fitting import check_explained  # R^2 <= 0 or NaN: no constants are written
+
+    check_explained(np.concatenate([lf.y for lf in fit.logs]), np.concatenate([lf.y_fit for lf in fit.logs]),
+                    quantity=fit.quantity, unit="MPa", paths=paths,
+                    hint="a relaxation log needs a stress (or modulus) that follows a strain step and relaxes; "
+                         "check the stress column and its unit")
     from bpmid.io import plausibility as plaus
     checks = plaus.reader_warnings(records) + plaus.relax_warnings(records, fit)
     for w in fit.warnings:

@@ -254,8 +254,9 @@ def parse_program(raw, where: str, path) -> tuple:
 
 
 def _walk(program):
-    """(key, segment) pairs, descending into repeats."""
-    for key, seg in program:
+    """(key, segment) pairs, descending into repeats (a program stripped of its keys gives key None)."""
+    for item in program:
+        key, seg = item if isinstance(item, tuple) else (None, item)
         yield key, seg
         if isinstance(seg, Repeat):
             yield from _walk(seg.program)
@@ -274,19 +275,103 @@ def render(program: tuple, start: float, fs: float) -> tuple[np.ndarray, np.ndar
     x = np.full(n, float(start))
     if not pieces:
         return t, x
-    starts = np.array([p[1] for p in pieces])
-    idx = np.clip(np.searchsorted(starts, t + 1e-9, side="right") - 1, 0, len(pieces) - 1)
-    for i in np.unique(idx):
-        kind, t0, t1, *args = pieces[i]
-        sel = idx == i
-        tl = np.minimum(t[sel], t1) - t0
-        if kind == "lin":
-            a, b = args
-            x[sel] = a if t1 == t0 else a + (b - a) * tl / (t1 - t0)
-        else:
-            mean, amp, f = args
-            x[sel] = mean + amp * np.sin(2 * math.pi * f * tl)
+    # one row per piece: kind (0 linear, 1 sine), t0, t1, a, b, f (linear: from a to b; sine: mean a, amplitude b)
+    kind = np.array([0 if p[0] == "lin" else 1 for p in pieces])
+    t0s = np.array([p[1] for p in pieces], float)
+    t1s = np.array([p[2] for p in pieces], float)
+    a = np.array([p[3] for p in pieces], float)
+    b = np.array([p[4] for p in pieces], float)
+    f = np.array([p[5] if p[0] != "lin" else 0.0 for p in pieces], float)
+    idx = np.clip(np.searchsorted(t0s, t + 1e-9, side="right") - 1, 0, len(pieces) - 1)
+    tl = np.minimum(t, t1s[idx]) - t0s[idx]
+    span = t1s[idx] - t0s[idx]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lin = np.where(span > 0, a[idx] + (b[idx] - a[idx]) * tl / np.where(span > 0, span, 1.0), a[idx])
+    sine = a[idx] + b[idx] * np.sin(2 * math.pi * f[idx] * tl)
+    x[:] = np.where(kind[idx] == 0, lin, sine)
     return t, x
+
+
+def _extent(program, x0: float) -> tuple[float, float, float]:
+    """(duration s, number of pieces, end level) of a program started at ``x0``, computed without building it
+    (so a protocol asking for 10^8 cycles is measured, not run). ``program``: segments or (key, segment)."""
+    dur = pieces = 0.0
+    x = float(x0)
+    for item in program:
+        seg = item[1] if isinstance(item, tuple) else item
+        if isinstance(seg, Hold):
+            d, k, x = seg.duration_s, 1, (x if seg.level is None else seg.level)
+        elif isinstance(seg, Ramp):
+            d = seg.duration_s if seg.duration_s is not None else abs(seg.to - x) / seg.rate
+            k, x = 1, seg.to
+        elif isinstance(seg, Step):
+            slew = seg.slew is not None and seg.to != x
+            d = (abs(seg.to - x) / seg.slew if slew else 0.0) + seg.hold_s
+            k, x = (2 if slew else 1), seg.to
+        elif isinstance(seg, Triangle):
+            pre = x != seg.low
+            d = (abs(x - seg.low) / seg.rate if pre else 0.0) + seg.cycles * 2 * (seg.high - seg.low) / seg.rate
+            k, x = (1 if pre else 0) + 2.0 * seg.cycles, seg.low
+        elif isinstance(seg, Sawtooth):
+            d = seg.cycles * (seg.period_s + seg.fall_s)
+            k = seg.cycles * (2.0 if seg.fall_s > 0 else 1.0)
+            x = seg.low if seg.fall_s > 0 else seg.high
+        elif isinstance(seg, Sine):
+            d, k = seg.cycles / seg.frequency_hz, 1
+            x = seg.mean + seg.amplitude * math.sin(2 * math.pi * seg.cycles)
+        elif isinstance(seg, Repeat):
+            # the end level of a pass is either fixed by the program or its start level: passes 2.. are alike
+            d1, k1, x1 = _extent(seg.program, x)
+            d2, k2, x2 = _extent(seg.program, x1) if seg.times > 1 else (0.0, 0.0, x1)
+            d, k, x = d1 + (seg.times - 1) * d2, k1 + (seg.times - 1) * k2, x2
+        else:  # pragma: no cover - SEGMENTS lists every kind
+            raise TypeError(type(seg).__name__)
+        dur += d
+        pieces += k
+    return dur, pieces, x
+
+
+#: most program pieces (ramps, holds, half cycles) in one log
+MAX_PIECES = 1_000_000
+
+
+def _check_size(proto: "Protocol", path) -> None:
+    """Refuse, before anything is rendered, a protocol whose logs are too large (:mod:`bpmid.limits`)."""
+    from bpmid.limits import check_file_count, check_samples
+
+    counts: dict[str, float] = {}
+    if proto.kind == "relaxation":
+        spec = proto.relaxation
+        check_file_count(len(spec.crosshead_mm_per_min) * len(spec.strain_levels), path=path,
+                         key="relaxation.strain_levels", what="relaxation tests")
+        for r in spec.crosshead_mm_per_min:
+            for e in spec.strain_levels:
+                ramp_s = e * spec.gauge_length_mm / (r / 60.0)
+                counts[f"relax_{r:g}mmmin_{e:g}"] = (spec.pre_s + ramp_s + spec.hold_s) * spec.logging_hz + 1
+        check_samples(counts, path=path, key="relaxation.logging_hz", what="test",
+                      hint="lower relaxation.logging_hz, hold_s or the number of rates and strain levels")
+        return
+    check_file_count(sum(float(s.replicates or proto.replicates) for s in proto.logs), path=path, key="logs")
+    for i, spec in enumerate(proto.logs):
+        start = spec.start if spec.start is not None else _first_level(spec.program)
+        dur, pieces, _x = _extent(spec.program, start)
+        if pieces > MAX_PIECES:
+            from bpmid.limits import human_bytes
+
+            raise InputError(f"log {spec.name!r} would have {pieces:.3g} program pieces (ramps, holds, half cycles), "
+                             f"more than {MAX_PIECES:,} (estimated {human_bytes(pieces * 200.0)} of memory before a "
+                             "single sample); lower its cycles or repeat times", path=path, key=f"logs[{i}].program")
+        n = dur * proto.sampling_hz + 1
+        reps = spec.replicates or proto.replicates
+        for k in range(min(reps, 2)):  # every replicate is the same size: two stand for all in the total
+            counts[spec.name if reps == 1 else f"{spec.name}_r{k + 1}"] = n
+        if reps > 2:
+            counts[f"{spec.name} (replicates 3..{reps})"] = n * (reps - 2)
+        check_samples({spec.name: n}, path=path, key=f"logs[{i}]",
+                      hint=f"lower sampling_hz ({proto.sampling_hz:g} Hz) or this log's duration "
+                           f"({dur:.4g} s: cycles, repeat times, hold durations)")
+    check_samples(counts, path=path, key="logs", hint="lower sampling_hz, durations, cycles or replicates",
+                  total_only=True)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -417,10 +502,13 @@ def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Pro
     for i, spec in enumerate(proto.logs):
         logs.append(dataclasses.replace(spec, program=parse_program(spec.program, f"logs[{i}].program", path)))
     proto = dataclasses.replace(proto, logs=tuple(logs), path=str(path), sha256=sha)
+    _check_size(proto, path)  # before anything is rendered (bpmid.limits)
     if proto.kind in ("motion", "reference") and not proto.logs:
         raise InputError("a motion or reference protocol needs at least one log", path=path, key="logs")
     names = [n for n, _s, _k in proto.runs()]
-    dup = sorted({n for n in names if names.count(n) > 1})
+    from collections import Counter
+
+    dup = sorted(n for n, c in Counter(names).items() if c > 1)
     if dup:
         raise InputError(f"two logs would share the file name {dup[0]!r}", path=path, key="logs")
     if proto.kind == "motion":

@@ -141,6 +141,11 @@ def material_from_relax(source, path=None) -> Material:
         raise TypeError(f"relax fit must be a path or a mapping, not {type(source).__name__}")
     if not rf.K_inf > 0:
         raise InputError("bulk.K_inf must be positive", path=path, key="bulk.K_inf")
+    from bpmid.models.vbmm import MAX_BRANCHES
+
+    if len(rf.tau) > MAX_BRANCHES:  # a resource limit: every term becomes a branch of every simulated step
+        raise InputError(f"{len(rf.tau)} Prony terms, more than the {MAX_BRANCHES} a relaxation fit can have",
+                         path=path, key="prony")
     try:
         return Material(float(rf.G_inf), float(rf.K_inf), tuple(map(float, rf.G)), tuple(map(float, rf.K)),
                         tuple(map(float, rf.tau)), None)
@@ -172,6 +177,17 @@ def initial_material(cfg: MotionFitConfig, init=None, *, base_dir: Path | None =
     return _adapt_branches(mat, cfg), source
 
 
+#: default bounds of a time constant (s)
+TAU_BOUNDS = (1e-3, 1e3)
+
+
+def _slower(tau: float) -> float:
+    """The time constant of an added, slower branch: 10x ``tau``, but inside the default bounds (between ``tau``
+    and the upper bound, geometrically, once 10x would leave them)."""
+    hi = TAU_BOUNDS[1]
+    return 10.0 * tau if 10.0 * tau <= 0.5 * hi else math.sqrt(min(tau, 0.99 * hi) * hi)
+
+
 def _adapt_branches(mat: Material, cfg: MotionFitConfig) -> Material:
     """Match the branch count and tau sharing the config asks for."""
     m = mat.n_branches
@@ -184,8 +200,8 @@ def _adapt_branches(mat: Material, cfg: MotionFitConfig) -> Material:
         # a new, slower branch: 10x the last time constant, 30 % of its moduli (or of the long-term ones)
         G.append(0.3 * (G[-1] if G else mat.G_inf))
         Kk.append(0.3 * (Kk[-1] if Kk else mat.K_inf))
-        tG.append(10.0 * tG[-1] if tG else 0.4)
-        tK.append(10.0 * tK[-1] if tK else 0.4)
+        tG.append(_slower(tG[-1]) if tG else 0.4)
+        tK.append(_slower(tK[-1]) if tK else 0.4)
     split = cfg.split_tau or mat.split
     if mat.split and not cfg.split_tau:
         raise InputError("the initial material has separate time constants for G and K; set motion.split_tau: true",
@@ -212,8 +228,13 @@ def params_from_material(mat: Material, cfg: MotionFitConfig | None = None, *, a
         params = params.replace(name, lower=float(lo), upper=float(hi))
     for p in params:
         if not p.lower <= p.value <= p.upper:
-            raise InputError(f"start value {p.value:g} {p.unit} lies outside its bounds [{p.lower:g}, {p.upper:g}]",
-                             key=f"motion.bounds.{p.name}")
+            # name the key the user wrote (bounds or start); else the start came from the initial material
+            key = (f"motion.bounds.{p.name}" if p.name in cfg.bounds else f"motion.start.{p.name}"
+                   if p.name in cfg.start else None)
+            raise InputError(f"start value {p.value:g} {p.unit} of {p.name} lies outside its bounds "
+                             f"[{p.lower:g}, {p.upper:g}]" + ("" if key else
+                             " (the start comes from the initial material: set motion.start." + p.name
+                             + " or motion.bounds." + p.name + ")"), key=key)
         if p.log_scale and p.value <= 0:
             raise InputError("a time constant must be positive", key=f"motion.start.{p.name}")
     for name in cfg.fixed:
@@ -547,6 +568,11 @@ def fit_motion(logs: Sequence[MotionLog], *, config=None, init=None, params: Par
         per_log[lg.name] = log_metrics(lg.angle_deg, preds[lg.name])
     y = np.concatenate([lg.angle_deg for lg in logs])
     yh = np.concatenate([preds[lg.name] for lg in logs])
+    from bpmid.fitting import check_explained
+
+    check_explained(y, yh, quantity="angle", unit="deg", paths=[lg.path or lg.name for lg in logs],
+                    hint="fit on logs whose pressure program moves the muscle (ramps, steps, cycles) and check "
+                         "the pressure and angle columns and their units")
     sens = sensitivity(model, logs, res.params, yh)
     return MotionFit(model, res, prior, source, linear, logs, preds, log_metrics(y, yh), per_log, sens,
                      time.perf_counter() - t0, mcfg)

@@ -438,6 +438,8 @@ def _asymmetric_states(t, x, tau, ratio, direction):
 # parameter files (schema bpmid.vbmm/1)
 # ---------------------------------------------------------------------------------------------
 _MATERIAL_KEYS = ("G_inf", "K_inf", "branches")
+#: most Prony branches a parameter file may give (relax.terms allows up to 200)
+MAX_BRANCHES = 200
 _BRANCH_KEYS = ("G", "K", "tau", "tauG", "tauK")
 
 
@@ -464,6 +466,9 @@ def material_from_yaml(data: dict, path=None) -> Material:
     branches = mat.get("branches", [])
     if not isinstance(branches, list):
         raise InputError("material.branches must be a list of {G, K, tau}", path=path, key="material.branches")
+    if len(branches) > MAX_BRANCHES:  # a resource limit: every branch is a state of every simulated step
+        raise InputError(f"{len(branches)} Prony branches, more than the {MAX_BRANCHES} a relaxation fit can have",
+                         path=path, key="material.branches")
     G, Kk, tG, tK, split = [], [], [], [], False
     for j, b in enumerate(branches):
         key = f"material.branches[{j}]"
@@ -517,6 +522,26 @@ def geometry_from_yaml(data: dict | None, path=None) -> Geometry:
     return geo
 
 
+def _check_model_block(block, path) -> None:
+    """The file's ``model`` block records how it was fitted (not used to evaluate it); a wrong one is refused
+    by its key all the same, so a hand-edited ``history: bogus`` is not silently ignored."""
+    if block is None:
+        return
+    if not isinstance(block, dict):
+        raise InputError("expected a mapping {history, window_s, time_constants}", path=path, key="model")
+    known = {"history": tuple(_MODES), "time_constants": ("split", "shared"), "closure": tuple(_CLOSURES)}
+    for k, v in block.items():
+        if k in known:
+            if v not in known[k]:
+                raise InputError(f"expected one of {list(known[k])}, found {v!r}", path=path, key=f"model.{k}")
+        elif k == "window_s":
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+                raise InputError(f"expected a positive number of seconds, found {v!r}", path=path, key="model.window_s")
+        else:
+            raise InputError(f"unknown key (known: {', '.join(sorted([*known, 'window_s']))})", path=path,
+                             key=f"model.{k}")
+
+
 def load_vbmm(path: str | Path, cfg: VBMMConfig | None = None) -> VBMM:
     """A :class:`VBMM` from a ``bpmid.vbmm/1`` file (``--params``). Keys of CLI.md suffice, and are required:
     ``geometry`` and ``closure`` are constants of the fitted model, never taken from a default.
@@ -536,6 +561,7 @@ def vbmm_from_mapping(data: dict, path=None, cfg: VBMMConfig | None = None) -> V
 
     cfg = cfg or VBMMConfig()
     geometry = geometry_from_yaml(require(data, "geometry", path), path)
+    _check_model_block(data.get("model"), path)
     closure = require(data, "closure", path)
     material = material_from_yaml(data, path)
     if not isinstance(closure, str) or closure not in _CLOSURES:
