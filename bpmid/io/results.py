@@ -87,7 +87,9 @@ def _plain(obj):
 
 
 def dump_yaml(data: dict) -> str:
-    return yaml.safe_dump(_plain(data), sort_keys=False, allow_unicode=True, width=110)
+    from bpmid.io.yamlsafe import dump
+
+    return dump(_plain(data), sort_keys=False, allow_unicode=True, width=110)
 
 
 def write_result(path: str | Path, schema: str, body: dict, prov: dict) -> Path:

@@ -228,3 +228,21 @@ def load_file(path: str | Path, what: str = "file") -> tuple[Any, bytes]:
     except UnicodeDecodeError as exc:
         raise InputError("not a UTF-8 text file", path=path) from exc
     return loads(text, path=path), raw
+
+
+class Dumper12(yaml.SafeDumper):
+    """SafeDumper that quotes every string :class:`StrictLoader` would read back as a number (``'1e5'``,
+    ``'0o7'``): PyYAML's emitter knows only YAML 1.1's number forms, so without this a string such as ``1e5``
+    would be written plain and come back as a float."""
+
+
+Dumper12.add_implicit_resolver("tag:yaml.org,2002:float", _FloatPattern(), list("-+0123456789."))
+Dumper12.add_implicit_resolver(
+    "tag:yaml.org,2002:int",
+    re.compile(r"^(?:[-+]?0b[0-1_]+|[-+]?0o?[0-7_]+|[-+]?(?:0|[1-9][0-9_]*)|[-+]?0x[0-9a-fA-F_]+)$"),
+    list("-+0123456789"))
+
+
+def dump(data: Any, **kw) -> str:
+    """YAML text of plain data (``yaml.safe_dump``'s options) that :func:`loads` reads back equal."""
+    return yaml.dump(data, Dumper=Dumper12, **kw)

@@ -10,6 +10,8 @@ from typing import Literal, Mapping, Optional, Sequence, Union
 import numpy as np
 import yaml
 
+from bpmid.io import yamlsafe
+
 from bpmid.errors import InputError
 from bpmid.validation import physics
 from bpmid.validation.forms import CATALOGUE_IDS, FORMS, OUT_OF_CATALOGUE_IDS, Form, empty_spec, merge
@@ -672,7 +674,7 @@ def case_config_yaml(case: Case) -> str:
             f"{case.time_unit}",
             "# run: bpmid discover fit/*.csv --holdout holdout/*.csv --init init.yaml --config case.yaml --out OUT",
             "# the hidden truth is not in this folder (answers/<split>.yaml of the sweep output)"]
-    return "\n".join(head) + "\n" + yaml.safe_dump(body, sort_keys=False)
+    return "\n".join(head) + "\n" + yamlsafe.dump(body, sort_keys=False)
 
 
 def init_yaml(case: Case) -> str:
@@ -688,7 +690,7 @@ def init_yaml(case: Case) -> str:
                                       for g, k, t in zip(s["G"], s["K"], s["tau"])]},
             "provenance": {"generator": GENERATOR, "synthetic": True, "case": case.id, "seed": case.seed,
                            "note": "starting constants for a synthetic validation case (not a fit)"}}
-    return yaml.safe_dump(body, sort_keys=False)
+    return yamlsafe.dump(body, sort_keys=False)
 
 
 def write_case(case: Case | CaseData, out_dir: str | Path) -> dict:
@@ -723,7 +725,7 @@ def write_answers(entries: Sequence[dict], path: str | Path, *, config: Generato
             "config_sha256": None if config is None else config_digest(config),
             "cases": {e["id"]: {k: v for k, v in e.items() if k != "id"}
                       for e in sorted(entries, key=lambda e: e["id"])}}
-    return write_text(path, yaml.safe_dump(_plain(body), sort_keys=False))
+    return write_text(path, yamlsafe.dump(_plain(body), sort_keys=False))
 
 
 def case_paths(case_dir: str | Path) -> dict:

@@ -36,6 +36,8 @@ from typing import Any, Callable, Literal, Mapping, Optional, Sequence, Union
 import numpy as np
 import yaml
 
+from bpmid.io import yamlsafe
+
 from bpmid.errors import InputError
 from bpmid.validation.forms import CATALOGUE_IDS
 from bpmid.validation.generator import (GENERATOR, Case, GeneratorConfig, GeometrySpec, answer_entry, case_paths,
@@ -381,7 +383,7 @@ def _check_folder(out: Path, cfg: SweepConfig, force: bool = False) -> None:
     from bpmid.io.atomic import write_text
     body = {"schema": SWEEP_SCHEMA, "fingerprint": fp, "config_path": cfg.path, "config_sha256": cfg.sha256,
             "generator": GENERATOR, **cfg.to_yaml()}
-    write_text(stamp, yaml.safe_dump(body, sort_keys=False))
+    write_text(stamp, yamlsafe.dump(body, sort_keys=False))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -658,7 +660,7 @@ def write_tables(out: Path, summary: dict, recs: Sequence[dict]) -> dict:
             "per_case": [{"id": r["id"], "truth": r["truth_label"], "truth_ids": r["truth_ids"],
                           "named": r.get("named") or [], "unexplained": r.get("unexplained"),
                           "gap_halved": gap_halved(r), "error": r.get("error")} for r in recs]}
-    write_text(out / "summary.yaml", yaml.safe_dump(_fix_nan(body), sort_keys=False))
+    write_text(out / "summary.yaml", yamlsafe.dump(_fix_nan(body), sort_keys=False))
     return {"confusion_csv": str(out / "confusion.csv"), "confusion_md": str(out / "confusion.md"),
             "summary": str(out / "summary.yaml")}
 
