@@ -25,6 +25,7 @@ from typing import Callable, Protocol, Sequence
 import numpy as np
 from scipy.optimize import least_squares, lsq_linear, nnls
 
+from bpmid import identifiability
 from bpmid.fitting import FitResult, correlation, covariance_from_jacobian, effective_sample_size, fit_least_squares
 from bpmid.params import ParamSet
 
@@ -119,14 +120,13 @@ def fit_variable_projection(design_fn: Callable[[ParamSet], np.ndarray], y: np.n
         if np.isfinite(se[i]):
             out = out.replace(name, stderr=float(se[i]), identifiable=True)
         else:  # a singular covariance: the data do not fix this constant; never report it as measured
-            out = out.replace(name, stderr=None, identifiable=False,
-                              note="not identifiable: its standard error is not finite (singular covariance)")
+            out = out.replace(name, stderr=None, identifiable=False, note=identifiability.NOT_FINITE)
     held = dict(res.held)
     for j, name in enumerate(linear):
         if active[j]:
             out = out.replace(name, value=float(theta[j]), fixed=False)
         else:
-            why = "at its non-negativity bound 0 (the data give it no weight)"
+            why = identifiability.AT_ZERO_BOUND
             out = out.replace(name, value=0.0, fixed=False, stderr=None, identifiable=False, note=why)
             held[name] = why
     return FitResult(out, names, cov, correlation(cov), r, r.size, n_eff, bool(res.success),
