@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Iterable, Sequence
 
 from bpmid.errors import InputError
-from bpmid.units import ATMOSPHERE_PA
+from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR
 
 
 # --------------------------------------------------------------------------------------------------
@@ -124,11 +124,11 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
     gauge = to_gauge_pa(given, pressure_unit, reference, atmosphere_pa=atmosphere_pa)
     span = float(np.max(gauge))
     if span < 1e3:
-        raise InputError(f"the largest gauge pressure is {span:.4g} Pa ({span / 1e5:.4g} bar) for pressure_unit="
+        raise InputError(f"the largest gauge pressure is {span:.4g} Pa ({span / PA_PER_BAR:.4g} bar) for pressure_unit="
                          f"{pressure_unit!r}, reference={reference!r}: no muscle moves on that; check the unit "
                          "and the reference", key="pressure_unit")
-    if float(np.min(gauge)) < -0.05 * 1e5:
-        raise InputError(f"pressure {float(np.min(gauge)) / 1e5:.3g} bar gauge is below atmosphere: a wrong "
+    if float(np.min(gauge)) < -0.05 * PA_PER_BAR:
+        raise InputError(f"pressure {float(np.min(gauge)) / PA_PER_BAR:.3g} bar gauge is below atmosphere: a wrong "
                          "reference (absolute vs gauge) or unit", key="reference")
     unit = str(pressure_unit).lower()
     assert unit in PRESSURE_UNITS

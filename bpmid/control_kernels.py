@@ -27,6 +27,7 @@ from bpmid.models._vbmm_kernels import pressure_at, stretch, u3_from_beta
 from bpmid.models._vbmm_kernels import recursion_const as _hist
 from bpmid.models._vbmm_kernels import solve_beta as _solve_beta
 from bpmid.pneumatics import muscle_volume, pressure_period, IDX_DEAD
+from bpmid.units import PA_PER_BAR
 
 CTRL_PI, CTRL_VBMM, CTRL_MS = 0, 1, 2
 
@@ -274,7 +275,7 @@ def closed_loop(t, ref, kind, kp, ki, p_lo, p_hi, atm, p_start, preview,
                         di = -ms_D[i]
                     ms_d[i] = di
                     v += ms_k[i] * di
-                ffv = atm + v * 1e5
+                ffv = atm + v * PA_PER_BAR
             else:
                 ffv = 0.0
             fj += 1

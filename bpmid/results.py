@@ -465,12 +465,14 @@ class VBMMFitResult(Result):
         import numpy as np
         from matplotlib.figure import Figure
 
+        from bpmid.units import PA_PER_BAR
+
         model = self.model
         beta = np.linspace(0.05, 1.5 * np.pi, 200)
         p = model.equilibrium_pressure(beta)
         fig = Figure(figsize=(6.4, 4.0), layout="constrained")
         ax = fig.add_subplot()
-        ax.plot(np.asarray(p) / 1e5, np.degrees(beta), label="long-term equilibrium (G_inf, K_inf)")
+        ax.plot(np.asarray(p) / PA_PER_BAR, np.degrees(beta), label="long-term equilibrium (G_inf, K_inf)")
         ax.set_xlabel("pressure (bar, gauge)")
         ax.set_ylabel("bending angle (deg)")
         ax.legend()

@@ -118,7 +118,7 @@ class GPIModel(ModelFamily):
         Constrain p0 >= 0: with sigma = +1 (lag) the output then never decreases while the input rises
         (module docstring). Default False (p0 free, as in the literature).
     input_unit, output_unit : str
-        Units of the generic signals (``"bar"``/``"deg"`` for muscle logs, whose Pa are divided by 1e5).
+        Units of the generic signals (``"bar"``/``"deg"`` for muscle logs, whose Pa are divided by PA_PER_BAR).
     """
 
     name = "gpi"
