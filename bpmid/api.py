@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Iterable, Sequence
 
 from bpmid.errors import InputError
-from bpmid.units import ATMOSPHERE_PA
+from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR
 
 
 # --------------------------------------------------------------------------------------------------
@@ -124,11 +124,11 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
     gauge = to_gauge_pa(given, pressure_unit, reference, atmosphere_pa=atmosphere_pa)
     span = float(np.max(gauge))
     if span < 1e3:
-        raise InputError(f"the largest gauge pressure is {span:.4g} Pa ({span / 1e5:.4g} bar) for pressure_unit="
+        raise InputError(f"the largest gauge pressure is {span:.4g} Pa ({span / PA_PER_BAR:.4g} bar) for pressure_unit="
                          f"{pressure_unit!r}, reference={reference!r}: no muscle moves on that; check the unit "
                          "and the reference", key="pressure_unit")
-    if float(np.min(gauge)) < -0.05 * 1e5:
-        raise InputError(f"pressure {float(np.min(gauge)) / 1e5:.3g} bar gauge is below atmosphere: a wrong "
+    if float(np.min(gauge)) < -0.05 * PA_PER_BAR:
+        raise InputError(f"pressure {float(np.min(gauge)) / PA_PER_BAR:.3g} bar gauge is below atmosphere: a wrong "
                          "reference (absolute vs gauge) or unit", key="reference")
     unit = str(pressure_unit).lower()
     assert unit in PRESSURE_UNITS
@@ -157,48 +157,36 @@ def read_relax_logs(paths, *, config=None) -> list:
 # workflows
 # --------------------------------------------------------------------------------------------------
 def fit_relaxation(logs, *, terms: int | str | None = None, mode: str | None = None, poisson: float | None = None,
-                   config=None):
+                   config=None, max_error_pct: float | None = None, ref_temp: float | None = None, shift=None,
+                   _flags: bool = False):
     """Fit a Prony series E(t) = E_inf + sum_j E_j exp(-t/tau_j) to relaxation logs (``bpmid fit relax``).
 
     Parameters
     ----------
-    logs : relaxation log paths
+    logs : relaxation log paths, frequency sweeps (storage and loss modulus) or raw sets at several temperatures
     terms : number of Prony terms or ``"auto"`` (default: ``relax.terms`` of the config)
     mode : ``"ramp"`` or ``"step"`` (default: the config's, or step for modulus curves)
     poisson : Poisson's ratio for G and K (default ``relax.poisson``)
+    max_error_pct : the fewest terms whose error (%) is at most this, instead of ``terms``
+    ref_temp : reference temperature (C) of a master curve built from raw sets at several temperatures
+    shift : a CSV of shift factors (T in C, log_aT) to use instead of finding them from the data
+    _flags : name the arguments as the command line's options in error messages (the CLI sets it)
 
     Returns
     -------
-    bpmid.results.RelaxationResult
+    bpmid.results.RelaxationResult : ``.raw`` is the live fit (its ``warnings`` are not printed here);
+    ``.save(path, figure=True)`` writes what ``bpmid fit relax`` writes
     """
-    from bpmid.io.results import provenance
-    from bpmid.relax.fit import fit_relaxation as _fit
-    from bpmid.relax.result import relax_fit_body
+    from bpmid.relax.result import fit_relax_files
     from bpmid.results import RelaxationResult
-    from bpmid.viscoelastic import check_poisson
 
-    cfg_all = _config(config)
-    cfg = cfg_all.section("relax")
-    if mode is not None and mode not in ("ramp", "step"):
-        raise InputError(f"mode takes ramp or step, found {mode!r}", key="mode")
-    nu = check_poisson(cfg.poisson if poisson is None else poisson, key="poisson" if poisson is not None
-                       else "relax.poisson")
-    if terms is None:
-        terms = cfg.terms
-    elif isinstance(terms, str):
-        terms = "auto" if terms.strip().lower() == "auto" else terms
-        if terms != "auto":
-            try:
-                terms = int(terms)
-            except ValueError:
-                raise InputError(f"terms takes a whole number or auto, found {terms!r}", key="terms") from None
     paths = [Path(p) for p in _as_list(logs)]
     if not paths:
         raise InputError("no relaxation logs given", key="logs")
-    records = read_relax_logs(paths, config=cfg_all)
-    fit = _fit(records, terms=terms, mode=cfg.mode if mode is None else mode, config=cfg)
-    result = RelaxationResult(relax_fit_body(fit, nu), provenance(paths, config=cfg_all), raw=fit)
-    result._synthetic = any(str(r.meta.get("synthetic", "")).lower() in ("true", "yes", "1") for r in records)
+    run = fit_relax_files(paths, terms=terms, mode=mode, poisson=poisson, config=_config(config),
+                          max_error_pct=max_error_pct, ref_temp=ref_temp, shift=shift, flags=_flags)
+    result = RelaxationResult(run.body, run.provenance, raw=run.fit)
+    result._synthetic = run.synthetic
     return result
 
 

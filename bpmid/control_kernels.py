@@ -17,6 +17,9 @@ import math
 import numba
 import numpy as np
 
+from bpmid.effects._kernels import delay_step as _delay_step
+from bpmid.effects._kernels import lag_step as _lag_step
+from bpmid.effects._kernels import play_step as _play_step
 from bpmid.models._vbmm_kernels import commit as _commit
 from bpmid.models._vbmm_kernels import decay as _decay
 from bpmid.models._vbmm_kernels import instantaneous as _instantaneous
@@ -24,6 +27,7 @@ from bpmid.models._vbmm_kernels import pressure_at, stretch, u3_from_beta
 from bpmid.models._vbmm_kernels import recursion_const as _hist
 from bpmid.models._vbmm_kernels import solve_beta as _solve_beta
 from bpmid.pneumatics import muscle_volume, pressure_period, IDX_DEAD
+from bpmid.units import PA_PER_BAR
 
 CTRL_PI, CTRL_VBMM, CTRL_MS, CTRL_GIVEN = 0, 1, 2, 3  # CTRL_GIVEN: feedforward precomputed by the caller
 
@@ -132,8 +136,8 @@ OP_DELAY, OP_LAG, OP_PLAYS = 0, 1, 2
 def pressure_chain(k, t, x, ch_op, ch_par, ch_cnt, ch_hist, ch_y, ch_j, ch_play):  # pragma: no cover
     """The catalogue's pressure terms at step k, causally, in order: each op's output feeds the next.
 
-    The same arithmetic as :mod:`bpmid.effects._kernels` on the whole signal (so the stepped plant equals
-    the open-loop :class:`~bpmid.effects.base.AugmentedVBMM`): OP_DELAY ch_par[i, 0] = dead time (s),
+    The same one-step kernels as :mod:`bpmid.effects._kernels` runs on the whole signal (imported, not
+    copied: the stepped plant equals the open-loop :class:`~bpmid.effects.base.AugmentedVBMM`): OP_DELAY ch_par[i, 0] = dead time (s),
     linear interpolation in the op's own input samples; OP_LAG ch_par[i, 0] = tau (s), first-order lag
     exact for a linear input between samples; OP_PLAYS ch_par[i, :ch_cnt[i]] = half-widths (Pa), the mean
     of that many play operators. All start in equilibrium with the first sample.
@@ -144,38 +148,17 @@ def pressure_chain(k, t, x, ch_op, ch_par, ch_cnt, ch_hist, ch_y, ch_j, ch_play)
         if op == OP_DELAY:
             d = ch_par[i, 0]
             if d > 0.0 and k > 0:
-                tq = t[k] - d
-                if tq <= t[0]:
-                    x = ch_hist[i, 0]
-                else:
-                    j = ch_j[i]
-                    while j + 1 <= k and t[j + 1] < tq:
-                        j += 1
-                    ch_j[i] = j
-                    w = (tq - t[j]) / (t[j + 1] - t[j])
-                    x = ch_hist[i, j] + w * (ch_hist[i, j + 1] - ch_hist[i, j])
+                x, ch_j[i] = _delay_step(t, ch_hist[i], k, t[k] - d, ch_j[i])
             elif d > 0.0:
                 x = ch_hist[i, 0]
         elif op == OP_LAG:
             tau = ch_par[i, 0]
             if tau > 0.0 and k > 0:
-                dt = t[k] - t[k - 1]
-                a = math.exp(-dt / tau)
-                xp = ch_hist[i, k - 1]
-                x = a * ch_y[i] + (1.0 - a) * xp + (x - xp) * (1.0 - tau * (1.0 - a) / dt)
+                x = _lag_step(ch_y[i], ch_hist[i, k - 1], x, t[k] - t[k - 1], tau)
         else:
             acc = 0.0
             for e in range(ch_cnt[i]):
-                if k == 0:
-                    v = x
-                else:
-                    v = ch_play[i, e]
-                    lo = x - ch_par[i, e]
-                    hi = x + ch_par[i, e]
-                    if v < lo:
-                        v = lo
-                    elif v > hi:
-                        v = hi
+                v = x if k == 0 else _play_step(ch_play[i, e], x, ch_par[i, e])
                 ch_play[i, e] = v
                 acc += v
             x = acc / ch_cnt[i]
@@ -294,7 +277,7 @@ def closed_loop(t, ref, kind, kp, ki, p_lo, p_hi, atm, p_start, preview,
                         di = -ms_D[i]
                     ms_d[i] = di
                     v += ms_k[i] * di
-                ffv = atm + v * 1e5
+                ffv = atm + v * PA_PER_BAR
             elif kind == CTRL_GIVEN:
                 ffv = atm + ff_given[fj]
             else:

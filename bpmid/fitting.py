@@ -23,6 +23,7 @@ from typing import Callable, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
+from bpmid import identifiability
 from bpmid.params import ParamSet
 
 UNCERTAINTY_METHOD = ("Jacobian covariance s^2 (J^T J)^-1 inflated by N/N_eff, "
@@ -234,31 +235,10 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
         for i in insensitive:  # never "estimated", identifiability check or not: the data say nothing about it
             bad[names[i]] = ZERO_SENSITIVITY
         if check_identifiability:
-            span = hi - lo
-            for i, name in enumerate(names):
-                if name in bad:
-                    continue
-                p = fitted[name]
-                at_bound = (np.isfinite(lo[i]) and sol.x[i] - lo[i] <= 1e-6 * max(1.0, abs(span[i]) if np.isfinite(span[i]) else 1.0)) or \
-                           (np.isfinite(hi[i]) and hi[i] - sol.x[i] <= 1e-6 * max(1.0, abs(span[i]) if np.isfinite(span[i]) else 1.0))
-                rel = se[i] / abs(p.value) if p.value != 0 else math.inf
-                if not np.isfinite(se[i]):
-                    bad[name] = "the data do not determine it (singular Jacobian)"
-                elif rel > rel_se_max:
-                    shown = f"{rel:.0%}" if rel < 10 else ">1000%"
-                    bad[name] = f"relative standard error {shown} > {rel_se_max:.0%}"
-                elif at_bound:
-                    bad[name] = "the fit ran onto a bound"
-            if not bad and len(names) > 1:
-                c = np.abs(np.nan_to_num(corr, nan=0.0)) - np.eye(len(names))
-                i, j = np.unravel_index(np.argmax(c), c.shape)
-                if c[i, j] > corr_max:
-                    # hold the one with the larger relative error
-                    rel_i = se[i] / max(abs(fitted[names[i]].value), 1e-300)
-                    rel_j = se[j] / max(abs(fitted[names[j]].value), 1e-300)
-                    k = i if rel_i >= rel_j else j
-                    other = names[j if k == i else i]
-                    bad[names[k]] = f"correlated with {other} (r = {corr[i, j]:+.3f})"
+            judged = identifiability.judge_fit(names, [fitted[n].value for n in names], se, corr, sol.x, lo, hi,
+                                               rel_se_max=rel_se_max, corr_max=corr_max)
+            for name, why in judged.items():  # a zero-sensitivity verdict stands
+                bad.setdefault(name, why)
         if not bad:
             out = fitted
             for i, name in enumerate(names):

@@ -367,9 +367,7 @@ class RelaxationResult(Result):
 
     def plot(self):
         if self.raw is not None:
-            from bpmid.plots.relax import relax_figure
-
-            return relax_figure(self.raw)
+            return self._figure()
         import numpy as np
         from matplotlib.figure import Figure
 
@@ -390,14 +388,23 @@ class RelaxationResult(Result):
         if figure and self.raw is not None:
             from bpmid.io.atomic import staged_file
             from bpmid.plots.common import save_figure
-            from bpmid.plots.relax import relax_figure
 
             fig_path = path.with_suffix(".png") if figure is True else Path(figure)
+            # both are staged: on any failure neither file appears
             with staged_file(path) as tmp_yaml, staged_file(fig_path) as tmp_fig:
                 super().save(tmp_yaml)
-                save_figure(relax_figure(self.raw, synthetic=bool(getattr(self, "_synthetic", False))), tmp_fig)
+                save_figure(self._figure(), tmp_fig)
             return path
         return super().save(path)
+
+    def _figure(self):
+        """The CLI's figure of the live fit (a master curve's for frequency sweeps and raw sets)."""
+        from bpmid.plots.relax import material_figure, relax_figure
+        from bpmid.relax.material import MaterialFit
+
+        if isinstance(self.raw, MaterialFit):
+            return material_figure(self.raw)
+        return relax_figure(self.raw, synthetic=bool(getattr(self, "_synthetic", False)))
 
     @property
     def relax_parameters(self):
@@ -465,12 +472,14 @@ class VBMMFitResult(Result):
         import numpy as np
         from matplotlib.figure import Figure
 
+        from bpmid.units import PA_PER_BAR
+
         model = self.model
         beta = np.linspace(0.05, 1.5 * np.pi, 200)
         p = model.equilibrium_pressure(beta)
         fig = Figure(figsize=(6.4, 4.0), layout="constrained")
         ax = fig.add_subplot()
-        ax.plot(np.asarray(p) / 1e5, np.degrees(beta), label="long-term equilibrium (G_inf, K_inf)")
+        ax.plot(np.asarray(p) / PA_PER_BAR, np.degrees(beta), label="long-term equilibrium (G_inf, K_inf)")
         ax.set_xlabel("pressure (bar, gauge)")
         ax.set_ylabel("bending angle (deg)")
         ax.legend()

@@ -52,12 +52,11 @@ def fit_relax(
 ):
     """Fit a Prony series E(t) = E_inf + sum E_j exp(-t/tau_j) to relaxation logs or to storage and loss moduli
     (shifting raw sets at several temperatures into a master curve first); write E, G and K."""
+    from bpmid.api import fit_relaxation
     from bpmid.config import load_config
-    from bpmid.errors import InputError
-    from bpmid.relax import run_fit_relax
+    from bpmid.relax.result import check_mode, save_relax_result
 
-    if mode is not None and mode not in ("ramp", "step"):
-        raise InputError(f"--mode takes ramp or step, found {mode!r}", key="--mode")
+    check_mode(mode, flags=True)
     cfg = logopts.apply(load_config(config))
     paths = existing_files(logs, "relaxation log")
     if shift is not None:
@@ -65,9 +64,9 @@ def fit_relax(
     check_outputs([out], paths + [config, shift], suffix=".yaml")
     if not no_figure:
         check_outputs([out.with_suffix(".png")], paths + [config, shift])
-    yaml_path, fig_path, fit = run_fit_relax(paths, out, terms=terms, mode=mode, poisson=poisson, config=cfg,
-                                             figure=not no_figure, max_error_pct=max_error, ref_temp=ref_temp,
-                                             shift=shift)
+    result = fit_relaxation(paths, terms=terms, mode=mode, poisson=poisson, config=cfg, max_error_pct=max_error,
+                            ref_temp=ref_temp, shift=shift, _flags=True)
+    yaml_path, fig_path, fit = save_relax_result(result, out, figure=not no_figure)
     shift_res = getattr(fit, "shift", None)
     inner = getattr(fit, "fit", fit)
     if inner.criterion and inner.criterion != "max-error":

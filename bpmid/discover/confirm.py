@@ -24,6 +24,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from bpmid.discover.model import ModelState, fit_state, residuals, rmse_deg
+from bpmid import identifiability
 from bpmid.effects.base import Effect
 from bpmid.fitting import FitResult, effective_sample_size
 from bpmid.io.motion_logs import MotionLog
@@ -94,30 +95,7 @@ def own_identifiability(res: FitResult, names: Sequence[str], *, rel_se_max: flo
                         corr_max: float = 0.995) -> dict[str, str]:
     """The candidate's own parameters the fit does not determine, with the reason: infinite or large relative
     standard error, a value on a bound, or near-perfect correlation with any other fitted constant."""
-    bad = {}
-    free = list(res.free_names)
-    for nm in names:
-        if nm not in free:
-            continue
-        i = free.index(nm)
-        p = res.params[nm]
-        se = math.sqrt(abs(res.cov[i, i])) if np.isfinite(res.cov[i, i]) else math.inf
-        span = p.upper - p.lower
-        tol = 1e-6 * (span if np.isfinite(span) else max(abs(p.value), 1.0))
-        rel = se / abs(p.value) if p.value != 0 else math.inf
-        if not math.isfinite(se):
-            bad[nm] = "the data do not determine it (singular Jacobian)"
-        elif rel > rel_se_max:
-            bad[nm] = f"relative standard error {rel:.0%} > {rel_se_max:.0%}"
-        elif p.value - p.lower <= tol or p.upper - p.value <= tol:
-            bad[nm] = "the fit ran onto a bound"
-        else:
-            c = np.abs(np.nan_to_num(res.corr[i], nan=0.0))
-            c[i] = 0.0
-            if c.size and c.max() > corr_max:
-                j = int(np.argmax(c))
-                bad[nm] = f"correlated with {free[j]} (r = {res.corr[i, j]:+.3f})"
-    return bad
+    return identifiability.judge_own(res, names, rel_se_max=rel_se_max, corr_max=corr_max)
 
 
 def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], holdout_logs: Sequence[MotionLog],

@@ -7,6 +7,8 @@
 - :func:`delay_kernel`: a pure dead time by linear interpolation in the input's own samples
 
 Every kernel starts in equilibrium with the first sample (y_0 = x_0), like the VBMM's relaxed start.
+Each runs the one-step form (:func:`play_step`, :func:`lag_step`, :func:`delay_step`) that the closed
+loop's causal chain (:func:`bpmid.control_kernels.pressure_chain`) runs too.
 """
 from __future__ import annotations
 
@@ -14,6 +16,44 @@ import math
 
 import numba
 import numpy as np
+
+
+# --------------------------------------------------------------------------------------------------
+# one step of each operator: the whole-signal kernels below and the closed loop's causal chain
+# (bpmid.control_kernels.pressure_chain) both run these, so the two cannot drift apart
+# --------------------------------------------------------------------------------------------------
+@numba.njit(cache=True)
+def play_step(v, x, r):  # pragma: no cover - compiled
+    """One play-operator step: the previous output ``v`` clamped to [x - r, x + r]."""
+    lo = x - r
+    hi = x + r
+    if v < lo:
+        v = lo
+    elif v > hi:
+        v = hi
+    return v
+
+
+@numba.njit(cache=True)
+def lag_step(y_prev, x_prev, x, dt, tau):  # pragma: no cover - compiled
+    """One first-order-lag step over ``dt`` (s) for an input linear from ``x_prev`` to ``x``; tau > 0 (s)."""
+    a = math.exp(-dt / tau)
+    return a * y_prev + (1.0 - a) * x_prev + (x - x_prev) * (1.0 - tau * (1.0 - a) / dt)
+
+
+@numba.njit(cache=True)
+def delay_step(t, x, last, tq, j):  # pragma: no cover - compiled
+    """``x`` at time ``tq`` by linear interpolation in its samples ``x[0..last]`` at ``t[0..last]``
+    (x[0] before the start, x[last] beyond it). ``j`` is where the search starts (the query times of a
+    dead time only move forward); returns (value, j advanced)."""
+    if tq <= t[0]:
+        return x[0], j
+    while j + 1 <= last and t[j + 1] < tq:
+        j += 1
+    if j + 1 > last:
+        return x[last], j
+    w = (tq - t[j]) / (t[j + 1] - t[j])
+    return x[j] + w * (x[j + 1] - x[j]), j
 
 
 @numba.njit(cache=True)
@@ -29,14 +69,7 @@ def play_kernel(x, r):  # pragma: no cover - compiled
         return y
     y[0] = x[0]
     for k in range(1, n):
-        v = y[k - 1]
-        lo = x[k] - r
-        hi = x[k] + r
-        if v < lo:
-            v = lo
-        elif v > hi:
-            v = hi
-        y[k] = v
+        y[k] = play_step(y[k - 1], x[k], r)
     return y
 
 
@@ -52,9 +85,7 @@ def lag_kernel(t, x, tau):  # pragma: no cover - compiled
     if tau <= 0.0 or n == 0:
         return y
     for k in range(1, n):
-        dt = t[k] - t[k - 1]
-        a = math.exp(-dt / tau)
-        y[k] = a * y[k - 1] + (1.0 - a) * x[k - 1] + (x[k] - x[k - 1]) * (1.0 - tau * (1.0 - a) / dt)
+        y[k] = lag_step(y[k - 1], x[k - 1], x[k], t[k] - t[k - 1], tau)
     return y
 
 
@@ -67,17 +98,7 @@ def delay_kernel(t, x, d):  # pragma: no cover - compiled
         return y
     j = 0
     for k in range(n):
-        tq = t[k] - d
-        if tq <= t[0]:
-            y[k] = x[0]
-            continue
-        while j + 1 < n and t[j + 1] < tq:
-            j += 1
-        if j + 1 >= n:
-            y[k] = x[n - 1]
-        else:
-            w = (tq - t[j]) / (t[j + 1] - t[j])
-            y[k] = x[j] + w * (x[j + 1] - x[j])
+        y[k], j = delay_step(t, x, n - 1, t[k] - d, j)
     return y
 
 

@@ -23,7 +23,7 @@ Identification (variable projection): thresholds on a grid over half the input s
 data (fixed; ``threshold_grid="uniform"``: r_i = (i/m) h, ``"quadratic"``: r_i = (i/m)^2 h, finer near
 the reversals where dry friction switches); for given envelopes the output is linear in (p0, c, w_i), solved by bounded linear least
 squares (w_i >= 0); the envelope parameters are fitted by the shared nonlinear least-squares driver
-around that inner solve. :func:`fit_variable_projection` (used by Maxwell-slip too) turns the result
+around that inner solve. :func:`bpmid.varpro.fit_variable_projection` (used by Maxwell-slip too) turns the result
 into an ordinary :class:`bpmid.fitting.FitResult` with standard errors from the joint Jacobian.
 
 The model is rate-independent: it cannot show creep (that is the point of the comparison).
@@ -49,125 +49,24 @@ Every method works on a generic input signal (``*_arrays``): the friction check 
 """
 from __future__ import annotations
 
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
-from scipy.optimize import lsq_linear
 
 from bpmid.errors import InputError
-from bpmid.fitting import (FitResult, correlation, covariance_from_jacobian, effective_sample_size,
-                           fit_least_squares)
+from bpmid.fitting import FitResult
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models._hysteresis_kernels import play_bank
 from bpmid.models.base import ModelFamily, check_fit_logs
 from bpmid.params import Param, ParamSet
 # Pa per bar: muscle logs carry gauge pressure in Pa, the baselines work in bar (well-conditioned)
 from bpmid.units import PA_PER_BAR
+# variable projection has one home (bpmid.varpro); the names stay importable from here
+from bpmid.varpro import fit_variable_projection, solve_linear  # noqa: F401
 
 ENVELOPES = ("tanh", "linear", "identity")
 ORIENTATIONS = ("auto", "lag", "lead")
 GRIDS = ("uniform", "quadratic")
-
-
-# --------------------------------------------------------------------------------------------------
-# variable projection: outer nonlinear parameters, inner bounded linear least squares
-# --------------------------------------------------------------------------------------------------
-def solve_linear(design: np.ndarray, y: np.ndarray, nonneg: np.ndarray) -> np.ndarray:
-    """Least-squares coefficients of ``design @ theta ~ y`` with ``theta[nonneg] >= 0``.
-
-    Parameters
-    ----------
-    design : (N, q) float
-    y : (N,) float
-    nonneg : (q,) bool
-
-    Returns
-    -------
-    theta : (q,) float
-    """
-    lo = np.where(nonneg, 0.0, -np.inf)
-    hi = np.full(nonneg.shape, np.inf)
-    # columns differ by orders of magnitude (1, v, v^2, deflections): scale them so BVLS is well posed
-    norm = np.linalg.norm(design, axis=0)
-    norm[norm == 0] = 1.0
-    sol = lsq_linear(design / norm, y, bounds=(lo, hi), method="bvls", tol=1e-12)
-    return sol.x / norm
-
-
-def fit_variable_projection(design_fn: Callable[[ParamSet], np.ndarray], y: np.ndarray, params: ParamSet,
-                            linear: Sequence[str], nonneg: Sequence[bool], *,
-                            segments: Sequence[int] | None = None, **fit_kw) -> FitResult:
-    """Fit outer (nonlinear) parameters by least squares with the linear ones solved inside.
-
-    Parameters
-    ----------
-    design_fn : ParamSet -> (N, q) design matrix (all logs stacked); column j multiplies ``linear[j]``
-    y : (N,) measured output (stacked)
-    params : every parameter; the free ones not named in ``linear`` are the outer parameters
-    linear : names of the q linear coefficients (in column order)
-    nonneg : (q,) which linear coefficients are constrained >= 0
-    segments : per-log lengths (effective sample size)
-    **fit_kw : passed to :func:`bpmid.fitting.fit_least_squares` for the outer fit
-
-    Returns
-    -------
-    FitResult
-        All estimated parameters (outer and linear) with standard errors from the joint Jacobian
-        [d residual / d outer, design] at the optimum (covariance_from_jacobian, N_eff inflation).
-        Linear coefficients at their zero bound are reported as not identifiable (``held``).
-    """
-    y = np.asarray(y, float)
-    nonneg = np.asarray(nonneg, bool)
-    linear = list(linear)
-    outer_start = ParamSet(p.replace(fixed=True) if p.name in linear else p for p in params)
-
-    def residual(p: ParamSet) -> np.ndarray:
-        a = design_fn(p)
-        return a @ solve_linear(a, y, nonneg) - y
-
-    res = fit_least_squares(residual, outer_start, segments=segments, **fit_kw)
-    fitted = res.params
-    a = design_fn(fitted)
-    theta = solve_linear(a, y, nonneg)
-    r = a @ theta - y
-    outer_names = list(res.free_names)
-
-    # joint Jacobian in value space: central differences for the outer parameters, the design for the rest
-    cols = []
-    for name in outer_names:
-        v = fitted.value(name)
-        h = 1e-6 * max(abs(v), 1e-3)
-        up = design_fn(fitted.replace(name, value=v + h)) @ theta
-        dn = design_fn(fitted.replace(name, value=v - h)) @ theta
-        cols.append((up - dn) / (2 * h))
-    scale_tol = 1e-12 * max(np.abs(theta).max(initial=0.0), 1.0)
-    active = ~(nonneg & (theta <= scale_tol))
-    active_idx = np.flatnonzero(active)
-    jac = np.column_stack(cols + [a[:, j] for j in active_idx]) if (cols or active_idx.size) else np.zeros((y.size, 0))
-    n_eff = effective_sample_size(r, segments)
-    norm = np.linalg.norm(jac, axis=0)
-    norm[norm == 0] = 1.0
-    cov = covariance_from_jacobian(jac / norm, r, n_eff) / np.outer(norm, norm)
-    se = np.sqrt(np.abs(np.diag(cov)))
-    names = outer_names + [linear[j] for j in active_idx]
-
-    out = fitted
-    for i, name in enumerate(names):
-        if np.isfinite(se[i]):
-            out = out.replace(name, stderr=float(se[i]), identifiable=True)
-        else:  # a singular covariance: the data do not fix this constant; never report it as measured
-            out = out.replace(name, stderr=None, identifiable=False,
-                              note="not identifiable: its standard error is not finite (singular covariance)")
-    held = dict(res.held)
-    for j, name in enumerate(linear):
-        if active[j]:
-            out = out.replace(name, value=float(theta[j]), fixed=False)
-        else:
-            why = "at its non-negativity bound 0 (the data give it no weight)"
-            out = out.replace(name, value=0.0, fixed=False, stderr=None, identifiable=False, note=why)
-            held[name] = why
-    return FitResult(out, names, cov, correlation(cov), r, r.size, n_eff, bool(res.success),
-                     str(res.message), int(res.nfev), held)
 
 
 def check_arrays(model: ModelFamily, us: Sequence[np.ndarray], ys: Sequence[np.ndarray], n_params: int) -> None:
@@ -219,7 +118,7 @@ class GPIModel(ModelFamily):
         Constrain p0 >= 0: with sigma = +1 (lag) the output then never decreases while the input rises
         (module docstring). Default False (p0 free, as in the literature).
     input_unit, output_unit : str
-        Units of the generic signals (``"bar"``/``"deg"`` for muscle logs, whose Pa are divided by 1e5).
+        Units of the generic signals (``"bar"``/``"deg"`` for muscle logs, whose Pa are divided by PA_PER_BAR).
     """
 
     name = "gpi"

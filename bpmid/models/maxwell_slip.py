@@ -48,7 +48,7 @@ Identification (``method``):
 
 - ``"lsq"`` (default): D_i start on a grid over the input span, k_i (>= 0) and the polynomial by one
   bounded linear least-squares (NNLS) solve; with ``refine=True`` the D_i are then refined by nonlinear
-  least squares around that solve (variable projection, :func:`bpmid.models.gpi.fit_variable_projection`).
+  least squares around that solve (variable projection, :func:`bpmid.varpro.fit_variable_projection`).
 - ``"virgin"``: the virgin-curve method of seed 001 eq. (7). The largest rising branch that starts at
   a reversal is shrunk by 2 about its reversal point (x = (v - v_rev)/2, V = (y - y_rev)/2), n linear
   segments with breakpoints b_1 < ... < b_n are fitted to it, the segment slopes K_j are read off and
@@ -71,7 +71,8 @@ from bpmid.fitting import FitResult, correlation
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models._hysteresis_kernels import direction_with_deadband, stop_bank
 from bpmid.models.base import ModelFamily, check_fit_logs
-from bpmid.models.gpi import check_arrays, fit_variable_projection, solve_linear
+from bpmid.models.gpi import check_arrays
+from bpmid.varpro import fit_variable_projection, solve_linear
 from bpmid.params import Param, ParamSet
 from bpmid.units import PA_PER_BAR
 

@@ -24,12 +24,13 @@ import numpy as np
 from bpmid.errors import InputError
 from bpmid.io.results import provenance, read_result, require, write_result
 from bpmid.params import parse_param_entry
+from bpmid.units import PA_PER_KPA, PA_PER_MPA, TIME_UNITS
 from bpmid.viscoelastic import E_to_G, E_to_K, check_poisson
 
 SCHEMA = "bpmid.relax/1"
-MPA = 1e6
-_MODULUS_UNITS = {"pa": 1.0, "kpa": 1e3, "mpa": 1e6, "gpa": 1e9}
-_TIME_UNITS = {"s": 1.0, "ms": 1e-3, "min": 60.0}
+MPA = PA_PER_MPA
+_MODULUS_UNITS = {"pa": 1.0, "kpa": PA_PER_KPA, "mpa": PA_PER_MPA, "gpa": 1e9}
+_TIME_UNITS = TIME_UNITS
 #: shear/bulk moduli may differ from E/(2(1+nu)) and E/(3(1-2nu)) by this share (rounding of hand-edited files;
 #: K moves 4.5 % for nu 0.4993 instead of 0.49933) and no more: a unit slip is a factor of 1000
 CONSISTENCY_RTOL = 0.05
@@ -263,28 +264,58 @@ def _check_consistent(key: str, got: float, want: float, path, name: str, nu: fl
                          "ratio", path=path, key=key)
 
 
-def _terms_option(terms, cfg):
+def _opt(name: str, flags: bool) -> str:
+    """How an argument is named in an error message: ``--ref-temp`` for the command line, ``ref_temp`` else."""
+    return "--" + name.replace("_", "-") if flags else name
+
+
+def check_mode(mode: str | None, *, flags: bool = False) -> None:
+    """Refuse a ``mode`` other than None, ramp or step."""
+    if mode is not None and mode not in ("ramp", "step"):
+        raise InputError(f"{_opt('mode', flags)} takes ramp or step, found {mode!r}", key=_opt("mode", flags))
+
+
+def _terms_option(terms, cfg, flags: bool = True):
     if terms is None:
         return cfg.terms
     if isinstance(terms, str) and terms.strip().lower() != "auto":
         try:
             return int(terms)
         except ValueError:
-            raise InputError(f"--terms takes a whole number or auto, found {terms!r}", key="--terms") from None
+            raise InputError(f"{_opt('terms', flags)} takes a whole number or auto, found {terms!r}",
+                             key=_opt("terms", flags)) from None
     if isinstance(terms, str):
         return "auto"
     return terms
 
 
-def _run_fit_material(paths, material, out, *, terms, mode, poisson, config, figure, max_error_pct, ref_temp,
-                      shift):
+@dataclasses.dataclass
+class RelaxRun:
+    """One ``fit relax`` computation: the live fit, the file's body and provenance.
+
+    Attributes
+    ----------
+    fit : :class:`bpmid.relax.fit.RelaxFit`, or :class:`bpmid.relax.material.MaterialFit` for frequency sweeps
+        and raw sets at several temperatures
+    body : the ``bpmid.relax/1`` keys (without schema and provenance)
+    provenance : the provenance block
+    synthetic : whether the logs say they are synthetic (the figure says so)
+    """
+
+    fit: object
+    body: dict
+    provenance: dict
+    synthetic: bool = False
+
+
+def _fit_material(paths, material, config, *, terms, mode, poisson, max_error_pct, ref_temp, shift,
+                  flags) -> RelaxRun:
     """``fit relax`` on frequency sweeps or raw sets at several temperatures (see :mod:`bpmid.relax.material`)."""
-    from bpmid.io.atomic import staged_file
     from bpmid.io.relax_logs import read_material_file, read_relax_logs
     from bpmid.relax.material import check_domains, fit_material
 
     cfg = config.section("relax")
-    nu = check_poisson(cfg.poisson if poisson is None else poisson, key="--poisson" if poisson is not None
+    nu = check_poisson(cfg.poisson if poisson is None else poisson, key=_opt("poisson", flags) if poisson is not None
                        else "relax.poisson")
     datas = [read_material_file(p, column_map=cfg.columns) for p in material]
     others = [p for p in paths if p not in material]
@@ -297,85 +328,55 @@ def _run_fit_material(paths, material, out, *, terms, mode, poisson, config, fig
     if mode not in (None, "step") or (mode == "step" and domain == "freq"):
         what = ("frequency-domain data" if domain == "freq" else
                 "relaxation curves at several temperatures (they are fitted as modulus curves, step mode)")
-        raise InputError(f"--mode {mode} does not apply to {what}", key="--mode")
+        raise InputError(f"{_opt('mode', flags)} {mode} does not apply to {what}", key=_opt("mode", flags))
     if max_error_pct is None:
         max_error_pct = cfg.max_error_pct
-    mf = fit_material(datas, terms=_terms_option(terms, cfg), max_error_pct=max_error_pct, ref_temp=ref_temp,
-                      shift_file=shift, config=cfg)
-    for w in mf.warnings:
-        print(f"warning: {w}", file=sys.stderr, flush=True)
-    out = Path(out)
-    fig_path = None
-    if figure:
-        fig_path = out.with_suffix(".png") if figure is True else Path(figure)
+    mf = fit_material(datas, terms=_terms_option(terms, cfg, flags), max_error_pct=max_error_pct,
+                      ref_temp=ref_temp, shift_file=shift, config=cfg)
     inputs = paths + ([Path(shift)] if shift is not None else [])
-    prov = provenance(inputs, config=config)
-    body = material_fit_body(mf, nu)
-    if fig_path is not None:
-        from bpmid.plots.common import save_figure
-        from bpmid.plots.relax import material_figure
-
-        with staged_file(out) as tmp_yaml, staged_file(fig_path) as tmp_fig:
-            write_result(tmp_yaml, SCHEMA, body, prov)
-            save_figure(material_figure(mf), tmp_fig)
-    else:
-        write_result(out, SCHEMA, body, prov)
-    return out, fig_path, mf
+    return RelaxRun(mf, material_fit_body(mf, nu), provenance(inputs, config=config))
 
 
-def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | int | None = None,
-                  mode: str | None = None, poisson: float | None = None, config=None,
-                  figure: str | Path | None | bool = True, max_error_pct: float | None = None,
-                  ref_temp: float | None = None, shift: str | Path | None = None
-                  ) -> tuple[Path, Path | None, object]:
-    """What ``bpmid fit relax`` does: read the logs, fit, write the YAML and the figure.
+def fit_relax_files(logs: Sequence[str | Path], *, terms: str | int | None = None, mode: str | None = None,
+                    poisson: float | None = None, config=None, max_error_pct: float | None = None,
+                    ref_temp: float | None = None, shift: str | Path | None = None, flags: bool = False) -> RelaxRun:
+    """Read relaxation logs (or frequency sweeps, or raw sets at several temperatures) and fit them: the one
+    path behind :func:`bpmid.fit_relaxation`, ``bpmid fit relax`` and ``bpmid run``'s relax stage.
 
     Parameters
     ----------
     logs : relaxation log files
-    out : the YAML to write
     terms, mode, poisson : override the config (``relax.terms``, ``relax.mode``, ``relax.poisson``)
     config : a loaded :class:`bpmid.config.Config` or None
-    figure : True for ``<out stem>.png`` beside the YAML, a path, or False/None for no figure
     max_error_pct : the fewest terms meeting this error (%) instead of ``terms`` (default ``relax.max_error_pct``)
     ref_temp : reference temperature (C) of the master curve built from raw sets at several temperatures
     shift : a CSV of shift factors (T, log_aT) to use instead of finding them from the data
+    flags : name the arguments as the command line's options in error messages (``--terms``)
 
     Frequency-domain files (f with storage and loss modulus, CSV or an Eplexor .xls export) and relaxation curves at
-    several temperatures go through :mod:`bpmid.relax.material`; the third element returned is then a
-    :class:`bpmid.relax.material.MaterialFit`.
-
-    Returns
-    -------
-    (yaml path, figure path or None, RelaxFit or MaterialFit)
+    several temperatures go through :mod:`bpmid.relax.material`; ``fit`` is then a
+    :class:`bpmid.relax.material.MaterialFit`. Warnings (``fit.warnings``) are not printed here.
     """
     from bpmid.config import load_config
-    from bpmid.io.atomic import staged_file
     from bpmid.io.relax_logs import is_material_file, read_relax_logs
     from bpmid.relax.fit import fit_relaxation
 
+    check_mode(mode, flags=flags)
     config = config if config is not None else load_config(None)
     paths = [Path(p) for p in logs]
     material = [p for p in paths if is_material_file(p)]
     if material:
-        return _run_fit_material(paths, material, out, terms=terms, mode=mode, poisson=poisson, config=config,
-                                 figure=figure, max_error_pct=max_error_pct, ref_temp=ref_temp, shift=shift)
+        return _fit_material(paths, material, config, terms=terms, mode=mode, poisson=poisson,
+                             max_error_pct=max_error_pct, ref_temp=ref_temp, shift=shift, flags=flags)
     if ref_temp is not None or shift is not None:
-        raise InputError("--ref-temp and --shift apply to raw sets at several temperatures (a file with columns T "
-                         "and Set) or to frequency sweeps", key="--ref-temp" if ref_temp is not None else "--shift")
+        raise InputError(f"{_opt('ref_temp', flags)} and {_opt('shift', flags)} apply to raw sets at several "
+                         "temperatures (a file with columns T and Set) or to frequency sweeps",
+                         key=_opt("ref_temp", flags) if ref_temp is not None else _opt("shift", flags))
     cfg = config.section("relax")
     gap = cfg.max_gap_factor if cfg.max_gap_factor is not None else config.section("io").max_gap_factor
-    nu = check_poisson(cfg.poisson if poisson is None else poisson, key="--poisson" if poisson is not None
+    nu = check_poisson(cfg.poisson if poisson is None else poisson, key=_opt("poisson", flags) if poisson is not None
                        else "relax.poisson")
-    if terms is None:
-        terms = cfg.terms
-    elif isinstance(terms, str) and terms.strip().lower() != "auto":
-        try:
-            terms = int(terms)
-        except ValueError:
-            raise InputError(f"--terms takes a whole number or auto, found {terms!r}", key="--terms") from None
-    elif isinstance(terms, str):
-        terms = "auto"
+    terms = _terms_option(terms, cfg, flags)
     mode = cfg.mode if mode is None else mode
     if max_error_pct is None:
         max_error_pct = cfg.max_error_pct
@@ -384,31 +385,54 @@ def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | i
                               io_cfg=config.section("io"))
     fit = fit_relaxation(records, terms=terms, mode=mode, config=cfg, max_error_pct=max_error_pct)
     from bpmid.fitting import check_explained  # R^2 <= 0 or NaN: no constants are written
+    from bpmid.io import plausibility as plaus
 
     check_explained(np.concatenate([lf.y for lf in fit.logs]), np.concatenate([lf.y_fit for lf in fit.logs]),
                     quantity=fit.quantity, unit="MPa", paths=paths,
                     hint="a relaxation log needs a stress (or modulus) that follows a strain step and relaxes; "
                          "check the stress column and its unit")
-    from bpmid.io import plausibility as plaus
     checks = plaus.reader_warnings(records) + plaus.relax_warnings(records, fit)
-    for w in fit.warnings:
-        print(f"warning: {w}", file=sys.stderr, flush=True)
-    plaus.emit(checks, strict=config.section("io").strict, what=str(out))
+    if checks and config.section("io").strict:  # --strict: refuse before anything is written
+        plaus.emit(checks, strict=True, what="the relaxation fit")
     fit.warnings = list(fit.warnings) + checks
+    prov = plaus.attach(provenance(paths, config=config), records, checks)
+    synthetic = any(str(r.meta.get("synthetic", "")).lower() in ("true", "yes", "1") for r in records)
+    return RelaxRun(fit, relax_fit_body(fit, nu), prov, synthetic)
+
+
+def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | int | None = None,
+                  mode: str | None = None, poisson: float | None = None, config=None,
+                  figure: str | Path | None | bool = True, max_error_pct: float | None = None,
+                  ref_temp: float | None = None, shift: str | Path | None = None
+                  ) -> tuple[Path, Path | None, object]:
+    """What ``bpmid fit relax`` does: :func:`bpmid.fit_relaxation` (read, fit), warnings on stderr, then
+    ``result.save`` (the YAML and the figure, both or neither). Kept for ``bpmid run``'s relax stage.
+
+    Parameters
+    ----------
+    out : the YAML to write
+    figure : True for ``<out stem>.png`` beside the YAML, a path, or False/None for no figure
+    (the others as :func:`fit_relax_files`)
+
+    Returns
+    -------
+    (yaml path, figure path or None, RelaxFit or MaterialFit)
+    """
+    from bpmid.api import fit_relaxation
+
+    result = fit_relaxation(logs, terms=terms, mode=mode, poisson=poisson, config=config,
+                            max_error_pct=max_error_pct, ref_temp=ref_temp, shift=shift, _flags=True)
+    return save_relax_result(result, out, figure)
+
+
+def save_relax_result(result, out: str | Path, figure: str | Path | None | bool = True
+                      ) -> tuple[Path, Path | None, object]:
+    """Print a fit's warnings on stderr and save it (``result.save``); returns (yaml, figure or None, fit)."""
+    for w in result.raw.warnings:
+        print(f"warning: {w}", file=sys.stderr, flush=True)
     out = Path(out)
     fig_path = None
     if figure:
         fig_path = out.with_suffix(".png") if figure is True else Path(figure)
-    prov = plaus.attach(provenance(paths, config=config), records, checks)
-    synthetic = any(str(r.meta.get("synthetic", "")).lower() in ("true", "yes", "1") for r in records)
-    if fig_path is not None:
-        from bpmid.plots.common import save_figure
-        from bpmid.plots.relax import relax_figure
-
-        # both are staged: on any failure neither file appears
-        with staged_file(out) as tmp_yaml, staged_file(fig_path) as tmp_fig:
-            write_relax_fit(tmp_yaml, fit, nu, prov)
-            save_figure(relax_figure(fit, synthetic=synthetic), tmp_fig)
-    else:
-        write_relax_fit(out, fit, nu, prov)
-    return out, fig_path, fit
+    result.save(out, figure=fig_path)
+    return out, fig_path, result.raw

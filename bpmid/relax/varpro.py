@@ -15,119 +15,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Callable, Protocol
+from typing import Callable
 
 import numpy as np
-from scipy.optimize import least_squares, nnls
 
-
-class Basis(Protocol):
-    """Columns of the design matrix for given log time constants.
-
-    ``columns(theta)`` returns ``(A, dA)``: ``A`` is (N, n_fixed + m) with the ``n_fixed`` fixed
-    columns first, then one column per entry of ``theta`` (shape (m,)); ``dA`` is (N, m), the
-    derivative of each term column with respect to its own log time constant.
-    """
-
-    n_fixed: int
-
-    def columns(self, theta: np.ndarray, derivative: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-        ...
-
-
-@dataclasses.dataclass
-class VPSolution:
-    """A refined model.
-
-    Attributes
-    ----------
-    theta : (m,) log time constants (log of s), sorted ascending
-    coef : (n_fixed + m,) non-negative coefficients (fixed columns first)
-    residual : (N,) data minus model
-    sse : float, sum of squared residuals
-    nfev : function evaluations of the refinement
-    """
-
-    theta: np.ndarray
-    coef: np.ndarray
-    residual: np.ndarray
-    sse: float
-    nfev: int = 0
-
-    @property
-    def m(self) -> int:
-        return int(self.theta.size)
-
-
-def solve_nnls(A: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Non-negative least squares via a thin QR (the N x p problem becomes p x p)."""
-    scale = np.linalg.norm(A, axis=0)
-    scale[scale == 0] = 1.0
-    As = A / scale
-    if A.shape[0] > 4 * A.shape[1]:
-        q, r = np.linalg.qr(As, mode="reduced")
-        c, _ = nnls(r, q.T @ y, maxiter=50 * A.shape[1])
-    else:
-        c, _ = nnls(As, y, maxiter=50 * A.shape[1])
-    return c / scale
-
-
-def _project(basis: Basis, y: np.ndarray, theta: np.ndarray, derivative: bool):
-    A, dA = basis.columns(theta, derivative)
-    c = solve_nnls(A, y)
-    return A, dA, c
-
-
-def evaluate(basis: Basis, y: np.ndarray, theta) -> VPSolution:
-    """NNLS moduli and residual for fixed ``theta``."""
-    theta = np.sort(np.asarray(theta, float))
-    A, _, c = _project(basis, y, theta, False)
-    r = y - A @ c
-    return VPSolution(theta, c, r, float(r @ r))
-
-
-def refine(basis: Basis, y: np.ndarray, theta0, bounds: tuple[float, float], *,
-           max_nfev: int = 200, tol: float = 1e-10) -> VPSolution:
-    """Refine log time constants by variable projection (moduli by NNLS at every step).
-
-    Parameters
-    ----------
-    basis : design-matrix builder
-    y : (N,) data
-    theta0 : (m,) starting log time constants
-    bounds : (lo, hi) bounds on every log time constant
-    """
-    theta0 = np.clip(np.sort(np.asarray(theta0, float)), bounds[0] + 1e-9, bounds[1] - 1e-9)
-    if theta0.size == 0:
-        return evaluate(basis, y, theta0)
-    nf = basis.n_fixed
-    cache: dict = {}
-
-    def state(th):
-        key = th.tobytes()
-        if key not in cache:
-            cache.clear()
-            cache[key] = _project(basis, y, th, True)
-        return cache[key]
-
-    def fun(th):
-        A, _, c = state(th)
-        return y - A @ c
-
-    def jac(th):
-        A, dA, c = state(th)
-        active = np.flatnonzero(c > 0)
-        D = dA * c[nf:]
-        if active.size:
-            q, _ = np.linalg.qr(A[:, active], mode="reduced")
-            D = D - q @ (q.T @ D)
-        return -D
-
-    sol = least_squares(fun, theta0, jac=jac, bounds=bounds, method="trf", x_scale=1.0,
-                        xtol=tol, ftol=tol, gtol=tol, max_nfev=max_nfev)
-    out = evaluate(basis, y, sol.x)
-    out.nfev = int(sol.nfev)
-    return out
+# the projection itself (NNLS inner solve, Kaufman refinement) is the package's one variable projection
+from bpmid.varpro import Basis, VPSolution, evaluate, refine, solve_nnls  # noqa: F401  (re-exported)
 
 
 def _drop_dead(sol: VPSolution, nf: int) -> np.ndarray:

@@ -14,13 +14,13 @@ from bpmid.io import yamlsafe
 
 from bpmid.errors import InputError
 from bpmid.validation import physics
+from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR, PA_PER_KPA
+from bpmid.units import PA_PER_PSI as PSI_PA
 from bpmid.validation.forms import CATALOGUE_IDS, FORMS, OUT_OF_CATALOGUE_IDS, Form, empty_spec, merge
 
 GENERATOR = "bpmid.validation/1"
 ANSWERS_SCHEMA = "bpmid.validation-answers/1"
-ATMOSPHERE_PA = 101325.0
-PSI_PA = 6894.757293168
-_PRESSURE_FACTOR = {"bar": 1e5, "kpa": 1e3, "psi": PSI_PA}
+_PRESSURE_FACTOR = {"bar": PA_PER_BAR, "kpa": PA_PER_KPA, "psi": PSI_PA}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -105,7 +105,7 @@ class GeneratorConfig:
     pressure_references: tuple[Literal["absolute", "gauge"], ...] = ("absolute", "gauge")
     time_units: tuple[Literal["s", "ms"], ...] = ("s", "ms")
     header_styles: tuple[Literal["bpmid", "instrument"], ...] = ("bpmid", "instrument")
-    atmosphere_pa: tuple[float, float] = (101325.0, 101325.0)
+    atmosphere_pa: tuple[float, float] = (ATMOSPHERE_PA, ATMOSPHERE_PA)
     noise_deg: tuple[float, float] = (0.1, 0.3)
     noise_rho: tuple[float, float] = (0.0, 0.8)
     white_share: float = 0.4

@@ -30,6 +30,7 @@ from typing import Literal, Mapping, Optional, Sequence
 
 import numpy as np
 
+from bpmid import identifiability
 from bpmid import metrics as M
 from bpmid.errors import InputError
 from bpmid.fitting import FitResult, fit_least_squares
@@ -357,12 +358,11 @@ def _linear_solve(A: np.ndarray, y: np.ndarray, prior: np.ndarray, names: list[s
                 bad[i] = (0, f"negative in the pressure-space solve ({z[k] * scale[k]:.3g} Pa)", rel[k])
             elif rel[k] > rel_se_max:
                 bad[i] = (1, f"relative standard error {rel[k]:.0%} in the pressure-space solve", rel[k])
-        if not bad and len(free) > 1:
-            a, b = np.unravel_index(np.argmax(np.abs(corr)), corr.shape)
-            if abs(corr[a, b]) > corr_max:
-                k = a if rel[a] >= rel[b] else b
-                bad[free[k]] = (2, f"correlated with {names[free[b if k == a else a]]} in the pressure-space "
-                                   f"solve (r = {corr[a, b]:+.4f})", rel[k])
+        pair = identifiability.strongest_pair(np.abs(corr), rel, corr_max) if not bad and len(free) > 1 else None
+        if pair:
+            k, other, a, b = pair
+            bad[free[k]] = (2, f"correlated with {names[free[other]]} in the pressure-space "
+                               f"solve (r = {corr[a, b]:+.4f})", rel[k])
         if not bad:
             val = prior.copy()
             val[free] = z * scale

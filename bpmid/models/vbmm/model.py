@@ -25,9 +25,10 @@ import numpy as np
 
 from bpmid.errors import InputError
 from bpmid.models import _vbmm_kernels as K
+from bpmid.units import PA_PER_MPA
 from bpmid.viscoelastic import hereditary_full, hereditary_recursive, hereditary_window
 
-MPa = 1e6
+MPa = PA_PER_MPA
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,0 +1,41 @@
+"""The one home of the identifiability rules (bpmid.identifiability), as every fit applies them."""
+import numpy as np
+
+from bpmid import identifiability as I
+from bpmid.fitting import fit_least_squares
+from bpmid.params import Param, ParamSet
+
+
+def test_rules_one_to_four_in_order():
+    names = ["a", "b", "c", "d"]
+    values = [1.0, 2.0, 3.0, 4.0]
+    se = np.array([np.inf, 1.5, 0.1, 0.1])
+    corr = np.eye(4)
+    x = np.array(values)
+    lo = np.array([-np.inf, -np.inf, 3.0, -np.inf])
+    hi = np.full(4, np.inf)
+    bad = I.judge_fit(names, values, se, corr, x, lo, hi, rel_se_max=0.5, corr_max=0.995)
+    assert bad == {"a": I.SINGULAR, "b": "relative standard error 75% > 50%", "c": I.ON_BOUND}
+    # a huge relative error is capped in the nonlinear fit's message, printed in full on request
+    assert I.judge(50.0, 50.0, rel_se_max=0.5) == "relative standard error >1000% > 50%"
+    assert I.judge(50.0, 50.0, rel_se_max=0.5, cap=None) == "relative standard error 5000% > 50%"
+    # rule 4 only once 1-3 pass: of the strongest pair, the one with the larger relative error goes
+    corr = np.array([[1.0, 0.999, 0.1], [0.999, 1.0, 0.2], [0.1, 0.2, 1.0]])
+    se = np.array([0.1, 0.4, 0.1])
+    bad = I.judge_fit(["p", "q", "r"], [1.0, 1.0, 1.0], se, corr, np.ones(3), np.full(3, -np.inf),
+                      np.full(3, np.inf), rel_se_max=0.5, corr_max=0.995)
+    assert bad == {"q": "correlated with p (r = +0.999)"}
+    assert I.worst({"p": "correlated with q", "r": I.ON_BOUND}, ["p", "q", "r"], [1, 1, 1], se) == "r"
+
+
+def test_fit_holds_a_parameter_the_data_do_not_determine():
+    t = np.linspace(0.0, 1.0, 50)
+    y = 2.0 * t + 0.5
+    # y = a t + b + c: b and c enter only as their sum, so one of them is held at its prior
+    ps = ParamSet([Param("a", 1.0), Param("b", 0.2), Param("c", 0.1)])
+    res = fit_least_squares(lambda p: p.value("a") * t + p.value("b") + p.value("c") - y, ps)
+    assert len(res.held) == 1
+    (held, why), = res.held.items()
+    assert held in ("b", "c") and ("correlated" in why or "singular" in why or "relative" in why)
+    assert res.params[held].identifiable is False and res.params[held].value == ps[held].value
+    assert abs(res.params.value("a") - 2.0) < 1e-8
