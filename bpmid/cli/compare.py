@@ -8,6 +8,8 @@ from typing import List, Optional
 
 import typer
 
+from bpmid.plots.options import figures_option, set_figure_format
+
 from bpmid.cli._app import app, command, multi_value_command
 
 EPILOG = ("Example (shipped synthetic data):  bpmid compare --train datasets/motion/fitting_set/*.csv "
@@ -34,8 +36,10 @@ def compare(
                                           "compare.train/test_sets name the logs when --train/--test are not given)."),
     out: Path = typer.Option(..., "--out", help="Output folder: metrics.csv, summary.csv, summary_by_set.csv, "
                              "compare.yaml, predictions/, figures."),
+    figures: Optional[str] = figures_option(),
 ):
     """Fit every model on the training logs only, simulate each free-running on every test log, score it."""
+    set_figure_format(figures)
     from bpmid.compare import CompareWarning, resolve_inputs, run_compare, verdicts
     from bpmid.config import load_config
     from bpmid.models import parse_model_list

@@ -6,9 +6,11 @@ from typing import List, Optional
 
 import typer
 
+from bpmid.plots.options import figure_path, figures_option, set_figure_format
+
 from bpmid.cli._app import check_outputs, command, existing_files, fit_app
 from bpmid.config import load_config
-from bpmid.io.motion_logs import read_motion_logs
+from bpmid.io.motion_logs import is_synthetic, read_motion_logs
 from bpmid.io.results import provenance
 from bpmid.motion_fit import fit_motion, write_motion_fit
 
@@ -24,20 +26,22 @@ def fit_motion_command(
     config: Optional[Path] = typer.Option(None, "--config", help="Config file (sections io, model, motion)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure path (default: --out with .png)."),
     no_plot: bool = typer.Option(False, "--no-plot", help="Write no figure."),
+    figures: Optional[str] = figures_option(),
 ):
     """Fit the VBMM's moduli and time constants on motion logs (angle error of the forward model)."""
+    set_figure_format(figures)
     cfg = load_config(config)
     paths = existing_files(logs, "motion log")
     if init is not None:
         existing_files([init], "relaxation fit")
-    figure = None if no_plot else (plot or out.with_suffix(".png"))
+    figure = None if no_plot else (plot or figure_path(out.with_suffix(".png")))
     check_outputs([out], paths + [init, config], suffix=".yaml")
     if figure is not None:
         check_outputs([figure], paths + [init, config], key="--plot")
     motion = read_motion_logs(paths, cfg.io, require_angle=True)
     result = fit_motion(motion, config=cfg, init=init)
     prov = provenance(paths + ([init] if init is not None else []), config=cfg)
-    written = write_motion_fit(out, result, prov, figure=figure, synthetic=False)
+    written = write_motion_fit(out, result, prov, figure=figure, synthetic=is_synthetic(motion))
     m = result.metrics
     typer.echo(f"VBMM fit on {len(motion)} logs: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, "
                f"R^2 {m['r2']:.4f}, fit {m['fit_pct']:.2f} % ({result.seconds:.2f} s)")

@@ -6,6 +6,8 @@ from typing import List, Optional
 
 import typer
 
+from bpmid.plots.options import figure_path, figures_option, set_figure_format
+
 from bpmid.cli._app import check_outputs, command, existing_files, fit_app
 
 EPILOG = ("Example (shipped synthetic logs):  bpmid fit relax datasets/relaxation/*.csv --out relax_fit.yaml  "
@@ -28,8 +30,10 @@ def fit_relax(
                                             "(default 0.49933, which reproduces the paper's K values)."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (section relax)."),
     no_figure: bool = typer.Option(False, "--no-figure", help="Do not write the figure."),
+    figures: Optional[str] = figures_option(),
 ):
     """Fit a Prony series E(t) = E_inf + sum E_j exp(-t/tau_j) to relaxation logs; write E, G and K."""
+    set_figure_format(figures)
     from bpmid.config import load_config
     from bpmid.errors import InputError
     from bpmid.relax import run_fit_relax
@@ -40,7 +44,7 @@ def fit_relax(
     paths = existing_files(logs, "relaxation log")
     check_outputs([out], paths + [config], suffix=".yaml")
     if not no_figure:
-        check_outputs([out.with_suffix(".png")], paths + [config])
+        check_outputs([figure_path(out.with_suffix(".png"))], paths + [config])
     yaml_path, fig_path, fit = run_fit_relax(paths, out, terms=terms, mode=mode, poisson=poisson, config=cfg,
                                              figure=not no_figure)
     terms_txt = ", ".join(f"E={e * 1e6:.4g} Pa tau={t:.4g} s" for e, t in zip(fit.E[:4], fit.tau[:4]))

@@ -6,9 +6,11 @@ from typing import List, Optional
 
 import typer
 
+from bpmid.plots.options import figure_path, figures_option, set_figure_format
+
 from bpmid.cli._app import check_outputs, app, command, existing_files
 from bpmid.config import load_config
-from bpmid.io.motion_logs import read_motion_logs
+from bpmid.io.motion_logs import is_synthetic, read_motion_logs
 from bpmid.io.results import provenance
 from bpmid.models.vbmm import load_vbmm
 from bpmid.predict import predict, write_predictions
@@ -22,18 +24,22 @@ def predict_command(
     params: Path = typer.Option(..., "--params", help="Fitted VBMM (bpmid fit motion output, bpmid.vbmm/1)."),
     out: Path = typer.Option(..., "--out", help="Output folder: one <log stem>.csv per log, plus predict.yaml."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config file (sections io, model)."),
+    figures: Optional[str] = figures_option(),
 ):
     """Predict the bending angle of new pressure logs with a fitted VBMM."""
+    set_figure_format(figures)
     cfg = load_config(config)
     paths = existing_files(logs, "motion log")
     existing_files([params], "params")
     model = load_vbmm(params, cfg.model)
-    check_outputs([Path(out) / f"{Path(p).stem}.csv" for p in paths] + [Path(out) / "predict.yaml"],
+    check_outputs([Path(out) / f"{Path(p).stem}.csv" for p in paths] + [Path(out) / "predict.yaml",
+                                                                          figure_path(Path(out) / "predict.png")],
                   paths + [params, config])
     motion = read_motion_logs(paths, cfg.io)
     preds = predict(motion, model)
     prov = provenance(paths + [params], config=cfg)
-    written = write_predictions(out, preds, prov=prov, params=params, model=model)
+    written = write_predictions(out, preds, prov=prov, params=params, model=model, figure=True,
+                                synthetic=is_synthetic(motion))
     for p in preds:
         if p.metrics is not None:
             m = p.metrics

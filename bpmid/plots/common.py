@@ -21,6 +21,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from bpmid.io.atomic import staged_file  # noqa: E402
+from bpmid.plots.options import (FORMATS, figure_format, figure_format_as, figure_path,  # noqa: E402,F401
+                                 set_figure_format)
 
 #: Okabe-Ito colours (colour-blind safe); one per model family, stable across every figure
 OKABE_ITO = {"blue": "#0072B2", "vermillion": "#D55E00", "green": "#009E73", "purple": "#CC79A7",
@@ -42,11 +44,7 @@ PRESSURE_RATE_LABEL = "pressure rate (bar/s)"
 PA_PER_BAR = 1e5
 
 SYNTHETIC_NOTE = "synthetic data (bpmid digital twin)"
-FORMATS = ("png", "svg", "pdf")
 FOOTER_IN = 0.24  # the strip at the bottom that holds the synthetic stamp
-
-_format: str | None = None
-
 
 def style_path() -> Path:
     return Path(str(resources.files("bpmid.plots").joinpath("bpmid.mplstyle")))
@@ -66,38 +64,6 @@ def color_of(name: str, i: int = 0) -> str:
 
 def style_of(name: str, i: int = 0):
     return MODEL_STYLES.get(name, FALLBACK_STYLES[i % len(FALLBACK_STYLES)])
-
-
-def set_figure_format(fmt: str | None) -> None:
-    """Format of every figure written from now on: 'png', 'svg' or 'pdf' (None: by the path's suffix)."""
-    global _format
-    if fmt is not None and fmt not in FORMATS:
-        from bpmid.errors import InputError
-
-        raise InputError(f"unknown figure format {fmt!r} (choose one of {', '.join(FORMATS)})", key="--figures")
-    _format = fmt
-
-
-def figure_format() -> str:
-    return _format or "png"
-
-
-@contextlib.contextmanager
-def figure_format_as(fmt: str | None):
-    old = _format
-    set_figure_format(fmt)
-    try:
-        yield
-    finally:
-        set_figure_format(old)
-
-
-def figure_path(path: str | Path) -> Path:
-    """``path`` with the suffix of the chosen figure format."""
-    path = Path(path)
-    if _format is not None and path.suffix.lower() in {".png", ".svg", ".pdf"}:
-        return path.with_suffix("." + _format)
-    return path
 
 
 def new_figure(nrows: int = 1, ncols: int = 1, *, width: float = 7.0, height: float = 4.0, legend: str | None = None,
@@ -182,3 +148,4 @@ def save_figure(fig, path: str | Path, *, dpi: int = 120) -> Path:
     finally:
         plt.close(fig)
     return path
+

@@ -235,9 +235,12 @@ def run_fit_relax(logs: Sequence[str | Path], out: str | Path, *, terms: str | i
     out = Path(out)
     fig_path = None
     if figure:
-        fig_path = out.with_suffix(".png") if figure is True else Path(figure)
+        from bpmid.plots.options import figure_path
+
+        fig_path = figure_path(out.with_suffix(".png") if figure is True else Path(figure))
     prov = provenance(paths, config=config)
-    synthetic = any(str(r.meta.get("synthetic", "")).lower() in ("true", "yes", "1") for r in records)
+    synthetic = any((str(r.meta.get("synthetic", "")).lower().replace("(", " ").split() or [""])[0] in ("true", "yes", "1")
+                    for r in records)
     if fig_path is not None:
         from bpmid.plots.common import save_figure
         from bpmid.plots.relax import relax_figure
