@@ -105,6 +105,9 @@ def summary_bars(summary, by_set=None, *, synthetic: bool = True):
         ax.set_ylabel(lab)
         if col == "us_per_step" and np.all(np.isfinite(vals)) and np.all(vals > 0):
             ax.set_yscale("log")
+            from matplotlib.ticker import NullFormatter
+
+            ax.yaxis.set_minor_formatter(NullFormatter())  # decade labels only: 2x..9x labels collide
         if col == "r2":
             lo = np.nanmin(vals) if np.any(np.isfinite(vals)) else 0.0
             ax.set_ylim(min(0.0, lo - 0.05), 1.0)

@@ -50,7 +50,7 @@ def hat(x: str) -> str:
 
 
 def bar(x: str) -> str:
-    return f'<mover accent="true">{x}{mo("¯")}</mover>'
+    return f'<mover accent="true">{x}{mo("‾")}</mover>'
 
 
 def paren(*xs: str) -> str:

@@ -26,7 +26,9 @@ def build(doc, st, figs) -> None:
     items = []
     if st.relax is not None:
         r = st.relax
-        cons = ", ".join(f"{p.name} = {pm(p.value, p.stderr)} {p.unit}" for p in r.constants)
+        cons = ", ".join(f"{p.name} = {pm(p.value / 1e3, None if p.stderr is None else p.stderr / 1e3)} kPa"
+                         if p.unit == "Pa" and p.value is not None else f"{p.name} = {pm(p.value, p.stderr)} {p.unit}"
+                         for p in r.constants)
         items.append(f"Material{_stale(st, 'relax')}: {r.n_terms}-term Prony series ({r.mode} mode) fitted on "
                      f"{len(r.logs)} relaxation log(s): {cons}; R² {fmt(r.r2)}.")
     if st.motion is not None and st.motion.rmse_deg is not None:
