@@ -17,13 +17,9 @@ runner = CliRunner()
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
-    from test_run import make_study
+    from _report_study import shared_study
 
-    root = tmp_path_factory.mktemp("report")
-    cfg = make_study(root, timing=True)
-    r = runner.invoke(app, ["run", str(cfg), "--out", str(root / "out")])
-    assert r.exit_code == 0, r.output
-    return root / "out"
+    return shared_study(tmp_path_factory)[0]
 
 
 def _panels_md(md: str) -> tuple[str, str]:
@@ -61,8 +57,9 @@ def test_markdown_twin_references_figures_next_to_it(study):
     assert len(figs) == len(re.findall(r"<img ", page))
     for f in figs:
         assert not Path(f).is_absolute() and (study / f).is_file(), f
-    for section in ("Provenance", "Relaxation fit", "Motion fit", "The paper's numbers beside ours",
-                    "Model comparison", "History modes", "Residual diagnostics", "Discovery of missing effects"):
+    for section in ("Summary", "Model", "Provenance", "Relaxation fit", "Motion fit", "The paper's numbers beside ours",
+                    "Model comparison", "History modes", "Residual diagnostics", "Discovery of missing effects",
+                    "Closed-loop control"):
         assert f"## {section}" in md, section
 
 
@@ -80,7 +77,7 @@ def test_quoted_and_measured_numbers_never_mix(study):
     # measured panel: this run's numbers, from its own files
     by_set = pd.read_csv(study / "compare" / "summary_by_set.csv")
     row = by_set[(by_set.set == "variable_rate") & (by_set.model == "vbmm-fit")].iloc[0]
-    assert f"| 1b variable rate, VBMM-fit | RMSE | {fmt(row.rmse_deg)} | deg |" in measured
+    assert f"| 1b variable rate, VBMM-fit | RMSE | {fmt(row.rmse_deg)} | ° |" in measured
     page = (study / "report.html").read_text()
     q = page.index('class="panel quoted"')
     m = page.index('class="panel measured"')
@@ -96,7 +93,7 @@ def test_report_contents(study):
     assert re.search(r"\| E_inf \| [0-9.e+-]+ \| [0-9.e+-]+ \| Pa \|", md)
     assert "VBMM-fit verdict" in md and ("estimated" in md or "not identifiable" in md)
     assert "Ranking by pooled test RMSE" in md
-    assert "us_per_step" in md and "window" in md and "full" in md
+    assert "µs per step" in md and "window" in md and "full" in md
     assert "lag-1 autocorrelation" in md
     assert ("Named effects" in md) or ("No missing effect found" in md)
 
@@ -122,3 +119,116 @@ def test_report_bad_folder_exit_2(tmp_path):
     r = runner.invoke(app, ["report", str(tmp_path / "empty")])
     assert r.exit_code == 2 and "no stage outputs" in r.output
     assert not (tmp_path / "empty" / "report.html").exists()
+
+
+# --------------------------------------------------------------------------------------------------
+# order, control, model, figures (issue 18)
+# --------------------------------------------------------------------------------------------------
+def test_summary_first_provenance_last_and_collapsed(study):
+    md = (study / "report.md").read_text()
+    heads = re.findall(r"^## (.+)$", md, re.M)
+    assert heads[0] == "Summary" and heads[-1].startswith("Provenance")
+    page = (study / "report.html").read_text()
+    secs = re.findall(r'<section id="([^"]+)"', page)
+    assert secs[0] == "summary" and secs[-1] == "provenance"
+    prov = page[page.index('<section id="provenance"'):]
+    assert prov.index("<details>") < prov.index("sha256")
+    # the summary names what was fitted on what, the ranking, discovery, control, and the data's status
+    summ = md[md.index("## Summary"):md.index("## Model")]
+    for word in ("SYNTHETIC", "relaxation log", "fitting log", "ranked by pooled test RMSE", "Discovery:",
+                 "VBMM-PI", "±"):
+        assert word in summ, word
+
+
+def test_control_section_beside_the_paper_quoted_apart(study):
+    md = (study / "report.md").read_text()
+    ctl = md[md.index("## Closed-loop control"):md.index("## Provenance")]
+    tab = pd.read_csv(study / "control" / "summary.csv")
+    vb = tab[(tab.controller == "vbmm-pi") & (tab.reference == "ALL")].iloc[0]
+    quoted = ctl[ctl.index("**Paper's control result"):ctl.index("**Measured here")]
+    measured = ctl[ctl.index("**Measured here"):]
+    assert "| VBMM-PI | RMSE | 2.411 | ° |" in quoted and "52.9" in quoted
+    assert f"| VBMM-PI | {fmt(vb.rmse_deg)} |" in measured and "2.411" not in measured
+    assert re.search(r"!\[Figure \d+\]\(control/fig18\.png\)", ctl)
+
+
+def test_model_equations_as_mathml_and_numbered_captions(study):
+    page = (study / "report.html").read_text()
+    assert page.count("<math") >= 5 and "<script" not in page
+    nums = [int(n) for n in re.findall(r"<b>Figure (\d+)\.</b>", page)]
+    assert nums == list(range(1, len(nums) + 1)) and len(nums) == len(re.findall(r"<img ", page))
+    md = (study / "report.md").read_text()
+    assert "E(t) = E_inf + sum_j E_j exp(-t/tau_j)" in md
+    for bad in (" us ", "R^2", "(deg)"):
+        assert bad not in md, bad
+
+
+def test_svg_figures_inlined_one_self_contained_file(study, tmp_path):
+    d = tmp_path / "copy"
+    shutil.copytree(study, d)
+    r = runner.invoke(app, ["report", str(d), "--figures", "svg"])
+    assert r.exit_code == 0, r.output
+    for name in ("modulus_curves", "error_bands", "residuals"):
+        assert (d / "report_figures" / f"{name}.svg").is_file()
+    page = (d / "report.html").read_text()
+    n_fig = len(re.findall(r"<figure ", page))
+    n_svg = len(re.findall(r"<figure [^>]*>\s*<svg", page))
+    assert n_svg >= 3 and n_svg + len(re.findall(r"<img ", page)) == n_fig
+    assert "<?xml" not in page and "<!DOCTYPE svg" not in page and "<script" not in page.lower()
+    assert not re.search(r'(?:href|src)\s*=\s*"(?:https?:|//|file:)', page)
+    ids = re.findall(r'\bid="([^"]+)"', page)
+    assert len(ids) == len(set(ids)), "ids repeat between inlined figures"
+    # every url(#x) / href="#x" points at an id of the page
+    refs = set(re.findall(r'url\(#([^)]+)\)', page)) | set(re.findall(r'href="#([^"]+)"', page))
+    assert refs <= set(ids)
+
+
+# --------------------------------------------------------------------------------------------------
+# partial and stale folders (issue 15, item 7)
+# --------------------------------------------------------------------------------------------------
+def test_partial_stage_files_named_and_the_rest_built(study, tmp_path):
+    d = tmp_path / "partial"
+    shutil.copytree(study, d)
+    (d / "relax_fit.yaml").write_text("schema: bpmid.relax/1\n")
+    (d / "compare" / "summary.csv").write_text("model,rmse_deg,mape_pct,r2\n")
+    r = runner.invoke(app, ["report", str(d)])
+    assert r.exit_code == 0, r.output
+    assert "relax_fit.yaml" in r.output and "compare/summary.csv" in r.output and "warning" in r.output
+    md = (d / "report.md").read_text()
+    assert "Incomplete: relax_fit.yaml: partial" in md and "Incomplete: compare/summary.csv: partial" in md
+    assert "## Motion fit" in md and "Not available: no readable relax_fit.yaml" in md
+    assert "Not available: no readable compare/summary.csv" in md
+    assert "VBMM-PI" in md  # the stages that are whole are reported
+
+
+def test_nothing_usable_exit_2_naming_the_files(tmp_path):
+    d = tmp_path / "only_partial"
+    d.mkdir()
+    (d / "relax_fit.yaml").write_text("schema: bpmid.relax/1\n")
+    r = runner.invoke(app, ["report", str(d)])
+    assert r.exit_code == 2 and "relax_fit.yaml" in r.output and "partial" in r.output
+    assert not (d / "report.html").exists()
+
+
+def test_stale_stages_from_an_earlier_run_are_marked(study, tmp_path):
+    import yaml
+
+    d = tmp_path / "stale"
+    shutil.copytree(study, d)
+    run = yaml.safe_load((d / "run.yaml").read_text())
+    for s in run["stages"]:
+        if s["name"] in ("compare", "discover"):
+            s.update(status="skipped", seconds=None, outputs=[], note="not in run.stages")
+    (d / "run.yaml").write_text(yaml.safe_dump(run, sort_keys=False))
+    r = runner.invoke(app, ["report", str(d)])
+    assert r.exit_code == 0, r.output
+    assert "stage compare" in r.output and "stage discover" in r.output
+    md = (d / "report.md").read_text()
+    summ = md[md.index("## Summary"):md.index("## Model")]
+    assert "Stale: stage compare" in summ and "Comparison (STALE: from an earlier run)" in summ
+    cmp_sec = md[md.index("## Model comparison"):md.index("## The paper's numbers")]
+    assert "STALE:" in cmp_sec
+    disc = md[md.index("## Discovery of missing effects"):md.index("## Closed-loop control")]
+    assert "STALE:" in disc
+    relax = md[md.index("## Relaxation fit"):md.index("## Motion fit")]
+    assert "STALE:" not in relax

@@ -66,7 +66,7 @@ def report_study(out_dir: str | Path, *, title: str = "bpmid study report", figu
     st = read_study(out_dir)
     if not st.any():
         what = "; ".join(f"{p.path}: {p.what}" for p in st.problems)
-        raise InputError("no usable stage outputs found (expected run.yaml, relax_fit.yaml, vbmm_fit.yaml, "
+        raise InputError("no stage outputs found that can be used (expected run.yaml, relax_fit.yaml, vbmm_fit.yaml, "
                          "compare/, history_modes.yaml, discover/discovery.yaml or control/)"
                          + (f"; {what}" if what else ""), path=out_dir)
     with figure_format_as(figures) if figures else _nullctx():
