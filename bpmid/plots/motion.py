@@ -45,8 +45,9 @@ def motion_fit_figure(logs: Sequence[MotionLog], predictions: Mapping[str, np.nd
         p = np.asarray(lg.pressure_pa, float) / PA_PER_BAR
         ax_loop, ax_t, ax_e = axes[r]
         if lg.angle_deg is not None:
-            ax_loop.plot(p, lg.angle_deg, color=meas, lw=0.9, label="measured")
-            ax_t.plot(lg.time_s, lg.angle_deg, color=meas, lw=0.9)
+            # measured: broad and light behind, so a model lying on it stays visible on top
+            ax_loop.plot(p, lg.angle_deg, color=meas, lw=2.4, alpha=0.3, label="measured")
+            ax_t.plot(lg.time_s, lg.angle_deg, color=meas, lw=2.4, alpha=0.3)
             err = pred - lg.angle_deg
             rmse = float(np.sqrt(np.nanmean(err**2)))
             ax_e.plot(lg.time_s, err, color=color, lw=0.8)
