@@ -196,8 +196,8 @@ def test_partial_stage_files_named_and_the_rest_built(study, tmp_path):
     assert "relax_fit.yaml" in r.output and "compare/summary.csv" in r.output and "warning" in r.output
     md = (d / "report.md").read_text()
     assert "Incomplete: relax_fit.yaml: partial" in md and "Incomplete: compare/summary.csv: partial" in md
-    assert "## Motion fit" in md and "Not available: no readable relax_fit.yaml" in md
-    assert "Not available: no readable compare/summary.csv" in md
+    assert "## Motion fit" in md and "Not available: relax_fit.yaml is unusable (partial" in md
+    assert "Not available: compare/summary.csv is unusable (partial" in md
     assert "VBMM-PI" in md  # the stages that are whole are reported
 
 

@@ -30,9 +30,10 @@ def _texts(fig):
     return out
 
 
-def text_problems(fig, *, tol_px: float = 0.5) -> list[str]:
+def text_problems(fig, *, tol_px: float = 0.5, margin_px: float = 2.0) -> list[str]:
     """Draw ``fig`` once and return one line per problem: two texts whose boxes overlap, or a text outside
-    the canvas. Texts inside one legend are measured as the legend's entries (they never overlap by
+    the canvas or comes closer than ``margin_px`` to its edge (text widths do not scale exactly with the dpi:
+    draw at the dpi the figure is saved with, as the house style does). Texts inside one legend are measured as the legend's entries (they never overlap by
     construction) and the legend box itself is checked against the other texts."""
     fig.canvas.draw()
     r = fig.canvas.get_renderer()
@@ -47,7 +48,7 @@ def text_problems(fig, *, tol_px: float = 0.5) -> list[str]:
         boxes.append((t, bb))
     problems = []
     for t, bb in boxes:
-        if bb.x0 < -tol_px or bb.y0 < -tol_px or bb.x1 > W + tol_px or bb.y1 > H + tol_px:
+        if bb.x0 < margin_px or bb.y0 < margin_px or bb.x1 > W - margin_px or bb.y1 > H - margin_px:
             problems.append(f"text {t.get_text()!r} leaves the canvas: {bb.bounds} not in (0, 0, {W}, {H})")
     for i in range(len(boxes)):
         ti, bi = boxes[i]

@@ -137,7 +137,7 @@ def residual_diagnostics(frames: Sequence[pd.DataFrame], models: Sequence[str], 
                          synthetic: bool = True):
     """Residual diagnostics of every model on the pooled test logs: autocorrelation with the ±2.576/√N
     whiteness bounds, binned mean residual against the pressure rate, and residual distributions."""
-    fig, (a, b, c) = new_figure(1, 3, width=12.5, height=3.6, legend="right", legend_size=1.4, wgap=0.85)
+    fig, (a, b, c) = new_figure(1, 3, width=12.5, height=3.6, legend="right", legend_size=1.8, wgap=0.85)
     n_total = sum(len(f) for f in frames)
     for i, m in enumerate(models):
         col = f"pred_{m}_deg"
@@ -155,10 +155,15 @@ def residual_diagnostics(frames: Sequence[pd.DataFrame], models: Sequence[str], 
         lags = min(max_lag, min(len(r) for r in res) - 1)
         a.plot(np.arange(lags + 1), np.mean([acf(r, lags) for r in res], axis=0), color=clr, ls=ls, lw=1.1, label=m)
         e_all, r_all = np.concatenate(res), np.concatenate(rate)
-        order = np.argsort(r_all)
-        bins = np.array_split(order, 12)
-        b.plot([r_all[k].mean() for k in bins], [e_all[k].mean() for k in bins], color=clr, ls=ls, lw=1.3,
-               marker="o", ms=2.5)
+        edges = np.linspace(r_all.min(), r_all.max(), 13)
+        which = np.clip(np.digitize(r_all, edges) - 1, 0, 11)
+        xs, ys = [], []
+        for k in range(12):
+            sel = which == k
+            if sel.sum() >= 5:
+                xs.append(float(r_all[sel].mean()))
+                ys.append(float(e_all[sel].mean()))
+        b.plot(xs, ys, color=clr, ls=ls, lw=1.3, marker="o", ms=2.5)
         c.hist(e_all, bins=50, histtype="step", color=clr, ls=ls, lw=1.1, density=True)
     bound = 2.576 / np.sqrt(max(n_total / max(len(frames), 1), 1))
     a.axhspan(-bound, bound, color="0.85", label="99 % whiteness bounds")
@@ -168,7 +173,7 @@ def residual_diagnostics(frames: Sequence[pd.DataFrame], models: Sequence[str], 
     b.axhline(0, color="black", lw=0.5)
     b.set_xlabel(PRESSURE_RATE_LABEL)
     b.set_ylabel("mean residual (°)")
-    b.set_title("(b) residual vs pressure rate (binned)")
+    b.set_title("(b) residual vs pressure rate (12 equal bins)")
     c.set_xlabel("residual (°)")
     c.set_ylabel("density (1/°)")
     c.set_title("(c) residual distribution")

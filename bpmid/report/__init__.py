@@ -65,7 +65,7 @@ def report_study(out_dir: str | Path, *, title: str = "bpmid study report", figu
 
     st = read_study(out_dir)
     if not st.any():
-        what = "; ".join(f"{p.path}: {p.what}" for p in st.problems)
+        what = "; ".join(f"{p.where(Path(out_dir))}: {p.what}" for p in st.problems)
         raise InputError("no stage outputs found that can be used (expected run.yaml, relax_fit.yaml, vbmm_fit.yaml, "
                          "compare/, history_modes.yaml, discover/discovery.yaml or control/)"
                          + (f"; {what}" if what else ""), path=out_dir)

@@ -20,6 +20,10 @@ from bpmid.errors import InputError
 class Problem:
     path: str  # relative to DIR
     what: str
+    line: int | None = None
+
+    def where(self, root: Path) -> str:
+        return f"{root / self.path}" + (f":{self.line}" if self.line else "")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,7 +77,7 @@ class _Reader:
         try:
             data, _sha = read_yaml(path)
         except InputError as exc:
-            self.problems.append(Problem(self.rel(path), f"unreadable ({exc.message})"))
+            self.problems.append(Problem(self.rel(path), f"unreadable ({exc.message})", exc.line))
             return None
         if not isinstance(data, dict):
             self.problems.append(Problem(self.rel(path), "not a YAML mapping"))

@@ -23,3 +23,12 @@ def stale_note(doc, st, stage: str) -> None:
     """Say, at the top of a section, that its files are left over from an earlier run."""
     if stage in st.stale:
         doc.p(f"STALE: {st.stale[stage]}. Its numbers describe that earlier run, not the last one.", css="stale")
+
+
+def absent(doc, st, path: str, extra: str = "") -> None:
+    """Say why a section has nothing to show: its file is unusable (named, with the problem) or not there."""
+    probs = [p for p in st.problems if p.path == path]
+    if probs:
+        doc.p(f"Not available: {path} is unusable ({probs[0].what}).", css="warn")
+    else:
+        doc.p(f"Not run (no {path} in this folder){extra}.", css="muted")

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from bpmid.report.doc import fmt
 from bpmid.report.figures import find_figure
-from bpmid.report.sections import stale_note
+from bpmid.report.sections import absent, stale_note
 
 KEY = "compare"
 TITLE = "Model comparison"
@@ -15,7 +15,7 @@ def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     c = st.compare
     if c is None:
-        doc.p("Not available: no readable compare/summary.csv.", css="muted")
+        absent(doc, st, "compare/summary.csv")
         return
     stale_note(doc, st, "compare")
     doc.p(f"Every model was fitted on the training logs only ({len(c.train)} log(s)) and then run free (pressure in, "

@@ -5,7 +5,7 @@ from __future__ import annotations
 from bpmid.report.doc import fmt
 from bpmid.report.figures import find_figure
 from bpmid.report.paper import PAPER_CONTROL, PAPER_CONTROL_SOURCE
-from bpmid.report.sections import stale_note
+from bpmid.report.sections import absent, stale_note
 
 KEY = "control"
 TITLE = "Closed-loop control"
@@ -16,8 +16,7 @@ def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     k = st.control
     if k is None:
-        doc.p("Not available: no readable control/summary.csv (run bpmid control, or a bpmid run with the control "
-              "stage).", css="muted")
+        absent(doc, st, "control/summary.csv", ": run bpmid control, or bpmid run with the control stage")
         return
     stale_note(doc, st, "control")
     kp = (k.gains.get("kp") or {}).get("value")

@@ -5,7 +5,7 @@ import yaml
 
 from bpmid.report.doc import fmt
 from bpmid.report.figures import find_figure
-from bpmid.report.sections import stale_note
+from bpmid.report.sections import absent, stale_note
 
 KEY = "discovery"
 TITLE = "Discovery of missing effects"
@@ -21,8 +21,7 @@ def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     d = st.discovery
     if d is None:
-        doc.p("Not available: no readable discover/discovery.yaml (the stage had no inputs or did not run).",
-              css="muted")
+        absent(doc, st, "discover/discovery.yaml", ": the discovery stage had no inputs or did not run")
         return
     stale_note(doc, st, "discover")
     if d.named:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from bpmid.report.doc import fmt
 from bpmid.report.figures import find_figure
-from bpmid.report.sections import stale_note
+from bpmid.report.sections import absent, stale_note
 
 KEY = "history"
 TITLE = "History modes on the long-term run"
@@ -13,7 +13,7 @@ def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     h = st.history
     if h is None:
-        doc.p("Not available: no readable history_modes.yaml.", css="muted")
+        absent(doc, st, "history_modes.yaml")
         return
     stale_note(doc, st, "history")
     raw = h.raw

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from bpmid.report.doc import fmt
 from bpmid.report.figures import find_figure
-from bpmid.report.sections import stale_note
+from bpmid.report.sections import absent, stale_note
 
 KEY = "motion"
 TITLE = "Motion fit: VBMM-mat. and VBMM-fit"
@@ -13,7 +13,7 @@ def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     m = st.motion
     if m is None:
-        doc.p("Not available: no readable vbmm_fit.yaml or vbmm_mat.yaml in this folder.", css="muted")
+        absent(doc, st, "vbmm_fit.yaml")
         return
     stale_note(doc, st, "motion")
     mat = {p.name: p for p in m.mat}

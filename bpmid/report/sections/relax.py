@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from bpmid.report.doc import fmt
 from bpmid.report.figures import find_figure
-from bpmid.report.sections import stale_note
+from bpmid.report.sections import absent, stale_note
 
 KEY = "relax"
 TITLE = "Relaxation fit (material)"
@@ -13,7 +13,7 @@ def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     r = st.relax
     if r is None:
-        doc.p("Not available: no readable relax_fit.yaml in this folder.", css="muted")
+        absent(doc, st, "relax_fit.yaml")
         return
     stale_note(doc, st, "relax")
     doc.p(f"Prony series fitted in {r.mode} mode on {len(r.logs)} relaxation log(s) ({', '.join(r.logs) or '-'}); "
