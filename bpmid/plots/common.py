@@ -109,13 +109,41 @@ def outside_legend(fig, handles=None, labels=None, *, ncol: int | None = None, a
     if not handles:
         return None
     w, h = fig.get_size_inches()
-    if where == "top":
-        return fig.legend(handles, labels, loc="upper left", bbox_to_anchor=(0.02, 1 - 0.05 / h),
-                          ncol=ncol or min(len(handles), 4), title=title, borderaxespad=0.0)
-    x0 = 1 - (right_in - 0.05) / w
+    if where == "top":  # fewer columns when the labels are too long for one row
+        n = ncol or min(len(handles), 4)
+        while True:
+            leg = fig.legend(handles, labels, loc="upper left", bbox_to_anchor=(0.02, 1 - 0.05 / h), ncol=n,
+                             title=title, borderaxespad=0.0)
+            if n == 1 or leg.get_window_extent(fig.canvas.get_renderer()).x1 <= fig.bbox.width - 4:
+                return leg
+            leg.remove()
+            n -= 1
+    x0_in = w - (right_in - 0.05)
     y1 = 1 - top_in / h
-    return fig.legend(handles, labels, loc="upper left", bbox_to_anchor=(x0, y1), ncol=ncol or 1, title=title,
-                      borderaxespad=0.0)
+    leg = fig.legend(handles, labels, loc="upper left", bbox_to_anchor=(x0_in / w, y1), ncol=ncol or 1, title=title,
+                     borderaxespad=0.0)
+    _widen_for(fig, leg, x0_in, y1)
+    return leg
+
+
+def _widen_for(fig, leg, x0_in: float, y1: float, pad_in: float = 0.06) -> None:
+    """Widen the canvas when a legend beside the axes is wider than the column reserved for it (long labels),
+    keeping every axes where it is in inches: nothing is squeezed and nothing leaves the canvas."""
+    w, h = fig.get_size_inches()
+    bb = leg.get_window_extent(fig.canvas.get_renderer())
+    need = bb.x1 / fig.dpi + pad_in - w
+    if need <= 0:
+        return
+    new_w = w + need
+    for ax in fig.axes:
+        p = ax.get_position()
+        ax.set_position([p.x0 * w / new_w, p.y0, p.width * w / new_w, p.height])
+    for t in fig.texts:  # figure texts in figure fractions (stamp, notes) keep their place from the right edge
+        x, y = t.get_position()
+        if t.get_transform() == fig.transFigure:
+            t.set_x(1 - (1 - x) * w / new_w if x > 0.5 else x * w / new_w)
+    fig.set_size_inches(new_w, h)
+    leg.set_bbox_to_anchor((x0_in / new_w, y1), transform=fig.transFigure)
 
 
 def label_synthetic(fig, note: str = SYNTHETIC_NOTE) -> None:
