@@ -108,7 +108,7 @@ def test_report_says_when_a_baseline_wins(study, tmp_path):
     r = runner.invoke(app, ["report", str(d)])
     assert r.exit_code == 0, r.output
     md = (d / "report.md").read_text()
-    assert re.search(r"On variable_rate, the baseline two-branch \(0\.001 deg\) beats the best VBMM variant", md)
+    assert re.search(r"On variable_rate, the baseline two-branch \(0\.001°\) beats the best VBMM variant", md)
     assert "On variable_amplitude, the best VBMM variant" in md
 
 

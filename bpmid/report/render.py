@@ -79,10 +79,12 @@ def inline_svg(text: str, prefix: str) -> str:
     return text.strip()
 
 
-def _cell(v) -> str:
+def _cell(v, text: bool = False) -> str:
     s = str(v)
     cls = ""
-    if _HASH.match(s):
+    if text:
+        pass
+    elif _HASH.match(s):
         cls = ' class="hash"'
     elif s.startswith("/") or (("/" in s or "\\" in s) and " " not in s):
         cls = ' class="path"'
@@ -143,8 +145,9 @@ def render_html(doc: Doc, title: str, base: Path) -> str:
                 cls = f' class="{esc(b.css)}"' if b.css else ""
                 out.append(f'<div class="tablewrap"><table{cls}><thead><tr>'
                            + "".join(f"<th>{esc(str(h))}</th>" for h in b.header) + "</tr></thead><tbody>")
+                text_cols = {i for i, h in enumerate(b.header) if str(h) in ("unit", "model", "controller")}
                 for r in b.rows:
-                    out.append("<tr>" + "".join(_cell(c) for c in r) + "</tr>")
+                    out.append("<tr>" + "".join(_cell(c, i in text_cols) for i, c in enumerate(r)) + "</tr>")
                 out.append("</tbody></table></div>")
             elif b.kind == "fig":
                 out.append(figure(b))

@@ -1,6 +1,8 @@
 """Model comparison: every model fitted on the training logs and run free on the test logs."""
 from __future__ import annotations
 
+import re
+
 from bpmid.report.doc import fmt
 from bpmid.report.figures import find_figure
 from bpmid.report.sections import absent, stale_note
@@ -28,6 +30,7 @@ def build(doc, st, figs) -> None:
         lines = verdicts((c.summary, c.by_set))
     except (KeyError, ValueError, IndexError, AttributeError) as exc:  # a table without the columns verdicts needs
         lines = [f"(no verdict: {type(exc).__name__} {exc})"]
+    lines = [re.sub(r"(\d) deg\b", "\\1°", line) for line in lines]  # the report's unit symbol
     doc.p(lines[0], css="good")
     for line in lines[1:]:
         doc.p(line, css="verdict" if "beats" in line else "good")

@@ -27,8 +27,10 @@ def build(doc, st, figs) -> None:
           f"P = {fmt(kp)} bar/°, I = {fmt(ki)} bar/(° s). References: {', '.join(refs)}. The controller's model is "
           "this study's VBMM-fit where there is one; the plant adds sensor noise. RMSE is of the true angle against "
           "the reference.")
-    for w in k.warnings:
-        doc.p("Warning: " + w, css="verdict")
+    if k.warnings:
+        doc.p(f"Warnings of the control stage ({len(k.warnings)}): runs whose command touched a pressure limit or "
+              "reversed often.", css="verdict")
+        doc.list(k.warnings, css="muted")
     pooled = k.table[k.table.reference == "ALL"]
     with doc.panel("Paper's control result (quoted, the paper's data)", "quoted"):
         doc.p(PAPER_CONTROL_SOURCE)
@@ -36,7 +38,7 @@ def build(doc, st, figs) -> None:
     label = "Measured here (bpmid, synthetic plant)" if st.synthetic else "Measured here (bpmid)"
     with doc.panel(label, "measured"):
         doc.p("Tracking RMSE over all references (control/summary.csv, reference ALL):")
-        doc.table(["controller", "RMSE (°)", "max |error| (°)", "below PI (%)", "saturated (%)", "status"],
+        doc.table(["controller", "RMSE (°)", "max |error| (°)", "below PI (%)", "at limit (%)", "status"],
                   [[LABELS.get(r.controller, r.controller), fmt(r.rmse_deg), fmt(r.max_abs_err_deg),
                     "-" if r.controller == "pi" else fmt(r.reduction_pct), fmt(r.saturated_pct), r.status]
                    for r in pooled.itertuples()])
