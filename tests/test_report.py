@@ -232,3 +232,26 @@ def test_stale_stages_from_an_earlier_run_are_marked(study, tmp_path):
     assert "STALE:" in disc
     relax = md[md.index("## Relaxation fit"):md.index("## Motion fit")]
     assert "STALE:" not in relax
+
+
+def test_correlations_of_both_fits_are_shown(study):
+    md = (study / "report.md").read_text()
+    relax = md[md.index("## Relaxation fit"):md.index("## Motion fit")]
+    motion = md[md.index("## Motion fit"):md.index("## Model comparison")]
+    assert "Parameter correlations" in relax and "| tau_1 |" in relax
+    assert "Correlations of the estimated VBMM-fit constants" in motion
+
+
+def test_hostile_stage_files_never_crash_the_report(study, tmp_path):
+    """Wrong types inside otherwise valid files: each is named, the rest is built, exit 0 (never 1)."""
+    d = tmp_path / "hostile"
+    shutil.copytree(study, d)
+    (d / "history_modes.yaml").write_text("schema: bpmid.history_modes/1\naccuracy: [1, 2]\nwindow_s: fast\n")
+    (d / "discover" / "discovery.yaml").write_text("schema: bpmid.discovery/1\ngap: {before_rmse_deg: x}\n"
+                                                   "named_effects: 5\nsteps: [1, {id: a}]\n")
+    (d / "control" / "summary.csv").write_text("controller,reference\npi,ALL\n")
+    r = runner.invoke(app, ["report", str(d)])
+    assert r.exit_code == 0, r.output
+    assert "control/summary.csv" in r.output
+    md = (d / "report.md").read_text()
+    assert "## History modes" in md and "## Discovery of missing effects" in md

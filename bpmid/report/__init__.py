@@ -37,8 +37,16 @@ def build_report(st: Study, figs: dict[str, str]) -> Doc:
     from bpmid.report.sections import registry
 
     doc = Doc()
-    for _key, _title, build in registry():
-        build(doc, st, figs)
+    for key, title, build in registry():
+        try:
+            build(doc, st, figs)
+        except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:
+            # a value of an unexpected type in a stage file: say so in the section, keep the rest of the report
+            if not doc.sections or doc.sections[-1].key != key:
+                doc.section(key, title)
+            msg = f"section {title!r} could not be built from its files ({type(exc).__name__}: {exc})"
+            doc.p("Not available: " + msg, css="warn")
+            st.problems.append(Problem(key, msg))
     return doc
 
 

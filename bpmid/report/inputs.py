@@ -54,6 +54,10 @@ def _dict(d: Any) -> dict:
     return d if isinstance(d, dict) else {}
 
 
+def _list(d: Any) -> list:
+    return d if isinstance(d, list) else []
+
+
 class _Reader:
     """Reads files of DIR, collecting problems (partial, unreadable) instead of raising."""
 
@@ -165,6 +169,8 @@ class MotionInfo:
     history: str
     logs: list[str]
     provenance: dict
+    corr_names: list[str] = dataclasses.field(default_factory=list)
+    corr: list[list[float]] = dataclasses.field(default_factory=list)
 
 
 @dataclasses.dataclass
@@ -274,10 +280,10 @@ def load_run(rd: _Reader) -> RunInfo | None:
     if d is None:
         return None
     stages = []
-    for s in d.get("stages") or []:
+    for s in _list(d.get("stages")):
         s = _dict(s)
         stages.append(StageRecord(str(s.get("name", "?")), str(s.get("status", "?")), _num(s.get("seconds")),
-                                  [str(o) for o in s.get("outputs") or []], str(s.get("note") or "")))
+                                  [str(o) for o in _list(s.get("outputs"))], str(s.get("note") or "")))
     syn = d.get("synthetic")
     return RunInfo(stages, None if syn is None else bool(syn), _dict(d.get("provenance")), _dict(d.get("test_sets")))
 
@@ -291,7 +297,7 @@ def load_relax(rd: _Reader) -> RelaxInfo | None:
         rd.problems.append(Problem("relax_fit.yaml", "partial: prony has no E_inf"))
         return None
     cons = [_param("E_inf", pr["E_inf"], "Pa")]
-    for j, tr in enumerate(pr.get("terms") or [], 1):
+    for j, tr in enumerate(_list(pr.get("terms")), 1):
         tr = _dict(tr)
         cons += [_param(f"E_{j}", tr.get("E"), "Pa"), _param(f"tau_{j}", tr.get("tau"), "s")]
     derived = []
@@ -299,15 +305,14 @@ def load_relax(rd: _Reader) -> RelaxInfo | None:
         b = _dict(d.get(block))
         if f"{name}_inf" in b:
             derived.append(_param(f"{name}_inf", b[f"{name}_inf"], "Pa"))
-            for j, tr in enumerate(b.get("terms") or [], 1):
+            for j, tr in enumerate(_list(b.get("terms")), 1):
                 derived.append(_param(f"{name}_{j}", _dict(tr).get(name), "Pa"))
     m = _dict(d.get("metrics"))
     unc = _dict(d.get("uncertainty"))
-    logs = [str(_dict(lg).get("name")) for lg in _dict(d.get("data")).get("logs") or []]
+    logs = [str(_dict(lg).get("name")) for lg in _list(_dict(d.get("data")).get("logs"))]
+    names, corr = _corr(unc)
     return RelaxInfo(str(d.get("mode", "?")), cons, derived, _num(d.get("poisson_ratio")), _num(m.get("rmse")),
-                     _num(m.get("r2")), _num(m.get("mape_pct")), [str(x) for x in unc.get("parameters") or []],
-                     [list(map(float, r)) for r in unc.get("correlation") or []], logs, d,
-                     _dict(d.get("provenance")))
+                     _num(m.get("r2")), _num(m.get("mape_pct")), names, corr, logs, d, _dict(d.get("provenance")))
 
 
 def _material(d: dict) -> list[Param]:
@@ -327,7 +332,7 @@ def _material(d: dict) -> list[Param]:
         if k in mat:
             p = _param(k, mat[k], "Pa")
             out.append(dataclasses.replace(p, verdict=verdict(k, mat[k])))
-    for j, b in enumerate(mat.get("branches") or [], 1):
+    for j, b in enumerate(_list(mat.get("branches")), 1):
         for k, v in _dict(b).items():
             p = _param(f"{k}_{j}", v, "s" if k == "tau" else "Pa")
             out.append(dataclasses.replace(p, verdict=verdict(f"{k}_{j}", v)))
@@ -341,10 +346,24 @@ def load_motion(rd: _Reader) -> MotionInfo | None:
         return None
     m = _dict((fit or {}).get("metrics"))
     per_log = list(_dict(m.get("per_log")))
+    unc = _dict((fit or {}).get("uncertainty"))
+    names, corr = _corr(unc)
     return MotionInfo(_material(fit) if fit else [], _material(mat) if mat else [], _num(m.get("rmse_deg")),
                       _num(m.get("mape_pct")), _num(m.get("r2")), str((fit or mat).get("closure", "?")),
                       str(_dict((fit or mat).get("model")).get("history", "?")), per_log,
-                      _dict((fit or mat).get("provenance")))
+                      _dict((fit or mat).get("provenance")), names, corr)
+
+
+def _corr(unc: dict) -> tuple[list[str], list[list[float]]]:
+    """Parameter names and correlation matrix of an ``uncertainty`` block (empty when absent or malformed)."""
+    names = [str(x) for x in _list(unc.get("parameters"))]
+    try:
+        corr = [[float(v) for v in _list(row)] for row in _list(unc.get("correlation"))]
+    except (TypeError, ValueError):
+        return [], []
+    if len(corr) != len(names) or any(len(r) != len(names) for r in corr):
+        return [], []
+    return names, corr
 
 
 def load_compare(rd: _Reader) -> CompareInfo | None:
@@ -354,7 +373,7 @@ def load_compare(rd: _Reader) -> CompareInfo | None:
     if summary is None:
         return None
     by_set = rd.csv(cdir / "summary_by_set.csv", required=("set", "model", "rmse_deg"))
-    sets = {str(k): [str(x) for x in v or []] for k, v in _dict(cy.get("test_sets")).items()}
+    sets = {str(k): [str(x) for x in _list(v)] for k, v in _dict(cy.get("test_sets")).items()}
     preds: dict[str, list[pd.DataFrame]] = {}
     pdir = cdir / "predictions"
     if pdir.is_dir():
@@ -368,8 +387,8 @@ def load_compare(rd: _Reader) -> CompareInfo | None:
             if frames:
                 preds[s] = frames
     syn = cy.get("synthetic")
-    return CompareInfo(cdir, summary, by_set, [str(x) for x in cy.get("train") or []], sets,
-                       [str(w) for w in cy.get("warnings") or []], None if syn is None else bool(syn), preds,
+    return CompareInfo(cdir, summary, by_set, [str(x) for x in _list(cy.get("train"))], sets,
+                       [str(w) for w in _list(cy.get("warnings"))], None if syn is None else bool(syn), preds,
                        _dict(cy.get("provenance")))
 
 
@@ -391,9 +410,9 @@ def load_discovery(rd: _Reader) -> DiscoveryInfo | None:
     if d is None:
         return None
     gap = _dict(d.get("gap"))
-    return DiscoveryInfo(ddir, [str(x) for x in d.get("named_effects") or []], _num(gap.get("before_rmse_deg")),
+    return DiscoveryInfo(ddir, [str(x) for x in _list(d.get("named_effects"))], _num(gap.get("before_rmse_deg")),
                          _num(gap.get("after_rmse_deg")), _num(gap.get("noise_floor_deg")), bool(d.get("unexplained")),
-                         str(d.get("verdict") or "").strip(), [s for s in d.get("steps") or [] if isinstance(s, dict)],
+                         str(d.get("verdict") or "").strip(), [s for s in _list(d.get("steps")) if isinstance(s, dict)],
                          _dict(d.get("provenance")))
 
 
@@ -406,7 +425,7 @@ def load_control(rd: _Reader) -> ControlInfo | None:
     if tab is None:
         return None
     return ControlInfo(cdir, tab, _dict(cy.get("gains")), _num(cy.get("rate_hz")),
-                       _dict(_dict(cy.get("feedforward")).get("cost")), [str(w) for w in cy.get("warnings") or []],
+                       _dict(_dict(cy.get("feedforward")).get("cost")), [str(w) for w in _list(cy.get("warnings"))],
                        _dict(cy.get("provenance")))
 
 
@@ -423,8 +442,19 @@ def read_study(root: str | Path) -> Study:
     if not root.is_dir():
         raise InputError("report folder not found", path=root)
     rd = _Reader(root)
-    st = Study(root, run=load_run(rd), relax=load_relax(rd), motion=load_motion(rd), compare=load_compare(rd),
-               history=load_history(rd), discovery=load_discovery(rd), control=load_control(rd))
+
+    def guarded(load, path):
+        try:
+            return load(rd)
+        except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:  # wrong types inside a file
+            rd.problems.append(Problem(path, f"malformed ({type(exc).__name__}: {exc})"))
+            return None
+
+    st = Study(root, run=guarded(load_run, "run.yaml"), relax=guarded(load_relax, "relax_fit.yaml"),
+               motion=guarded(load_motion, "vbmm_fit.yaml"), compare=guarded(load_compare, "compare/summary.csv"),
+               history=guarded(load_history, "history_modes.yaml"),
+               discovery=guarded(load_discovery, "discover/discovery.yaml"),
+               control=guarded(load_control, "control/summary.csv"))
     st.problems = rd.problems
     if st.run is not None:  # files of a stage the last run did not run are left over from an earlier run
         for stage, attr in STAGE_OF.items():

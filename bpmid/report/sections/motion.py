@@ -32,6 +32,9 @@ def build(doc, st, figs) -> None:
     if m.rmse_deg is not None:
         doc.p(f"VBMM-fit on its own fitting set: RMSE {fmt(m.rmse_deg)}°, MAPE {fmt(m.mape_pct)} %, R² {fmt(m.r2)} "
               f"(closure {m.closure}, history {m.history}).")
+    if m.corr_names:
+        doc.p("Correlations of the estimated VBMM-fit constants (|r| near 1: the motion data hardly separate them):")
+        doc.table(["", *m.corr_names], [[n, *[fmt(v, 3) for v in row]] for n, row in zip(m.corr_names, m.corr)])
     f = find_figure(st.root, "vbmm_fit")
     if f:
         doc.fig(f, "VBMM-fit on the fitting set: pressure-angle loop, angle against time, and error against time, "
