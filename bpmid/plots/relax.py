@@ -57,20 +57,22 @@ def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
     # (b) data as markers, fit as a line on top: both visible even when the data are one dense master curve
     for lg, c in zip(fit.logs, colors):
         h = lg.hold
-        keep = h.t > 0 if log_time else np.ones(h.t.size, bool)
+        keep = h.t > 0 if log_time else h.t <= min(span, 10.0)  # the window panel (b) shows
         tt, ee = h.t[keep], h.modulus_mpa[keep]
-        if log_time and tt.size > 200:  # thin evenly in log time
-            idx = np.unique(np.searchsorted(tt, np.logspace(np.log10(tt[0]), np.log10(tt[-1]), 200)).clip(0, tt.size - 1))
+        # thinned to open circles large enough to show around the fitted line drawn over them
+        n_show = max(60 // max(len(fit.logs), 1), 12)
+        if log_time and tt.size > n_show:  # evenly in log time
+            idx = np.unique(np.searchsorted(tt, np.logspace(np.log10(tt[0]), np.log10(tt[-1]), n_show)).clip(0, tt.size - 1))
             tt, ee = tt[idx], ee[idx]
-        elif tt.size > 300:
-            tt, ee = tt[:: tt.size // 300], ee[:: ee.size // 300]
-        ax_b.plot(tt, ee * scale, "o", ms=2.2, color=c, alpha=0.55, ls="none", mew=0)
+        elif tt.size > 4 * n_show:
+            tt, ee = tt[:: tt.size // (4 * n_show)], ee[:: ee.size // (4 * n_show)]
+        ax_b.plot(tt, ee * scale, "o", ms=4.5, mfc="none", mec=c, mew=0.9, ls="none")
     if pos.size == 0:
         pos = np.array([1e-3, span])
     grid = (np.logspace(np.log10(pos.min()), np.log10(pos.max()), 400) if log_time
             else np.linspace(0.0, min(span, 10.0), 400))
-    ax_b.plot(grid, fit.modulus(grid) * scale, "-", color="black", lw=1.3, label=f"fitted E(t), {fit.m} term(s)")
-    ax_b.plot([], [], "o", ms=3, color=colors[0], ls="none", label="E(t) data (σ/ε of each hold)" if fit.mode == "ramp"
+    ax_b.plot(grid, fit.modulus(grid) * scale, "-", color="black", lw=1.0, label=f"fitted E(t), {fit.m} term(s)")
+    ax_b.plot([], [], "o", ms=4.5, mfc="none", mec=colors[0], ls="none", label="E(t) data (σ/ε of each hold)" if fit.mode == "ramp"
               else "E(t) data")
     ax_b.set(xlabel="time since hold start (s)", ylabel=f"E(t) ({unit})", title="(b) relaxation modulus: data and fit")
     if log_time:

@@ -1,6 +1,8 @@
 """Discovery of missing effects: the verdict, the gap before and after, the evidence and the figures."""
 from __future__ import annotations
 
+import re
+
 import yaml
 
 from bpmid.report.doc import fmt
@@ -29,7 +31,7 @@ def build(doc, st, figs) -> None:
     else:
         doc.p("No missing effect found: no catalogue entry passed the confirmation tests.", css="good")
     if d.verdict:
-        doc.p(d.verdict.replace("\n", " "))
+        doc.p(re.sub(r"(\d) deg\b", "\\1°", d.verdict.replace("\n", " ")))
     doc.table(["gap on held-out data", "RMSE (°)"], [["before (base model)", fmt(d.before_deg)],
                                                     ["after (with named effects)", fmt(d.after_deg)],
                                                     ["sensor-noise floor", fmt(d.floor_deg)]])
