@@ -4,6 +4,7 @@ from __future__ import annotations
 from bpmid.report.doc import fmt
 from bpmid.report.figures import find_figure
 from bpmid.report.sections import absent, stale_note
+from bpmid.report.sections.summary import cost_phrase
 
 KEY = "history"
 TITLE = "History modes on the long-term run"
@@ -27,7 +28,7 @@ def build(doc, st, figs) -> None:
     w = h.window_vs_full
     doc.p(f"Window minus full on the whole log: RMS difference {fmt(w.get('rmse_diff_deg'))}°, largest "
           f"{fmt(w.get('max_abs_diff_deg'))}°, RMSE change {fmt(w.get('rmse_change_deg'))}°; the window costs "
-          f"{fmt(h.reduction_pct)} % less per step than the full sum at this length.")
+          f"{cost_phrase(h.reduction_pct)} per step than the full sum at this length.")
     if h.table is not None:
         doc.table(list(h.table.columns), [[fmt(v) if not isinstance(v, str) else v for v in r]
                                           for r in h.table.itertuples(index=False)])

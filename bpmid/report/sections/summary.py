@@ -8,6 +8,13 @@ KEY = "summary"
 TITLE = "Summary"
 
 
+def cost_phrase(reduction_pct) -> str:
+    """'42 % less' or '12 % more' (a negative reduction is an increase: short logs, timing noise)."""
+    if reduction_pct is None or reduction_pct != reduction_pct:
+        return "(not measured)"
+    return f"{fmt(abs(reduction_pct))} % {'less' if reduction_pct >= 0 else 'more'}"
+
+
 def _stale(st, stage):
     return " (STALE: from an earlier run)" if stage in st.stale else ""
 
@@ -66,7 +73,8 @@ def build(doc, st, figs) -> None:
         h = st.history
         items.append(f"History modes{_stale(st, 'history')}: window (T_win = {fmt(h.window_s)} s) vs full history "
                      f"differ by at most {fmt(h.window_vs_full.get('max_abs_diff_deg'))}° on the long-term log; the "
-                     f"window costs {fmt(h.reduction_pct)} % less per step (wall clock, this machine).")
+                     f"window costs {cost_phrase(h.reduction_pct)} per step than the full sum (wall clock, this "
+                     "machine).")
     if items:
         doc.list(items)
     else:
