@@ -69,3 +69,24 @@ def test_gauge_pressure_and_stamp_in_footer():
     sb = stamp.get_window_extent(r)
     assert sb.y0 >= 0 and all(sb.y1 <= ax.get_window_extent(r).y0 for ax in axes)
     plt.close(fig)
+
+
+def test_figures_option_on_a_drawing_command(tmp_path, repo_root):
+    """--figures svg on fit relax: a vector figure under the same stem, stamped (shipped synthetic logs)."""
+    from pathlib import Path
+
+    from typer.testing import CliRunner
+
+    from bpmid.cli import app
+
+    logs = sorted(str(p) for p in (Path(repo_root) / "datasets" / "relaxation").glob("*.csv"))[:2]
+    out = tmp_path / "relax_fit.yaml"
+    r = CliRunner().invoke(app, ["fit", "relax", *logs, "--out", str(out), "--figures", "svg"])
+    assert r.exit_code == 0, r.output
+    svg = out.with_suffix(".svg")
+    assert svg.is_file() and not out.with_suffix(".png").exists()
+    text = svg.read_text()
+    assert text.lstrip().startswith("<?xml") and "<svg" in text
+    assert "synthetic" in text or "glyph" in text  # text as paths: the stamp is drawn, not a font reference
+    r = CliRunner().invoke(app, ["fit", "relax", *logs, "--out", str(tmp_path / "b.yaml"), "--figures", "gif"])
+    assert r.exit_code == 2 and "--figures" in r.output and "gif" in r.output

@@ -255,3 +255,17 @@ def test_hostile_stage_files_never_crash_the_report(study, tmp_path):
     assert "control/summary.csv" in r.output
     md = (d / "report.md").read_text()
     assert "## History modes" in md and "## Discovery of missing effects" in md
+
+
+def test_pdf_figures_with_png_twins_for_the_page(study, tmp_path):
+    d = tmp_path / "pdf"
+    shutil.copytree(study, d)
+    r = runner.invoke(app, ["report", str(d), "--figures", "pdf"])
+    assert r.exit_code == 0, r.output
+    for name in ("modulus_curves", "error_bands", "residuals"):
+        pdf = d / "report_figures" / f"{name}.pdf"
+        assert pdf.read_bytes()[:5] == b"%PDF-" and pdf.with_suffix(".png").is_file()
+    md = (d / "report.md").read_text()
+    assert "(report_figures/residuals.pdf)" in md
+    page = (d / "report.html").read_text()
+    assert "<script" not in page and page.count("data:image/png;base64,") == len(re.findall(r"<figure ", page))
