@@ -41,9 +41,12 @@ def build(doc, st, figs) -> None:
     if st.motion is not None and st.motion.rmse_deg is not None:
         m = st.motion
         n_est = sum(1 for p in m.fit if p.verdict.startswith("estimated"))
+        est = ", ".join(f"{p.name} = {pm(p.value, p.stderr)} {p.unit}" for p in m.fit
+                        if p.verdict.startswith("estimated") and p.value is not None)
         items.append(f"VBMM-fit{_stale(st, 'motion')}: refitted on {len(m.logs)} fitting log(s) "
                      f"({', '.join(m.logs)}): RMSE {fmt(m.rmse_deg)}° on its own fitting set; {n_est} of "
-                     f"{len(m.fit)} constants estimated, the rest held at the relaxation values.")
+                     f"{len(m.fit)} constants estimated" + (f" ({est})" if est else "")
+                     + ", the rest held at their prior (relaxation) values.")
     if st.compare is not None:
         c = st.compare
         rank = c.ranking
