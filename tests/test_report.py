@@ -186,19 +186,58 @@ def test_svg_figures_inlined_one_self_contained_file(study, tmp_path):
 # --------------------------------------------------------------------------------------------------
 # partial and stale folders (issue 15, item 7)
 # --------------------------------------------------------------------------------------------------
-def test_partial_stage_files_named_and_the_rest_built(study, tmp_path):
-    d = tmp_path / "partial"
+@pytest.fixture(scope="module")
+def broken(study, tmp_path_factory):
+    """One copy of the study with every kind of damage at once (one report call for the tests below):
+    partial files (relax_fit.yaml with only its schema line, a header-only compare/summary.csv), wrong types
+    inside history_modes.yaml, and discover/control left over from an earlier run (run.yaml says skipped)."""
+    import yaml
+
+    d = tmp_path_factory.mktemp("broken") / "study"
     shutil.copytree(study, d)
     (d / "relax_fit.yaml").write_text("schema: bpmid.relax/1\n")
     (d / "compare" / "summary.csv").write_text("model,rmse_deg,mape_pct,r2\n")
+    (d / "history_modes.yaml").write_text("schema: bpmid.history_modes/1\naccuracy: [1, 2]\nwindow_s: fast\n"
+                                          "window_vs_full: 3\nus_per_step_longest: [x]\n")
+    run = yaml.safe_load((d / "run.yaml").read_text())
+    for s in run["stages"]:
+        if s["name"] in ("discover", "control"):
+            s.update(status="skipped", seconds=None, outputs=[], note="not in run.stages")
+    (d / "run.yaml").write_text(yaml.safe_dump(run, sort_keys=False))
     r = runner.invoke(app, ["report", str(d)])
+    return d, r
+
+
+def test_partial_stage_files_named_and_the_rest_built(broken):
+    d, r = broken
     assert r.exit_code == 0, r.output
     assert "relax_fit.yaml" in r.output and "compare/summary.csv" in r.output and "warning" in r.output
     md = (d / "report.md").read_text()
     assert "Incomplete: relax_fit.yaml: partial" in md and "Incomplete: compare/summary.csv: partial" in md
     assert "## Motion fit" in md and "Not available: relax_fit.yaml is unusable (partial" in md
     assert "Not available: compare/summary.csv is unusable (partial" in md
-    assert "VBMM-PI" in md  # the stages that are whole are reported
+    assert "VBMM-fit: refitted" in md  # the stages that are whole are reported
+
+
+def test_hostile_values_inside_a_file_never_crash_the_report(broken):
+    d, r = broken
+    assert r.exit_code == 0, r.output
+    md = (d / "report.md").read_text()
+    assert "## History modes" in md and "## Discovery of missing effects" in md and "## Provenance" in md
+
+
+def test_stale_stages_from_an_earlier_run_are_marked(broken):
+    d, r = broken
+    assert "stage discover" in r.output and "stage control" in r.output
+    md = (d / "report.md").read_text()
+    summ = md[md.index("## Summary"):md.index("## Model")]
+    assert "Stale: stage discover" in summ and "Control (STALE: from an earlier run)" in summ
+    disc = md[md.index("## Discovery of missing effects"):md.index("## Closed-loop control")]
+    assert "STALE:" in disc
+    ctl = md[md.index("## Closed-loop control"):md.index("## Provenance")]
+    assert "STALE:" in ctl
+    motion = md[md.index("## Motion fit"):md.index("## Model comparison")]
+    assert "STALE:" not in motion
 
 
 def test_nothing_usable_exit_2_naming_the_files(tmp_path):
@@ -210,51 +249,12 @@ def test_nothing_usable_exit_2_naming_the_files(tmp_path):
     assert not (d / "report.html").exists()
 
 
-def test_stale_stages_from_an_earlier_run_are_marked(study, tmp_path):
-    import yaml
-
-    d = tmp_path / "stale"
-    shutil.copytree(study, d)
-    run = yaml.safe_load((d / "run.yaml").read_text())
-    for s in run["stages"]:
-        if s["name"] in ("compare", "discover"):
-            s.update(status="skipped", seconds=None, outputs=[], note="not in run.stages")
-    (d / "run.yaml").write_text(yaml.safe_dump(run, sort_keys=False))
-    r = runner.invoke(app, ["report", str(d)])
-    assert r.exit_code == 0, r.output
-    assert "stage compare" in r.output and "stage discover" in r.output
-    md = (d / "report.md").read_text()
-    summ = md[md.index("## Summary"):md.index("## Model")]
-    assert "Stale: stage compare" in summ and "Comparison (STALE: from an earlier run)" in summ
-    cmp_sec = md[md.index("## Model comparison"):md.index("## The paper's numbers")]
-    assert "STALE:" in cmp_sec
-    disc = md[md.index("## Discovery of missing effects"):md.index("## Closed-loop control")]
-    assert "STALE:" in disc
-    relax = md[md.index("## Relaxation fit"):md.index("## Motion fit")]
-    assert "STALE:" not in relax
-
-
 def test_correlations_of_both_fits_are_shown(study):
     md = (study / "report.md").read_text()
     relax = md[md.index("## Relaxation fit"):md.index("## Motion fit")]
     motion = md[md.index("## Motion fit"):md.index("## Model comparison")]
     assert "Parameter correlations" in relax and "| tau_1 |" in relax
     assert "Correlations of the estimated VBMM-fit constants" in motion
-
-
-def test_hostile_stage_files_never_crash_the_report(study, tmp_path):
-    """Wrong types inside otherwise valid files: each is named, the rest is built, exit 0 (never 1)."""
-    d = tmp_path / "hostile"
-    shutil.copytree(study, d)
-    (d / "history_modes.yaml").write_text("schema: bpmid.history_modes/1\naccuracy: [1, 2]\nwindow_s: fast\n")
-    (d / "discover" / "discovery.yaml").write_text("schema: bpmid.discovery/1\ngap: {before_rmse_deg: x}\n"
-                                                   "named_effects: 5\nsteps: [1, {id: a}]\n")
-    (d / "control" / "summary.csv").write_text("controller,reference\npi,ALL\n")
-    r = runner.invoke(app, ["report", str(d)])
-    assert r.exit_code == 0, r.output
-    assert "control/summary.csv" in r.output
-    md = (d / "report.md").read_text()
-    assert "## History modes" in md and "## Discovery of missing effects" in md
 
 
 def test_pdf_figures_with_png_twins_for_the_page(study, tmp_path):
@@ -269,3 +269,20 @@ def test_pdf_figures_with_png_twins_for_the_page(study, tmp_path):
     assert "(report_figures/residuals.pdf)" in md
     page = (d / "report.html").read_text()
     assert "<script" not in page and page.count("data:image/png;base64,") == len(re.findall(r"<figure ", page))
+
+
+def test_loaders_take_wrong_types_inside_a_file(tmp_path):
+    """A discovery.yaml with values of the wrong type: read, shown, never a traceback (no figures drawn)."""
+    from bpmid.report import build_report, read_study, render_markdown
+
+    (tmp_path / "discover").mkdir()
+    (tmp_path / "discover" / "discovery.yaml").write_text(
+        "schema: bpmid.discovery/1\ngap: {before_rmse_deg: x, after_rmse_deg: [1]}\nnamed_effects: 5\n"
+        "steps: [1, {id: a, evidence: {z: 1}}]\nverdict: 7\n")
+    (tmp_path / "relax_fit.yaml").write_text("schema: bpmid.relax/1\nprony: {E_inf: 1.0, terms: {E: 2}}\n"
+                                             "uncertainty: {parameters: [a, b], correlation: [[1, x]]}\n")
+    st = read_study(tmp_path)
+    assert st.discovery is not None and st.discovery.named == [] and st.discovery.before_deg is None
+    assert st.relax is not None and st.relax.corr == [] and [p.name for p in st.relax.constants] == ["E_inf"]
+    md = render_markdown(build_report(st, {}), "t")
+    assert "## Discovery of missing effects" in md and "| a |" in md and "## Relaxation fit" in md

@@ -20,6 +20,7 @@ Layout of the package:
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 from pathlib import Path
 
@@ -77,19 +78,13 @@ def report_study(out_dir: str | Path, *, title: str = "bpmid study report", figu
         raise InputError("no stage outputs found that can be used (expected run.yaml, relax_fit.yaml, vbmm_fit.yaml, "
                          "compare/, history_modes.yaml, discover/discovery.yaml or control/)"
                          + (f"; {what}" if what else ""), path=out_dir)
-    with figure_format_as(figures) if figures else _nullctx():
+    with figure_format_as(figures) if figures else contextlib.nullcontext():
         figs = make_figures(st)
         doc = build_report(st, figs)
     root = Path(out_dir)
     md = write_text(root / "report.md", render_markdown(doc, title))
     page = write_text(root / "report.html", render_html(doc, title, root))
     return ReportResult(page, md, st.problems, st.stale)
-
-
-def _nullctx():
-    import contextlib
-
-    return contextlib.nullcontext()
 
 
 def write_report(out_dir: str | Path, *, title: str = "bpmid study report", figures: str | None = None) -> tuple[Path, Path]:
