@@ -158,21 +158,20 @@ def finish(fig, synthetic: bool):
     return fig
 
 
-def save_figure(fig, path: str | Path, *, dpi: int = 120) -> Path:
+def save_figure(fig, path: str | Path, *, dpi: int = 120, png_twin: bool = False) -> Path:
     """Write ``fig`` atomically and close it; returns the path written.
 
     The format is the one chosen with :func:`set_figure_format` (the suffix of ``path`` is changed to match),
-    else the suffix of ``path``. A PDF also gets a PNG twin beside it (browsers cannot show a PDF in a page,
-    so the HTML report embeds the twin)."""
+    else the suffix of ``path``. ``png_twin``: a PDF also gets a PNG beside it (browsers cannot show a PDF in a
+    page; the HTML report embeds the twin of the figures it draws itself)."""
     path = figure_path(path)
     fmt = path.suffix.lstrip(".").lower() or "png"
     try:
         with staged_file(path) as tmp:
             fig.savefig(tmp, dpi=dpi, format=fmt, metadata={"Date": None} if fmt == "svg" else None)
-        if fmt == "pdf":
+        if fmt == "pdf" and png_twin:
             with staged_file(path.with_suffix(".png")) as tmp:
                 fig.savefig(tmp, dpi=dpi, format="png")
     finally:
         plt.close(fig)
     return path
-

@@ -6,8 +6,8 @@ import contextlib
 from pathlib import Path
 
 FORMATS = ("png", "svg", "pdf")
-FIGURES_HELP = ("Figure format: png (default), svg (vector; inlined in report.html) or pdf (vector; a PNG twin "
-                "beside it for the HTML report).")
+FIGURES_HELP = ("Figure format: png (default), svg (vector; inlined in report.html) or pdf (vector; report.html "
+                "embeds PNG twins of the figures the report draws and names the other PDFs).")
 
 _format: str | None = None
 

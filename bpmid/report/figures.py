@@ -34,7 +34,7 @@ def make_figures(st: Study) -> dict[str, str]:
     fdir = st.root / FIGURE_DIR
 
     def save(key, fig, name):
-        p = save_figure(fig, fdir / f"{name}.png")
+        p = save_figure(fig, fdir / f"{name}.png", png_twin=True)
         figs[key] = p.relative_to(st.root).as_posix()
 
     if st.relax is not None:

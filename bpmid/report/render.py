@@ -106,7 +106,11 @@ def render_html(doc: Doc, title: str, base: Path) -> str:
         if path.suffix.lower() == ".svg":
             body = inline_svg(path.read_text(encoding="utf-8"), f"f{b.number}")
             return f'<figure id="fig{b.number}" aria-label="Figure {b.number}">{body}{cap}</figure>'
-        if path.suffix.lower() == ".pdf":  # browsers cannot show a PDF in a page: its PNG twin
+        if path.suffix.lower() == ".pdf":  # browsers cannot show a PDF in a page: its PNG twin, if any
+            if not path.with_suffix(".png").is_file():
+                return (f'<figure id="fig{b.number}"><p class="verdict">Figure {b.number} is a vector PDF: '
+                        f"{esc(b.path)} (next to this report; PDF figures cannot be embedded in a page).</p>{cap}"
+                        "</figure>")
             path = path.with_suffix(".png")
         data = base64.b64encode(path.read_bytes()).decode("ascii")
         return (f'<figure id="fig{b.number}"><img alt="Figure {b.number}: {esc(b.text)}" '
