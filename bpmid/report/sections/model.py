@@ -70,7 +70,7 @@ def build(doc, st, figs) -> None:
                     M.hat(M.mi("K")), M.mo("−"), M.frac(M.mn(2), M.mn(3)), M.hat(M.mi("G"))),
             "sigma1 = 2 G^[eps1] + lambda^[eps_kk],  sigma2 = 2 G^[eps2] + lambda^[eps_kk],  lambda^ = K^ - (2/3) G^",
             "wall stresses, eq. 6")
-    gb, F = M.bar(M.mi("G")), M.mi("F")
+    gb, F = M.mi("Ḡ"), M.mi("F")  # G with macron: one glyph, no accent stacking needed
     doc.math(M.math(M.mi("P"), M.mo("="), M.frac(M.mi("th"), M.mi("R")),
                     M.paren(s2, M.mo("+"), M.frac(M.row(s2, gb, M.mo("+"), s1, M.paren(F, M.mo("−"), M.mn(1))),
                                                   M.row(M.mn(1), M.mo("−"), M.mn(2), gb, F)))),
