@@ -653,8 +653,9 @@ def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig
             from bpmid.plots.common import save_figure
             from bpmid.plots.control import fig18
 
-            save_figure(fig18(result.runs, limits_bar=(cfg.p_min_bar_abs, cfg.p_max_bar_abs)), tmp / "fig18.png")
-            written.append(out_dir / "fig18.png")
+            fig = save_figure(fig18(result.runs, limits_bar=(cfg.p_min_bar_abs, cfg.p_max_bar_abs),
+                                    atmosphere_bar=cfg.atmosphere_bar), tmp / "fig18.png")
+            written.append(out_dir / fig.name)
     return written
 
 

@@ -79,9 +79,11 @@ def predict_yaml_body(preds: Sequence[Prediction], *, params: str | Path | None 
 
 
 def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov: dict | None = None,
-                      params: str | Path | None = None, model: VBMM | None = None) -> list[Path]:
+                      params: str | Path | None = None, model: VBMM | None = None, figure: bool = False,
+                      synthetic: bool = False) -> list[Path]:
     """Write ``DIR/<log stem>.csv`` for every prediction, and ``DIR/predict.yaml`` (schema
-    ``bpmid.predict/1``: model settings, per-log metrics, provenance) when ``prov`` is given; all or nothing."""
+    ``bpmid.predict/1``: model settings, per-log metrics, provenance) when ``prov`` is given, and with ``figure``
+    ``DIR/predict.png`` (measured and predicted angle, error; format of ``--figures``); all or nothing."""
     from bpmid.io.results import dump_yaml
 
     out_dir = Path(out_dir)
@@ -100,6 +102,13 @@ def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov:
             body["provenance"] = prov
             (tmp / "predict.yaml").write_text(dump_yaml(body), encoding="utf-8")
             names.append(out_dir / "predict.yaml")
+        if figure and preds:
+            from bpmid.plots.common import save_figure
+            from bpmid.plots.report import prediction_figure
+
+            fig = prediction_figure([p.log for p in preds], {p.log.name: p.angle_pred_deg for p in preds},
+                                    synthetic=synthetic)
+            names.append(out_dir / save_figure(fig, tmp / "predict.png").name)
     return names
 
 __all__ = ["Prediction", "predict", "predict_yaml_body", "write_predictions"]

@@ -13,6 +13,8 @@ compare       :func:`bpmid.compare.run_compare`                          compare
 history       :func:`bpmid.history_modes.history_mode_study` +           history_modes.csv, .yaml, .png
               :func:`bpmid.history_modes.write_history_study`
 discover      :func:`bpmid.discover.discover`                            discover/discovery.yaml, verdict.txt, figures
+control       :func:`bpmid.control.run_control` (PI, VBMM-PI, MS-PI on   control/summary.csv, control.yaml, traces/,
+              the shipped references) + :func:`~bpmid.control.write_control`  fig18.png
 report        :func:`bpmid.report.write_report`                          report.html, report.md, report_figures/
 ============  =========================================================  ==========================================
 
@@ -38,7 +40,7 @@ from typing import Mapping, Optional
 from bpmid.errors import InputError, interrupted
 from bpmid.progress import note
 
-STAGES = ("relax", "motion", "compare", "history", "discover", "report")
+STAGES = ("relax", "motion", "compare", "history", "discover", "control", "report")
 SCHEMA = "bpmid.run/1"
 DEFAULT_CONFIG = Path("configs") / "paper.yaml"
 
@@ -215,7 +217,8 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
 # the names a run writes in DIR (files, and folders written whole)
 RUN_FILES = ("relax_fit.yaml", "relax_fit.png", "vbmm_fit.yaml", "vbmm_fit.png", "vbmm_mat.yaml",
              "history_modes.csv", "history_modes.yaml", "history_modes.png", "report.html", "report.md", "run.yaml")
-RUN_FOLDERS = ("compare", "discover", "report_figures")
+RUN_FILES = RUN_FILES + tuple(f[:-4] + s for f in RUN_FILES if f.endswith(".png") for s in (".svg", ".pdf"))
+RUN_FOLDERS = ("compare", "discover", "control", "report_figures")
 
 
 class OutputJournal:
@@ -310,9 +313,12 @@ def _prov(inputs, config, seed, command):
 def stage_relax(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     from bpmid.relax import run_fit_relax
 
-    yaml_path, fig, _fit = run_fit_relax(inp.relax_logs, out / "relax_fit.yaml", config=config, figure=True)
+    from bpmid.plots.common import figure_path
+
+    yaml_path, fig, _fit = run_fit_relax(inp.relax_logs, out / "relax_fit.yaml", config=config,
+                                         figure=figure_path(out / "relax_fit.png"))
     ctx["relax_fit"] = yaml_path
-    return ["relax_fit.yaml"] + (["relax_fit.png"] if fig else [])
+    return ["relax_fit.yaml"] + ([Path(fig).name] if fig else [])
 
 
 def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
@@ -329,10 +335,12 @@ def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     prov = _prov(inp.fitting_set + ([relax] if relax else []), config, ctx["seed"], ctx["command"])
     mf = fit_motion(logs, config=config, init=relax)
     from bpmid.io import plausibility as plaus
+    from bpmid.plots.common import figure_path
+
     warnings = plaus.reader_warnings(logs) + plaus.motion_fit_warnings(mf)
     plaus.emit(warnings, strict=config.section("io").strict, what=str(out / "vbmm_fit.yaml"))
-    write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings), figure=out / "vbmm_fit.png",
-                     synthetic=ctx["synthetic"])
+    write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings),
+                     figure=figure_path(out / "vbmm_fit.png"), synthetic=ctx["synthetic"])
     ctx["vbmm_fit"] = out / "vbmm_fit.yaml"
     # VBMM-mat.: the relaxation constants as they are, scored on the same fitting set
     mat, source = initial_material(config.section("motion"), relax, base_dir=config.base_dir)
@@ -343,7 +351,7 @@ def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     body["metrics"] = M.summary(y, yh)
     body["source"] = f"relaxation constants, not refitted ({source})"
     write_result(out / "vbmm_mat.yaml", "bpmid.vbmm/1", body, prov)
-    return ["vbmm_fit.yaml", "vbmm_fit.png", "vbmm_mat.yaml"]
+    return ["vbmm_fit.yaml", fig.name, "vbmm_mat.yaml"]
 
 
 def stage_compare(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
@@ -369,9 +377,9 @@ def stage_history(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     rc: RunConfig = config.section("run")
     study = history_mode_study(model, log, durations_s=rc.history_durations_s, repeats=rc.history_repeats)
     inputs = [inp.long_term] + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
-    write_history_study(study, out, _prov(inputs, config, ctx["seed"], ctx["command"]), params_source=source,
-                        synthetic=ctx["synthetic"])
-    return ["history_modes.csv", "history_modes.yaml", "history_modes.png"]
+    written = write_history_study(study, out, _prov(inputs, config, ctx["seed"], ctx["command"]),
+                                  params_source=source, synthetic=ctx["synthetic"])
+    return [Path(p).name for p in written]
 
 
 def stage_discover(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
@@ -392,6 +400,27 @@ def stage_discover(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     return [f"discover/{name}" for name in written if not name.endswith(".png")]
 
 
+def stage_control(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
+    """The paper's experiment 3 in kind: PI, VBMM-PI and MS-PI on the shipped references, the controller's
+    model being this run's VBMM-fit (else the paper's constants), the plant the same model with sensor noise."""
+    from bpmid.control import build_plant, load_references, run_control, write_control
+    from bpmid.models.vbmm import VBMM, Material, load_vbmm
+
+    cfg = config.section("control")
+    mcfg = config.section("model")
+    if ctx.get("vbmm_fit") is not None:
+        model = load_vbmm(ctx["vbmm_fit"], mcfg)
+    else:
+        model = VBMM.from_config(Material.paper_fit(), mcfg)
+    plant = build_plant(model, [], cfg)
+    refs = load_references("all", cfg.rate_hz)
+    result = run_control(model, plant, refs, cfg)
+    inputs = [r.path for r in refs if r.path is not None] + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
+    written = write_control(result, out / "control", cfg, _prov(inputs, config, cfg.seed, ctx["command"]),
+                            model=model, plant=plant, figure=True)
+    return [Path(p).relative_to(out).as_posix() for p in written if Path(p).parent.name != "traces"]
+
+
 def stage_report(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     from bpmid.report import write_report
 
@@ -400,7 +429,8 @@ def stage_report(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
 
 
 STAGE_FUNCTIONS = {"relax": stage_relax, "motion": stage_motion, "compare": stage_compare,
-                   "history": stage_history, "discover": stage_discover, "report": stage_report}
+                   "history": stage_history, "discover": stage_discover, "control": stage_control,
+                   "report": stage_report}
 
 
 def _missing_inputs(stage: str, inp: RunInputs) -> str | None:

@@ -24,13 +24,6 @@ def repo_root():
 def timed_small_study(tmp_path_factory):
     """``bpmid run`` of test_run's small study with timing on, computed once per pytest session and shared by
     every test that only reads its outputs (report, report in a browser). Tests must not write into it."""
-    from typer.testing import CliRunner
+    from _report_study import shared_study  # the same study the report, browser and figure tests read
 
-    from bpmid.cli import app
-    from test_run import make_study
-
-    root = tmp_path_factory.mktemp("timed_study")
-    cfg = make_study(root, timing=True)
-    r = CliRunner().invoke(app, ["run", str(cfg), "--out", str(root / "out")])
-    assert r.exit_code == 0, r.output
-    return root / "out"
+    return shared_study(tmp_path_factory)[0]

@@ -16,9 +16,10 @@ runner = CliRunner()
 
 
 @pytest.fixture(scope="module")
-def study(timed_small_study):
-    """The small study run once per session with timing on (tests/conftest.py)."""
-    return timed_small_study
+def study(tmp_path_factory):
+    from _report_study import shared_study
+
+    return shared_study(tmp_path_factory)[0]
 
 
 def _panels_md(md: str) -> tuple[str, str]:
@@ -56,8 +57,9 @@ def test_markdown_twin_references_figures_next_to_it(study):
     assert len(figs) == len(re.findall(r"<img ", page))
     for f in figs:
         assert not Path(f).is_absolute() and (study / f).is_file(), f
-    for section in ("Provenance", "Relaxation fit", "Motion fit", "The paper's numbers beside ours",
-                    "Model comparison", "History modes", "Residual diagnostics", "Discovery of missing effects"):
+    for section in ("Summary", "Model", "Provenance", "Relaxation fit", "Motion fit", "The paper's numbers beside ours",
+                    "Model comparison", "History modes", "Residual diagnostics", "Discovery of missing effects",
+                    "Closed-loop control"):
         assert f"## {section}" in md, section
 
 
@@ -75,7 +77,7 @@ def test_quoted_and_measured_numbers_never_mix(study):
     # measured panel: this run's numbers, from its own files
     by_set = pd.read_csv(study / "compare" / "summary_by_set.csv")
     row = by_set[(by_set.set == "variable_rate") & (by_set.model == "vbmm-fit")].iloc[0]
-    assert f"| 1b variable rate, VBMM-fit | RMSE | {fmt(row.rmse_deg)} | deg |" in measured
+    assert f"| 1b variable rate, VBMM-fit | RMSE | {fmt(row.rmse_deg)} | ° |" in measured
     page = (study / "report.html").read_text()
     q = page.index('class="panel quoted"')
     m = page.index('class="panel measured"')
@@ -91,7 +93,7 @@ def test_report_contents(study):
     assert re.search(r"\| E_inf \| [0-9.e+-]+ \| [0-9.e+-]+ \| Pa \|", md)
     assert "VBMM-fit verdict" in md and ("estimated" in md or "not identifiable" in md)
     assert "Ranking by pooled test RMSE" in md
-    assert "us_per_step" in md and "window" in md and "full" in md
+    assert "µs per step" in md and "window" in md and "full" in md
     assert "lag-1 autocorrelation" in md
     assert ("Named effects" in md) or ("No missing effect found" in md)
 
@@ -106,7 +108,7 @@ def test_report_says_when_a_baseline_wins(study, tmp_path):
     r = runner.invoke(app, ["report", str(d)])
     assert r.exit_code == 0, r.output
     md = (d / "report.md").read_text()
-    assert re.search(r"On variable_rate, the baseline two-branch \(0\.001 deg\) beats the best VBMM variant", md)
+    assert re.search(r"On variable_rate, the baseline two-branch \(0\.001°\) beats the best VBMM variant", md)
     assert "On variable_amplitude, the best VBMM variant" in md
 
 
@@ -117,3 +119,170 @@ def test_report_bad_folder_exit_2(tmp_path):
     r = runner.invoke(app, ["report", str(tmp_path / "empty")])
     assert r.exit_code == 2 and "no stage outputs" in r.output
     assert not (tmp_path / "empty" / "report.html").exists()
+
+
+# --------------------------------------------------------------------------------------------------
+# order, control, model, figures (issue 18)
+# --------------------------------------------------------------------------------------------------
+def test_summary_first_provenance_last_and_collapsed(study):
+    md = (study / "report.md").read_text()
+    heads = re.findall(r"^## (.+)$", md, re.M)
+    assert heads[0] == "Summary" and heads[-1].startswith("Provenance")
+    page = (study / "report.html").read_text()
+    secs = re.findall(r'<section id="([^"]+)"', page)
+    assert secs[0] == "summary" and secs[-1] == "provenance"
+    prov = page[page.index('<section id="provenance"'):]
+    assert prov.index("<details>") < prov.index("sha256")
+    # the summary names what was fitted on what, the ranking, discovery, control, and the data's status
+    summ = md[md.index("## Summary"):md.index("## Model")]
+    for word in ("SYNTHETIC", "relaxation log", "fitting log", "ranked by pooled test RMSE", "Discovery:",
+                 "VBMM-PI", "±"):
+        assert word in summ, word
+
+
+def test_control_section_beside_the_paper_quoted_apart(study):
+    md = (study / "report.md").read_text()
+    ctl = md[md.index("## Closed-loop control"):md.index("## Provenance")]
+    tab = pd.read_csv(study / "control" / "summary.csv")
+    vb = tab[(tab.controller == "vbmm-pi") & (tab.reference == "ALL")].iloc[0]
+    quoted = ctl[ctl.index("**Paper's control result"):ctl.index("**Measured here")]
+    measured = ctl[ctl.index("**Measured here"):]
+    assert "| VBMM-PI | RMSE | 2.411 | ° |" in quoted and "52.9" in quoted
+    assert f"| VBMM-PI | {fmt(vb.rmse_deg)} |" in measured and "2.411" not in measured
+    assert re.search(r"!\[Figure \d+\]\(control/fig18\.png\)", ctl)
+
+
+def test_model_equations_as_mathml_and_numbered_captions(study):
+    page = (study / "report.html").read_text()
+    assert page.count("<math") >= 5 and "<script" not in page
+    nums = [int(n) for n in re.findall(r"<b>Figure (\d+)\.</b>", page)]
+    assert nums == list(range(1, len(nums) + 1)) and len(nums) == len(re.findall(r"<img ", page))
+    md = (study / "report.md").read_text()
+    assert "E(t) = E_inf + sum_j E_j exp(-t/tau_j)" in md
+    for bad in (" us ", "R^2", "(deg)"):
+        assert bad not in md, bad
+
+
+def test_svg_figures_inlined_one_self_contained_file(study, tmp_path):
+    d = tmp_path / "copy"
+    shutil.copytree(study, d)
+    r = runner.invoke(app, ["report", str(d), "--figures", "svg"])
+    assert r.exit_code == 0, r.output
+    for name in ("modulus_curves", "error_bands", "residuals"):
+        assert (d / "report_figures" / f"{name}.svg").is_file()
+    page = (d / "report.html").read_text()
+    n_fig = len(re.findall(r"<figure ", page))
+    n_svg = len(re.findall(r"<figure [^>]*>\s*<svg", page))
+    assert n_svg >= 3 and n_svg + len(re.findall(r"<img ", page)) == n_fig
+    assert "<?xml" not in page and "<!DOCTYPE svg" not in page and "<script" not in page.lower()
+    assert not re.search(r'(?:href|src)\s*=\s*"(?:https?:|//|file:)', page)
+    ids = re.findall(r'\bid="([^"]+)"', page)
+    assert len(ids) == len(set(ids)), "ids repeat between inlined figures"
+    # every url(#x) / href="#x" points at an id of the page
+    refs = set(re.findall(r'url\(#([^)]+)\)', page)) | set(re.findall(r'href="#([^"]+)"', page))
+    assert refs <= set(ids)
+
+
+# --------------------------------------------------------------------------------------------------
+# partial and stale folders (issue 15, item 7)
+# --------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def broken(study, tmp_path_factory):
+    """One copy of the study with every kind of damage at once (one report call for the tests below):
+    partial files (relax_fit.yaml with only its schema line, a header-only compare/summary.csv), wrong types
+    inside history_modes.yaml, and discover/control left over from an earlier run (run.yaml says skipped)."""
+    import yaml
+
+    d = tmp_path_factory.mktemp("broken") / "study"
+    shutil.copytree(study, d)
+    (d / "relax_fit.yaml").write_text("schema: bpmid.relax/1\n")
+    (d / "compare" / "summary.csv").write_text("model,rmse_deg,mape_pct,r2\n")
+    (d / "history_modes.yaml").write_text("schema: bpmid.history_modes/1\naccuracy: [1, 2]\nwindow_s: fast\n"
+                                          "window_vs_full: 3\nus_per_step_longest: [x]\n")
+    run = yaml.safe_load((d / "run.yaml").read_text())
+    for s in run["stages"]:
+        if s["name"] in ("discover", "control"):
+            s.update(status="skipped", seconds=None, outputs=[], note="not in run.stages")
+    (d / "run.yaml").write_text(yaml.safe_dump(run, sort_keys=False))
+    r = runner.invoke(app, ["report", str(d)])
+    return d, r
+
+
+def test_partial_stage_files_named_and_the_rest_built(broken):
+    d, r = broken
+    assert r.exit_code == 0, r.output
+    assert "relax_fit.yaml" in r.output and "compare/summary.csv" in r.output and "warning" in r.output
+    md = (d / "report.md").read_text()
+    assert "Incomplete: relax_fit.yaml: partial" in md and "Incomplete: compare/summary.csv: partial" in md
+    assert "## Motion fit" in md and "Not available: relax_fit.yaml is unusable (partial" in md
+    assert "Not available: compare/summary.csv is unusable (partial" in md
+    assert "VBMM-fit: refitted" in md  # the stages that are whole are reported
+
+
+def test_hostile_values_inside_a_file_never_crash_the_report(broken):
+    d, r = broken
+    assert r.exit_code == 0, r.output
+    md = (d / "report.md").read_text()
+    assert "## History modes" in md and "## Discovery of missing effects" in md and "## Provenance" in md
+
+
+def test_stale_stages_from_an_earlier_run_are_marked(broken):
+    d, r = broken
+    assert "stage discover" in r.output and "stage control" in r.output
+    md = (d / "report.md").read_text()
+    summ = md[md.index("## Summary"):md.index("## Model")]
+    assert "Stale: stage discover" in summ and "Control (STALE: from an earlier run)" in summ
+    disc = md[md.index("## Discovery of missing effects"):md.index("## Closed-loop control")]
+    assert "STALE:" in disc
+    ctl = md[md.index("## Closed-loop control"):md.index("## Provenance")]
+    assert "STALE:" in ctl
+    motion = md[md.index("## Motion fit"):md.index("## Model comparison")]
+    assert "STALE:" not in motion
+
+
+def test_nothing_usable_exit_2_naming_the_files(tmp_path):
+    d = tmp_path / "only_partial"
+    d.mkdir()
+    (d / "relax_fit.yaml").write_text("schema: bpmid.relax/1\n")
+    r = runner.invoke(app, ["report", str(d)])
+    assert r.exit_code == 2 and "relax_fit.yaml" in r.output and "partial" in r.output
+    assert not (d / "report.html").exists()
+
+
+def test_correlations_of_both_fits_are_shown(study):
+    md = (study / "report.md").read_text()
+    relax = md[md.index("## Relaxation fit"):md.index("## Motion fit")]
+    motion = md[md.index("## Motion fit"):md.index("## Model comparison")]
+    assert "Parameter correlations" in relax and "| tau_1 |" in relax
+    assert "Correlations of the estimated VBMM-fit constants" in motion
+
+
+def test_pdf_figures_with_png_twins_for_the_page(study, tmp_path):
+    d = tmp_path / "pdf"
+    shutil.copytree(study, d)
+    r = runner.invoke(app, ["report", str(d), "--figures", "pdf"])
+    assert r.exit_code == 0, r.output
+    for name in ("modulus_curves", "error_bands", "residuals"):
+        pdf = d / "report_figures" / f"{name}.pdf"
+        assert pdf.read_bytes()[:5] == b"%PDF-" and pdf.with_suffix(".png").is_file()
+    md = (d / "report.md").read_text()
+    assert "(report_figures/residuals.pdf)" in md
+    page = (d / "report.html").read_text()
+    assert "<script" not in page and page.count("data:image/png;base64,") == len(re.findall(r"<figure ", page))
+
+
+def test_loaders_take_wrong_types_inside_a_file(tmp_path):
+    """A discovery.yaml with values of the wrong type: read, shown, never a traceback (no figures drawn)."""
+    from bpmid.report import build_report, read_study, render_markdown
+
+    (tmp_path / "discover").mkdir()
+    (tmp_path / "discover" / "discovery.yaml").write_text(
+        "schema: bpmid.discovery/1\ngap: {before_rmse_deg: x, after_rmse_deg: [1]}\nnamed_effects: 5\n"
+        "steps: [1, {id: a, evidence: {z: 1}}]\nverdict: 7\n")
+    (tmp_path / "relax_fit.yaml").write_text("schema: bpmid.relax/1\nprony: {E_inf: 1.0, terms: {E: 2}}\n"
+                                             "uncertainty: {parameters: [a, b], correlation: [[1, x]]}\n")
+    st = read_study(tmp_path)
+    assert st.discovery is not None and st.discovery.named == [] and st.discovery.before_deg is None
+    assert st.relax is not None and st.relax.corr == [] and [p.name for p in st.relax.constants] == ["E_inf"]
+    md = render_markdown(build_report(st, {}), "t")
+    assert "## Discovery of missing effects" in md and "| a |" in md and "## Relaxation fit" in md

@@ -97,7 +97,7 @@ def test_run_writes_every_stage_file_with_cli_names(study_runs):
     disc = yaml.safe_load((out / "discover" / "discovery.yaml").read_text())
     assert disc["schema"] == "bpmid.discovery/1" and "named_effects" in disc and "unexplained" in disc
     run = yaml.safe_load((out / "run.yaml").read_text())
-    assert [s["name"] for s in run["stages"]] == ["relax", "motion", "compare", "history", "discover", "report"]
+    assert [s["name"] for s in run["stages"]] == ["relax", "motion", "compare", "history", "discover", "control", "report"]
     assert all(s["status"] == "done" for s in run["stages"])
     prov = run["provenance"]
     assert prov["seed"] == 7 and prov["config"]["sha256"] and len(prov["inputs"]) == 8

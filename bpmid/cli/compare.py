@@ -8,6 +8,8 @@ from typing import List, Optional
 
 import typer
 
+from bpmid.plots.options import figures_option, set_figure_format
+
 from bpmid.cli._app import app, command, multi_value_command
 from bpmid.cli._logopts import log_options
 
@@ -37,8 +39,10 @@ def compare(
     out: Path = typer.Option(..., "--out", help="Output folder: metrics.csv, summary.csv, summary_by_set.csv, "
                              "compare.yaml, predictions/, figures."),
     logopts=None,
+    figures: Optional[str] = figures_option(),
 ):
     """Fit every model on the training logs only, simulate each free-running on every test log, score it."""
+    set_figure_format(figures)
     from bpmid.api import compare
     from bpmid.compare import CompareWarning, verdicts
     from bpmid.config import load_config

@@ -7,6 +7,8 @@ from typing import List, Optional
 
 import typer
 
+from bpmid.plots.options import figure_path, figures_option, set_figure_format
+
 from bpmid.cli._app import app, command
 
 EPILOG = ("Example (the paper's experiment 3 on a plant 5 % stiffer with 10 % faster relaxation):  bpmid control "
@@ -39,8 +41,10 @@ def control(
     seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the sensor noise (default 0)."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (sections control, model)."),
     no_figure: bool = typer.Option(False, "--no-figure", help="Do not write fig18.png."),
+    figures: Optional[str] = figures_option(),
 ):
     """Simulate closed-loop tracking at the control rate and compare the controllers (the paper's Fig. 18)."""
+    set_figure_format(figures)
     from bpmid.api import control
     from bpmid.config import load_config
     from bpmid.errors import InputError
@@ -85,5 +89,5 @@ def control(
                f"= {cost['share_of_period_pct']:.4f} % of the {1e3 / cfg.rate_hz:g} ms control period")
     for w in result.warnings:
         typer.echo(f"warning: {w}", err=True)
-    typer.echo(f"wrote {out}/summary.csv, control.yaml, traces/, fig18.png" if not no_figure else
+    typer.echo(f"wrote {out}/summary.csv, control.yaml, traces/, {figure_path('fig18.png')}" if not no_figure else
                f"wrote {out}/summary.csv, control.yaml, traces/")

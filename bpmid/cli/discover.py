@@ -6,6 +6,8 @@ from typing import List, Optional
 
 import typer
 
+from bpmid.plots.options import figures_option, set_figure_format
+
 from bpmid.cli._app import app, command, existing_files, multi_value_command
 from bpmid.cli._logopts import log_options
 
@@ -37,9 +39,11 @@ def discover_cmd(
     config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (sections io, model, discover)."),
     out: Path = typer.Option(..., "--out", help="Output folder: discovery.yaml, verdict.txt, figures."),
     logopts=None,
+    figures: Optional[str] = figures_option(),
 ):
     """Fit the base VBMM, diagnose the residual, screen every catalogue effect, confirm the best on held-out
     logs, add one effect at a time; write DIR/discovery.yaml, a plain-language verdict and figures."""
+    set_figure_format(figures)
     from bpmid.config import load_config
     from bpmid.discover import discover
     from bpmid.discover.output import write_discovery

@@ -6,6 +6,8 @@ from typing import List, Optional
 
 import typer
 
+from bpmid.plots.options import figure_path, figures_option, set_figure_format
+
 from bpmid.cli._app import check_outputs, command, existing_files, fit_app
 from bpmid.cli._logopts import log_options
 
@@ -25,8 +27,10 @@ def fit_motion_command(
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure path (default: --out with .png)."),
     no_plot: bool = typer.Option(False, "--no-plot", help="Write no figure."),
     logopts=None,
+    figures: Optional[str] = figures_option(),
 ):
     """Fit the VBMM's moduli and time constants on motion logs (angle error of the forward model)."""
+    set_figure_format(figures)
     from bpmid.api import fit_motion
     from bpmid.config import load_config
 
@@ -34,7 +38,7 @@ def fit_motion_command(
     paths = existing_files(logs, "motion log")
     if init is not None:
         existing_files([init], "relaxation fit")
-    figure = None if no_plot else (plot or out.with_suffix(".png"))
+    figure = None if no_plot else (plot or figure_path(out.with_suffix(".png")))
     check_outputs([out], paths + [init, config], suffix=".yaml")
     if figure is not None:
         check_outputs([figure], paths + [init, config], key="--plot")
@@ -42,7 +46,9 @@ def fit_motion_command(
     from bpmid.io import plausibility as plaus
 
     plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out))
-    result.save(out, figure=figure)
+    from bpmid.io.motion_logs import is_synthetic
+
+    result.save(out, figure=figure, synthetic=is_synthetic(result.raw.logs))
     fit = result.raw
     m = fit.metrics
     typer.echo(f"VBMM fit on {len(fit.logs)} logs: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, "

@@ -7,6 +7,8 @@ from typing import List, Optional
 
 import typer
 
+from bpmid.plots.options import figure_path, figures_option, set_figure_format
+
 from bpmid.cli._app import check_outputs, command, existing_files, fit_app
 from bpmid.cli._logopts import log_options
 
@@ -49,9 +51,11 @@ def fit_relax(
     config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (section relax)."),
     no_figure: bool = typer.Option(False, "--no-figure", help="Do not write the figure."),
     logopts=None,
+    figures: Optional[str] = figures_option(),
 ):
     """Fit a Prony series E(t) = E_inf + sum E_j exp(-t/tau_j) to relaxation logs or to storage and loss moduli
     (shifting raw sets at several temperatures into a master curve first); write E, G and K."""
+    set_figure_format(figures)
     from bpmid.api import fit_relaxation
     from bpmid.config import load_config
     from bpmid.relax.result import check_mode, save_relax_result
@@ -63,7 +67,7 @@ def fit_relax(
         existing_files([shift], "shift-factor")
     check_outputs([out], paths + [config, shift], suffix=".yaml")
     if not no_figure:
-        check_outputs([out.with_suffix(".png")], paths + [config, shift])
+        check_outputs([figure_path(out.with_suffix(".png"))], paths + [config, shift])
     result = fit_relaxation(paths, terms=terms, mode=mode, poisson=poisson, config=cfg, max_error_pct=max_error,
                             ref_temp=ref_temp, shift=shift, _flags=True)
     yaml_path, fig_path, fit = save_relax_result(result, out, figure=not no_figure)

@@ -6,6 +6,8 @@ from typing import List, Optional
 
 import typer
 
+from bpmid.plots.options import figure_path, figures_option, set_figure_format
+
 from bpmid.cli._app import check_outputs, app, command, existing_files
 from bpmid.cli._logopts import log_options
 
@@ -21,21 +23,24 @@ def predict_command(
     out: Path = typer.Option(..., "--out", help="Output folder: one <log stem>.csv per log, plus predict.yaml."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config file (sections io, model)."),
     logopts=None,
+    figures: Optional[str] = figures_option(),
 ):
     """Predict the bending angle of new pressure logs with a fitted VBMM."""
+    set_figure_format(figures)
     from bpmid.api import predict
     from bpmid.config import load_config
 
     cfg = logopts.apply(load_config(config))
     paths = existing_files(logs, "motion log")
     existing_files([params], "params")
-    check_outputs([Path(out) / f"{Path(p).stem}.csv" for p in paths] + [Path(out) / "predict.yaml"],
+    check_outputs([Path(out) / f"{Path(p).stem}.csv" for p in paths] + [Path(out) / "predict.yaml",
+                                                                          figure_path(Path(out) / "predict.png")],
                   paths + [params, config])
     result = predict(paths, params, config=cfg)
     from bpmid.io import plausibility as plaus
 
     plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out))
-    result.save(out)
+    result.save(out, figure=True)
     for p in result.raw:
         if p.metrics is not None:
             m = p.metrics

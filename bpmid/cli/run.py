@@ -6,6 +6,8 @@ from typing import Optional
 
 import typer
 
+from bpmid.plots.options import figures_option, set_figure_format
+
 from bpmid.cli._app import app, command
 
 EPILOG = ("Example:  bpmid run   (configs/paper.yaml on the shipped datasets, into out/paper)  |  "
@@ -19,9 +21,11 @@ def run(
                                             "source tree."),
     out: Optional[Path] = typer.Option(None, "--out", help="Output folder (default: run.out of the config, else "
                                        "out/<config name>)."),
+    figures: Optional[str] = figures_option(),
 ):
     """The whole study in one command: relaxation fit, motion fit (VBMM-mat and VBMM-fit), comparison of all
     models, history modes, discovery and the report; every stage's files in the output folder, progress on stderr."""
+    set_figure_format(figures)
     from bpmid.config import load_config
     from bpmid.run import default_config_path, run_study
 

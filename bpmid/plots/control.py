@@ -6,9 +6,10 @@ from typing import Sequence
 
 import numpy as np
 
-from bpmid.plots.common import label_synthetic, new_figure
+from bpmid.plots.common import OKABE_ITO, finish, new_figure, outside_legend
 
-CONTROL_COLORS = {"pi": "#1f77b4", "vbmm-pi": "#d62728", "ms-pi": "#9467bd"}
+CONTROL_COLORS = {"pi": OKABE_ITO["orange"], "vbmm-pi": OKABE_ITO["blue"], "ms-pi": OKABE_ITO["purple"]}
+CONTROL_STYLES = {"pi": (0, (5, 2)), "vbmm-pi": "-", "ms-pi": "-."}
 LABELS = {"pi": "PI", "vbmm-pi": "VBMM-PI", "ms-pi": "MS-PI"}
 
 
@@ -28,37 +29,41 @@ def _concatenated(runs, controller, references):
     return cat(t), cat(ref), cat(ang), cat(err), cat(cmd), bounds[:-1]
 
 
-def fig18(runs: Sequence, *, limits_bar: tuple[float, float] | None = None, synthetic: bool = True):
-    """(a) reference and measured responses, (b) tracking error, (c) command pressure, against time; every
-    reference of ``runs`` end to end, one colour per controller."""
+def fig18(runs: Sequence, *, limits_bar: tuple[float, float] | None = None, synthetic: bool = True,
+          atmosphere_bar: float = 1.01325):
+    """(a) reference and measured responses, (b) tracking error, (c) command pressure (gauge), against time;
+    every reference of ``runs`` end to end, one colour and line style per controller."""
     refs = list(dict.fromkeys(r.reference for r in runs))
     ctrls = list(dict.fromkeys(r.controller for r in runs))
-    fig, ax = new_figure(3, 1, width=9.0, height=7.5, sharex=True, gridspec_kw={"height_ratios": [3, 2, 1.4]})
+    fig, ax = new_figure(3, 1, width=9.5, height=7.2, sharex=True, gridspec_kw={"height_ratios": [3, 2, 1.4]},
+                         legend="right", legend_size=1.3, hgap=0.35, bottom=0.7)
     for i, c in enumerate(ctrls):
         t, ref, ang, err, cmd, bounds = _concatenated(runs, c, refs)
         if i == 0:
-            ax[0].plot(t, ref, color="black", lw=1.4, ls="--", label="reference")
+            ax[0].plot(t, ref, color="black", lw=1.6, alpha=0.5, label="reference")
             for b in bounds:
                 for a in ax:
-                    a.axvline(b, color="0.8", lw=0.8)
-        col = CONTROL_COLORS.get(c)
-        ax[0].plot(t, ang, color=col, lw=1.0, label=LABELS.get(c, c))
-        ax[1].plot(t, err, color=col, lw=0.9, label=LABELS.get(c, c))
-        ax[2].plot(t, cmd, color=col, lw=0.8)
+                    a.axvline(b, color="0.75", lw=0.8, ls=":")
+        col, ls = CONTROL_COLORS.get(c), CONTROL_STYLES.get(c, "-")
+        ax[0].plot(t, ang, color=col, ls=ls, lw=1.0, label=LABELS.get(c, c))
+        ax[1].plot(t, err, color=col, ls=ls, lw=0.9)
+        ax[2].plot(t, cmd - atmosphere_bar, color=col, ls=ls, lw=0.8)
     if limits_bar is not None:
         for lim in limits_bar:
-            ax[2].axhline(lim, color="0.3", ls=":", lw=0.8)
-    ax[0].set_ylabel("bending angle (deg)")
-    ax[0].set_title("(a) time-angle", loc="left", fontsize=10)
-    ax[0].legend(loc="upper right", fontsize=8, ncol=len(ctrls) + 1)
+            ax[2].axhline(lim - atmosphere_bar, color="0.3", ls=":", lw=0.8)
+        ax[2].plot([], [], color="0.3", ls=":", lw=0.8, label="command limits")
+    ax[0].set_ylabel("bending angle (°)")
+    ax[0].set_title("(a) time-angle", loc="left")
     ax[1].axhline(0.0, color="0.5", lw=0.6)
-    ax[1].set_ylabel("error (deg)")
-    ax[1].set_title("(b) time-error", loc="left", fontsize=10)
-    ax[2].set_ylabel("command (bar abs)")
+    ax[1].set_ylabel("error (°)")
+    ax[1].set_title("(b) time-error", loc="left")
+    ax[2].set_ylabel("command\n(bar gauge)")
+    ax[2].set_title("(c) command pressure", loc="left")
     ax[2].set_xlabel("time (s); references end to end: " + ", ".join(refs))
-    if synthetic:
-        label_synthetic(fig)
-    return fig
+    h0, l0 = ax[0].get_legend_handles_labels()
+    h2, l2 = ax[2].get_legend_handles_labels()
+    outside_legend(fig, h0 + h2, l0 + l2)
+    return finish(fig, synthetic)
 
 
 __all__ = ["fig18", "CONTROL_COLORS"]

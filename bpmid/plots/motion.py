@@ -1,6 +1,8 @@
-"""Figures of a motion fit: pressure-angle loops measured and fitted, angle and error against time.
+"""Figures of a motion fit or prediction: pressure-angle loops measured and modelled, angle and error against
+time.
 
-Functions return figures and never write files (:func:`bpmid.plots.common.save_figure` does).
+Functions return figures and never write files (:func:`bpmid.plots.common.save_figure` does). Pressure is
+always gauge pressure in bar (the model's input), whatever the log's own unit and reference.
 """
 from __future__ import annotations
 
@@ -9,17 +11,10 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from bpmid.io.motion_logs import MotionLog
-from bpmid.plots.common import MODEL_COLORS, label_synthetic, new_figure
+from bpmid.plots.common import (MODEL_COLORS, MODEL_STYLES, PA_PER_BAR, PRESSURE_LABEL, finish, new_figure,
+                                outside_legend)
 
 MAX_ROWS = 6
-
-
-def _pressure_axis(log: MotionLog) -> tuple[np.ndarray, str]:
-    """The pressure as logged (unit and reference of the file) for the x axis."""
-    if log.pressure_as_given is not None:
-        ref = "abs" if log.pressure_reference == "absolute" else "gauge"
-        return np.asarray(log.pressure_as_given, float), f"pressure ({log.pressure_unit}, {ref})"
-    return np.asarray(log.pressure_pa, float) / 1e5, "pressure (bar, gauge)"
 
 
 def motion_fit_figure(logs: Sequence[MotionLog], predictions: Mapping[str, np.ndarray], *,
@@ -29,7 +24,7 @@ def motion_fit_figure(logs: Sequence[MotionLog], predictions: Mapping[str, np.nd
 
     Parameters
     ----------
-    logs : logs with ``angle_deg``
+    logs : motion logs (a log without ``angle_deg`` shows the prediction only)
     predictions : log name -> (N,) predicted angle (deg)
     model, label : colour key of :data:`MODEL_COLORS` and legend text
     synthetic : mark the figure as made from synthetic data
@@ -40,39 +35,45 @@ def motion_fit_figure(logs: Sequence[MotionLog], predictions: Mapping[str, np.nd
     """
     shown = list(logs)[:MAX_ROWS]
     rows = max(len(shown), 1)
-    fig, axes = new_figure(rows, 3, width=12.0, height=2.4 * rows + 0.6, squeeze=False)
-    color = MODEL_COLORS.get(model, "C3")
+    fig, axes = new_figure(rows, 3, width=12.0, height=2.3 * rows + 0.9, squeeze=False, legend="right",
+                           legend_size=1.6, suptitle=bool(title), hgap=0.8)
+    color = MODEL_COLORS.get(model, "#0072B2")
+    ls = MODEL_STYLES.get(model, "-")
     meas = MODEL_COLORS["measured"]
     for r, lg in enumerate(shown):
         pred = np.asarray(predictions[lg.name], float)
-        p, plabel = _pressure_axis(lg)
+        p = np.asarray(lg.pressure_pa, float) / PA_PER_BAR
         ax_loop, ax_t, ax_e = axes[r]
         if lg.angle_deg is not None:
-            ax_loop.plot(p, lg.angle_deg, color=meas, lw=0.8, label="measured")
-            ax_t.plot(lg.time_s, lg.angle_deg, color=meas, lw=0.8, label="measured")
+            # measured: broad and light behind, so a model lying on it stays visible on top
+            ax_loop.plot(p, lg.angle_deg, color=meas, lw=2.4, alpha=0.3, label="measured")
+            ax_t.plot(lg.time_s, lg.angle_deg, color=meas, lw=2.4, alpha=0.3)
             err = pred - lg.angle_deg
             rmse = float(np.sqrt(np.nanmean(err**2)))
-            ax_e.plot(lg.time_s, err, color=color, lw=0.7)
-            ax_e.axhline(0.0, color="0.6", lw=0.6)
-            ax_e.set_title(f"{lg.name}: RMSE {rmse:.3g} deg", fontsize=9)
-        ax_loop.plot(p, pred, color=color, lw=1.0, label=label)
-        ax_t.plot(lg.time_s, pred, color=color, lw=1.0, label=label)
-        ax_loop.set_xlabel(plabel)
-        ax_loop.set_ylabel("bending angle (deg)")
-        ax_loop.set_title(f"{lg.name}: loop", fontsize=9)
+            ax_e.plot(lg.time_s, err, color=color, lw=0.8)
+            ax_e.axhline(0.0, color="0.5", lw=0.6)
+            ax_e.set_title(f"{lg.name}: error, RMSE {rmse:.3g}°")
+        else:
+            ax_e.text(0.5, 0.5, "no measured angle in this log", transform=ax_e.transAxes, ha="center", color="0.4")
+            ax_e.set_title(f"{lg.name}: error")
+        ax_loop.plot(p, pred, color=color, lw=1.1, ls=ls, label=label)
+        ax_t.plot(lg.time_s, pred, color=color, lw=1.1, ls=ls)
+        ax_loop.set_xlabel(PRESSURE_LABEL)
+        ax_loop.set_ylabel("bending angle (°)")
+        ax_loop.set_title(f"{lg.name}: loop")
+        ax_t.set_title(f"{lg.name}: angle")
         ax_t.set_xlabel("time (s)")
-        ax_t.set_ylabel("angle (deg)")
+        ax_t.set_ylabel("bending angle (°)")
         ax_e.set_xlabel("time (s)")
-        ax_e.set_ylabel("fitted - measured (deg)")
-        if r == 0:
-            ax_loop.legend(fontsize=8, loc="upper left")
+        ax_e.set_ylabel("model − measured (°)")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
     if len(logs) > MAX_ROWS:
-        fig.text(0.005, 0.005, f"first {MAX_ROWS} of {len(logs)} logs shown", fontsize=7, color="0.4")
+        handles.append(axes[0, 0].plot([], [], color="none")[0])
+        labels.append(f"(first {MAX_ROWS} of {len(logs)} logs)")
+    outside_legend(fig, handles, labels)
     if title:
-        fig.suptitle(title, fontsize=10)
-    if synthetic:
-        label_synthetic(fig)
-    return fig
+        fig.suptitle(title, y=1 - 0.08 / fig.get_size_inches()[1], va="top")
+    return finish(fig, synthetic)
 
 
 __all__ = ["motion_fit_figure", "MAX_ROWS"]

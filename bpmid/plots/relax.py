@@ -6,75 +6,109 @@ from __future__ import annotations
 
 import numpy as np
 
-from bpmid.plots.common import label_synthetic, new_figure
+from bpmid.plots.common import finish, new_figure, outside_legend
+
+
+def _log_colors(n: int):
+    """One colour per log from a sequential, colour-blind-safe map (order of the logs: dark to light)."""
+    import matplotlib
+
+    cmap = matplotlib.colormaps["viridis"]
+    return [cmap(0.75 * i / max(n - 1, 1)) for i in range(n)]
 
 
 def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
     """Three panels for a :class:`bpmid.relax.fit.RelaxFit`.
 
-    (a) each log's measured stress (ramp mode) or modulus (step mode) with the fit; (b) the
-    relaxation-modulus curves of all logs overlaid with the fitted E(t) (the paper's Fig. 14(c)), on a
-    log time axis when the data span more than three decades; (c) residuals against time.
+    (a) each log's measured stress (ramp mode) or modulus (step mode) as dots with the fit as a line;
+    (b) the relaxation-modulus data of every log (dots) with the fitted E(t) over them (the paper's
+    Fig. 14(c)), on a log time axis when the data span more than three decades; (c) the residuals of all
+    logs in one neutral colour with their binned RMS envelope (one line, not one colour per log).
 
     Parameters
     ----------
     fit : RelaxFit
     synthetic : mark the figure as made from synthetic data
-    max_logs : draw at most this many logs in panels (a) and (c) (the fit used all of them)
+    max_logs : draw at most this many logs in panel (a) (the fit used all of them)
     """
-    fig, (ax_a, ax_b, ax_c) = new_figure(1, 3, width=15.0, height=4.6)
     logs = fit.logs[:max_logs]
-    colors = [f"C{i % 10}" for i in range(len(logs))]
+    fig, (ax_a, ax_b, ax_c) = new_figure(1, 3, width=12.5, height=3.9, legend="right", legend_size=1.9, wgap=0.85)
+    colors = _log_colors(len(fit.logs))
     unit, scale = ("kPa", 1e3) if fit.E_inf + fit.E.sum() < 1.0 else ("MPa", 1.0)
     all_t = np.concatenate([lg.hold.t for lg in fit.logs])
     span = max(float(np.ptp(all_t)), 1e-12) if all_t.size else 10.0
     pos = np.concatenate([lg.hold.t[lg.hold.t > 0] for lg in fit.logs])
     log_time = pos.size > 0 and span / max(float(pos.min()), 1e-300) > 1e4
     for lg, c in zip(logs, colors):
-        t = lg.t
-        ax_a.plot(t, lg.y * scale, ".", ms=1.5, color=c, alpha=0.5)
-        ax_a.plot(t, lg.y_fit * scale, "-", lw=1.0, color=c, label=lg.name if len(logs) <= 12 else None)
-        ax_c.plot(t, (lg.y - lg.y_fit) * scale, "-", lw=0.5, color=c, alpha=0.6)
+        step = max(len(lg.t) // 400, 1)
+        ax_a.plot(lg.t[::step], lg.y[::step] * scale, "o", ms=1.6, color=c, alpha=0.6, ls="none")
+        ax_a.plot(lg.t, lg.y_fit * scale, "-", lw=1.0, color=c, label=lg.name if len(logs) <= 8 else None)
     what = "stress" if fit.quantity == "stress" else "relaxation modulus"
-    ax_a.set(xlabel="time (s)", ylabel=f"{what} ({unit})",
-             title=f"(a) {what}: data (dots) and {fit.mode}-mode fit")
+    ax_a.set(xlabel="time (s)", ylabel=f"{what} ({unit})", title=f"(a) {what}: data (dots), {fit.mode}-mode fit")
     if log_time:
-        ax_a.set_xscale("log")
-        ax_c.set_xscale("log")
+        for ax in (ax_a, ax_c):
+            ax.set_xscale("log")
     if fit.mode == "ramp":  # the ramp and the first 10 s of the hold carry the information
         t_end = max(float(lg.t[lg.hold.start]) for lg in fit.logs if lg.hold.t.size) + 10.0 \
             if any(lg.hold.t.size for lg in fit.logs) else np.inf
         if t_end < max(float(lg.t[-1]) for lg in fit.logs):
             ax_a.set_xlim(float(min(lg.t[0] for lg in fit.logs)), t_end)
-            ax_a.set_title(f"(a) {what}: data (dots) and ramp-mode fit (first {t_end:.0f} s)")
-    if len(logs) <= 12:
-        ax_a.legend(fontsize=6, ncol=2, loc="best")
-    for lg, c in zip(fit.logs, [f"C{i % 10}" for i in range(len(fit.logs))]):
+            ax_a.set_title(f"(a) {what}: data (dots), fit (first {t_end:.0f} s)")
+    # (b) data as markers, fit as a line on top: both visible even when the data are one dense master curve
+    for lg, c in zip(fit.logs, colors):
         h = lg.hold
-        tt = h.t[h.t > 0] if log_time else h.t
-        ee = h.modulus_mpa[h.t > 0] if log_time else h.modulus_mpa
-        ax_b.plot(tt, ee * scale, "-", lw=0.7, color=c, alpha=0.7)
+        keep = h.t > 0 if log_time else h.t <= min(span, 10.0)  # the window panel (b) shows
+        tt, ee = h.t[keep], h.modulus_mpa[keep]
+        # thinned to open circles large enough to show around the fitted line drawn over them
+        n_show = max(60 // max(len(fit.logs), 1), 12)
+        if log_time and tt.size > n_show:  # evenly in log time
+            idx = np.unique(np.searchsorted(tt, np.logspace(np.log10(tt[0]), np.log10(tt[-1]), n_show)).clip(0, tt.size - 1))
+            tt, ee = tt[idx], ee[idx]
+        elif tt.size > 4 * n_show:
+            tt, ee = tt[:: tt.size // (4 * n_show)], ee[:: ee.size // (4 * n_show)]
+        ax_b.plot(tt, ee * scale, "o", ms=4.5, mfc="none", mec=c, mew=0.9, ls="none")
     if pos.size == 0:
         pos = np.array([1e-3, span])
     grid = (np.logspace(np.log10(pos.min()), np.log10(pos.max()), 400) if log_time
             else np.linspace(0.0, min(span, 10.0), 400))
-    ax_b.plot(grid, fit.modulus(grid) * scale, "k-", lw=2.0, label=f"fitted E(t), {fit.m} term(s)")
-    if fit.mode == "ramp":
-        ax_b.text(0.98, 0.80, "curves: sigma/eps of each hold\n(biased low early on by the ramp)",
-                  transform=ax_b.transAxes, ha="right", va="top", fontsize=7, color="0.3")
-    ax_b.set(xlabel="time since the step / hold start (s)", ylabel=f"E(t) ({unit})",
-             title="(b) relaxation modulus of every log")
+    ax_b.plot(grid, fit.modulus(grid) * scale, "-", color="black", lw=1.0, label=f"fitted E(t), {fit.m} term(s)")
+    ax_b.plot([], [], "o", ms=4.5, mfc="none", mec=colors[0], ls="none", label="E(t) data (σ/ε of each hold)" if fit.mode == "ramp"
+              else "E(t) data")
+    ax_b.set(xlabel="time since hold start (s)", ylabel=f"E(t) ({unit})", title="(b) relaxation modulus: data and fit")
     if log_time:
         ax_b.set_xscale("log")
+        ax_b.set_yscale("log")
     else:  # the paper's Fig. 14(c) shows the first 10 s, where the relaxation happens
         ax_b.set_xlim(0.0, min(span, 10.0))
-    ax_b.legend(fontsize=7, loc="upper right")
-    ax_c.axhline(0.0, color="k", lw=0.5)
+    # (c) residuals in one colour, the binned RMS as the envelope
+    t_all = np.concatenate([lg.t for lg in fit.logs])
+    r_all = np.concatenate([(lg.y - lg.y_fit) * scale for lg in fit.logs])
+    ax_c.plot(t_all, r_all, ".", ms=1.0, color="0.55", alpha=0.5, ls="none", label="residual, every log")
+    if t_all.size > 20:
+        edges = (np.logspace(np.log10(max(t_all[t_all > 0].min(), 1e-300)), np.log10(t_all.max()), 30) if log_time
+                 else np.linspace(t_all.min(), t_all.max(), 40))
+        which = np.digitize(t_all, edges)
+        cen, rms = [], []
+        for k in np.unique(which):
+            sel = which == k
+            if sel.sum() >= 3:
+                cen.append(float(np.median(t_all[sel])))
+                rms.append(float(np.sqrt(np.mean(r_all[sel] ** 2))))
+        ax_c.plot(cen, rms, "-", color="black", lw=1.2, label="± binned RMS")
+        ax_c.plot(cen, -np.asarray(rms), "-", color="black", lw=1.2)
+    ax_c.axhline(0.0, color="0.3", lw=0.5)
     ax_c.set(xlabel="time (s)", ylabel=f"residual ({unit})",
-             title=f"(c) residuals, RMSE {fit.rmse_mpa * scale:.3g} {unit}, R² {fit.r2:.4f}")
-    if synthetic:
-        label_synthetic(fig)
-    return fig
+             title=f"(c) residuals: RMSE {fit.rmse_mpa * scale:.3g} {unit}, R² {fit.r2:.4f}")
+    handles, labels = [], []
+    for ax in (ax_a, ax_b, ax_c):
+        h, lab = ax.get_legend_handles_labels()
+        handles += h
+        labels += lab
+    if len(fit.logs) > len(logs):
+        labels.append(f"(first {len(logs)} of {len(fit.logs)} logs in (a))")
+        handles.append(ax_a.plot([], [], color="none")[0])
+    outside_legend(fig, handles, labels)
+    return finish(fig, synthetic)
 
 
 def _sparse_log_ticks(fig) -> None:
@@ -176,6 +210,4 @@ def material_figure(mf, *, synthetic: bool = False):
         ax_f.set(xlabel="temperature (°C)", ylabel="log10 a_T (-)", title="(f) shift factors and shift functions")
         ax_f.legend(fontsize=7)
     _sparse_log_ticks(fig)
-    if synthetic:
-        label_synthetic(fig)
-    return fig
+    return finish(fig, synthetic)

@@ -1,5 +1,6 @@
-"""Figures of the study report: history-mode timing, relaxation-modulus curves, error bands and residual
-diagnostics. They take results (tables, dicts, arrays) and return figures; they never write files."""
+"""Figures of the study report: history-mode timing, relaxation-modulus curves, error bands, residual
+diagnostics and the prediction figure. They take results (tables, dicts, arrays) and return figures; they
+never write files."""
 from __future__ import annotations
 
 from typing import Mapping, Sequence
@@ -7,44 +8,48 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from bpmid.plots.common import MODEL_COLORS, new_figure
-from bpmid.plots.compare import finish as _finish
+from bpmid.plots.common import (OKABE_ITO, PA_PER_BAR, PRESSURE_RATE_LABEL, color_of, finish, new_figure,
+                                outside_legend, style_of)
 
-MODE_COLORS = {"recursive": "#1f77b4", "window": "#2ca02c", "full": "#d62728"}
-
-
-def color_of(name: str, i: int = 0) -> str:
-    import matplotlib.pyplot as plt
-
-    return MODEL_COLORS.get(name, plt.rcParams["axes.prop_cycle"].by_key()["color"][i % 10])
+MODE_COLORS = {"recursive": OKABE_ITO["blue"], "window": OKABE_ITO["green"], "full": OKABE_ITO["vermillion"]}
+MODE_STYLES = {"recursive": "-", "window": "--", "full": "-."}
+MODE_MARKERS = {"recursive": "o", "window": "s", "full": "^"}
 
 
 def history_figure(study, *, synthetic: bool = True):
-    """Left: cost per simulated step against log length for each history mode. Right: on the whole long
-    log, the prediction error of each mode and the difference window minus full."""
-    fig, (a, b) = new_figure(1, 2, width=10.0, height=3.8)
+    """(a) cost per simulated step against log length for each history mode; (b) on the whole long log, the
+    prediction error of full and window (on top of each other when they agree); (c) the difference window
+    minus full on its own axis, so that a difference of 1e-12° is visible and read off its own scale."""
+    fig, (a, b, c) = new_figure(1, 3, width=13.0, height=3.7, legend="top", legend_size=0.45, wgap=0.9)
     t = study.timing
     for mode, g in t.groupby("mode", sort=False):
-        a.plot(g["n_steps"], g["us_per_step"], "o-", color=MODE_COLORS.get(mode), label=mode)
+        a.plot(g["n_steps"], g["us_per_step"], marker=MODE_MARKERS.get(mode, "o"), color=MODE_COLORS.get(mode),
+               ls=MODE_STYLES.get(mode, "-"), label=f"{mode} history")
     a.set_xlabel("log length (steps)")
-    a.set_ylabel("cost per simulated step (us)")
+    a.set_ylabel("cost per simulated step (µs)")
     a.set_yscale("log")
-    a.set_title(f"Cost per step vs log length (T_win = {study.window_s:g} s)", fontsize=9)
-    a.legend(fontsize=8)
+    a.set_title(f"(a) cost per step (T_win = {study.window_s:g} s)")
     lg = study.log
     for mode in ("full", "window"):
         if mode in study.predictions:
-            b.plot(lg.time_s, study.predictions[mode] - lg.angle_deg, lw=0.6, color=MODE_COLORS[mode],
-                   label=f"{mode}: error vs measured (RMSE {study.accuracy[mode]['rmse_deg']:.3f} deg)")
+            b.plot(lg.time_s, study.predictions[mode] - lg.angle_deg, lw=1.6 if mode == "full" else 0.9,
+                   color=MODE_COLORS[mode], ls=MODE_STYLES[mode])
+    b.set_xlabel("time (s)")
+    b.set_ylabel("model − measured (°)")
+    rm = {m: study.accuracy[m]["rmse_deg"] for m in ("full", "window") if m in study.accuracy}
+    b.set_title("(b) error: " + ", ".join(f"{m} RMSE {v:.3f}°" for m, v in rm.items()))
     if "window" in study.predictions and "full" in study.predictions:
         d = study.predictions["window"] - study.predictions["full"]
-        b.plot(lg.time_s, d, lw=1.0, color="black",
-               label=f"window - full (max |diff| {np.max(np.abs(d)):.2e} deg)")
-    b.set_xlabel("time (s)")
-    b.set_ylabel("angle (deg)")
-    b.set_title(f"Long-term run {lg.name}: error and window - full", fontsize=9)
-    b.legend(fontsize=7, loc="upper right")
-    return _finish(fig, synthetic)
+        c.plot(lg.time_s, d, lw=0.9, color="black")
+        c.set_title(f"(c) window − full: max |diff| {np.max(np.abs(d)):.2g}°")
+        c.ticklabel_format(axis="y", style="sci", scilimits=(-2, 3), useMathText=True)
+    else:
+        c.text(0.5, 0.5, "window or full not run", transform=c.transAxes, ha="center")
+        c.set_title("(c) window − full")
+    c.set_xlabel("time (s)")
+    c.set_ylabel("difference (°)")
+    outside_legend(fig, ax=a, ncol=3)
+    return finish(fig, synthetic)
 
 
 def modulus_curves(relax: Mapping, *, paper: Mapping | None = None, synthetic: bool = True):
@@ -62,59 +67,63 @@ def modulus_curves(relax: Mapping, *, paper: Mapping | None = None, synthetic: b
 
     taus = [float(tr["tau"]["value"]) for tr in (relax.get("prony") or {}).get("terms") or []] or [1.0]
     t = np.logspace(np.log10(min(taus) / 30), np.log10(max(max(taus) * 30, 10.0)), 300)
-    fig, axes = new_figure(1, 2, width=10.0, height=3.6)
-    a, b = axes
+    fig, axes = new_figure(1, 3, width=12.5, height=3.5, legend="top", legend_size=0.45, wgap=0.9)
+    a, b, k_ax = axes
     e = curve("prony", "E", "E_inf", t)
     if e is not None:
-        a.semilogx(t, e / 1e6, color="#1f77b4", lw=2, label="E(t), fitted here")
+        a.semilogx(t, e / 1e6, color=OKABE_ITO["blue"], lw=2, label="fitted here")
     if paper:
         ep = paper["E_inf"] + paper["E_1"] * np.exp(-t / paper["tau_1"])
-        a.semilogx(t, ep / 1e6, "--", color="0.35", lw=1.3, label="E(t), paper's published fit (quoted, paper's data)")
+        a.semilogx(t, ep / 1e6, "--", color="0.35", lw=1.3, label="paper's published fit (quoted, paper's data)")
     a.set_xlabel("time (s)")
-    a.set_ylabel("relaxation modulus (MPa)")
-    a.set_title("Tensile relaxation modulus", fontsize=9)
-    a.legend(fontsize=7)
+    a.set_ylabel("E(t) (MPa)")
+    a.set_title("(a) tensile relaxation modulus")
     g = curve("shear", "G", "G_inf", t)
     k = curve("bulk", "K", "K_inf", t)
     if g is not None:
-        b.semilogx(t, g / 1e6, color="#d62728", lw=2, label="G(t) (MPa)")
-    b.set_ylabel("shear modulus G (MPa)")
+        b.semilogx(t, g / 1e6, color=OKABE_ITO["blue"], lw=2)
+    b.set_ylabel("G(t) (MPa)")
     b.set_xlabel("time (s)")
+    b.set_title(f"(b) shear modulus (ν = {relax.get('poisson_ratio', float('nan')):.5g})")
     if k is not None:
-        b2 = b.twinx()
-        b2.semilogx(t, k / 1e6, color="#9467bd", lw=2, ls="-.", label="K(t) (MPa)")
-        b2.set_ylabel("bulk modulus K (MPa)")
-        h1, l1 = b.get_legend_handles_labels()
-        h2, l2 = b2.get_legend_handles_labels()
-        b.legend(h1 + h2, l1 + l2, fontsize=7)
-    b.set_title(f"Shear and bulk moduli (nu = {relax.get('poisson_ratio', float('nan')):.5g})", fontsize=9)
-    return _finish(fig, synthetic)
+        k_ax.semilogx(t, k / 1e6, color=OKABE_ITO["blue"], lw=2)
+    k_ax.set_ylabel("K(t) (MPa)")
+    k_ax.set_xlabel("time (s)")
+    k_ax.set_title("(c) bulk modulus")
+    outside_legend(fig, ax=a, ncol=2)
+    return finish(fig, synthetic)
 
 
 def error_bands(sets: Mapping[str, Sequence[pd.DataFrame]], models: Sequence[str], *, synthetic: bool = True):
-    """Per test set (one panel each): every model's mean prediction error over the set's logs against time,
-    with a band from the smallest to the largest error across the logs (aligned by sample, cut to the
-    shortest log). ``sets``: set name -> prediction frames (``time_s``, ``angle_deg``, ``pred_<model>_deg``)."""
+    """Small multiples, one row per test set and one column per model: the model's mean prediction error
+    over the set's logs against time, with a band from the smallest to the largest error across the logs
+    (aligned by sample, cut to the shortest log). One line per panel: nothing to untangle.
+    ``sets``: set name -> prediction frames (``time_s``, ``angle_deg``, ``pred_<model>_deg``)."""
     names = list(sets)
-    fig, axes = new_figure(len(names), 1, width=9.0, height=2.4 * len(names) + 0.6, squeeze=False)
-    for ax, s in zip(axes.ravel(), names):
+    models = [m for m in models if any(f"pred_{m}_deg" in fr for v in sets.values() for fr in v)] or list(models)
+    nm = max(len(models), 1)
+    fig, axes = new_figure(len(names), nm, width=1.2 + 2.3 * nm, height=1.9 * len(names) + 0.9, squeeze=False,
+                           sharey=True, sharex="row", wgap=0.2, hgap=0.75, left=0.95)
+    for r, s in enumerate(names):
         frames = sets[s]
         n = min(len(f) for f in frames)
         t = frames[0]["time_s"].to_numpy()[:n] - frames[0]["time_s"].iloc[0]
-        for i, m in enumerate(models):
+        for c, m in enumerate(models):
+            ax = axes[r, c]
             col = f"pred_{m}_deg"
             if col not in frames[0]:
+                ax.text(0.5, 0.5, "not run", transform=ax.transAxes, ha="center")
                 continue
             err = np.stack([f[col].to_numpy()[:n] - f["angle_deg"].to_numpy()[:n] for f in frames])
-            c = color_of(m, i)
-            ax.fill_between(t, err.min(axis=0), err.max(axis=0), color=c, alpha=0.18, lw=0)
-            ax.plot(t, err.mean(axis=0), color=c, lw=1.0, label=m)
-        ax.axhline(0, color="black", lw=0.5)
-        ax.set_title(f"{s}: mean error over {len(frames)} log(s), band = min..max", fontsize=9)
-        ax.set_ylabel("error (deg)")
-    axes.ravel()[-1].set_xlabel("time from start of log (s)")
-    axes.ravel()[0].legend(fontsize=7, ncol=3)
-    return _finish(fig, synthetic)
+            clr = color_of(m, c)
+            ax.fill_between(t, err.min(axis=0), err.max(axis=0), color=clr, alpha=0.25, lw=0)
+            ax.plot(t, err.mean(axis=0), color=clr, lw=1.0)
+            ax.axhline(0, color="black", lw=0.5)
+            ax.set_title(m if r == 0 else "")
+            if c == 0:
+                ax.set_ylabel(f"{s}\n({len(frames)} log(s))\nerror (°)")
+            ax.set_xlabel("time in log (s)")
+    return finish(fig, synthetic)
 
 
 def acf(r: np.ndarray, max_lag: int) -> np.ndarray:
@@ -126,9 +135,9 @@ def acf(r: np.ndarray, max_lag: int) -> np.ndarray:
 
 def residual_diagnostics(frames: Sequence[pd.DataFrame], models: Sequence[str], *, max_lag: int = 100,
                          synthetic: bool = True):
-    """Residual diagnostics of every model on the pooled test logs: autocorrelation with the +-2.576/sqrt(N)
-    whiteness bounds, residual against the pressure rate, and residual histograms."""
-    fig, (a, b, c) = new_figure(1, 3, width=12.0, height=3.6)
+    """Residual diagnostics of every model on the pooled test logs: autocorrelation with the ±2.576/√N
+    whiteness bounds, binned mean residual against the pressure rate, and residual distributions."""
+    fig, (a, b, c) = new_figure(1, 3, width=12.5, height=3.6, legend="right", legend_size=1.8, wgap=0.85)
     n_total = sum(len(f) for f in frames)
     for i, m in enumerate(models):
         col = f"pred_{m}_deg"
@@ -138,30 +147,43 @@ def residual_diagnostics(frames: Sequence[pd.DataFrame], models: Sequence[str], 
                 continue
             e = f[col].to_numpy() - f["angle_deg"].to_numpy()
             res.append(e)
-            p = f["pressure_pa_gauge"].to_numpy() / 1e5
+            p = f["pressure_pa_gauge"].to_numpy() / PA_PER_BAR
             rate.append(np.gradient(p, f["time_s"].to_numpy()))
         if not res:
             continue
-        clr = color_of(m, i)
+        clr, ls = color_of(m, i), style_of(m, i)
         lags = min(max_lag, min(len(r) for r in res) - 1)
-        a.plot(np.arange(lags + 1), np.mean([acf(r, lags) for r in res], axis=0), color=clr, lw=1.0, label=m)
+        a.plot(np.arange(lags + 1), np.mean([acf(r, lags) for r in res], axis=0), color=clr, ls=ls, lw=1.1, label=m)
         e_all, r_all = np.concatenate(res), np.concatenate(rate)
-        b.scatter(r_all, e_all, s=2, color=clr, alpha=0.25, rasterized=True)
-        order = np.argsort(r_all)
-        bins = np.array_split(order, 12)
-        b.plot([r_all[k].mean() for k in bins], [e_all[k].mean() for k in bins], color=clr, lw=1.5, label=m)
-        c.hist(e_all, bins=50, histtype="step", color=clr, lw=1.2, label=m, density=True)
+        edges = np.linspace(r_all.min(), r_all.max(), 13)
+        which = np.clip(np.digitize(r_all, edges) - 1, 0, 11)
+        xs, ys = [], []
+        for k in range(12):
+            sel = which == k
+            if sel.sum() >= 5:
+                xs.append(float(r_all[sel].mean()))
+                ys.append(float(e_all[sel].mean()))
+        b.plot(xs, ys, color=clr, ls=ls, lw=1.3, marker="o", ms=2.5)
+        c.hist(e_all, bins=50, histtype="step", color=clr, ls=ls, lw=1.1, density=True)
     bound = 2.576 / np.sqrt(max(n_total / max(len(frames), 1), 1))
-    a.axhspan(-bound, bound, color="0.85", label="whiteness bounds (99 %)")
+    a.axhspan(-bound, bound, color="0.85", label="99 % whiteness bounds")
     a.set_xlabel("lag (samples)")
     a.set_ylabel("residual autocorrelation")
-    a.set_title("Whiteness (mean over test logs)", fontsize=9)
-    a.legend(fontsize=7)
+    a.set_title("(a) whiteness (mean over logs)")
     b.axhline(0, color="black", lw=0.5)
-    b.set_xlabel("pressure rate (bar/s)")
-    b.set_ylabel("residual (deg)")
-    b.set_title("Residual vs pressure rate (line: binned mean)", fontsize=9)
-    c.set_xlabel("residual (deg)")
-    c.set_ylabel("density")
-    c.set_title("Residual distribution", fontsize=9)
-    return _finish(fig, synthetic)
+    b.set_xlabel(PRESSURE_RATE_LABEL)
+    b.set_ylabel("mean residual (°)")
+    b.set_title("(b) residual vs pressure rate (12 equal bins)")
+    c.set_xlabel("residual (°)")
+    c.set_ylabel("density (1/°)")
+    c.set_title("(c) residual distribution")
+    outside_legend(fig, ax=a)
+    return finish(fig, synthetic)
+
+
+def prediction_figure(logs, predictions, *, label: str = "prediction", synthetic: bool = False):
+    """``bpmid predict``: measured vs predicted angle (loop, time series) and the error, one row per log."""
+    from bpmid.plots.motion import motion_fit_figure
+
+    return motion_fit_figure(logs, predictions, model="vbmm-fit", label=label, synthetic=synthetic,
+                             title="Prediction: measured and predicted angle, error")

@@ -396,7 +396,8 @@ def fit_relax_files(logs: Sequence[str | Path], *, terms: str | int | None = Non
         plaus.emit(checks, strict=True, what="the relaxation fit")
     fit.warnings = list(fit.warnings) + checks
     prov = plaus.attach(provenance(paths, config=config), records, checks)
-    synthetic = any(str(r.meta.get("synthetic", "")).lower() in ("true", "yes", "1") for r in records)
+    synthetic = any((str(r.meta.get("synthetic", "")).lower().replace("(", " ").split() or [""])[0] in ("true", "yes", "1")
+                    for r in records)
     return RelaxRun(fit, relax_fit_body(fit, nu), prov, synthetic)
 
 
@@ -433,6 +434,8 @@ def save_relax_result(result, out: str | Path, figure: str | Path | None | bool 
     out = Path(out)
     fig_path = None
     if figure:
-        fig_path = out.with_suffix(".png") if figure is True else Path(figure)
+        from bpmid.plots.options import figure_path
+
+        fig_path = figure_path(out.with_suffix(".png") if figure is True else Path(figure))
     result.save(out, figure=fig_path)
     return out, fig_path, result.raw

@@ -667,7 +667,7 @@ def write_motion_fit(out: str | Path, result: MotionFit, prov: dict, *, figure: 
         from bpmid.plots.motion import motion_fit_figure
 
         fig = motion_fit_figure(result.logs, result.predictions, title=f"VBMM fit ({result.model.closure} closure, "
-                                f"{result.model.history} history): RMSE {result.metrics['rmse_deg']:.3g} deg",
+                                f"{result.model.history} history): RMSE {result.metrics['rmse_deg']:.3g}°",
                                 synthetic=synthetic)
         buf = io.BytesIO()
         try:

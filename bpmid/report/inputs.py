@@ -1,0 +1,469 @@
+"""The report's inputs, read once into typed records by one loader per stage file.
+
+Every loader returns a record or None, and never raises for a file that is absent, partial (a YAML holding
+only its schema line, a CSV with a header and no rows) or unreadable: it records a :class:`Problem` instead,
+so the report can say which file is at fault and build every section it can. A stage whose files are on disk
+but which ``run.yaml`` (the record of the last ``bpmid run``) does not list as done is marked stale.
+"""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from bpmid.errors import InputError
+
+
+@dataclasses.dataclass(frozen=True)
+class Problem:
+    path: str  # relative to DIR
+    what: str
+    line: int | None = None
+
+    def where(self, root: Path) -> str:
+        return f"{root / self.path}" + (f":{self.line}" if self.line else "")
+
+
+@dataclasses.dataclass(frozen=True)
+class Param:
+    """One fitted constant as the report shows it."""
+
+    name: str
+    value: float | None
+    stderr: float | None = None
+    unit: str = ""
+    verdict: str = ""  # identifiability of a motion fit
+
+
+def _num(v) -> float | None:
+    try:
+        return None if v is None else float(v)
+    except (TypeError, ValueError):
+        return None
+
+
+def _param(name: str, entry: Any, default_unit: str = "") -> Param:
+    if isinstance(entry, dict):
+        return Param(name, _num(entry.get("value")), _num(entry.get("stderr")), str(entry.get("unit") or default_unit))
+    return Param(name, _num(entry), None, default_unit)
+
+
+def _dict(d: Any) -> dict:
+    return d if isinstance(d, dict) else {}
+
+
+def _list(d: Any) -> list:
+    return d if isinstance(d, list) else []
+
+
+class _Reader:
+    """Reads files of DIR, collecting problems (partial, unreadable) instead of raising."""
+
+    def __init__(self, root: Path):
+        self.root = root
+        self.problems: list[Problem] = []
+        self.found: set[str] = set()
+
+    def rel(self, path: Path) -> str:
+        try:
+            return path.relative_to(self.root).as_posix()
+        except ValueError:
+            return str(path)
+
+    def yaml(self, path: Path, required: tuple[str, ...] = ()) -> dict | None:
+        from bpmid.config import read_yaml
+
+        if not path.is_file():
+            return None
+        self.found.add(self.rel(path))
+        try:
+            data, _sha = read_yaml(path)
+        except InputError as exc:
+            self.problems.append(Problem(self.rel(path), f"unreadable ({exc.message})", exc.line))
+            return None
+        if not isinstance(data, dict):
+            self.problems.append(Problem(self.rel(path), "not a YAML mapping"))
+            return None
+        missing = [k for k in required if data.get(k) is None]
+        if missing:
+            self.problems.append(Problem(self.rel(path), "partial: no " + ", ".join(missing)
+                                         + " (the stage did not finish writing it or the file was cut)"))
+            return None
+        return data
+
+    def csv(self, path: Path, required: tuple[str, ...] = ()) -> pd.DataFrame | None:
+        if not path.is_file():
+            return None
+        self.found.add(self.rel(path))
+        try:
+            df = pd.read_csv(path)
+        except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError, OSError) as exc:
+            self.problems.append(Problem(self.rel(path), f"unreadable ({type(exc).__name__}: {exc})".strip()))
+            return None
+        missing = [c for c in required if c not in df.columns]
+        if missing:
+            self.problems.append(Problem(self.rel(path), "partial: no column " + ", ".join(missing)))
+            return None
+        if df.empty:
+            self.problems.append(Problem(self.rel(path), "partial: a header and no rows"))
+            return None
+        return df
+
+
+# --------------------------------------------------------------------------------------------------
+# stage records
+# --------------------------------------------------------------------------------------------------
+@dataclasses.dataclass
+class StageRecord:
+    name: str
+    status: str
+    seconds: float | None
+    outputs: list[str]
+    note: str = ""
+
+
+@dataclasses.dataclass
+class RunInfo:
+    stages: list[StageRecord]
+    synthetic: bool | None
+    provenance: dict
+    test_sets: dict
+
+    def status(self, stage: str) -> str | None:
+        for s in self.stages:
+            if s.name == stage:
+                return s.status
+        return None
+
+
+@dataclasses.dataclass
+class RelaxInfo:
+    mode: str
+    constants: list[Param]  # E_inf, E_j, tau_j
+    derived: list[Param]  # G, K
+    poisson: float | None
+    rmse_pa: float | None
+    r2: float | None
+    mape_pct: float | None
+    corr_names: list[str]
+    corr: list[list[float]]
+    logs: list[str]
+    raw: dict  # the file, for figures
+    provenance: dict
+
+    @property
+    def n_terms(self) -> int:
+        return sum(1 for p in self.constants if p.name.startswith("tau_"))
+
+
+@dataclasses.dataclass
+class MotionInfo:
+    fit: list[Param]
+    mat: list[Param]
+    rmse_deg: float | None
+    mape_pct: float | None
+    r2: float | None
+    closure: str
+    history: str
+    logs: list[str]
+    provenance: dict
+    corr_names: list[str] = dataclasses.field(default_factory=list)
+    corr: list[list[float]] = dataclasses.field(default_factory=list)
+
+
+@dataclasses.dataclass
+class CompareInfo:
+    dir: Path
+    summary: pd.DataFrame
+    by_set: pd.DataFrame | None
+    train: list[str]
+    test_sets: dict[str, list[str]]
+    warnings: list[str]
+    synthetic: bool | None
+    predictions: dict[str, list[pd.DataFrame]]
+    provenance: dict
+
+    @property
+    def ranking(self) -> pd.DataFrame:
+        return self.summary.sort_values("rmse_deg", kind="mergesort")
+
+
+@dataclasses.dataclass
+class HistoryInfo:
+    raw: dict
+    table: pd.DataFrame | None
+    log: str
+    window_s: float | None
+    accuracy: dict[str, dict]
+    us_per_step: dict[str, float]
+    window_vs_full: dict
+    reduction_pct: float | None
+    provenance: dict
+
+
+@dataclasses.dataclass
+class DiscoveryInfo:
+    dir: Path
+    named: list[str]
+    before_deg: float | None
+    after_deg: float | None
+    floor_deg: float | None
+    unexplained: bool
+    verdict: str
+    steps: list[dict]
+    provenance: dict
+
+
+@dataclasses.dataclass
+class ControlInfo:
+    dir: Path
+    table: pd.DataFrame  # summary.csv
+    gains: dict
+    rate_hz: float | None
+    cost: dict
+    warnings: list[str]
+    provenance: dict
+
+    def pooled(self, controller: str):
+        g = self.table[(self.table.controller == controller) & (self.table.reference == "ALL")]
+        return None if g.empty else g.iloc[0]
+
+
+@dataclasses.dataclass
+class Study:
+    root: Path
+    run: RunInfo | None = None
+    relax: RelaxInfo | None = None
+    motion: MotionInfo | None = None
+    compare: CompareInfo | None = None
+    history: HistoryInfo | None = None
+    discovery: DiscoveryInfo | None = None
+    control: ControlInfo | None = None
+    problems: list[Problem] = dataclasses.field(default_factory=list)
+    stale: dict[str, str] = dataclasses.field(default_factory=dict)  # stage -> why
+
+    @property
+    def synthetic(self) -> bool:
+        if self.run is not None and self.run.synthetic is not None:
+            return self.run.synthetic
+        if self.compare is not None and self.compare.synthetic is not None:
+            return self.compare.synthetic
+        return True
+
+    def any(self) -> bool:
+        return any(x is not None for x in (self.run, self.relax, self.motion, self.compare, self.history,
+                                           self.discovery, self.control))
+
+    def provenance(self) -> dict:
+        if self.run is not None and self.run.provenance:
+            return self.run.provenance
+        for x in (self.compare, self.motion, self.relax, self.history, self.discovery, self.control):
+            if x is not None and x.provenance:
+                return x.provenance
+        return {}
+
+    def inputs(self) -> dict[str, str]:
+        out: dict[str, str] = {}
+        for x in (self.run, self.relax, self.motion, self.compare, self.history, self.discovery, self.control):
+            if x is not None:
+                out.update(_dict(_dict(x.provenance).get("inputs")))
+        return out
+
+
+# --------------------------------------------------------------------------------------------------
+# loaders
+# --------------------------------------------------------------------------------------------------
+def load_run(rd: _Reader) -> RunInfo | None:
+    d = rd.yaml(rd.root / "run.yaml", required=("stages",))
+    if d is None:
+        return None
+    stages = []
+    for s in _list(d.get("stages")):
+        s = _dict(s)
+        stages.append(StageRecord(str(s.get("name", "?")), str(s.get("status", "?")), _num(s.get("seconds")),
+                                  [str(o) for o in _list(s.get("outputs"))], str(s.get("note") or "")))
+    syn = d.get("synthetic")
+    return RunInfo(stages, None if syn is None else bool(syn), _dict(d.get("provenance")), _dict(d.get("test_sets")))
+
+
+def load_relax(rd: _Reader) -> RelaxInfo | None:
+    d = rd.yaml(rd.root / "relax_fit.yaml", required=("prony",))
+    if d is None:
+        return None
+    pr = _dict(d.get("prony"))
+    if "E_inf" not in pr:
+        rd.problems.append(Problem("relax_fit.yaml", "partial: prony has no E_inf"))
+        return None
+    cons = [_param("E_inf", pr["E_inf"], "Pa")]
+    for j, tr in enumerate(_list(pr.get("terms")), 1):
+        tr = _dict(tr)
+        cons += [_param(f"E_{j}", tr.get("E"), "Pa"), _param(f"tau_{j}", tr.get("tau"), "s")]
+    derived = []
+    for block, name in (("shear", "G"), ("bulk", "K")):
+        b = _dict(d.get(block))
+        if f"{name}_inf" in b:
+            derived.append(_param(f"{name}_inf", b[f"{name}_inf"], "Pa"))
+            for j, tr in enumerate(_list(b.get("terms")), 1):
+                derived.append(_param(f"{name}_{j}", _dict(tr).get(name), "Pa"))
+    m = _dict(d.get("metrics"))
+    unc = _dict(d.get("uncertainty"))
+    logs = [str(_dict(lg).get("name")) for lg in _list(_dict(d.get("data")).get("logs"))]
+    names, corr = _corr(unc)
+    return RelaxInfo(str(d.get("mode", "?")), cons, derived, _num(d.get("poisson_ratio")), _num(m.get("rmse")),
+                     _num(m.get("r2")), _num(m.get("mape_pct")), names, corr, logs, d, _dict(d.get("provenance")))
+
+
+def _material(d: dict) -> list[Param]:
+    mat = _dict(d.get("material"))
+    ident = _dict(_dict(d.get("uncertainty")).get("identifiability"))
+    out = []
+
+    def verdict(name, entry):
+        if name in ident:
+            return str(ident[name])
+        e = _dict(entry)
+        if e.get("identifiable") is False:
+            return "not identifiable, held at prior"
+        return "estimated" if e.get("identifiable") else ""
+
+    for k in ("G_inf", "K_inf"):
+        if k in mat:
+            p = _param(k, mat[k], "Pa")
+            out.append(dataclasses.replace(p, verdict=verdict(k, mat[k])))
+    for j, b in enumerate(_list(mat.get("branches")), 1):
+        for k, v in _dict(b).items():
+            p = _param(f"{k}_{j}", v, "s" if k == "tau" else "Pa")
+            out.append(dataclasses.replace(p, verdict=verdict(f"{k}_{j}", v)))
+    return out
+
+
+def load_motion(rd: _Reader) -> MotionInfo | None:
+    fit = rd.yaml(rd.root / "vbmm_fit.yaml", required=("material",))
+    mat = rd.yaml(rd.root / "vbmm_mat.yaml", required=("material",))
+    if fit is None and mat is None:
+        return None
+    m = _dict((fit or {}).get("metrics"))
+    per_log = list(_dict(m.get("per_log")))
+    unc = _dict((fit or {}).get("uncertainty"))
+    names, corr = _corr(unc)
+    return MotionInfo(_material(fit) if fit else [], _material(mat) if mat else [], _num(m.get("rmse_deg")),
+                      _num(m.get("mape_pct")), _num(m.get("r2")), str((fit or mat).get("closure", "?")),
+                      str(_dict((fit or mat).get("model")).get("history", "?")), per_log,
+                      _dict((fit or mat).get("provenance")), names, corr)
+
+
+def _corr(unc: dict) -> tuple[list[str], list[list[float]]]:
+    """Parameter names and correlation matrix of an ``uncertainty`` block (empty when absent or malformed)."""
+    names = [str(x) for x in _list(unc.get("parameters"))]
+    try:
+        corr = [[float(v) for v in _list(row)] for row in _list(unc.get("correlation"))]
+    except (TypeError, ValueError):
+        return [], []
+    if len(corr) != len(names) or any(len(r) != len(names) for r in corr):
+        return [], []
+    return names, corr
+
+
+def load_compare(rd: _Reader) -> CompareInfo | None:
+    cdir = rd.root / "compare" if (rd.root / "compare").is_dir() else rd.root
+    summary = rd.csv(cdir / "summary.csv", required=("model", "rmse_deg"))
+    cy = rd.yaml(cdir / "compare.yaml") or {}
+    if summary is None:
+        return None
+    by_set = rd.csv(cdir / "summary_by_set.csv", required=("set", "model", "rmse_deg"))
+    sets = {str(k): [str(x) for x in _list(v)] for k, v in _dict(cy.get("test_sets")).items()}
+    preds: dict[str, list[pd.DataFrame]] = {}
+    pdir = cdir / "predictions"
+    if pdir.is_dir():
+        groups = sets or {"test": sorted(p.stem for p in pdir.glob("*.csv"))}
+        for s, names in groups.items():
+            frames = []
+            for n in names:
+                f = rd.csv(pdir / f"{n}.csv", required=("time_s", "angle_deg", "pressure_pa_gauge"))
+                if f is not None:
+                    frames.append(f)
+            if frames:
+                preds[s] = frames
+    syn = cy.get("synthetic")
+    return CompareInfo(cdir, summary, by_set, [str(x) for x in _list(cy.get("train"))], sets,
+                       [str(w) for w in _list(cy.get("warnings"))], None if syn is None else bool(syn), preds,
+                       _dict(cy.get("provenance")))
+
+
+def load_history(rd: _Reader) -> HistoryInfo | None:
+    h = rd.yaml(rd.root / "history_modes.yaml", required=("accuracy",))
+    if h is None:
+        return None
+    tab = rd.csv(rd.root / "history_modes.csv")
+    return HistoryInfo(h, tab, str(h.get("log", "?")), _num(h.get("window_s")),
+                       {str(k): _dict(v) for k, v in _dict(h.get("accuracy")).items()},
+                       {str(k): _num(v) for k, v in _dict(h.get("us_per_step_longest")).items()},
+                       _dict(h.get("window_vs_full")), _num(h.get("window_cost_reduction_pct")),
+                       _dict(h.get("provenance")))
+
+
+def load_discovery(rd: _Reader) -> DiscoveryInfo | None:
+    ddir = rd.root / "discover" if (rd.root / "discover").is_dir() else rd.root
+    d = rd.yaml(ddir / "discovery.yaml", required=("gap",))
+    if d is None:
+        return None
+    gap = _dict(d.get("gap"))
+    return DiscoveryInfo(ddir, [str(x) for x in _list(d.get("named_effects"))], _num(gap.get("before_rmse_deg")),
+                         _num(gap.get("after_rmse_deg")), _num(gap.get("noise_floor_deg")), bool(d.get("unexplained")),
+                         str(d.get("verdict") or "").strip(), [s for s in _list(d.get("steps")) if isinstance(s, dict)],
+                         _dict(d.get("provenance")))
+
+
+def load_control(rd: _Reader) -> ControlInfo | None:
+    cdir = rd.root / "control"
+    if not cdir.is_dir():
+        return None
+    tab = rd.csv(cdir / "summary.csv", required=("controller", "reference", "rmse_deg"))
+    cy = rd.yaml(cdir / "control.yaml") or {}
+    if tab is None:
+        return None
+    return ControlInfo(cdir, tab, _dict(cy.get("gains")), _num(cy.get("rate_hz")),
+                       _dict(_dict(cy.get("feedforward")).get("cost")), [str(w) for w in _list(cy.get("warnings"))],
+                       _dict(cy.get("provenance")))
+
+
+#: stage name -> (Study attribute, the files that make it)
+STAGE_OF = {"relax": "relax", "motion": "motion", "compare": "compare", "history": "history",
+            "discover": "discovery", "control": "control"}
+
+
+def read_study(root: str | Path) -> Study:
+    """Every stage output under ``root`` that can be read (InputError only for a missing folder)."""
+    root = Path(root)
+    if root.exists() and not root.is_dir():
+        raise InputError("is a file, not a folder (bpmid report takes the folder a run wrote)", path=root)
+    if not root.is_dir():
+        raise InputError("report folder not found", path=root)
+    rd = _Reader(root)
+
+    def guarded(load, path):
+        try:
+            return load(rd)
+        except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:  # wrong types inside a file
+            rd.problems.append(Problem(path, f"malformed ({type(exc).__name__}: {exc})"))
+            return None
+
+    st = Study(root, run=guarded(load_run, "run.yaml"), relax=guarded(load_relax, "relax_fit.yaml"),
+               motion=guarded(load_motion, "vbmm_fit.yaml"), compare=guarded(load_compare, "compare/summary.csv"),
+               history=guarded(load_history, "history_modes.yaml"),
+               discovery=guarded(load_discovery, "discover/discovery.yaml"),
+               control=guarded(load_control, "control/summary.csv"))
+    st.problems = rd.problems
+    if st.run is not None:  # files of a stage the last run did not run are left over from an earlier run
+        for stage, attr in STAGE_OF.items():
+            if getattr(st, attr) is None:
+                continue
+            status = st.run.status(stage)
+            if status != "done":
+                why = ("the last run (run.yaml) skipped this stage" if status == "skipped" else
+                       "the last run (run.yaml) does not list this stage" if status is None else
+                       f"the last run (run.yaml) lists this stage as {status}")
+                st.stale[stage] = why + "; these files are from an earlier run"
+    return st

@@ -1,0 +1,34 @@
+"""The report's sections, one module each, in the order they appear (:data:`SECTIONS`): a one-screen summary
+first, provenance last. Each module has ``KEY``, ``TITLE`` and ``build(doc, study, figs)``; adding a section is
+adding a module and a line here."""
+from __future__ import annotations
+
+from importlib import import_module
+
+#: module names of bpmid.report.sections, in report order
+SECTIONS = ("summary", "model", "relax", "motion", "compare", "paper", "history", "residuals", "discovery",
+            "control", "provenance")
+
+
+def registry():
+    """(key, title, build) of every section, in order."""
+    out = []
+    for name in SECTIONS:
+        mod = import_module(f"bpmid.report.sections.{name}")
+        out.append((mod.KEY, mod.TITLE, mod.build))
+    return out
+
+
+def stale_note(doc, st, stage: str) -> None:
+    """Say, at the top of a section, that its files are left over from an earlier run."""
+    if stage in st.stale:
+        doc.p(f"STALE: {st.stale[stage]}. Its numbers describe that earlier run, not the last one.", css="stale")
+
+
+def absent(doc, st, path: str, extra: str = "") -> None:
+    """Say why a section has nothing to show: its file is unusable (named, with the problem) or not there."""
+    probs = [p for p in st.problems if p.path == path]
+    if probs:
+        doc.p(f"Not available: {path} is unusable ({probs[0].what}).", css="warn")
+    else:
+        doc.p(f"Not run (no {path} in this folder){extra}.", css="muted")

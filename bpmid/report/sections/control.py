@@ -1,0 +1,58 @@
+"""Closed-loop control: PI, VBMM-PI and MS-PI on the shipped references (the paper's Fig. 18), with the
+paper's quoted numbers in a panel of their own."""
+from __future__ import annotations
+
+from bpmid.report.doc import fmt
+from bpmid.report.figures import find_figure
+from bpmid.report.paper import PAPER_CONTROL, PAPER_CONTROL_SOURCE
+from bpmid.report.sections import absent, stale_note
+
+KEY = "control"
+TITLE = "Closed-loop control"
+LABELS = {"pi": "PI", "vbmm-pi": "VBMM-PI", "ms-pi": "MS-PI"}
+
+
+def build(doc, st, figs) -> None:
+    doc.section(KEY, TITLE)
+    k = st.control
+    if k is None:
+        absent(doc, st, "control/summary.csv", ": run bpmid control, or bpmid run with the control stage")
+        return
+    stale_note(doc, st, "control")
+    kp = (k.gains.get("kp") or {}).get("value")
+    ki = (k.gains.get("ki") or {}).get("value")
+    refs = [r for r in dict.fromkeys(k.table.reference) if r != "ALL"]
+    doc.p(f"Each controller tracks every reference on a simulated plant at {fmt(k.rate_hz)} Hz: PI alone (eq. 20 "
+          f"without feedforward), VBMM-PI (inverse VBMM feedforward) and MS-PI (Maxwell-slip feedforward); gains "
+          f"P = {fmt(kp)} bar/°, I = {fmt(ki)} bar/(° s). References: {', '.join(refs)}. The controller's model is "
+          "this study's VBMM-fit where there is one; the plant adds sensor noise. RMSE is of the true angle against "
+          "the reference.")
+    if k.warnings:
+        doc.p(f"Warnings of the control stage ({len(k.warnings)}): runs whose command touched a pressure limit or "
+              "reversed often.", css="verdict")
+        doc.list(k.warnings, css="muted")
+    pooled = k.table[k.table.reference == "ALL"]
+    with doc.panel("Paper's control result (quoted, the paper's data)", "quoted"):
+        doc.p(PAPER_CONTROL_SOURCE)
+        doc.table(["controller", "quantity", "value", "unit"], [[c, q, fmt(v), u] for c, q, v, u in PAPER_CONTROL])
+    label = "Measured here (bpmid, synthetic plant)" if st.synthetic else "Measured here (bpmid)"
+    with doc.panel(label, "measured"):
+        doc.p("Tracking RMSE over all references (control/summary.csv, reference ALL):")
+        doc.table(["controller", "RMSE (°)", "max |error| (°)", "below PI (%)", "at limit (%)", "status"],
+                  [[LABELS.get(r.controller, r.controller), fmt(r.rmse_deg), fmt(r.max_abs_err_deg),
+                    "-" if r.controller == "pi" else fmt(r.reduction_pct), fmt(r.saturated_pct), r.status]
+                   for r in pooled.itertuples()])
+    doc.p("Per reference:")
+    per = k.table[k.table.reference != "ALL"]
+    doc.table(["reference", "controller", "RMSE (°)", "below PI (%)", "status"],
+              [[r.reference, LABELS.get(r.controller, r.controller), fmt(r.rmse_deg),
+                "-" if r.controller == "pi" else fmt(r.reduction_pct), r.status] for r in per.itertuples()])
+    if k.cost:
+        doc.p(f"Feedforward cost (incremental inverse VBMM): {fmt(k.cost.get('incremental_kernel_us_per_step'))} µs "
+              f"per step, {fmt(k.cost.get('share_of_period_pct'))} % of the control period (wall clock, this "
+              "machine).")
+    f = find_figure(st.root, "control/fig18")
+    if f:
+        doc.fig(f, "Closed-loop tracking (the paper's Fig. 18 in kind): (a) reference and response of each "
+                "controller, (b) tracking error, (c) command pressure (gauge) with its limits; references end to "
+                "end.")

@@ -1,0 +1,52 @@
+"""Discovery of missing effects: the verdict, the gap before and after, the evidence and the figures."""
+from __future__ import annotations
+
+import re
+
+import yaml
+
+from bpmid.report.doc import fmt
+from bpmid.report.figures import find_figure
+from bpmid.report.sections import absent, stale_note
+
+KEY = "discovery"
+TITLE = "Discovery of missing effects"
+
+CAPTIONS = {"residual_before_after": "Residual before (base VBMM, solid) and after (with the named effects, dashed) "
+            "against time, gauge pressure and pressure rate; grey band: sensor-noise floor.",
+            "screening_ranking": "Screening: share of the residual each catalogue effect's signature explains, per "
+            "round; accepted and tried effects coloured.",
+            "heldout_error": "Held-out RMSE per log before and after, with the sensor-noise floor."}
+
+
+def build(doc, st, figs) -> None:
+    doc.section(KEY, TITLE)
+    d = st.discovery
+    if d is None:
+        absent(doc, st, "discover/discovery.yaml", ": the discovery stage had no inputs or did not run")
+        return
+    stale_note(doc, st, "discover")
+    if d.named:
+        doc.p(f"Named effects, in the order added: {', '.join(d.named)}.", css="verdict")
+    else:
+        doc.p("No missing effect found: no catalogue entry passed the confirmation tests.", css="good")
+    if d.verdict:
+        doc.p(re.sub(r"(\d) deg\b", "\\1°", d.verdict.replace("\n", " ")))
+    doc.table(["gap on held-out data", "RMSE (°)"], [["before (base model)", fmt(d.before_deg)],
+                                                    ["after (with named effects)", fmt(d.after_deg)],
+                                                    ["sensor-noise floor", fmt(d.floor_deg)]])
+    doc.p("Unexplained remainder: " + ("yes, the gap is not closed by the catalogue" if d.unexplained
+                                       else "no, what remains is at the noise floor"))
+    rows = []
+    for s in d.steps:
+        ev = s.get("evidence")
+        ev_txt = ev if isinstance(ev, str) else (yaml.safe_dump(ev, default_flow_style=True, width=10000).strip()
+                                                 if ev else "-")
+        rows.append([s.get("id", s.get("effect", "?")), ev_txt[:300]])
+    if rows:
+        doc.table(["effect", "evidence"], rows)
+    rel = d.dir.relative_to(st.root).as_posix() if d.dir != st.root else ""
+    for stem, cap in CAPTIONS.items():
+        f = find_figure(st.root, f"{rel}/{stem}" if rel else stem)
+        if f:
+            doc.fig(f, cap)

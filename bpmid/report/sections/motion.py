@@ -1,0 +1,41 @@
+"""Motion fit: VBMM-mat. (the relaxation constants as they are) beside VBMM-fit (refitted on motion logs)."""
+from __future__ import annotations
+
+from bpmid.report.doc import fmt
+from bpmid.report.figures import find_figure
+from bpmid.report.sections import absent, stale_note
+
+KEY = "motion"
+TITLE = "Motion fit: VBMM-mat. and VBMM-fit"
+
+
+def build(doc, st, figs) -> None:
+    doc.section(KEY, TITLE)
+    m = st.motion
+    if m is None:
+        absent(doc, st, "vbmm_fit.yaml")
+        return
+    stale_note(doc, st, "motion")
+    mat = {p.name: p for p in m.mat}
+    fit = {p.name: p for p in m.fit}
+    names = list(dict.fromkeys(list(mat) + list(fit)))
+    rows = []
+    for n in names:
+        a, b = mat.get(n), fit.get(n)
+        unit = (b or a).unit
+        rows.append([n, fmt(a.value) if a else "-", fmt(b.value) if b else "-", fmt(b.stderr) if b else "-", unit,
+                     (b.verdict if b else "") or "-"])
+    doc.p("VBMM-mat. takes its constants straight from the relaxation fit (nothing refitted); VBMM-fit refits "
+          "them on the fitting set. A constant the motion data cannot determine is held at its prior value and "
+          "says so (identifiability).")
+    doc.table(["constant", "VBMM-mat.", "VBMM-fit", "VBMM-fit stderr", "unit", "VBMM-fit verdict"], rows)
+    if m.rmse_deg is not None:
+        doc.p(f"VBMM-fit on its own fitting set: RMSE {fmt(m.rmse_deg)}°, MAPE {fmt(m.mape_pct)} %, R² {fmt(m.r2)} "
+              f"(closure {m.closure}, history {m.history}).")
+    if m.corr_names:
+        doc.p("Correlations of the estimated VBMM-fit constants (|r| near 1: the motion data hardly separate them):")
+        doc.table(["", *m.corr_names], [[n, *[fmt(v, 3) for v in row]] for n, row in zip(m.corr_names, m.corr)])
+    f = find_figure(st.root, "vbmm_fit")
+    if f:
+        doc.fig(f, "VBMM-fit on the fitting set: pressure-angle loop, angle against time, and error against time, "
+                "one row per log (gauge pressure).")

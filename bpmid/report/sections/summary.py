@@ -1,0 +1,87 @@
+"""The one-screen summary: what was fitted on what, the headline numbers with their uncertainty, the
+comparison ranking, the discovery verdict, the control result, and whether the data are synthetic."""
+from __future__ import annotations
+
+from bpmid.report.doc import fmt, pm
+
+KEY = "summary"
+TITLE = "Summary"
+
+
+def cost_phrase(reduction_pct) -> str:
+    """'42 % less' or '12 % more' (a negative reduction is an increase: short logs, timing noise)."""
+    if reduction_pct is None or reduction_pct != reduction_pct:
+        return "(not measured)"
+    return f"{fmt(abs(reduction_pct))} % {'less' if reduction_pct >= 0 else 'more'}"
+
+
+def _stale(st, stage):
+    return " (STALE: from an earlier run)" if stage in st.stale else ""
+
+
+def build(doc, st, figs) -> None:
+    doc.section(KEY, TITLE)
+    if st.synthetic:
+        doc.p("Data: SYNTHETIC. Every log of this study was made by bpmid's digital twin (shipped datasets); the "
+              "numbers below are bpmid's results on those logs, not measurements of a real muscle.", css="verdict")
+    else:
+        doc.p("Data: measured logs (no log of this study says it is synthetic).", css="good")
+    for p in st.problems:
+        doc.p(f"Incomplete: {p.path}: {p.what}. The sections that need it say so.", css="warn")
+    for stage, why in st.stale.items():
+        doc.p(f"Stale: stage {stage}: {why}.", css="stale")
+    items = []
+    if st.relax is not None:
+        r = st.relax
+        cons = ", ".join(f"{p.name} = {pm(p.value / 1e3, None if p.stderr is None else p.stderr / 1e3)} kPa"
+                         if p.unit == "Pa" and p.value is not None else f"{p.name} = {pm(p.value, p.stderr)} {p.unit}"
+                         for p in r.constants)
+        items.append(f"Material{_stale(st, 'relax')}: {r.n_terms}-term Prony series ({r.mode} mode) fitted on "
+                     f"{len(r.logs)} relaxation log(s): {cons}; R² {fmt(r.r2)}.")
+    if st.motion is not None and st.motion.rmse_deg is not None:
+        m = st.motion
+        n_est = sum(1 for p in m.fit if p.verdict.startswith("estimated"))
+        est = ", ".join(f"{p.name} = {pm(p.value, p.stderr)} {p.unit}" for p in m.fit
+                        if p.verdict.startswith("estimated") and p.value is not None)
+        items.append(f"VBMM-fit{_stale(st, 'motion')}: refitted on {len(m.logs)} fitting log(s) "
+                     f"({', '.join(m.logs)}): RMSE {fmt(m.rmse_deg)}° on its own fitting set; {n_est} of "
+                     f"{len(m.fit)} constants estimated" + (f" ({est})" if est else "")
+                     + ", the rest held at their prior (relaxation) values.")
+    if st.compare is not None:
+        c = st.compare
+        rank = c.ranking
+        order = "; ".join(f"{i + 1}. {r.model} {fmt(r.rmse_deg)}°" for i, r in enumerate(rank.itertuples()))
+        n_test = sum(len(v) for v in c.test_sets.values())
+        items.append(f"Comparison{_stale(st, 'compare')} (fitted on {len(c.train)} training log(s), scored free-"
+                     f"running on {n_test} test log(s) in {len(c.test_sets)} set(s)), ranked by pooled test RMSE: "
+                     f"{order}.")
+    if st.discovery is not None:
+        d = st.discovery
+        what = (f"named {', '.join(d.named)}" if d.named else "no missing effect found")
+        items.append(f"Discovery{_stale(st, 'discover')}: {what}; held-out RMSE {fmt(d.before_deg)}° before, "
+                     f"{fmt(d.after_deg)}° after, sensor-noise floor {fmt(d.floor_deg)}°"
+                     + ("; an unexplained remainder is left." if d.unexplained else "."))
+    if st.control is not None:
+        k = st.control
+        pi, vb, ms = k.pooled("pi"), k.pooled("vbmm-pi"), k.pooled("ms-pi")
+        parts = []
+        for name, row in (("PI", pi), ("VBMM-PI", vb), ("MS-PI", ms)):
+            if row is not None:
+                red = "" if name == "PI" or row.reduction_pct != row.reduction_pct else \
+                    f" ({fmt(row.reduction_pct)} % below PI)"
+                parts.append(f"{name} {fmt(row.rmse_deg)}°{red}")
+        items.append(f"Control{_stale(st, 'control')} (closed loop on the shipped references, tracking RMSE): "
+                     + ", ".join(parts) + ".")
+    if st.history is not None:
+        h = st.history
+        items.append(f"History modes{_stale(st, 'history')}: window (T_win = {fmt(h.window_s)} s) vs full history "
+                     f"differ by at most {fmt(h.window_vs_full.get('max_abs_diff_deg'))}° on the long-term log; the "
+                     f"window costs {cost_phrase(h.reduction_pct)} per step than the full sum (wall clock, this "
+                     "machine).")
+    if items:
+        doc.list(items)
+    else:
+        doc.p("No stage result could be read in this folder.", css="warn")
+    doc.p("Numbers MEASURED HERE are bpmid's; the source paper's published numbers are QUOTED only in their own "
+          "marked panels. Uncertainties are ± one standard error. Provenance (inputs and their sha256) is at the "
+          "end.", css="muted")
