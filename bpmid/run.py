@@ -339,8 +339,9 @@ def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
 
     warnings = plaus.reader_warnings(logs) + plaus.motion_fit_warnings(mf)
     plaus.emit(warnings, strict=config.section("io").strict, what=str(out / "vbmm_fit.yaml"))
-    write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings),
-                     figure=figure_path(out / "vbmm_fit.png"), synthetic=ctx["synthetic"])
+    fig = figure_path(out / "vbmm_fit.png")
+    write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings), figure=fig,
+                     synthetic=ctx["synthetic"])
     ctx["vbmm_fit"] = out / "vbmm_fit.yaml"
     # VBMM-mat.: the relaxation constants as they are, scored on the same fitting set
     mat, source = initial_material(config.section("motion"), relax, base_dir=config.base_dir)
