@@ -33,6 +33,11 @@ def shared_study(tmp_path_factory) -> tuple[Path, dict[str, list[str]]]:
         else:
             name = Path(str(fname)).name
         # a staged temporary name is ".<stem>.<random><suffix>" (maybe staged twice): keep the stem
+        if name.startswith(".bpmid-tmp."):  # bpmid.io.atomic: ".bpmid-tmp.<stem>.<random><suffix>", maybe twice
+            suffix = Path(name).suffix
+            while name.startswith(".bpmid-tmp."):
+                name = name[len(".bpmid-tmp."):]
+            name = name.split(".")[0] + suffix
         if name.startswith("."):
             name = name.lstrip(".").split(".")[0] + Path(name).suffix
         if self.get_suptitle() or self.axes:
