@@ -1,0 +1,659 @@
+"""Sweeps of out-of-family cases through ``bpmid discover`` on Dask, with calibration and a confusion matrix.
+
+``bpmid calibrate SWEEP.yaml --out DIR`` (the CLI, :mod:`bpmid.cli.calibrate`) calls :func:`run_sweep`:
+
+1. design the cases (:func:`bpmid.validation.make_cases`) and keep those of the requested split
+   (``calibration``, ``heldout`` or ``all``; the split of a case follows from a hash of its id alone);
+2. calibration half: each case is simulated, written as a user would have recorded it, read back through
+   bpmid's readers and run through :func:`bpmid.discover.workflow.discover` with permissive thresholds
+   (``calibration.discover`` of the sweep config), so every candidate's statistics are recorded; then
+   :func:`bpmid.discover.calibrate.thresholds_from_records` sets the thresholds and
+   :func:`~bpmid.discover.calibrate.write_thresholds` writes ``DIR/thresholds.yaml``;
+3. held-out half: the same, with the thresholds calibrated in step 2 (or ``--thresholds FILE``, or those in
+   ``DIR/thresholds.yaml`` from an earlier run, or bpmid's shipped ones) and ``evaluation.discover`` overrides;
+4. ``DIR/confusion.csv`` and ``DIR/confusion.md`` (rows: hidden truth incl. none / pair / out_of_catalogue;
+   columns: the effect named first), ``DIR/summary.yaml`` (single-effect accuracy, false-positive rate on nulls,
+   pair recall, out-of-catalogue nothing-named rate, gap-halved rate), ``DIR/answers/<split>.yaml`` (the truth).
+
+Every finished case's record is appended to ``DIR/records.jsonl`` and flushed as soon as it arrives, so an
+interrupted sweep resumes: a rerun into the same folder skips finished case ids (a torn last line is dropped).
+Dask is imported only here: ``pip install 'bpmid[cluster]'``. By default a ``LocalCluster`` on the machine's
+cores (``workers``); ``scheduler`` connects to an existing cluster instead.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any, Callable, Literal, Mapping, Optional, Sequence, Union
+
+import numpy as np
+import yaml
+
+from bpmid.errors import InputError
+from bpmid.validation.forms import CATALOGUE_IDS
+from bpmid.validation.generator import (GENERATOR, Case, GeneratorConfig, GeometrySpec, answer_entry, case_paths,
+                                        generator_config, make_cases, realize, write_answers, write_case)
+
+SWEEP_SCHEMA = "bpmid.sweep/1"
+RECORDS = "records.jsonl"
+#: record fields that differ between runs of the same case (left out when comparing runs)
+TIMING_FIELDS = ("elapsed_s", "generate_s", "discover_s", "worker")
+#: permissive thresholds for the calibration half: every candidate is confirmed and its statistics recorded
+PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "delta_bic_max": 1e9, "lr_p_max": 0.999999, "max_effects": 2}
+
+
+# ---------------------------------------------------------------------------------------------
+# the sweep config
+# ---------------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class SweepSection:
+    """Section ``sweep``: name (prefix of the case ids), seed, and whether to keep the case folders."""
+
+    name: str = "oof"
+    seed: int = 0
+    keep_cases: bool = False
+
+    def validate(self, where, path):
+        if not self.name or any(ch in self.name for ch in "/\\ "):
+            raise InputError(f"must be a plain name (no spaces or slashes), found {self.name!r}", path=path,
+                             key=f"{where}.name")
+
+
+@dataclasses.dataclass(frozen=True)
+class RigSection:
+    """Section ``rig``: the user's own rig; each key given replaces the generator's range or choices.
+
+    Attributes
+    ----------
+    noise_deg : sensor noise standard deviation (deg)
+    noise_ar1_rho : lag-1 correlation of the noise from one sample to the next at ``sampling_hz`` (0 = white)
+    sampling_hz : sampling rate (Hz)
+    geometry : a built-in name or {name, th_mm, alpha0_deg, R0_mm, l0_mm, n}
+    pressure_unit, pressure_reference, time_unit : how the rig logs
+    """
+
+    noise_deg: Optional[float] = None
+    noise_ar1_rho: Optional[float] = None
+    sampling_hz: Optional[float] = None
+    geometry: Optional[Union[str, GeometrySpec]] = None
+    pressure_unit: Optional[Literal["bar", "kpa", "psi"]] = None
+    pressure_reference: Optional[Literal["absolute", "gauge"]] = None
+    time_unit: Optional[Literal["s", "ms"]] = None
+
+    def apply(self, gen: GeneratorConfig, path=None) -> GeneratorConfig:
+        d = gen.to_yaml()
+        if self.noise_deg is not None:
+            d["noise_deg"] = [self.noise_deg, self.noise_deg]
+        if self.noise_ar1_rho is not None:
+            d["noise_rho"] = [self.noise_ar1_rho, self.noise_ar1_rho]
+            d["white_share"] = 1.0 if self.noise_ar1_rho == 0 else 0.0
+        if self.sampling_hz is not None:
+            d["sampling_hz"] = [self.sampling_hz]
+        if self.geometry is not None:
+            d["geometries"] = [self.geometry if isinstance(self.geometry, str) else dataclasses.asdict(self.geometry)]
+        for key, gkey in (("pressure_unit", "pressure_units"), ("pressure_reference", "pressure_references"),
+                          ("time_unit", "time_units")):
+            if getattr(self, key) is not None:
+                d[gkey] = [getattr(self, key)]
+        return generator_config(d, path, where="rig")
+
+
+@dataclasses.dataclass(frozen=True)
+class PhaseSection:
+    """Sections ``calibration`` and ``evaluation``: overrides of the config section ``discover`` for that half."""
+
+    discover: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self):
+        object.__setattr__(self, "discover", dict(self.discover))
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepConfig:
+    """A sweep: ``sweep``, ``generator``, ``rig``, ``calibration``, ``evaluation`` (see the shipped
+    configs/sweeps/*.yaml)."""
+
+    sweep: SweepSection = dataclasses.field(default_factory=SweepSection)
+    generator: GeneratorConfig = dataclasses.field(default_factory=GeneratorConfig)
+    rig: RigSection = dataclasses.field(default_factory=RigSection)
+    calibration: PhaseSection = dataclasses.field(default_factory=lambda: PhaseSection(dict(PERMISSIVE)))
+    evaluation: PhaseSection = dataclasses.field(default_factory=PhaseSection)
+    path: Optional[str] = None
+    sha256: Optional[str] = None
+
+    @property
+    def effective_generator(self) -> GeneratorConfig:
+        return self.rig.apply(self.generator, self.path)
+
+    def discover_config(self, phase: str, thresholds: Mapping[str, float] | None = None):
+        """The ``DiscoverConfig`` of a half: the phase's overrides, plus calibrated thresholds (held-out half)."""
+        from bpmid.config import build_dataclass
+        from bpmid.discover.workflow import DiscoverConfig
+        sec = self.calibration if phase == "calibration" else self.evaluation
+        over = dict(sec.discover)
+        fields = {f.name for f in dataclasses.fields(DiscoverConfig)}
+        for k, v in (thresholds or {}).items():
+            if k in fields and k not in over:
+                over[k] = float(v)
+        return build_dataclass(DiscoverConfig, over, f"{phase}.discover", self.path)
+
+    def to_yaml(self) -> dict:
+        return {"sweep": dataclasses.asdict(self.sweep), "generator": self.effective_generator.to_yaml(),
+                "calibration": {"discover": dict(self.calibration.discover)},
+                "evaluation": {"discover": dict(self.evaluation.discover)}}
+
+
+def load_sweep(path: str | Path) -> SweepConfig:
+    """Read SWEEP.yaml; every key is checked (an unknown or bad key is an InputError naming it)."""
+    from bpmid.config import build_dataclass, read_yaml
+    path = Path(path)
+    data, sha = read_yaml(path, "sweep config")
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise InputError("a sweep config must be a mapping of sections sweep, generator, rig, calibration, "
+                         "evaluation", path=path)
+    known = ("sweep", "generator", "rig", "calibration", "evaluation")
+    for k in data:
+        if k not in known:
+            raise InputError(f"unknown section (known: {', '.join(known)})", path=path, key=str(k))
+    kw = {}
+    for name, cls in (("sweep", SweepSection), ("generator", GeneratorConfig), ("rig", RigSection),
+                      ("calibration", PhaseSection), ("evaluation", PhaseSection)):
+        if name in data:
+            kw[name] = build_dataclass(cls, data[name], name, path)
+    if "calibration" in data and "discover" not in (data["calibration"] or {}):
+        kw["calibration"] = PhaseSection(dict(PERMISSIVE))
+    cfg = SweepConfig(**kw, path=str(path), sha256=sha)
+    _ = cfg.effective_generator
+    cfg.discover_config("calibration")  # check the discover overrides now, naming the key
+    cfg.discover_config("evaluation")
+    return cfg
+
+
+# ---------------------------------------------------------------------------------------------
+# one case (runs on a Dask worker)
+# ---------------------------------------------------------------------------------------------
+def _plain_result(res) -> dict:
+    """What the record keeps of a DiscoveryResult."""
+    cands = []
+    for k, rnd in enumerate(res.rounds, start=1):
+        for c in rnd.confirmations:
+            y = c.to_yaml() if hasattr(c, "to_yaml") else {}
+            keep = {kk: v for kk, v in y.items() if isinstance(v, (int, float, str, bool)) or v is None}
+            keep.update({"round": k, "effect": c.effect_id, "accepted": bool(getattr(c, "accepted", False))})
+            cands.append(keep)
+    return {"named": list(res.named_effects), "unexplained": bool(res.unexplained),
+            "heldout_before_deg": float(res.heldout_before), "heldout_after_deg": float(res.heldout_after),
+            "noise_floor_deg": float(res.noise_floor_deg), "candidates": cands,
+            "screening_round1": [s.effect_id for s in res.rounds[0].ranking] if res.rounds else []}
+
+
+def calibration_truth(case_kind: str, truth_ids: Sequence[str]) -> Optional[str]:
+    """The ``truth`` handed to ``records_from_result``: the id for a single effect, ``none`` for a null and for an
+    out-of-catalogue case (nothing in the catalogue is true there), None (no calibration records) for a pair."""
+    if case_kind == "single":
+        return truth_ids[0]
+    if case_kind in ("null", "out_of_catalogue"):
+        return "none"
+    return None
+
+
+def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = None) -> dict:
+    """Simulate, write, read back and discover one case; a record (plain JSON types). Never raises for a case
+    discovery cannot judge: the record says ``error``."""
+    from bpmid.config import load_config
+    from bpmid.discover.calibrate import records_from_result
+    from bpmid.discover.workflow import discover
+    from bpmid.io.motion_logs import read_motion_logs
+    from bpmid.progress import set_quiet
+
+    set_quiet(True)
+    t0 = time.perf_counter()
+    settings = discover_settings(discover_cfg)
+    data = realize(case)
+    entry = answer_entry(data)
+    t1 = time.perf_counter()
+    rec: dict = {"id": case.id, "split": case.split, "phase": phase, "truth_label": case.truth_label,
+                 "kind": case.kind, "truth_ids": [e.effect for e in case.effects],
+                 "truth_forms": [e.form for e in case.effects], "truth": entry["truth"],
+                 "geometry": case.geometry.name, "sampling_hz": case.fs_hz,
+                 "noise_deg": round(case.noise_deg, 5), "noise_ar1_rho": round(case.noise_rho, 4),
+                 "variation": round(case.variation, 5), "discover_settings": settings}
+    tmp = None
+    try:
+        root = Path(keep_dir) if keep_dir else Path(tmp := tempfile.mkdtemp(prefix="bpmid-oof-"))
+        write_case(data, root)
+        paths = case_paths(root / case.id)
+        cfg = load_config(paths["config"])
+        fit = read_motion_logs(paths["fit"], cfg.section("io"), require_angle=True)
+        ho = read_motion_logs(paths["holdout"], cfg.section("io"), require_angle=True)
+        base = _load_base(paths["init"], cfg)
+        try:
+            res = discover(fit, base, holdout=ho, cfg=discover_cfg)
+        except InputError as exc:  # includes ConvergenceError: discovery declined to judge
+            rec.update({"error": exc.format() if hasattr(exc, "format") else str(exc), "named": [],
+                        "unexplained": None, "candidates": [], "calibration_records": []})
+        else:
+            rec.update(_plain_result(res))
+            truth = calibration_truth(case.kind, rec["truth_ids"])
+            recs = records_from_result(truth, res) if truth is not None else []
+            rec["calibration_truth"] = truth
+            rec["calibration_records"] = [_record_dict(r) for r in recs]
+            rec["error"] = None
+    finally:
+        if tmp is not None:
+            import shutil
+            shutil.rmtree(tmp, ignore_errors=True)
+    t2 = time.perf_counter()
+    rec.update({"generate_s": round(t1 - t0, 3), "discover_s": round(t2 - t1, 3), "elapsed_s": round(t2 - t0, 3)})
+    return json.loads(json.dumps(rec, default=_json_default))
+
+
+def discover_settings(discover_cfg) -> dict:
+    """The discover settings a record was made with (plain JSON): a resumed sweep reruns a case whose settings
+    (thresholds, overrides) differ from the current ones."""
+    d = dataclasses.asdict(discover_cfg) if dataclasses.is_dataclass(discover_cfg) else dict(discover_cfg or {})
+    return json.loads(json.dumps(_fix_nan(d), sort_keys=True, default=_json_default))
+
+
+def _load_base(init: Path, cfg):
+    """The starting model as ``bpmid discover --init init.yaml --config case.yaml`` builds it."""
+    try:
+        from bpmid.cli.discover import load_base
+    except ImportError:  # the CLI helper moved: the same file read directly (init.yaml is bpmid.vbmm/1)
+        from bpmid.models.vbmm import load_vbmm
+        return load_vbmm(init, cfg.section("model"))
+    return load_base(init, cfg)[0]
+
+
+def _record_dict(r) -> dict:
+    if dataclasses.is_dataclass(r):
+        return dataclasses.asdict(r)
+    return dict(r)
+
+
+def _json_default(x):
+    if isinstance(x, (np.floating,)):
+        return float(x)
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, np.bool_):
+        return bool(x)
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    return str(x)
+
+
+def _fix_nan(obj):
+    """JSON has no NaN: write null."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _fix_nan(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_fix_nan(v) for v in obj]
+    return obj
+
+
+# ---------------------------------------------------------------------------------------------
+# streaming records, resuming
+# ---------------------------------------------------------------------------------------------
+def read_records(path: str | Path) -> list[dict]:
+    """Records of a JSONL file; a torn last line (an interrupted write) is dropped and cut from the file. A bad
+    line elsewhere is an InputError naming it."""
+    path = Path(path)
+    if not path.exists():
+        return []
+    raw = path.read_bytes()
+    lines = raw.split(b"\n")
+    out, good_end, pos = [], 0, 0
+    for i, line in enumerate(lines):
+        end = pos + len(line) + 1
+        if line.strip():
+            try:
+                out.append(json.loads(line))
+                good_end = min(end, len(raw))
+            except json.JSONDecodeError:
+                if i < len(lines) - 1 and any(x.strip() for x in lines[i + 1:]):
+                    raise InputError("not a JSON record; the records file is damaged (move it away to start over)",
+                                     path=path, line=i + 1) from None
+                with open(path, "r+b") as fh:  # torn last line: cut it
+                    fh.truncate(good_end)
+                break
+        else:
+            good_end = min(end, len(raw)) if i < len(lines) - 1 else good_end
+        pos = end
+    return out
+
+
+class RecordWriter:
+    """Append one JSON record per line, flushed and synced as each arrives."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        if self.path.exists() and self.path.stat().st_size:
+            with open(self.path, "rb") as fh:  # make sure we start on a new line
+                fh.seek(-1, os.SEEK_END)
+                last = fh.read(1)
+            if last != b"\n":
+                with open(self.path, "ab") as fh:
+                    fh.write(b"\n")
+        self.fh = open(self.path, "a", encoding="utf-8")
+
+    def write(self, rec: dict) -> None:
+        self.fh.write(json.dumps(_fix_nan(rec), sort_keys=True, allow_nan=False) + "\n")
+        self.fh.flush()
+        os.fsync(self.fh.fileno())
+
+    def close(self):
+        self.fh.close()
+
+
+def _check_folder(out: Path, cfg: SweepConfig, force: bool = False) -> None:
+    """A folder holds one sweep: refuse to resume another config's sweep into it."""
+    stamp = out / "sweep.yaml"
+    cases_def = {"sweep": dataclasses.asdict(cfg.sweep), "generator": cfg.effective_generator.to_yaml(),
+                 "generator_version": GENERATOR}
+    fp = hashlib.sha256(json.dumps(cases_def, sort_keys=True, default=str).encode()).hexdigest()
+    if stamp.exists() and not force:
+        try:
+            old = yaml.safe_load(stamp.read_text("utf-8")) or {}
+        except yaml.YAMLError:
+            old = {}
+        if old.get("fingerprint") not in (None, fp):
+            raise InputError("this folder holds a sweep of another config (other cases); give a new --out to "
+                             "start a new sweep", path=stamp, key="fingerprint")
+    from bpmid.io.atomic import write_text
+    body = {"schema": SWEEP_SCHEMA, "fingerprint": fp, "config_path": cfg.path, "config_sha256": cfg.sha256,
+            "generator": GENERATOR, **cfg.to_yaml()}
+    write_text(stamp, yaml.safe_dump(body, sort_keys=False))
+
+
+# ---------------------------------------------------------------------------------------------
+# the Dask driver
+# ---------------------------------------------------------------------------------------------
+def _client(scheduler: Optional[str], workers: Optional[int], processes: bool):
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError as exc:  # pragma: no cover - depends on the installation
+        raise InputError("sweeps run on Dask: pip install 'bpmid[cluster]' (dask[distributed])") from exc
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="10s"), None
+        except (OSError, TimeoutError) as exc:
+            raise InputError(f"cannot reach the Dask scheduler at {scheduler!r} ({exc})", key="--scheduler") from None
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=":0",
+                           silence_logs=40)
+    return Client(cluster), cluster
+
+
+def run_cases(cases: Sequence[Case], phase: str, discover_cfg, writer: RecordWriter, client, *,
+              keep_dir: Optional[str] = None, stop_after: Optional[int] = None,
+              on_record: Optional[Callable[[dict], None]] = None) -> list[dict]:
+    """Submit the cases to the Dask client, stream each record to ``writer`` as it finishes. ``stop_after``: stop
+    (cancel the rest) once that many records were written in this call (an interruption, for tests)."""
+    from dask.distributed import as_completed
+
+    if not cases:
+        return []
+    futures = [client.submit(run_case, c, phase, discover_cfg, keep_dir, key=f"bpmid-oof-{phase}-{c.id}",
+                             pure=False) for c in cases]
+    out = []
+    try:
+        for fut in as_completed(futures):
+            rec = fut.result()
+            writer.write(rec)
+            out.append(rec)
+            if on_record:
+                on_record(rec)
+            if stop_after is not None and len(out) >= stop_after:
+                break
+    finally:
+        for f in futures:
+            if not f.done():
+                f.cancel()
+    return out
+
+
+@dataclasses.dataclass
+class SweepOutcome:
+    """What :func:`run_sweep` did: records per half, thresholds used or written, the summary of the evaluated
+    half, and the files written."""
+
+    records: list[dict]
+    thresholds: Optional[dict]
+    summary: Optional[dict]
+    files: dict
+    complete: bool
+
+
+def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", scheduler: Optional[str] = None,
+              workers: Optional[int] = None, processes: bool = True, thresholds_path: Optional[str | Path] = None,
+              stop_after: Optional[int] = None, progress: Optional[Callable[[str], None]] = None,
+              max_cases: Optional[int] = None) -> SweepOutcome:
+    """Run a sweep into ``out`` (see the module docstring). Resumes: finished case ids in ``out/records.jsonl``
+    are skipped. ``stop_after`` stops after that many new records (an interruption, used by the tests);
+    ``max_cases`` keeps only the first cases of each half (by id; a quick subset that a full rerun extends)."""
+    from bpmid.discover.calibrate import THRESHOLD_KEYS, load_thresholds, thresholds_from_records, write_thresholds
+
+    if split not in ("calibration", "heldout", "all"):
+        raise InputError(f"--split must be calibration, heldout or all, found {split!r}", key="--split")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    _check_folder(out, cfg)
+    say = progress or (lambda m: None)
+    gen = cfg.effective_generator
+    cases = make_cases(gen, cfg.sweep.seed, prefix=cfg.sweep.name)
+    halves = {"calibration": [c for c in cases if c.split == "calibration"],
+              "heldout": [c for c in cases if c.split == "heldout"]}
+    if max_cases is not None:
+        halves = {k: v[:max(int(max_cases), 0)] for k, v in halves.items()}
+    phases = ["calibration", "heldout"] if split == "all" else [split]
+    done = {r["id"]: r for r in read_records(out / RECORDS)}
+    writer = RecordWriter(out / RECORDS)
+    keep = str(out / "cases") if cfg.sweep.keep_cases else None
+    files = {"records": str(out / RECORDS), "sweep": str(out / "sweep.yaml")}
+    thresholds = None
+    new = 0
+    client = cluster = None
+    try:
+        for phase in phases:
+            if phase == "heldout":
+                thresholds = _thresholds_for_heldout(out, thresholds_path, thresholds, load_thresholds, THRESHOLD_KEYS)
+            dcfg = cfg.discover_config(phase, thresholds if phase == "heldout" else None)
+            now = discover_settings(dcfg)
+            todo = [c for c in halves[phase] if c.id not in done or done[c.id].get("discover_settings") != now]
+            total = len(halves[phase])
+            say(f"{phase} half: {total} cases, {total - len(todo)} already done, {len(todo)} to run")
+            if todo and stop_after is not None and new >= stop_after:
+                return SweepOutcome(sorted(done.values(), key=lambda r: r["id"]), thresholds, None, files, False)
+            if todo:
+                if client is None:
+                    client, cluster = _client(scheduler, workers, processes)
+                    say(f"dask: {client.scheduler_info().get('address', '?')}, "
+                        f"{len(client.scheduler_info().get('workers', {}))} worker(s)")
+                counter = {"n": total - len(todo)}
+
+                def on_record(rec, counter=counter, total=total, phase=phase):
+                    counter["n"] += 1
+                    named = ",".join(rec.get("named") or []) or "-"
+                    err = f" error: {rec['error'][:60]}" if rec.get("error") else ""
+                    say(f"[{phase} {counter['n']}/{total}] {rec['id']} truth {rec['truth_label']}: named {named} "
+                        f"({rec['elapsed_s']:.1f} s){err}")
+                left = None if stop_after is None else stop_after - new
+                got = run_cases(todo, phase, dcfg, writer, client, keep_dir=keep, stop_after=left, on_record=on_record)
+                new += len(got)
+                for r in got:
+                    done[r["id"]] = r
+                if stop_after is not None and new >= stop_after and len(got) < len(todo):
+                    return SweepOutcome(sorted(done.values(), key=lambda r: r["id"]), thresholds, None, files, False)
+            if phase == "calibration":
+                thresholds = _calibrate(out, cfg, [done[c.id] for c in halves["calibration"]],
+                                        thresholds_from_records, write_thresholds)
+                files["thresholds"] = str(out / "thresholds.yaml")
+    finally:
+        writer.close()
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    evaluated = "heldout" if "heldout" in phases else "calibration"
+    recs = [done[c.id] for c in halves[evaluated]]
+    summary = summarize(recs, evaluated)
+    summary["thresholds"] = ({k: round(float(v), 4) for k, v in thresholds.items()} if thresholds and
+                             evaluated == "heldout" else "permissive (calibration half)")
+    files.update(write_tables(out, summary, recs))
+    for phase in phases:
+        entries = [{"id": done[c.id]["id"], "split": phase, "truth": done[c.id]["truth"]} for c in halves[phase]]
+        p = write_answers(entries, out / "answers" / f"{phase}.yaml", config=gen, seed=cfg.sweep.seed)
+        files[f"answers_{phase}"] = str(p)
+    return SweepOutcome(sorted(done.values(), key=lambda r: r["id"]), thresholds, summary, files, True)
+
+
+def _thresholds_for_heldout(out: Path, given, calibrated, load_thresholds, keys) -> dict:
+    if given is not None:
+        return load_thresholds(given)
+    if calibrated is not None:
+        return calibrated
+    if (out / "thresholds.yaml").exists():
+        return load_thresholds(out / "thresholds.yaml")
+    return load_thresholds()
+
+
+def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_records, write_thresholds) -> dict:
+    from bpmid.discover.calibrate import Record
+    records = [Record(**r) for rec in recs for r in (rec.get("calibration_records") or [])]
+    values = thresholds_from_records(records)
+    n_err = sum(1 for r in recs if r.get("error"))
+    meta = {"produced_by": f"bpmid calibrate {cfg.path or 'SWEEP.yaml'} (sweep {cfg.sweep.name}, "
+                           f"seed {cfg.sweep.seed})",
+            "data": f"{len(recs)} out-of-family cases ({GENERATOR}), calibration half; {n_err} not judged",
+            "generator": cfg.effective_generator.to_yaml()}
+    write_thresholds(values, meta, out / "thresholds.yaml")
+    from bpmid.discover.calibrate import THRESHOLD_KEYS
+    return {k: float(values[k]) for k in THRESHOLD_KEYS}
+
+
+# ---------------------------------------------------------------------------------------------
+# scoring
+# ---------------------------------------------------------------------------------------------
+ROWS = tuple(CATALOGUE_IDS) + ("none", "pair", "out_of_catalogue")
+COLUMNS = tuple(CATALOGUE_IDS) + ("none",)
+
+
+def gap_halved(rec: dict) -> Optional[bool]:
+    """Held-out gap (RMSE minus noise floor) at least halved by the named effects; None when nothing was named."""
+    if not rec.get("named") or rec.get("heldout_before_deg") is None:
+        return None
+    floor = rec["noise_floor_deg"]
+    before, after = rec["heldout_before_deg"] - floor, rec["heldout_after_deg"] - floor
+    return bool(after <= 0.5 * before) if before > 0 else bool(after <= before)
+
+
+def summarize(recs: Sequence[dict], split: str) -> dict:
+    """Confusion matrix and rates of one half's records."""
+    M = {r: {c: 0 for c in COLUMNS} for r in ROWS}
+    for rec in recs:
+        first = rec["named"][0] if rec.get("named") else "none"
+        M[rec["truth_label"]][first if first in COLUMNS else "none"] += 1
+    single = [r for r in recs if r["kind"] == "single"]
+    null = [r for r in recs if r["kind"] == "null"]
+    pair = [r for r in recs if r["kind"] == "pair"]
+    oof = [r for r in recs if r["kind"] == "out_of_catalogue"]
+    named_any = [r for r in recs if r.get("named")]
+    halved = [gap_halved(r) for r in named_any]
+
+    def rate(num, den):
+        return None if den == 0 else round(num / den, 4)
+
+    def both(r):
+        return set(r["truth_ids"]) <= set(r.get("named") or [])
+
+    return {
+        "split": split, "n_cases": len(recs), "not_judged": sum(1 for r in recs if r.get("error")),
+        "single_named_first_right": {"n": len(single), "right": sum(1 for r in single if r.get("named") and
+                                                                  r["named"][0] == r["truth_label"]),
+                                     "rate": rate(sum(1 for r in single if r.get("named") and
+                                                      r["named"][0] == r["truth_label"]), len(single))},
+        "null_false_positive": {"n": len(null), "named_something": sum(1 for r in null if r.get("named")),
+                                "rate": rate(sum(1 for r in null if r.get("named")), len(null))},
+        "pair_both_named": {"n": len(pair), "both": sum(1 for r in pair if both(r)),
+                            "rate": rate(sum(1 for r in pair if both(r)), len(pair)),
+                            "at_least_one_rate": rate(sum(1 for r in pair if set(r["truth_ids"]) &
+                                                          set(r.get("named") or [])), len(pair))},
+        "out_of_catalogue_nothing_named": {"n": len(oof), "nothing": sum(1 for r in oof if not r.get("named")),
+                                           "rate": rate(sum(1 for r in oof if not r.get("named")), len(oof)),
+                                           "unexplained_rate": rate(sum(1 for r in oof if r.get("unexplained")),
+                                                                    len(oof))},
+        "gap_halved_where_named": {"n": len(named_any), "halved": sum(1 for h in halved if h),
+                                   "rate": rate(sum(1 for h in halved if h), len(named_any))},
+        "confusion": M,
+    }
+
+
+def confusion_markdown(summary: dict) -> str:
+    M = summary["confusion"]
+    short = {"second_relaxation": "2nd relax", "braid_friction": "friction", "pressure_lag": "lag",
+             "asymmetric_relaxation": "asym relax", "strain_stiffening": "stiffening", "angle_offset": "offset",
+             "thermal_softening": "thermal", "none": "none"}
+    lines = [f"Confusion matrix, {summary['split']} half ({summary['n_cases']} cases; rows: hidden truth, columns: "
+             f"effect named first)", "",
+             "| hidden \\ named | " + " | ".join(short[c] for c in COLUMNS) + " |",
+             "|---" * (len(COLUMNS) + 1) + "|"]
+    for r in ROWS:
+        if sum(M[r].values()) or r in CATALOGUE_IDS:
+            lines.append(f"| {r} | " + " | ".join(str(M[r][c]) for c in COLUMNS) + " |")
+    s = summary
+
+    def pct(x):
+        return "n/a" if x is None else f"{100 * x:.0f} %"
+    lines += ["", "| measure | value |", "|---|---|",
+              f"| single effect named first right | {s['single_named_first_right']['right']}/"
+              f"{s['single_named_first_right']['n']} ({pct(s['single_named_first_right']['rate'])}) |",
+              f"| false positives on nulls | {s['null_false_positive']['named_something']}/"
+              f"{s['null_false_positive']['n']} ({pct(s['null_false_positive']['rate'])}) |",
+              f"| pairs: both effects named | {s['pair_both_named']['both']}/{s['pair_both_named']['n']} "
+              f"({pct(s['pair_both_named']['rate'])}) |",
+              f"| out of catalogue: nothing named | {s['out_of_catalogue_nothing_named']['nothing']}/"
+              f"{s['out_of_catalogue_nothing_named']['n']} ({pct(s['out_of_catalogue_nothing_named']['rate'])}) |",
+              f"| gap at least halved where an effect was named | {s['gap_halved_where_named']['halved']}/"
+              f"{s['gap_halved_where_named']['n']} ({pct(s['gap_halved_where_named']['rate'])}) |",
+              f"| cases discovery declined to judge | {s['not_judged']} |"]
+    if s.get("thresholds") is not None:
+        thr = s["thresholds"]
+        lines += ["", "Thresholds: " + (", ".join(f"{k} = {v:g}" for k, v in thr.items()) if isinstance(thr, dict)
+                                        else str(thr))]
+    return "\n".join(lines) + "\n"
+
+
+def write_tables(out: Path, summary: dict, recs: Sequence[dict]) -> dict:
+    from bpmid.io.atomic import write_text
+    M = summary["confusion"]
+    csv = ["hidden_truth," + ",".join(f"named_first_{c}" for c in COLUMNS)]
+    csv += [f"{r}," + ",".join(str(M[r][c]) for c in COLUMNS) for r in ROWS]
+    write_text(out / "confusion.csv", "\n".join(csv) + "\n")
+    write_text(out / "confusion.md", confusion_markdown(summary))
+    body = {"schema": "bpmid.sweep-summary/1", "synthetic": True, "generator": GENERATOR,
+            **{k: v for k, v in summary.items() if k != "confusion"},
+            "confusion": {r: dict(v) for r, v in M.items()},
+            "per_case": [{"id": r["id"], "truth": r["truth_label"], "truth_ids": r["truth_ids"],
+                          "named": r.get("named") or [], "unexplained": r.get("unexplained"),
+                          "gap_halved": gap_halved(r), "error": r.get("error")} for r in recs]}
+    write_text(out / "summary.yaml", yaml.safe_dump(_fix_nan(body), sort_keys=False))
+    return {"confusion_csv": str(out / "confusion.csv"), "confusion_md": str(out / "confusion.md"),
+            "summary": str(out / "summary.yaml")}
+
+
+def comparable(recs: Sequence[dict]) -> list[dict]:
+    """Records sorted by id without the timing fields (two runs of the same sweep compare equal)."""
+    return [{k: v for k, v in r.items() if k not in TIMING_FIELDS} for r in sorted(recs, key=lambda r: r["id"])]

@@ -1,0 +1,174 @@
+"""Sweeps on Dask (bpmid.validation.sweep) and ``bpmid calibrate``: streaming, resume, calibration, tables."""
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+from bpmid.validation.sweep import (RECORDS, comparable, load_sweep, read_records, run_sweep, summarize)
+
+REPO = Path(__file__).resolve().parents[1]
+TINY = REPO / "configs" / "sweeps" / "tiny.yaml"
+
+
+@pytest.fixture(scope="module")
+def full_run(tmp_path_factory):
+    """The tiny sweep run once without interruption (a real LocalCluster, two workers)."""
+    out = tmp_path_factory.mktemp("sweep_full")
+    res = run_sweep(load_sweep(TINY), out, workers=2, processes=False)
+    return out, res
+
+
+def test_uninterrupted_sweep_writes_records_thresholds_tables_answers(full_run):
+    out, res = full_run
+    assert res.complete
+    recs = read_records(out / RECORDS)
+    cases = {r["id"] for r in recs}
+    assert len(recs) == 4 and len(cases) == 4
+    assert {r["split"] for r in recs} == {"calibration", "heldout"}
+    assert all(r["phase"] == r["split"] for r in recs)
+    thr = yaml.safe_load((out / "thresholds.yaml").read_text())
+    assert thr["schema"] == "bpmid.discover-thresholds/1" and "tiny" in thr["calibration"]["produced_by"]
+    # the calibration half's candidates were recorded with their truth
+    cal = [r for r in recs if r["split"] == "calibration"]
+    assert sum(len(r["calibration_records"]) for r in cal) >= 2
+    # tables: every held-out case counted once, rows by hidden truth
+    csv = (out / "confusion.csv").read_text().splitlines()
+    assert csv[0].startswith("hidden_truth,named_first_second_relaxation")
+    n_ho = sum(1 for r in recs if r["split"] == "heldout")
+    assert sum(int(v) for line in csv[1:] for v in line.split(",")[1:]) == n_ho
+    md = (out / "confusion.md").read_text()
+    assert "false positives on nulls" in md and "| hidden \\ named |" in md
+    # answers per split, apart from the records; they hold the truth of exactly that half
+    for split in ("calibration", "heldout"):
+        ans = yaml.safe_load((out / "answers" / f"{split}.yaml").read_text())
+        assert set(ans["cases"]) == {r["id"] for r in recs if r["split"] == split}
+        assert all(v["split"] == split for v in ans["cases"].values())
+
+
+def test_interrupted_sweep_resumes_to_the_same_records(full_run, tmp_path):
+    out_full, _ = full_run
+    cfg = load_sweep(TINY)
+    res = run_sweep(cfg, tmp_path, workers=2, processes=False, stop_after=2)
+    assert not res.complete
+    lines = (tmp_path / RECORDS).read_text().splitlines()
+    assert len(lines) == 2
+    with open(tmp_path / RECORDS, "a") as fh:  # a write torn by the interruption
+        fh.write('{"id": "tiny-00')
+    res2 = run_sweep(cfg, tmp_path, workers=2, processes=False)
+    assert res2.complete
+    resumed = read_records(tmp_path / RECORDS)
+    assert len(resumed) == 4  # the torn line is gone, nothing ran twice
+    assert comparable(resumed) == comparable(read_records(out_full / RECORDS))
+    assert (tmp_path / "confusion.csv").read_text() == (out_full / "confusion.csv").read_text()
+    # a third run has nothing left to do and does not start a cluster
+    res3 = run_sweep(cfg, tmp_path, workers=2, processes=False)
+    assert comparable(res3.records) == comparable(resumed)
+
+
+def test_a_case_run_with_other_discover_settings_is_rerun(full_run, tmp_path):
+    out_full, _ = full_run
+    out = tmp_path / "copy"
+    shutil.copytree(out_full, out)
+    recs = read_records(out / RECORDS)
+    ho = sorted(r["id"] for r in recs if r["split"] == "heldout")
+    lines = []
+    for r in recs:
+        if r["id"] == ho[0]:
+            r = dict(r, discover_settings=dict(r["discover_settings"], lr_p_max=0.5), named=["stale"])
+        lines.append(json.dumps(r))
+    (out / RECORDS).write_text("\n".join(lines) + "\n")
+    res = run_sweep(load_sweep(TINY), out, workers=2, processes=False)
+    again = read_records(out / RECORDS)
+    assert len(again) == 5 and [r["id"] for r in again].count(ho[0]) == 2  # rerun and appended, latest wins
+    assert comparable(res.records) == comparable(read_records(out_full / RECORDS))
+
+
+def test_summary_rates():
+    base = {"error": None, "unexplained": False, "noise_floor_deg": 0.1, "heldout_before_deg": 0.5,
+            "heldout_after_deg": 0.2}
+    recs = [dict(base, id="a", kind="single", truth_label="pressure_lag", truth_ids=["pressure_lag"],
+                 named=["pressure_lag"]),
+            dict(base, id="b", kind="null", truth_label="none", truth_ids=[], named=["angle_offset"],
+                 heldout_after_deg=0.45),
+            dict(base, id="c", kind="null", truth_label="none", truth_ids=[], named=[]),
+            dict(base, id="d", kind="pair", truth_label="pair", truth_ids=["angle_offset", "braid_friction"],
+                 named=["braid_friction", "angle_offset"]),
+            dict(base, id="e", kind="out_of_catalogue", truth_label="out_of_catalogue", truth_ids=["mullins"],
+                 named=[], unexplained=True)]
+    s = summarize(recs, "heldout")
+    assert s["single_named_first_right"]["rate"] == 1.0
+    assert s["null_false_positive"]["rate"] == 0.5
+    assert s["pair_both_named"]["rate"] == 1.0
+    assert s["out_of_catalogue_nothing_named"]["rate"] == 1.0
+    assert s["gap_halved_where_named"] == {"n": 3, "halved": 2, "rate": round(2 / 3, 4)}
+    assert s["confusion"]["none"]["angle_offset"] == 1 and s["confusion"]["pair"]["braid_friction"] == 1
+
+
+def test_cli_calibrate_resumes_a_finished_folder_and_rejects_bad_configs(full_run, tmp_path):
+    runner = CliRunner()
+    out_full, _ = full_run
+    out = tmp_path / "again"
+    shutil.copytree(out_full, out)
+    (out / "confusion.md").unlink()
+    r = runner.invoke(app, ["--quiet", "calibrate", str(TINY), "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    assert "Confusion matrix, heldout half" in r.output and (out / "confusion.md").exists()
+    # a bad key names itself, exit 2
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(TINY.read_text().replace("  duration_scale: 0.08", "  duration_scael: 0.08"))
+    r = runner.invoke(app, ["calibrate", str(bad), "--out", str(tmp_path / "x")])
+    assert r.exit_code == 2 and "generator.duration_scael" in r.output
+    bad.write_text(TINY.read_text().replace("max_effects: 1, n_confirm: 2, min_fit_samples: 100}\nevaluation",
+                                            "max_effect: 1, n_confirm: 2, min_fit_samples: 100}\nevaluation"))
+    r = runner.invoke(app, ["calibrate", str(bad), "--out", str(tmp_path / "x")])
+    assert r.exit_code == 2 and "calibration.discover.max_effect" in r.output
+    bad.write_text("sweep: {seed: 1}\nnoise: 0.2\n")
+    r = runner.invoke(app, ["calibrate", str(bad), "--out", str(tmp_path / "x")])
+    assert r.exit_code == 2 and "noise" in r.output and "unknown section" in r.output
+    r = runner.invoke(app, ["calibrate", str(TINY), "--out", str(tmp_path / "x"), "--split", "half"])
+    assert r.exit_code == 2 and "--split" in r.output
+    # another config into a folder holding a sweep: refused, not mixed
+    other = tmp_path / "other.yaml"
+    other.write_text(TINY.read_text().replace("seed: 3", "seed: 4"))
+    r = runner.invoke(app, ["calibrate", str(other), "--out", str(out)])
+    assert r.exit_code == 2 and "another config" in r.output
+    r = runner.invoke(app, ["calibrate", "--help"])
+    assert r.exit_code == 0 and "Example" in r.output and "bpmid calibrate configs/sweeps/" in r.output
+
+
+def test_shipped_sweep_configs_load_and_are_big_enough():
+    from bpmid.validation import make_cases
+    for name in ("tiny", "small", "full"):
+        cfg = load_sweep(REPO / "configs" / "sweeps" / f"{name}.yaml")
+        cases = make_cases(cfg.effective_generator, cfg.sweep.seed, prefix=cfg.sweep.name)
+        assert len(cases) == cfg.generator.n_cases
+    full = make_cases(load_sweep(REPO / "configs" / "sweeps" / "full.yaml").effective_generator,
+                      load_sweep(REPO / "configs" / "sweeps" / "full.yaml").sweep.seed, prefix="full")
+    ho = [c for c in full if c.split == "heldout"]
+    assert len(full) >= 200 and len(ho) >= 100
+    assert sum(c.kind == "null" for c in ho) >= 20
+    assert {c.kind for c in ho} == {"single", "null", "pair", "out_of_catalogue"}
+    assert {c.geometry.name for c in ho} >= {"paper", "slim", "wide"}
+    assert {e.effect for c in ho if c.kind == "single" for e in c.effects} == set(json.loads(json.dumps(
+        list(load_sweep(REPO / "configs" / "sweeps" / "full.yaml").generator.effects))))
+
+
+def test_rig_section_sets_noise_rate_and_geometry(tmp_path):
+    from bpmid.validation import make_cases
+    cfg_path = tmp_path / "rig.yaml"
+    cfg_path.write_text(TINY.read_text() + "rig: {noise_deg: 0.25, noise_ar1_rho: 0.6, sampling_hz: 40, "
+                        "pressure_unit: psi, geometry: {name: mine, th_mm: 1.8, alpha0_deg: 28, R0_mm: 14, "
+                        "l0_mm: 170, n: 6.5}}\n")
+    cfg = load_sweep(cfg_path)
+    cases = make_cases(cfg.effective_generator, cfg.sweep.seed, prefix="rig")
+    assert {(c.noise_deg, c.noise_rho, c.fs_hz, c.pressure_unit, c.geometry.name) for c in cases} == {
+        (0.25, 0.6, 40.0, "psi", "mine")}
+    cfg_path.write_text(TINY.read_text() + "rig: {noise_deg: -1}\n")
+    from bpmid.errors import InputError
+    with pytest.raises(InputError) as e:
+        load_sweep(cfg_path)
+    assert "rig.noise_deg" in e.value.format()
