@@ -30,7 +30,7 @@ from bpmid.effects import CATALOGUE, get_effect
 #: the twin's variants: forms different from the catalogue's model terms
 TWIN_SETTINGS = {"braid_friction": {"elements": 4}, "pressure_lag": {"dead_time": 0.1}}
 NOISE_BY_SEED = {0: 0.10, 1: 0.20, 2: 0.15}
-PERMISSIVE = dict(heldout_gain_min_sigma=-1e9, delta_bic_max=1e9, lr_p_max=0.999999, max_effects=2)
+from bpmid.discover.calibrate import PERMISSIVE  # noqa: E402
 
 
 def run_case(args):

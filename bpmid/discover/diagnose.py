@@ -79,7 +79,11 @@ def _pressure_corners(p: np.ndarray) -> np.ndarray:
         return c
     d2 = np.abs(np.diff(p, 2))
     s = 1.4826 * float(np.median(np.abs(d2 - np.median(d2))))
-    c[1:-1] = d2 > max(6.0 * s, 1e-6 * (float(np.ptp(p)) + 1e-300))
+    d1 = np.abs(np.diff(p))
+    moving = d1[d1 > 1e-9 * (float(np.ptp(p)) + 1e-300)]
+    step = float(np.median(moving)) if moving.size else 0.0
+    # a corner changes the slope by a good part of a ramp's step; rounding of the logged values does not
+    c[1:-1] = d2 > max(6.0 * s, 0.1 * step, 1e-9 * (float(np.ptp(p)) + 1e-300))
     return c
 
 
