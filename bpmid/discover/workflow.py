@@ -392,6 +392,12 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                                f"{res.nfev} evaluations, RMSE {res.rmse:.3g} deg). A verdict on missing effects needs a "
                                "converged base model: check the logs' pressure reference and units, or start it with --init")
     base_state = state
+    if res.rmse < floor:
+        # the noise cannot exceed what the fitted base model leaves on the fitting logs: a coloured-noise estimate
+        # above it mistook slow signal for noise
+        noise = dict(noise, sigma_deg=float(res.rmse), capped_by_base_fit=True,
+                     method=noise.get("method", "") + "; capped by the base fit's RMSE on the fitting logs")
+        floor = noise["sigma_deg"]
     before = scored_rmse(state, ho_logs, per_log_gain=gain)
     raw_before = rmse_deg(residuals(state, ho_logs))
     rounds: list[Round] = []
