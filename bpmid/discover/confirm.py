@@ -7,7 +7,8 @@ For a candidate effect on top of the current model:
    column), plus a small grid over the effect's physical range (``START_VALUES`` of the catalogue entry, e.g. a
    lag of 0.02-1 s, a branch of 2-100 s; bounds otherwise). Each start is scored by one simulation, with the
    base constants' first-order compensation projected out (their sensitivities), and the best two distinct
-   starts are refitted (every constant free, a fixed evaluation budget);
+   starts are refitted (every constant free, a fixed evaluation budget)
+   (the second only when the first did not move or did not improve the fit);
 2. a refit that did not move (the effect's parameters where they started and the same sum of squares) is
    **not tested**: its result says why and is never counted as evidence against the effect;
 3. new parameters must be identifiable: a finite, small relative standard error, not on a bound, and not
@@ -301,6 +302,8 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     best = None
     start_log = []
     for sse_s, vals, how in chosen:
+        if best is not None and best[3] and best[2] < sse0 * (1 - 1e-6):
+            break                      # the first refit moved and improved: the next start is not needed
         cand = dataclasses.replace(cand0, params=cand0.params.with_values(vals))
         fitted, res = fit_state(cand, fit_logs, max_nfev=max_nfev, check_identifiability=False,
                                 per_log_gain=per_log_gain)

@@ -83,8 +83,13 @@ class ModelState:
         return self.base.replace(material=self.material())
 
 
+#: model evaluations (one = one simulation of one set of logs) since import: the cost counter of the scaling bench
+EVALUATIONS = {"count": 0}
+
+
 def simulate(state: ModelState, logs: Sequence[MotionLog], params: ParamSet | None = None) -> list[np.ndarray]:
     """Predicted angle (deg) per log; NaN where the model refuses the pressure (beyond its range)."""
+    EVALUATIONS["count"] += 1
     aug = state.augmented(params)
     out = []
     for lg in logs:

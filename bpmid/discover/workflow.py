@@ -70,13 +70,13 @@ class DiscoverConfig:
 
     candidates: tuple[str, ...] = ()
     max_effects: int = 3
-    n_confirm: int = 4
+    n_confirm: int = 3
     holdout_every: int = 3
     min_fit_samples: int = 200
     min_log_samples: int = 30
     base_max_nfev: int = 300
     base_starts: int = 2
-    confirm_max_nfev: int = 150
+    confirm_max_nfev: int = 60
     heldout_gain_min_sigma: Optional[float] = None
     gap_share_min: Optional[float] = None
     family_alpha: Optional[float] = None
@@ -330,6 +330,8 @@ def fit_base(state0: ModelState, fit_logs: Sequence[MotionLog], cfg: DiscoverCon
     starts.sort(key=lambda x: x[0])
     best, tried = None, []
     for sse, sm, st, ps in starts[:cfg.base_starts]:
+        if best is not None and best[1].success:
+            break                      # the best-scored start converged: the next one is not needed
         st_state = dataclasses.replace(state0, params=ps)
         state, res = fit_state(st_state, fit_logs, max_nfev=cfg.base_max_nfev, check_identifiability=False,
                                per_log_gain=cfg.per_log_gain)
