@@ -162,6 +162,12 @@ class Record:
     identifiable: bool = True
     case: str = ""        # which data set (records of one case are judged together)
 
+    def __post_init__(self):
+        # records read back from JSON carry None where a value was not a number
+        for f in ("gain_sigma", "delta_bic", "gap_share", "lr_p", "lr_p_holm"):
+            v = getattr(self, f)
+            setattr(self, f, float("nan") if v is None else float(v))
+
 
 def records_from_result(truth: str, result, case: str | None = None) -> list[Record]:
     """The confirmed candidates of a discovery result, labelled with the injected ``truth``."""
@@ -208,13 +214,13 @@ ALPHAS = (0.05, 0.01, 1e-3, 1e-4, 1e-6, 1e-9)
 
 def thresholds_from_records(records: Sequence[Record]) -> dict:
     """The gate's thresholds from calibration records (see module docstring): a grid over the held-out gain
-    (0.25 .. 6 noise floors), the gap share (0 .. 0.6) and the family-wise alpha (:data:`ALPHAS`); the value
+    (0 .. 1 noise floor in steps of 0.01, then to 6 in steps of 0.25), the gap share (0 .. 0.6) and the family-wise alpha (:data:`ALPHAS`); the value
     with the most right decisions minus twice the false positives wins, ties to the stricter gate."""
     by_case: dict[str, list[Record]] = {}
     for r in records:
         by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
     cases = list(by_case.values())
-    gains = np.round(np.arange(0.25, 6.01, 0.25), 2)
+    gains = np.unique(np.round(np.concatenate([np.arange(0.0, 1.0, 0.01), np.arange(1.0, 6.01, 0.25)]), 2))
     shares = np.round(np.arange(0.0, 0.61, 0.05), 2)
     best, best_key = None, None
     for g in gains:
