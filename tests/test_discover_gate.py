@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from bpmid.discover.calibrate import (PERMISSIVE, Record, paper_sized_set, start_model, thresholds_from_records,
-                                      truth_model)
+from bpmid.discover.calibrate import (PERMISSIVE, PROTOCOLS, Record, paper_sized_set, start_model,
+                                      thresholds_from_records, truth_model)
 from bpmid.discover.confirm import Confirmation, confirm, holm_adjusted, start_grid
 from bpmid.discover.diagnose import noise_floor
 from bpmid.discover.model import ModelState, fit_state, gained_residuals, scored_rmse, simulate, stacked
@@ -68,8 +68,7 @@ class _Inert(Effect):
 @pytest.fixture(scope="module")
 def lag_case():
     """Three short logs with a 0.8 s pressure lag (default of the catalogue term: 0.25 s) and the base fitted."""
-    protos = {k: v for k, v in __import__("bpmid.discover.calibrate", fromlist=["PROTOCOLS"]).PROTOCOLS.items()
-              if k in ("va_1.8", "vr_0.267", "ho_va_2.0")}
+    protos = {k: v for k, v in PROTOCOLS.items() if k in ("va_1.8", "vr_0.267", "ho_va_2.0")}
     lag = get_effect("pressure_lag")
     fit, ho = paper_sized_set(lag, size=3.2, seed=11, noise_deg=0.1, protocols=protos)   # tau = 0.8 s
     state, _ = fit_state(ModelState.start(truth_model()), fit, check_identifiability=False)
@@ -124,7 +123,6 @@ def test_thresholds_from_records_separate_true_effects_from_null_candidates():
 def test_null_with_log_to_log_variation_gets_nothing_named():
     """5 % stiffness variation between logs: the raw held-out error is many noise floors, but with per-log gains
     nothing is named (variation is not a missing effect)."""
-    from bpmid.discover.calibrate import PROTOCOLS
     rng = np.random.default_rng(3)
     names = ("fit_cyclic_1.6", "va_1.8", "vr_0.267", "hold_2.0", "ho_va_2.0", "ho_mixed")
     fit, ho = [], []

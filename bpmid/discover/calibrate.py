@@ -171,7 +171,8 @@ class Record:
 
 def records_from_result(truth: str, result, case: str | None = None) -> list[Record]:
     """The confirmed candidates of a discovery result, labelled with the injected ``truth``."""
-    case = case or f"{truth}|{result.heldout_raw_before:.12g}|{result.noise_floor_deg:.12g}|{result.elapsed_s:.6g}"
+    # deterministic (a resumed sweep must reproduce it): the data set's own numbers, never a time
+    case = case or f"{truth}|{result.heldout_raw_before:.12g}|{result.noise_floor_deg:.12g}"
     out = []
     named_before: list[str] = []
     for k, rnd in enumerate(result.rounds, start=1):

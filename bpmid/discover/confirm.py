@@ -271,8 +271,7 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
             start += lg.n
         nuisance = np.column_stack([nuisance] + blocks)
     Q0 = _orthonormal(nuisance)
-    own_ps = [p for p in effect.default_params() if not p.fixed]
-    own = [p.name for p in own_ps]
+    own = [p.name for p in effect.default_params() if not p.fixed]
     cand0 = state.with_effect(effect)
 
     # 1. starts, scored by one simulation each with the base compensation projected out
@@ -301,7 +300,7 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     sse0 = float(r0 @ r0)
     best = None
     start_log = []
-    for sse_s, vals, how in chosen:
+    for _, vals, how in chosen:
         if best is not None and best[3] and best[2] < sse0 * (1 - 1e-6):
             break                      # the first refit moved and improved: the next start is not needed
         cand = dataclasses.replace(cand0, params=cand0.params.with_values(vals))
