@@ -136,8 +136,9 @@ def test_cli_calibrate_resumes_a_finished_folder_and_rejects_bad_configs(full_ru
     other.write_text(TINY.read_text().replace("seed: 3", "seed: 4"))
     r = runner.invoke(app, ["calibrate", str(other), "--out", str(out)])
     assert r.exit_code == 2 and "another config" in r.output
-    r = runner.invoke(app, ["calibrate", "--help"])
-    assert r.exit_code == 0 and "Example" in r.output and "bpmid calibrate configs/sweeps/" in r.output
+    r = runner.invoke(app, ["calibrate", "--help"], env={"COLUMNS": "400"})
+    text = " ".join(r.output.split())
+    assert r.exit_code == 0 and "Example" in text and "bpmid calibrate configs/sweeps/small.yaml" in text
 
 
 def test_shipped_sweep_configs_load_and_are_big_enough():

@@ -232,15 +232,20 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
         root = Path(keep_dir) if keep_dir else Path(tmp := tempfile.mkdtemp(prefix="bpmid-oof-"))
         write_case(data, root)
         paths = case_paths(root / case.id)
-        cfg = load_config(paths["config"])
-        fit = read_motion_logs(paths["fit"], cfg.section("io"), require_angle=True)
-        ho = read_motion_logs(paths["holdout"], cfg.section("io"), require_angle=True)
-        base = _load_base(paths["init"], cfg)
-        try:
+        try:  # as ``bpmid discover fit/*.csv --holdout holdout/*.csv --init init.yaml --config case.yaml``
+            cfg = load_config(paths["config"])
+            fit = read_motion_logs(paths["fit"], cfg.section("io"), require_angle=True)
+            ho = read_motion_logs(paths["holdout"], cfg.section("io"), require_angle=True)
+            base = _load_base(paths["init"], cfg)
             res = discover(fit, base, holdout=ho, cfg=discover_cfg)
         except InputError as exc:  # includes ConvergenceError: discovery declined to judge
-            rec.update({"error": exc.format() if hasattr(exc, "format") else str(exc), "named": [],
-                        "unexplained": None, "candidates": [], "calibration_records": []})
+            rec.update({"error": exc.format() if hasattr(exc, "format") else str(exc), "error_kind": "declined",
+                        "named": [], "unexplained": None, "candidates": [], "calibration_records": []})
+        except Exception as exc:  # an internal failure on one case must not end a sweep of thousands: record it
+            import traceback
+            rec.update({"error": f"{type(exc).__name__}: {exc} | {traceback.format_exc(limit=-2)[-600:]}",
+                        "error_kind": "internal", "named": [], "unexplained": None, "candidates": [],
+                        "calibration_records": []})
         else:
             rec.update(_plain_result(res))
             truth = calibration_truth(case.kind, rec["truth_ids"])
@@ -248,6 +253,7 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
             rec["calibration_truth"] = truth
             rec["calibration_records"] = [_record_dict(r) for r in recs]
             rec["error"] = None
+            rec["error_kind"] = None
     finally:
         if tmp is not None:
             import shutil
@@ -580,7 +586,9 @@ def summarize(recs: Sequence[dict], split: str) -> dict:
         return set(r["truth_ids"]) <= set(r.get("named") or [])
 
     return {
-        "split": split, "n_cases": len(recs), "not_judged": sum(1 for r in recs if r.get("error")),
+        "split": split, "n_cases": len(recs),
+        "not_judged": sum(1 for r in recs if r.get("error") and r.get("error_kind") != "internal"),
+        "internal_failures": sum(1 for r in recs if r.get("error_kind") == "internal"),
         "single_named_first_right": {"n": len(single), "right": sum(1 for r in single if r.get("named") and
                                                                   r["named"][0] == r["truth_label"]),
                                      "rate": rate(sum(1 for r in single if r.get("named") and
@@ -628,7 +636,8 @@ def confusion_markdown(summary: dict) -> str:
               f"{s['out_of_catalogue_nothing_named']['n']} ({pct(s['out_of_catalogue_nothing_named']['rate'])}) |",
               f"| gap at least halved where an effect was named | {s['gap_halved_where_named']['halved']}/"
               f"{s['gap_halved_where_named']['n']} ({pct(s['gap_halved_where_named']['rate'])}) |",
-              f"| cases discovery declined to judge | {s['not_judged']} |"]
+              f"| cases discovery declined to judge | {s['not_judged']} |",
+              f"| internal failures (see records.jsonl) | {s.get('internal_failures', 0)} |"]
     if s.get("thresholds") is not None:
         thr = s["thresholds"]
         lines += ["", "Thresholds: " + (", ".join(f"{k} = {v:g}" for k, v in thr.items()) if isinstance(thr, dict)
