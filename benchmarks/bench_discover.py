@@ -1,7 +1,10 @@
-"""Calibrate the discovery thresholds on simulated data and print the confusion matrix.
+"""The discovery loop on the project's own twin: calibration check, confusion matrix, and the cost curve.
 
-    python benchmarks/bench_discover.py --calibrate      # calibrate, write bpmid/discover/thresholds.yaml, evaluate
-    python benchmarks/bench_discover.py                  # evaluate the committed thresholds only
+    python benchmarks/bench_discover.py                  # evaluate the committed thresholds on fresh twin seeds
+    python benchmarks/bench_discover.py --scaling        # run time and model evaluations at 1x, 4x, 16x data
+    python benchmarks/bench_discover.py --calibrate OUT  # calibrate on the twin into OUT (a check only: the
+                                                         # shipped thresholds come from the out-of-family
+                                                         # generator, ``bpmid calibrate configs/sweeps/full.yaml``)
 
 Data: :func:`bpmid.discover.calibrate.paper_sized_set` (paper protocols, 10 Hz, 7 fitting + 4 held-out logs),
 each catalogue effect hidden in the twin's variant of the physics where it has one (braid friction from 4 slip
@@ -30,7 +33,7 @@ from bpmid.effects import CATALOGUE, get_effect
 #: the twin's variants: forms different from the catalogue's model terms
 TWIN_SETTINGS = {"braid_friction": {"elements": 4}, "pressure_lag": {"dead_time": 0.1}}
 NOISE_BY_SEED = {0: 0.10, 1: 0.20, 2: 0.15}
-PERMISSIVE = dict(heldout_gain_min_sigma=-1e9, delta_bic_max=1e9, lr_p_max=0.999999, max_effects=2)
+from bpmid.discover.calibrate import PERMISSIVE  # noqa: E402
 
 
 def run_case(args):
@@ -56,7 +59,7 @@ def run_all(cases, jobs):
     return out
 
 
-def calibrate(jobs):
+def calibrate(jobs, out):
     from bpmid.discover.calibrate import Record
     cases = [(e, s, seed, NOISE_BY_SEED[seed], True) for e in CATALOGUE for s in (0.6, 1.0) for seed in (0, 1, 2)]
     cases += [("none", 1.0, seed, NOISE_BY_SEED[seed % 3], True) for seed in range(6)]
@@ -69,10 +72,9 @@ def calibrate(jobs):
     meta = {"produced_by": "python benchmarks/bench_discover.py --calibrate",
             "data": "paper_sized_set: 7 effects x sizes (0.6, 1.0) x seeds (0, 1, 2), noise 0.10/0.20/0.15 deg, "
                     "twin variants " + ", ".join(f"{k}{v}" for k, v in TWIN_SETTINGS.items()) + "; 6 null sets",
-            "rule": "held-out gain: midpoint between the largest gain of a wrong/null candidate and the smallest gain "
-                    "of the true effect in round 1 (fewest errors when they overlap); delta BIC: half the weakest true "
-                    "effect's delta BIC, and at most -10"}
-    write_thresholds(thr, meta)
+            "rule": "thresholds_from_records: the (gain, gap share, family alpha) with the most right decisions "
+                    "minus twice the false positives"}
+    write_thresholds(thr, meta, out)
     print("calibrated:", {k: round(v, 3) if isinstance(v, float) else v for k, v in thr.items()})
 
 
@@ -109,13 +111,40 @@ def evaluate(jobs):
           f"max {max(r['seconds'] for r in runs):.1f} s")
 
 
+def scaling():
+    """Discovery on k times the data (every protocol's cycles repeated k times: the same logs, k times longer):
+    wall time and model evaluations (one = one simulation of a set of logs). Evaluation budgets are fixed, so the
+    evaluations stay flat and the time grows with the samples each evaluation integrates."""
+    from bpmid.discover import model as M
+    from bpmid.discover.calibrate import PROTOCOLS
+    eff = get_effect("pressure_lag")
+    rows = []
+    for k in (1, 4, 16):
+        protos = {name: (list(seg) * k, p0) for name, (seg, p0) in PROTOCOLS.items()}
+        fit, ho = paper_sized_set(eff, seed=3, noise_deg=0.15, protocols=protos)
+        n = sum(lg.n for lg in fit + ho)
+        M.EVALUATIONS["count"] = 0
+        t0 = time.perf_counter()
+        res = discover(fit, start_model(), holdout=ho)
+        rows.append((k, n, time.perf_counter() - t0, M.EVALUATIONS["count"], res.named_effects))
+        print(f"{k:>2}x data: {n} samples, {rows[-1][2]:.1f} s, {rows[-1][3]} model evaluations, named {res.named_effects}",
+              flush=True)
+    print("\n| data | samples | time (s) | time / time at 1x | model evaluations |\n|---|---|---|---|---|")
+    for k, n, dt, ev, _ in rows:
+        print(f"| {k}x | {n} | {dt:.1f} | {dt / rows[0][2]:.1f} | {ev} |")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--calibrate", action="store_true", help="calibrate and write thresholds.yaml first")
+    ap.add_argument("--calibrate", default=None, metavar="OUT", help="calibrate on the twin into OUT (a check)")
+    ap.add_argument("--scaling", action="store_true", help="cost curve at 1x, 4x, 16x data")
     ap.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1))
     a = ap.parse_args()
+    if a.scaling:
+        scaling()
+        return
     if a.calibrate:
-        calibrate(a.jobs)
+        calibrate(a.jobs, a.calibrate)
     evaluate(a.jobs)
 
 

@@ -1,14 +1,13 @@
-"""Thresholds of the discovery loop, calibrated on simulated data (never tuned by hand to one case).
+"""Thresholds of the discovery loop's gate, calibrated on simulated data (never tuned by hand to one case).
 
-The committed file ``bpmid/discover/thresholds.yaml`` holds the calibrated values; it is written by
-
-    python benchmarks/bench_discover.py --calibrate
-
-which simulates paper-sized data sets (:func:`paper_sized_set`) with each catalogue effect injected at several
-sizes, seeds and noise levels (in the twin's variants of the physics, not the model terms' form) plus null data
-with no effect, runs the loop with permissive thresholds, and places each threshold between what null
-candidates reach and what true effects reach (:func:`thresholds_from_records`). The same script then
-evaluates the calibrated loop on fresh seeds and prints the confusion matrix and the false-positive rate.
+The gate (:func:`bpmid.discover.workflow.judge`) has three numbers whose meaning does not depend on any
+generator: ``heldout_gain_min_sigma`` (the held-out RMSE drop, in noise floors), ``gap_share_min`` (the share of
+the held-out gap above the noise floor the effect must remove) and ``family_alpha`` (the family-wise level of the
+Holm-corrected likelihood-ratio tests of a round). :func:`thresholds_from_records` chooses them from the
+candidates recorded on a CALIBRATION set run with permissive thresholds (:data:`PERMISSIVE`): the values that
+reproduce the most right decisions case by case (a false positive on a case with nothing to find counts double),
+ties broken towards the stricter gate. The committed ``thresholds.yaml`` is written by the out-of-family sweep's
+calibration half (``bpmid calibrate``) or by ``python benchmarks/bench_discover.py --calibrate``.
 """
 from __future__ import annotations
 
@@ -26,18 +25,24 @@ from bpmid.models.vbmm import VBMM, Material
 from bpmid.params import ParamSet
 
 THRESHOLDS_PATH = Path(__file__).with_name("thresholds.yaml")
-THRESHOLD_KEYS = ("heldout_gain_min_sigma", "delta_bic_max")
+THRESHOLD_KEYS = ("heldout_gain_min_sigma", "gap_share_min", "family_alpha")
+#: discover-config overrides for a calibration run: every candidate's statistics are recorded, the best by
+#: held-out gain is added each round (so later rounds are recorded too)
+PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "max_effects": 2}
 SCHEMA = "bpmid.discover-thresholds/1"
 
 
 def load_thresholds(path: str | Path | None = None) -> dict:
-    """The calibrated thresholds (``heldout_gain_min_sigma``, ``delta_bic_max``)."""
+    """The calibrated thresholds (:data:`THRESHOLD_KEYS`)."""
     path = Path(path) if path else THRESHOLDS_PATH
     from bpmid.io.yamlsafe import loads
 
     data = loads(path.read_text("utf-8"), path=path)
     if not isinstance(data, dict) or data.get("schema") != SCHEMA:
         raise RuntimeError(f"{path}: not a {SCHEMA} file")
+    missing = [k for k in THRESHOLD_KEYS if k not in data]
+    if missing:
+        raise RuntimeError(f"{path}: missing {', '.join(missing)} (an old thresholds file? recalibrate)")
     return {k: float(data[k]) for k in THRESHOLD_KEYS}
 
 
@@ -146,60 +151,99 @@ def paper_sized_set(effect: Effect | None, *, size: float = 1.0, seed: int = 0, 
 class Record:
     """One confirmed candidate in a calibration run."""
 
-    truth: str            # injected effect id, or "none"
+    truth: str            # injected effect id, or "none" (null or out-of-catalogue: nothing in the catalogue is true)
     round: int            # 1-based
     candidate: str
-    gain_sigma: float
-    delta_bic: float
+    gain_sigma: float     # held-out RMSE drop in noise floors
+    delta_bic: float      # reported only
     truth_in_model: bool  # the injected effect was already added before this round
+    gap_share: float = float("nan")
+    lr_p: float = 1.0
+    lr_p_holm: float = 1.0
+    tested: bool = True
+    identifiable: bool = True
+    case: str = ""        # which data set (records of one case are judged together)
+
+    def __post_init__(self):
+        # records read back from JSON carry None where a value was not a number
+        for f in ("gain_sigma", "delta_bic", "gap_share", "lr_p", "lr_p_holm"):
+            v = getattr(self, f)
+            setattr(self, f, float("nan") if v is None else float(v))
 
 
-def records_from_result(truth: str, result) -> list[Record]:
+def records_from_result(truth: str, result, case: str | None = None) -> list[Record]:
+    """The confirmed candidates of a discovery result, labelled with the injected ``truth``."""
+    # deterministic (a resumed sweep must reproduce it): the data set's own numbers, never a time
+    case = case or f"{truth}|{result.heldout_raw_before:.12g}|{result.noise_floor_deg:.12g}"
     out = []
     named_before: list[str] = []
     for k, rnd in enumerate(result.rounds, start=1):
         for c in rnd.confirmations:
             out.append(Record(truth, k, c.effect_id, float(c.heldout_gain_sigma), float(c.delta_bic),
-                              truth in named_before))
+                              truth in named_before, float(c.gap_share), float(c.lr_p),
+                              float(c.lr_p_holm) if math.isfinite(c.lr_p_holm) else float(c.lr_p),
+                              bool(c.tested), bool(c.identifiable), case))
         if rnd.accepted:
             named_before.append(rnd.accepted)
     return out
 
 
-def _split(pos: np.ndarray, neg: np.ndarray, higher_is_positive: bool) -> float:
-    """A threshold between negatives and positives: midpoint when they separate, else the value that
-    misclassifies the fewest (ties: fewer false positives)."""
-    if not higher_is_positive:
-        return -_split(-pos, -neg, True)
-    if pos.size == 0:
-        return float(np.max(neg)) + 1.0
-    if neg.size == 0:
-        return float(np.min(pos)) - 1.0
-    lo_pos, hi_neg = float(np.min(pos)), float(np.max(neg))
-    if hi_neg < lo_pos:
-        return 0.5 * (hi_neg + lo_pos)
-    cands = np.unique(np.concatenate([pos, neg]))
-    best, best_cost = cands[0], math.inf
-    for c in cands:
-        fp = np.sum(neg >= c)
-        fn = np.sum(pos < c)
-        cost = fp * 1.001 + fn
-        if cost < best_cost:
-            best, best_cost = c, cost
-    return float(best)
+def _passes(r: Record, g: float, share: float, alpha: float) -> bool:
+    return (r.tested and r.identifiable and math.isfinite(r.gain_sigma) and r.gain_sigma >= g
+            and math.isfinite(r.gap_share) and r.gap_share >= share and r.lr_p_holm < alpha)
+
+
+def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float) -> tuple[int, int]:
+    """(right decisions, false positives) the gate (g, share, alpha) makes on one case's records: round 1 must
+    name the truth (nothing, on a case with no catalogue truth); the round after the truth was added must name
+    nothing."""
+    truth = recs[0].truth
+    r1 = [r for r in recs if r.round == 1]
+    passing = [r for r in r1 if _passes(r, g, share, alpha)]
+    first = max(passing, key=lambda r: r.gain_sigma).candidate if passing else None
+    if truth == "none":
+        return (1, 0) if first is None else (0, 1)
+    right = int(first == truth)
+    fp = int(first is not None and first != truth)
+    later = [r for r in recs if r.truth_in_model and r.round == 2]
+    if right and later and any(_passes(r, g, share, alpha) for r in later):
+        fp += 1
+    return right, fp
+
+
+#: family-wise levels the calibration considers
+ALPHAS = (0.05, 0.01, 1e-3, 1e-4, 1e-6, 1e-9)
 
 
 def thresholds_from_records(records: Sequence[Record]) -> dict:
-    """Positives: the injected effect confirmed in round 1. Negatives: every candidate on null data, and every
-    candidate in a later round once the injected effect is in the model."""
+    """The gate's thresholds from calibration records (see module docstring): a grid over the held-out gain
+    (0 .. 1 noise floor in steps of 0.01, then to 6 in steps of 0.25), the gap share (0 .. 0.6) and the family-wise alpha (:data:`ALPHAS`); the value
+    with the most right decisions minus twice the false positives wins, ties to the stricter gate."""
+    by_case: dict[str, list[Record]] = {}
+    for r in records:
+        by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
+    cases = list(by_case.values())
+    gains = np.unique(np.round(np.concatenate([np.arange(0.0, 1.0, 0.01), np.arange(1.0, 6.01, 0.25)]), 2))
+    shares = np.round(np.arange(0.0, 0.61, 0.05), 2)
+    best, best_key = None, None
+    for g in gains:
+        for sh in shares:
+            for a in ALPHAS:
+                right = fp = 0
+                for recs in cases:
+                    rr, ff = _case_outcome(recs, float(g), float(sh), a)
+                    right += rr
+                    fp += ff
+                key = (right - 2 * fp, g, sh, -a)       # ties: the stricter gate
+                if best_key is None or key > best_key:
+                    best_key, best = key, (float(g), float(sh), float(a), right, fp)
+    if best is None:
+        best = (1.0, 0.25, 0.01, 0, 0)
+    g, sh, a, right, fp = best
     pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate == r.truth]
     neg = [r for r in records if r.truth == "none" or r.truth_in_model]
-    gain = _split(np.array([r.gain_sigma for r in pos]), np.array([r.gain_sigma for r in neg]), True)
-    # delta BIC: the held-out gain does the separating; BIC has to keep every true effect with a margin (half the
-    # weakest true effect's delta BIC) and at least ask for "very strong" evidence (delta BIC <= -10, Kass-Raftery)
-    pos_bic = np.array([r.delta_bic for r in pos])
-    bic = min(-10.0, 0.5 * float(np.max(pos_bic))) if pos_bic.size else -10.0
-    return {"heldout_gain_min_sigma": float(gain), "delta_bic_max": float(bic),
+    return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a,
+            "n_cases": len(cases), "right_decisions": int(right), "false_positives": int(fp),
             "n_positive": len(pos), "n_negative": len(neg),
             "positive_gain_min": float(min((r.gain_sigma for r in pos), default=float("nan"))),
             "negative_gain_max": float(max((r.gain_sigma for r in neg), default=float("nan")))}
@@ -209,7 +253,7 @@ def write_thresholds(values: dict, meta: dict, path: str | Path | None = None) -
     from bpmid.io.atomic import write_text
     path = Path(path) if path else THRESHOLDS_PATH
     body = {"schema": SCHEMA}
-    body.update({k: round(float(values[k]), 4) for k in THRESHOLD_KEYS})
+    body.update({k: float(f"{float(values[k]):.4g}") for k in THRESHOLD_KEYS})
     body["calibration"] = {k: (round(v, 4) if isinstance(v, float) else v) for k, v in values.items()
                            if k not in THRESHOLD_KEYS}
     body["calibration"].update(meta)

@@ -1,30 +1,39 @@
-"""Confirmation: refit the augmented model and judge it on data it has not seen.
+"""Confirmation: refit the augmented model so that the candidate is really tested, and judge it on data it has
+not seen.
 
 For a candidate effect on top of the current model:
 
-1. refit every constant (base VBMM + effects so far + the candidate's parameters, started at the candidate's
-   default size) on the fitting logs;
-2. new parameters must be identifiable: finite standard error, relative error below the limit, not on a bound,
-   not collinear with the other constants (:func:`bpmid.fitting.fit_least_squares` holds the ones that fail at
-   their starting value and refits; a candidate with none of its own parameters left estimated is rejected);
-3. fitting-data statistics with the effective sample size N_eff (residuals are autocorrelated):
-   LR = N_eff ln(SSE0/SSE1) with the boundary-corrected p-value 0.5 P(chi2_dp > LR) (the effect's absence is
-   a bound of its parameters), F = ((SSE0-SSE1)/dp) / (SSE1/(N_eff-p1)), delta BIC = N_eff ln(SSE1/SSE0) + dp ln N_eff;
-4. held-out logs: RMSE before and after; the gain is measured in units of the estimated noise floor.
+1. starting values: the screening regression's estimate of the effect's size (the coefficient of its shape
+   column), plus a small grid over the effect's physical range (``START_VALUES`` of the catalogue entry, e.g. a
+   lag of 0.02-1 s, a branch of 2-100 s; bounds otherwise). Each start is scored by one simulation, with the
+   base constants' first-order compensation projected out (their sensitivities), and the best two distinct
+   starts are refitted (every constant free, a fixed evaluation budget)
+   (the second only when the first did not move or did not improve the fit);
+2. a refit that did not move (the effect's parameters where they started and the same sum of squares) is
+   **not tested**: its result says why and is never counted as evidence against the effect;
+3. new parameters must be identifiable: a finite, small relative standard error, not on a bound, and not
+   collinear with the base constants (judged from the part of its sensitivity no other constant's
+   sensitivity spans, so a base constant that is itself poorly determined cannot make it look collinear);
+4. fitting-data statistics with the effective sample size N_eff (residuals are autocorrelated):
+   LR = N_eff ln(SSE0/SSE1) with the boundary-corrected p-value (chi-bar-squared), F, delta BIC (reported
+   only, never a gate);
+5. held-out logs: RMSE before and after (each log's own stiffness gain fitted for both models when the
+   workflow scores with per-log gains); the gain is measured in units of the estimated noise floor.
 
-Which values pass is decided by :mod:`bpmid.discover.workflow` with the calibrated thresholds.
+Which values pass is decided by :mod:`bpmid.discover.workflow` (a Holm correction over the round's candidates).
 """
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 from scipy.stats import chi2
 
-from bpmid.discover.model import ModelState, fit_state, residuals, rmse_deg
-from bpmid import identifiability
+from bpmid.discover.model import (ModelState, fit_state, gained_residuals, scored_rmse, sensitivities, simulate,
+                                  stacked)
 from bpmid.effects.base import Effect
 from bpmid.fitting import FitResult, effective_sample_size
 from bpmid.io.motion_logs import MotionLog
@@ -53,6 +62,12 @@ class Confirmation:
     not_identifiable: dict
     effect_params: dict
     converged: bool
+    tested: bool = True
+    not_tested_reason: str = ""
+    starts: list = dataclasses.field(default_factory=list)
+    lr_p_holm: float = float("nan")
+    #: share of the held-out gap (RMSE before minus the noise floor) this candidate removed
+    gap_share: float = float("nan")
     accepted: bool = False
     reasons: list = dataclasses.field(default_factory=list)
 
@@ -60,6 +75,8 @@ class Confirmation:
         return {
             "effect": self.effect_id,
             "accepted": bool(self.accepted),
+            "tested": bool(self.tested),
+            "not_tested_reason": self.not_tested_reason or None,
             "reasons_rejected": list(self.reasons),
             "heldout_rmse_before_deg": round(self.heldout_rmse_before, 4),
             "heldout_rmse_after_deg": round(self.heldout_rmse_after, 4),
@@ -68,14 +85,17 @@ class Confirmation:
             "fit_rmse_after_deg": round(self.fit_rmse_after, 4),
             "likelihood_ratio": round(self.lr, 3),
             "likelihood_ratio_p": float(f"{self.lr_p:.3g}"),
+            "likelihood_ratio_p_holm": float(f"{self.lr_p_holm:.3g}") if math.isfinite(self.lr_p_holm) else None,
+            "share_of_heldout_gap_removed": round(self.gap_share, 3) if math.isfinite(self.gap_share) else None,
             "f_statistic": round(self.f_stat, 3),
-            "delta_bic": round(self.delta_bic, 3),
+            "delta_bic_reported_only": round(self.delta_bic, 3),
             "n_obs": int(self.n_obs),
             "n_eff": round(self.n_eff, 1),
             "new_parameters": int(self.dp),
             "identifiable": bool(self.identifiable),
             "not_identifiable": dict(self.not_identifiable),
             "converged": bool(self.converged),
+            "starts": list(self.starts),
             "parameters": self.effect_params,
         }
 
@@ -91,43 +111,245 @@ def boundary_lr_p(lr: float, dp: int) -> float:
     return 0.5 * lower + 0.5 * float(chi2.sf(lr, dp))
 
 
-def own_identifiability(res: FitResult, names: Sequence[str], *, rel_se_max: float = 0.5,
-                        corr_max: float = 0.995) -> dict[str, str]:
-    """The candidate's own parameters the fit does not determine, with the reason: infinite or large relative
-    standard error, a value on a bound, or near-perfect correlation with any other fitted constant."""
-    return identifiability.judge_own(res, names, rel_se_max=rel_se_max, corr_max=corr_max)
+def holm_adjusted(p: Sequence[float], m: int | None = None) -> list[float]:
+    """Holm step-down adjusted p-values of ``p`` in a family of ``m`` hypotheses (m >= len(p): candidates
+    screened but not refitted count as tried). Reject hypothesis i at family-wise level alpha iff
+    adjusted[i] < alpha."""
+    p = [float(x) if math.isfinite(x) else 1.0 for x in p]
+    m = max(int(m or len(p)), len(p))
+    order = sorted(range(len(p)), key=lambda i: p[i])
+    out = [1.0] * len(p)
+    running = 0.0
+    for rank, i in enumerate(order):
+        running = max(running, min(1.0, (m - rank) * p[i]))
+        out[i] = running
+    return out
+
+
+def own_identifiability(fitted: ModelState, res: FitResult, logs: Sequence[MotionLog], names: Sequence[str], *,
+                        per_log_gain: bool, rel_se_max: float = 0.5, corr_max: float = 0.995) -> tuple[dict[str, str], dict[str, float]]:
+    """The candidate's own parameters the fit does not determine (and the standard errors of the others), with the reason: a value on a bound, no
+    sensitivity the other constants do not already have (collinear: sqrt(1 - R^2) of its sensitivity on the
+    others' below sqrt(1 - corr_max^2)), or a large relative standard error from that unique part."""
+    free = list(res.free_names)
+    own = [n for n in names if n in free]
+    if not own:
+        return {}, {}
+    sims = simulate(fitted, logs)
+    J = sensitivities(fitted, logs, free, base_sim=sims, rel_step=1e-3)
+    if per_log_gain:
+        # the per-log gains are nuisance constants too: their columns are each log's prediction
+        cols, start = [], 0
+        for s, lg in zip(sims, logs):
+            c = np.zeros(J.shape[0])
+            c[start:start + lg.n] = np.nan_to_num(s)
+            cols.append(c)
+            start += lg.n
+        G = np.column_stack(cols)
+    else:
+        G = np.zeros((J.shape[0], 0))
+    r = res.residual
+    s2 = float(r @ r) / max(r.size - len(free), 1)
+    infl = r.size / max(effective_sample_size(r, [lg.n for lg in logs]), 1.0)
+    bad, ses = {}, {}
+    for nm in own:
+        i = free.index(nm)
+        p = res.params[nm]
+        span = p.upper - p.lower
+        tol = 1e-6 * (span if np.isfinite(span) else max(abs(p.value), 1.0))
+        col = np.nan_to_num(J[:, i])
+        others = np.column_stack([np.delete(J, i, axis=1), G])
+        Q = _orthonormal(others)
+        perp = col - Q @ (Q.T @ col)
+        nc, npp = float(np.linalg.norm(col)), float(np.linalg.norm(perp))
+        unique = npp / nc if nc > 0 else 0.0
+        # J is per unit of the optimiser variable: log(value) for log-scaled parameters
+        se_x = math.sqrt(s2 * infl) / npp if npp > 0 else math.inf
+        se = se_x * abs(p.value) if p.log_scale else se_x
+        rel = se / abs(p.value) if p.value != 0 else math.inf
+        if nc == 0 or not math.isfinite(se):
+            bad[nm] = "the data do not determine it (no sensitivity)"
+        elif p.value - p.lower <= tol or p.upper - p.value <= tol:
+            bad[nm] = "the fit ran onto a bound"
+        elif unique < _UNIQUE_MIN:
+            bad[nm] = f"collinear with the base constants (only {unique:.1%} of its sensitivity is its own)"
+        elif rel > rel_se_max:
+            bad[nm] = f"relative standard error {rel:.0%} > {rel_se_max:.0%}"
+        else:
+            ses[nm] = se
+    return bad, ses
+
+
+#: a parameter with less than this share of its sensitivity outside the span of the other constants' is collinear
+#: (whether what remains is enough is the standard error's verdict)
+_UNIQUE_MIN = 0.005
+
+
+def _orthonormal(A: np.ndarray, rtol: float = 1e-8) -> np.ndarray:
+    if A.size == 0 or A.shape[1] == 0:
+        return np.zeros((A.shape[0], 0))
+    A = np.where(np.isfinite(A), A, 0.0)
+    norms = np.linalg.norm(A, axis=0)
+    keep = norms > 0
+    if not keep.any():
+        return np.zeros((A.shape[0], 0))
+    A = A[:, keep] / norms[keep]
+    u, sv, _ = np.linalg.svd(A, full_matrices=False)
+    return u[:, sv > rtol * max(sv[0], 1e-300)] if sv.size else np.zeros((A.shape[0], 0))
+
+
+def start_grid(effect: Effect) -> list[dict[str, float]]:
+    """Starting values over the effect's physical range: its ``START_VALUES`` (by short name) where declared,
+    else 4 points across its bounds (log-spaced for log-scaled parameters); the default is always included."""
+    ps = [p for p in effect.default_params() if not p.fixed]
+    declared = getattr(effect, "START_VALUES", {}) or {}
+    axes = []
+    for p in ps:
+        short = p.name.split(".", 1)[-1]
+        vals = declared.get(short)
+        if vals is None:
+            lo, hi = p.lower, p.upper
+            if p.log_scale and lo > 0 and np.isfinite(hi):
+                vals = tuple(np.geomspace(lo, hi, 6)[1:-1])
+            elif np.isfinite(lo) and np.isfinite(hi):
+                vals = tuple(np.linspace(lo, hi, 6)[1:-1])
+            else:
+                vals = (p.value * 0.3, p.value * 3.0)
+        vals = [min(max(float(v), p.lower), p.upper) for v in vals]
+        axes.append((p.name, vals))
+    grid = [dict(zip([a[0] for a in axes], combo)) for combo in itertools.product(*[a[1] for a in axes])]
+    grid.append({p.name: p.value for p in ps})
+    return grid
+
+
+def screening_estimate(state: ModelState, effect: Effect, logs: Sequence[MotionLog], r_perp: np.ndarray,
+                       Q0: np.ndarray, base_sim: Sequence[np.ndarray]) -> Optional[dict[str, float]]:
+    """The effect's size from the screening regression: the coefficient of its shape column (the augmented
+    model at the default minus the model), nuisance projected out, scales the default towards the null."""
+    ps = [p for p in effect.default_params() if not p.fixed]
+    null = effect.null_values()
+    if not ps or ps[0].name not in null:
+        return None
+    size = ps[0]
+    shape = stacked(simulate(state.with_effect(effect), logs)) - stacked(base_sim)
+    shape = shape - Q0 @ (Q0.T @ shape)
+    den = float(shape @ shape)
+    if not den > 0:
+        return None
+    beta = -float(shape @ r_perp) / den       # residual = model - measured: the model needs + beta * shape
+    v = null[size.name] + beta * (size.value - null[size.name])
+    if size.log_scale and v <= 0:
+        return None
+    v = min(max(v, size.lower), size.upper)
+    return {size.name: v, **{p.name: p.value for p in ps[1:]}}
+
+
+def _sse_perp(r: np.ndarray, Q: np.ndarray) -> float:
+    rp = r - Q @ (Q.T @ r)
+    return float(rp @ rp)
 
 
 def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], holdout_logs: Sequence[MotionLog],
             *, noise_floor_deg: float, base_fit_residual: np.ndarray, heldout_before: float,
-            max_nfev: int | None = None, rel_se_max: float = 0.5, corr_max: float = 0.995) -> Confirmation:
-    """Refit ``state`` + ``effect`` and compute the evidence (see module docstring)."""
-    cand = state.with_effect(effect)
+            max_nfev: int | None = None, rel_se_max: float = 0.5, corr_max: float = 0.995,
+            nuisance: np.ndarray | None = None, per_log_gain: bool = False, n_fits: int = 2) -> Confirmation:
+    """Refit ``state`` + ``effect`` from several starts and compute the evidence (see module docstring).
+
+    ``nuisance``: (N, k) columns of the current model's sensitivities on the fitting logs (screening's), used to
+    score the starts with the base constants' compensation projected out; None computes them.
+    """
+    base_sim = simulate(state, fit_logs)
+    r0 = np.asarray(base_fit_residual, float)
+    if nuisance is None:
+        nuisance = sensitivities(state, fit_logs, base_sim=base_sim)
+    if per_log_gain:
+        blocks, start = [], 0
+        for s, lg in zip(base_sim, fit_logs):
+            c = np.zeros(r0.size)
+            c[start:start + lg.n] = np.nan_to_num(s)
+            blocks.append(c)
+            start += lg.n
+        nuisance = np.column_stack([nuisance] + blocks)
+    Q0 = _orthonormal(nuisance)
     own = [p.name for p in effect.default_params() if not p.fixed]
-    fitted, res = fit_state(cand, fit_logs, max_nfev=max_nfev, check_identifiability=False)
-    bad = own_identifiability(res, own, rel_se_max=rel_se_max, corr_max=corr_max)
+    cand0 = state.with_effect(effect)
+
+    # 1. starts, scored by one simulation each with the base compensation projected out
+    starts = start_grid(effect)
+    est = screening_estimate(state, effect, fit_logs, r0 - Q0 @ (Q0.T @ r0), Q0, base_sim)
+    if est is not None:
+        starts.insert(0, est)
+    scored = []
+    for vals in starts:
+        p = cand0.params.with_values(vals)
+        r = stacked(gained_residuals(simulate(cand0, fit_logs, p), fit_logs, per_log_gain=per_log_gain))
+        scored.append((_sse_perp(r, Q0), vals, "screening estimate" if vals is est else "grid"))
+    scored.sort(key=lambda x: x[0])
+    sse0_perp = _sse_perp(r0, Q0)
+    chosen, seen = [], []
+    for sse, vals, how in scored:
+        key = tuple(round(math.log(abs(v) + 1e-12), 1) for v in vals.values())
+        if key in seen:
+            continue
+        seen.append(key)
+        chosen.append((sse, vals, how))
+        if len(chosen) >= n_fits:
+            break
+
+    # 2. refits from the chosen starts; keep the lowest sum of squares
+    sse0 = float(r0 @ r0)
+    best = None
+    start_log = []
+    for _, vals, how in chosen:
+        if best is not None and best[3] and best[2] < sse0 * (1 - 1e-6):
+            break                      # the first refit moved and improved: the next start is not needed
+        cand = dataclasses.replace(cand0, params=cand0.params.with_values(vals))
+        fitted, res = fit_state(cand, fit_logs, max_nfev=max_nfev, check_identifiability=False,
+                                per_log_gain=per_log_gain)
+        r1 = res.residual
+        sse1 = float(r1 @ r1)
+        moved = any(abs(fitted.params.value(n) - vals[n]) > 1e-6 * max(abs(vals[n]), 1e-9) for n in own)
+        start_log.append({"from": how, "start": {n: float(f"{v:.4g}") for n, v in vals.items()},
+                          "end": {n: float(f"{fitted.params.value(n):.4g}") for n in own},
+                          "fit_rmse_deg": round(math.sqrt(sse1 / max(r1.size, 1)), 4), "moved": bool(moved),
+                          "evaluations": int(res.nfev)})
+        if best is None or sse1 < best[2]:
+            best = (fitted, res, sse1, moved, vals)
+    fitted, res, sse1, moved, vals = best
+    tested, why_not = True, ""
+    if not any(s["moved"] for s in start_log) and sse1 >= sse0 * (1 - 1e-9):
+        tested = False
+        why_not = ("the refit did not move from any of its starts (the effect's parameters stayed where they "
+                   "started and the fit error did not change): the optimiser made no progress, so this is no "
+                   "evidence against the effect")
+    elif sse1 >= sse0 * (1 - 1e-9) and scored[0][0] < sse0_perp * (1 - 1e-3):
+        tested = False
+        why_not = ("the refit ended no better than the model without the effect although a start in the effect's "
+                   "physical range reduced the first-order residual: the optimiser failed, not the effect")
+
+    # 3. identifiability: hold a parameter the data do not determine at its fitted value and refit the rest
+    bad, ses = own_identifiability(fitted, res, fit_logs, own, per_log_gain=per_log_gain, rel_se_max=rel_se_max,
+                              corr_max=corr_max)
     held: dict[str, str] = {}
     while bad and len(held) < len(own) - 1:
-        # hold one parameter the data do not determine at its default and refit the rest: the last declared
-        # first (a catalogue entry lists its size first, shape parameters such as time constants after it)
         name = [n for n in own if n in bad and n not in held][-1]
         held[name] = bad[name]
-        cand = dataclasses.replace(cand, params=cand.params.replace(name, fixed=True))
-        fitted, res = fit_state(cand, fit_logs, max_nfev=max_nfev, check_identifiability=False)
-        bad = own_identifiability(res, [n for n in own if n not in held], rel_se_max=rel_se_max, corr_max=corr_max)
+        cand = dataclasses.replace(fitted, params=fitted.params.replace(name, fixed=True))
+        fitted, res = fit_state(cand, fit_logs, max_nfev=max_nfev, check_identifiability=False,
+                                per_log_gain=per_log_gain)
+        bad, ses = own_identifiability(fitted, res, fit_logs, [n for n in own if n not in held],
+                                  per_log_gain=per_log_gain, rel_se_max=rel_se_max, corr_max=corr_max)
     bad = {**held, **bad}
     estimated = [nm for nm in own if nm not in bad]
     for nm in own:
         if nm in bad:
             fitted = dataclasses.replace(fitted, params=fitted.params.replace(
                 nm, identifiable=False, stderr=None, note=f"not identifiable: {bad[nm]}"))
-        elif nm in res.free_names:
-            i = res.free_names.index(nm)
-            fitted = dataclasses.replace(fitted, params=fitted.params.replace(
-                nm, identifiable=True, stderr=float(math.sqrt(abs(res.cov[i, i])))))
+        else:
+            fitted = dataclasses.replace(fitted, params=fitted.params.replace(nm, identifiable=True,
+                                                                                  stderr=ses.get(nm)))
     r1 = res.residual
-    r0 = np.asarray(base_fit_residual, float)
-    sse0, sse1 = float(r0 @ r0), max(float(r1 @ r1), 1e-300)
+    sse1 = max(float(r1 @ r1), 1e-300)
     n = r0.size
     n_eff = effective_sample_size(r0, [lg.n for lg in fit_logs])
     dp = max(len(estimated), 1)
@@ -137,8 +359,8 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     lr_p = boundary_lr_p(lr, dp)
     f_stat = ((sse0 - sse1) / dp) / (sse1 / max(n_eff - p1, 1.0))
     dbic = -n_eff * gain + dp * math.log(max(n_eff, 2.0))
-    ho_after = rmse_deg(residuals(fitted, holdout_logs))
-    return Confirmation(
+    ho_after = scored_rmse(fitted, holdout_logs, per_log_gain=per_log_gain)
+    c = Confirmation(
         effect_id=effect.id, state=fitted, fit=res,
         fit_rmse_before=math.sqrt(sse0 / n), fit_rmse_after=math.sqrt(sse1 / n),
         heldout_rmse_before=heldout_before, heldout_rmse_after=ho_after,
@@ -146,4 +368,7 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
         lr=lr, lr_p=lr_p, f_stat=f_stat, delta_bic=dbic, n_obs=n, n_eff=n_eff, dp=len(estimated),
         identifiable=bool(estimated), not_identifiable=dict(bad),
         effect_params={p.name: p.to_yaml() for p in fitted.params if p.name in own},
-        converged=bool(res.success))
+        converged=bool(res.success), tested=tested, not_tested_reason=why_not, starts=start_log)
+    c.gap_share = ((heldout_before - ho_after) / (heldout_before - noise_floor_deg)
+                    if heldout_before > noise_floor_deg else float("nan"))
+    return c

@@ -5,13 +5,22 @@ that fitted it: candidates are refitted on the fitting logs and judged on whole 
 ``--holdout``, or a fixed split of the logs: every ``holdout_every``-th log). It stops when no candidate passes,
 and says so: "no missing effect found" is a legitimate answer.
 
-Accepting an effect needs all of (thresholds: :mod:`bpmid.discover.calibrate`, calibrated on twin data):
+Accepting an effect needs all of (the gate, stated in plain words in every ``discovery.yaml`` and verdict;
+thresholds: :mod:`bpmid.discover.calibrate`):
 
-- held-out RMSE drop of at least ``heldout_gain_min_sigma`` noise floors,
-- delta BIC (effective N) at most ``delta_bic_max`` and the boundary-corrected LR p-value below ``lr_p_max``,
-- at least one of its own parameters identifiable (the others held at their default).
+- its refit really tested it: started from the screening regression's estimate and from a grid over the effect's
+  physical range; a refit that did not move is reported "not tested", never counted as evidence against it,
+- a held-out RMSE drop of at least ``heldout_gain_min_sigma`` noise floors that removes at least
+  ``gap_share_min`` of the held-out gap (RMSE minus the noise floor),
+- a likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) that passes at
+  family-wise level ``family_alpha`` after a Holm correction over every candidate screened in the round,
+- at least one of its own parameters identifiable (the others held).
 
-Among the candidates that pass, the one with the lowest held-out RMSE is added.
+Among the candidates that pass, the one with the largest confirmed held-out gain is added (the leading
+``n_confirm`` screened candidates are all confirmed, so screening order alone never decides); when several pass,
+each one's gain is reported with why the winner won. A BIC is reported, never a gate. With ``per_log_gain``
+(default) every log gets a stiffness-like gain (a nuisance factor for log-to-log variation of the constants):
+fitted in closed form on fitting logs (geometric mean 1) and on each held-out log for every model alike.
 """
 from __future__ import annotations
 
@@ -23,9 +32,10 @@ from typing import Optional, Sequence
 import numpy as np
 
 from bpmid.discover.calibrate import load_thresholds
-from bpmid.discover.confirm import Confirmation, confirm
+from bpmid.discover.confirm import Confirmation, confirm, holm_adjusted
 from bpmid.discover.diagnose import diagnose, noise_floor
-from bpmid.discover.model import ModelState, fit_state, residuals, rmse_deg, simulate, stacked
+from bpmid.discover.model import (ModelState, fit_state, gained_residuals, residuals, rmse_deg, scored_rmse,
+                                  sensitivities, simulate, stacked)
 from bpmid.discover.screen import ScreenResult, screen
 from bpmid.effects import CATALOGUE, get_effect
 from bpmid.effects.base import Effect
@@ -44,15 +54,17 @@ class DiscoverConfig:
     ----------
     candidates : catalogue ids to consider (empty: the whole catalogue)
     max_effects : stop after adding this many effects
-    n_confirm : leading screening candidates refitted per round
+    n_confirm : leading screening candidates refitted per round (the winner is chosen by held-out gain)
     holdout_every : without ``--holdout``, every n-th log (counting from the last) is held out; at least one
     min_fit_samples : fewer fitting samples than this cannot be judged (exit 2)
     min_log_samples : a log shorter than this cannot be judged (exit 2)
-    base_max_nfev : function-evaluation budget of the base fit; a fit that runs out did not converge (exit 2)
-    confirm_max_nfev : budget of each augmented refit
+    base_max_nfev : function-evaluation budget of each base fit; a fit that runs out did not converge (exit 2)
+    base_starts : starts of the base fit refitted (best of the given start and scaled variants of it)
+    confirm_max_nfev : budget of each augmented refit (fixed: the cost grows linearly with the data)
     heldout_gain_min_sigma : accept only if the held-out RMSE drops by this many noise floors (None: calibrated)
-    delta_bic_max : accept only if delta BIC (effective N) is at most this (None: calibrated)
-    lr_p_max : accept only if the boundary-corrected likelihood-ratio p-value is below this
+    gap_share_min : accept only if the drop removes at least this share of the held-out gap (None: calibrated)
+    family_alpha : family-wise level of the Holm-corrected likelihood-ratio tests of a round (None: calibrated)
+    per_log_gain : score with one stiffness-like gain per log (log-to-log variation is not an effect)
     unexplained_gap_sigma : the remainder is reported unexplained when the held-out RMSE stays more than this
         many noise floors above the floor
     """
@@ -64,10 +76,12 @@ class DiscoverConfig:
     min_fit_samples: int = 200
     min_log_samples: int = 30
     base_max_nfev: int = 300
-    confirm_max_nfev: int = 200
+    base_starts: int = 2
+    confirm_max_nfev: int = 60
     heldout_gain_min_sigma: Optional[float] = None
-    delta_bic_max: Optional[float] = None
-    lr_p_max: float = 1e-3
+    gap_share_min: Optional[float] = None
+    family_alpha: Optional[float] = None
+    per_log_gain: bool = True
     unexplained_gap_sigma: float = 0.5
 
     def validate(self, where, path):
@@ -76,21 +90,34 @@ class DiscoverConfig:
                 raise InputError(f"unknown effect id {c!r} (known: {', '.join(CATALOGUE)})", path=path,
                                  key=f"{where}.candidates")
         for name in ("max_effects", "n_confirm", "holdout_every", "min_fit_samples", "min_log_samples",
-                     "base_max_nfev", "confirm_max_nfev"):
+                     "base_max_nfev", "base_starts", "confirm_max_nfev"):
             if getattr(self, name) < 1:
                 raise InputError(f"must be at least 1, found {getattr(self, name)}", path=path, key=f"{where}.{name}")
-        if not 0 < self.lr_p_max < 1:
-            raise InputError(f"must be between 0 and 1, found {self.lr_p_max}", path=path, key=f"{where}.lr_p_max")
+        if self.family_alpha is not None and not 0 < self.family_alpha < 1:
+            raise InputError(f"must be between 0 and 1, found {self.family_alpha}", path=path,
+                             key=f"{where}.family_alpha")
+        if self.gap_share_min is not None and not 0 <= self.gap_share_min < 1:
+            raise InputError(f"must be in [0, 1), found {self.gap_share_min}", path=path,
+                             key=f"{where}.gap_share_min")
 
     def thresholds(self) -> dict:
-        cal = load_thresholds()
-        out = dict(cal)
-        if self.heldout_gain_min_sigma is not None:
-            out["heldout_gain_min_sigma"] = float(self.heldout_gain_min_sigma)
-        if self.delta_bic_max is not None:
-            out["delta_bic_max"] = float(self.delta_bic_max)
-        out["lr_p_max"] = float(self.lr_p_max)
+        out = dict(load_thresholds())
+        for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha"):
+            if getattr(self, k) is not None:
+                out[k] = float(getattr(self, k))
         return out
+
+
+def gate_in_words(thr: dict) -> str:
+    """The acceptance rule, as printed in discovery.yaml and the verdict."""
+    return (f"an effect is named only if (1) its refit really tested it (started from the screening estimate and "
+            f"from a grid over its physical range; a refit that did not move counts as 'not tested', never as "
+            f"evidence against), (2) it cuts the held-out RMSE by at least {thr['heldout_gain_min_sigma']:.2f} "
+            f"noise floors and removes at least {thr['gap_share_min']:.0%} of the held-out gap above the floor, "
+            f"(3) its likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) "
+            f"passes at family-wise level {thr['family_alpha']:.2g} after a Holm correction over every candidate "
+            f"screened in the round, and (4) at least one of its parameters is identifiable; of several that pass, "
+            f"the largest held-out gain wins. BIC is reported, never a gate")
 
 
 @dataclasses.dataclass
@@ -101,11 +128,16 @@ class Round:
     ranking: list[ScreenResult]
     confirmations: list[Confirmation]
     accepted: Optional[str]
+    family_size: int = 1
+    competition: str = ""
 
 
 @dataclasses.dataclass
 class DiscoveryResult:
-    """Everything ``bpmid discover`` reports (angles in deg)."""
+    """Everything ``bpmid discover`` reports (angles in deg).
+
+    ``heldout_before``/``heldout_after`` are the scored held-out RMSE (with per-log gains when
+    ``per_log_gain``); ``heldout_raw_before``/``heldout_raw_after`` without any gain."""
 
     named_effects: list[str]
     rounds: list[Round]
@@ -122,6 +154,10 @@ class DiscoveryResult:
     split: str
     elapsed_s: float
     variation: Optional[dict] = None
+    base_fit: Optional[dict] = None
+    heldout_raw_before: float = float("nan")
+    heldout_raw_after: float = float("nan")
+    per_log_gain: bool = True
 
     @property
     def noise_floor_deg(self) -> float:
@@ -135,28 +171,41 @@ class DiscoveryResult:
             c = next(c for c in rnd.confirmations if c.effect_id == rnd.accepted)
             s = next(s for s in rnd.ranking if s.effect_id == rnd.accepted)
             out.append({"effect": c.effect_id, "screening": s.to_yaml(), "evidence": c.to_yaml(),
-                        "explanation": rnd_explanation(c, rnd, self.noise_floor_deg)})
+                        "explanation": rnd_explanation(c, rnd, self.noise_floor_deg),
+                        "competition": rnd.competition or None})
         return out
 
     def to_yaml(self) -> dict:
+        floor = self.noise_floor_deg
         return {
             "named_effects": list(self.named_effects),
             "steps": self.steps(),
             "gap": {"before_rmse_deg": round(self.heldout_before, 4), "after_rmse_deg": round(self.heldout_after, 4),
-                    "noise_floor_deg": round(self.noise_floor_deg, 4),
-                    "before_gap_deg": round(self.heldout_before - self.noise_floor_deg, 4),
-                    "after_gap_deg": round(self.heldout_after - self.noise_floor_deg, 4)},
+                    "noise_floor_deg": round(floor, 4),
+                    "before_gap_deg": round(self.heldout_before - floor, 4),
+                    "after_gap_deg": round(self.heldout_after - floor, 4),
+                    "raw_before_rmse_deg": round(self.heldout_raw_before, 4),
+                    "raw_after_rmse_deg": round(self.heldout_raw_after, 4),
+                    "scoring": ("held-out RMSE with one stiffness-like gain per held-out log fitted on that log for "
+                                "every model alike (log-to-log variation of the constants is not scored as an effect); "
+                                "raw_*: without the gain") if self.per_log_gain else "plain held-out RMSE"},
             "unexplained": bool(self.unexplained),
             "log_to_log_variation": self.variation,
             "verdict": self.verdict,
-            "noise_floor": {"method": "median absolute deviation of the second difference of the measured angle / sqrt(6)",
-                            "sigma_deg": round(self.noise_floor_deg, 4),
+            "gate": gate_in_words(self.thresholds),
+            "noise_floor": {"method": self.noise.get("method", ""),
+                            "sigma_deg": round(floor, 4),
+                            "noise_lag1_correlation": round(float(self.noise.get("rho", 0.0)), 3),
+                            "white_noise_reading_deg": round(float(self.noise.get("white_noise_sigma_deg", floor)), 4),
                             "per_log_deg": {k: round(v, 4) for k, v in self.noise["per_log"].items()}},
+            "base_fit": self.base_fit,
             "split": {"how": self.split, "fitting_logs": [lg.name for lg in self.fit_logs],
                       "heldout_logs": [lg.name for lg in self.holdout_logs]},
-            "thresholds": dict(self.thresholds),
+            "thresholds": {k: (round(v, 6) if isinstance(v, float) else v) for k, v in self.thresholds.items()},
             "rounds": [{"diagnostics": rnd.diagnostics, "screening": [s.to_yaml() for s in rnd.ranking],
-                        "confirmed": [c.to_yaml() for c in rnd.confirmations], "accepted": rnd.accepted}
+                        "candidates_in_family": rnd.family_size,
+                        "confirmed": [c.to_yaml() for c in rnd.confirmations], "accepted": rnd.accepted,
+                        "competition": rnd.competition or None}
                        for rnd in self.rounds],
             "base_model": {p.name: p.to_yaml() for p in self.base_state.params},
             "final_model": {p.name: p.to_yaml() for p in self.final_state.params},
@@ -188,27 +237,42 @@ def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
     return (f"{e.describe(c.state.params)}: {e.meaning}. Where it shows: {e.where_it_shows}. Here the residual "
             f"{residual_feature(rnd.diagnostics)}, and the effect's signature explains {s.explained:.0%} of what the "
             f"model left; adding it cut the held-out error from {c.heldout_rmse_before:.2f} to "
-            f"{c.heldout_rmse_after:.2f} deg (noise floor {floor:.2f} deg)")
+            f"{c.heldout_rmse_after:.2f} deg ({c.heldout_gain_sigma:.1f} noise floors of {floor:.2f} deg; "
+            f"likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected {c.lr_p_holm:.2g})")
 
 
 def make_verdict(named: list[str], rounds: list[Round], before: float, after: float, floor: float,
-                 unexplained: bool, variation: Optional[dict] = None) -> str:
-    lines = [rnd_explanation(next(c for c in r.confirmations if c.effect_id == r.accepted), r, floor)
-             for r in rounds if r.accepted]
+                 unexplained: bool, variation: Optional[dict] = None, thr: Optional[dict] = None,
+                 base_fit: Optional[dict] = None, raw_after: Optional[float] = None) -> str:
+    lines = []
+    for r in rounds:
+        if r.accepted:
+            lines.append(rnd_explanation(next(c for c in r.confirmations if c.effect_id == r.accepted), r, floor))
+            if r.competition:
+                lines.append(r.competition)
+    not_tested = [c for r in rounds for c in r.confirmations if not c.tested]
+    if not_tested:
+        lines.append("not tested (no evidence either way): " + "; ".join(
+            f"{c.effect_id}: {c.not_tested_reason}" for c in not_tested))
     if not named:
         lines.append(f"no missing effect found: no catalogue effect improved the held-out error "
                      f"({before:.2f} deg, noise floor {floor:.2f} deg) enough to pass")
+    raw_after = after if raw_after is None else raw_after
     if unexplained:
-        lines.append(f"unexplained: the held-out error ({after:.2f} deg) stays {after - floor:.2f} deg above the "
-                     f"noise floor; no catalogue effect accounts for it")
+        lines.append(f"unexplained: the held-out error ({raw_after:.2f} deg) stays {raw_after - floor:.2f} deg above "
+                     f"the noise floor; no catalogue effect accounts for it")
         if variation is not None and variation["share_of_gap"] >= 0.5:
             lines.append(f"most of that remainder is log-to-log variation of the constants, not a missing effect: "
                          f"refitting the model's constants on each held-out log alone brings it to "
                          f"{variation['per_log_refit_rmse_deg']:.2f} deg ({variation['share_of_gap']:.0%} of the gap; "
                          f"an in-sample check, so it bounds what specimen or replicate variation can explain)")
     else:
-        lines.append(f"the held-out error ({after:.2f} deg) is within the noise floor ({floor:.2f} deg) give or take "
-                     f"the reporting margin: nothing left to explain")
+        lines.append(f"the held-out error ({raw_after:.2f} deg) is within the noise floor ({floor:.2f} deg) give or "
+                     f"take the reporting margin: nothing left to explain")
+    if base_fit is not None and not base_fit.get("converged", True):
+        lines.append(f"caution: the base fit did not converge ({base_fit.get('message')})")
+    if thr is not None:
+        lines.append("gate: " + gate_in_words(thr))
     return "\n".join(lines)
 
 
@@ -242,9 +306,56 @@ def split_logs(logs: Sequence[MotionLog], holdout: Sequence[MotionLog] | None, c
     return fit, ho, how
 
 
+#: scale factors of the start's moduli and time constants the base fit's multi-start scores
+_BASE_MODULUS_SCALES = (0.35, 0.6, 1.0, 1.7, 3.0)
+_BASE_TAU_SCALES = (0.3, 1.0, 3.0)
+
+
+def fit_base(state0: ModelState, fit_logs: Sequence[MotionLog], cfg: DiscoverConfig):
+    """Base VBMM fit from several starts: the given constants with every modulus and time constant scaled
+    (:data:`_BASE_MODULUS_SCALES` x :data:`_BASE_TAU_SCALES`), each scored by one simulation; the best
+    ``cfg.base_starts`` are refitted and the lowest error kept. Returns (state, FitResult, report)."""
+    p0 = state0.params
+    starts = []
+    for sm in _BASE_MODULUS_SCALES:
+        for st in _BASE_TAU_SCALES:
+            vals = {}
+            for prm in p0:
+                if prm.fixed:
+                    continue
+                f = st if ".tau_" in prm.name else sm
+                vals[prm.name] = min(max(prm.value * f, prm.lower), prm.upper)
+            ps = p0.with_values(vals)
+            r = stacked(gained_residuals(simulate(state0, fit_logs, ps), fit_logs, per_log_gain=cfg.per_log_gain))
+            starts.append((float(r @ r), sm, st, ps))
+    starts.sort(key=lambda x: x[0])
+    best, tried = None, []
+    for sse, sm, st, ps in starts[:cfg.base_starts]:
+        if best is not None and best[1].success:
+            break                      # the best-scored start converged: the next one is not needed
+        st_state = dataclasses.replace(state0, params=ps)
+        state, res = fit_state(st_state, fit_logs, max_nfev=cfg.base_max_nfev, check_identifiability=False,
+                               per_log_gain=cfg.per_log_gain)
+        tried.append({"moduli_times": sm, "time_constants_times": st,
+                      "start_rmse_deg": round(math.sqrt(sse / max(res.residual.size, 1)), 4),
+                      "rmse_deg": round(res.rmse, 4), "converged": bool(res.success), "evaluations": int(res.nfev)})
+        if best is None or (res.success, -res.rmse) > (best[1].success, -best[1].rmse):
+            best = (state, res)
+    state, res = best
+    start_rmse = math.sqrt(starts[[s[1:3] for s in starts].index((1.0, 1.0))][0] / max(res.residual.size, 1))
+    report = {"converged": bool(res.success), "message": str(res.message), "rmse_deg": round(res.rmse, 4),
+              "rmse_at_given_start_deg": round(start_rmse, 4), "evaluations": int(res.nfev),
+              "starts_scored": len(starts), "starts_refitted": tried,
+              "per_log_gain": bool(cfg.per_log_gain),
+              "method": "multi-start: the given constants with moduli x (0.35..3) and time constants x (0.3..3), "
+                        "each scored by one simulation; the best refitted by least squares (fixed budget)"}
+    return state, res, report
+
+
 @one_blas_thread  # a sequence of small solves: one BLAS thread (bpmid.relax._blas is the one place that sets it)
 def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionLog] | None = None,
-             cfg: DiscoverConfig | None = None, effects: Sequence[Effect] | None = None) -> DiscoveryResult:
+             cfg: DiscoverConfig | None = None, effects: Sequence[Effect] | None = None,
+             thresholds: dict | None = None) -> DiscoveryResult:
     """Run the discovery loop (see module docstring).
 
     Parameters
@@ -254,6 +365,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     holdout : held-out logs; None = a fixed split of ``logs``
     cfg : settings and threshold overrides
     effects : candidate effects (default: the catalogue, or ``cfg.candidates``)
+    thresholds : the gate's thresholds (``heldout_gain_min_sigma``, ``gap_share_min``, ``family_alpha``);
+        None = the calibrated ones (``cfg`` overrides win over both)
 
     Raises
     ------
@@ -262,6 +375,10 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     t0 = time.perf_counter()
     cfg = cfg or DiscoverConfig()
     thr = cfg.thresholds()
+    if thresholds is not None:
+        thr.update({k: float(v) for k, v in thresholds.items() if k in thr})
+        thr.update({k: float(getattr(cfg, k)) for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha")
+                    if getattr(cfg, k) is not None})
     if effects is None:
         effects = [get_effect(i) for i in (cfg.candidates or tuple(CATALOGUE))]
     fit_logs, ho_logs, how = split_logs(logs, holdout, cfg)
@@ -285,15 +402,23 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                          + (f"; logs without noise: {names}" if quiet else "") + "); discovery needs raw "
                          "measurements, not smoothed or simulated noise-free data",
                          path=quiet[0].path if quiet and quiet[0].path is not None else None)
+    gain = cfg.per_log_gain
 
     note(f"discover: fitting the base VBMM on {len(fit_logs)} log(s), {len(ho_logs)} held out")
-    state, res = fit_state(ModelState.start(base), fit_logs, max_nfev=cfg.base_max_nfev, check_identifiability=False)
+    state, res, base_report = fit_base(ModelState.start(base), fit_logs, cfg)
     if not res.success or not np.all(np.abs(res.residual) < 1e2):
         raise ConvergenceError(f"cannot judge: the base VBMM fit did not converge ({res.message}; "
                                f"{res.nfev} evaluations, RMSE {res.rmse:.3g} deg). A verdict on missing effects needs a "
                                "converged base model: check the logs' pressure reference and units, or start it with --init")
     base_state = state
-    before = rmse_deg(residuals(state, ho_logs))
+    if res.rmse < floor:
+        # the noise cannot exceed what the fitted base model leaves on the fitting logs: a coloured-noise estimate
+        # above it mistook slow signal for noise
+        noise = dict(noise, sigma_deg=float(res.rmse), capped_by_base_fit=True,
+                     method=noise.get("method", "") + "; capped by the base fit's RMSE on the fitting logs")
+        floor = noise["sigma_deg"]
+    before = scored_rmse(state, ho_logs, per_log_gain=gain)
+    raw_before = rmse_deg(residuals(state, ho_logs))
     rounds: list[Round] = []
     named: list[str] = []
     for k in range(cfg.max_effects):
@@ -301,41 +426,56 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         if not remaining:
             break
         sim = simulate(state, fit_logs)
-        parts = [s - lg.angle_deg for s, lg in zip(sim, fit_logs)]
+        parts = gained_residuals(sim, fit_logs, per_log_gain=gain)
         diag = diagnose(fit_logs, parts)
         note(f"discover: round {k + 1}: screening {len(remaining)} effect(s)")
-        ranking = screen(state, remaining, fit_logs, base_sim=sim)
+        J = sensitivities(state, fit_logs, base_sim=sim)
+        ranking = screen(state, remaining, fit_logs, base_sim=sim, nuisance=J, per_log_gain=gain)
         lead = [s.effect_id for s in ranking[:cfg.n_confirm]]
-        ho_now = rmse_deg(residuals(state, ho_logs))
+        ho_now = scored_rmse(state, ho_logs, per_log_gain=gain)
         confs = []
         with Progress(len(lead), f"round {k + 1}: confirming") as pr:
             for eid in lead:
                 e = next(x for x in remaining if x.id == eid)
                 c = confirm(state, e, fit_logs, ho_logs, noise_floor_deg=floor, base_fit_residual=stacked(parts),
-                            heldout_before=ho_now, max_nfev=cfg.confirm_max_nfev)
-                c.reasons = judge(c, thr)
-                c.accepted = not c.reasons
+                            heldout_before=ho_now, max_nfev=cfg.confirm_max_nfev, nuisance=J, per_log_gain=gain)
                 confs.append(c)
                 pr.advance(detail=eid)
+        family = len(remaining)
+        for c, ph in zip(confs, holm_adjusted([c.lr_p if c.tested else 1.0 for c in confs], family)):
+            c.lr_p_holm = ph
+        for c in confs:
+            c.reasons = judge(c, thr, floor)
+            c.accepted = not c.reasons
         passing = [c for c in confs if c.accepted]
-        best = min(passing, key=lambda c: c.heldout_rmse_after) if passing else None
-        for c in passing:
-            if c is not best:
+        best = max(passing, key=lambda c: c.heldout_gain_sigma) if passing else None
+        competition = ""
+        if best is not None and len(passing) > 1:
+            others = [c for c in passing if c is not best]
+            competition = (f"{len(passing)} candidates passed the gate this round and may explain the same residual: "
+                           + ", ".join(f"{c.effect_id} (held-out gain {c.heldout_gain_sigma:.2f} noise floors, "
+                                       f"{c.gap_share:.0%} of the gap)" for c in sorted(passing, key=lambda c: -c.heldout_gain_sigma))
+                           + f"; {best.effect_id} won on the larger confirmed held-out gain, and the others are "
+                             "judged again in the next round with it in the model")
+            for c in others:
                 c.accepted = False
-                c.reasons = [f"passed, but {best.effect_id} explains the held-out logs better"]
-        rounds.append(Round(diag, ranking, confs, best.effect_id if best else None))
+                c.reasons = [f"passed, but {best.effect_id} explains the held-out logs better "
+                             f"({best.heldout_gain_sigma:.2f} vs {c.heldout_gain_sigma:.2f} noise floors)"]
+        rounds.append(Round(diag, ranking, confs, best.effect_id if best else None, family, competition))
         if best is None:
             break
         named.append(best.effect_id)
         state = best.state
         note(f"discover: added {best.effect_id} (held-out {best.heldout_rmse_before:.3f} -> "
              f"{best.heldout_rmse_after:.3f} deg)")
-    after = rmse_deg(residuals(state, ho_logs))
-    unexplained = bool(after - floor > cfg.unexplained_gap_sigma * floor)
-    variation = log_to_log_variation(state, ho_logs, after, floor, cfg) if unexplained else None
-    verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation)
+    after = scored_rmse(state, ho_logs, per_log_gain=gain)
+    raw_after = rmse_deg(residuals(state, ho_logs))
+    unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor)
+    variation = log_to_log_variation(state, ho_logs, raw_after, floor, cfg) if unexplained else None
+    verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after)
     return DiscoveryResult(named, rounds, noise, base_state, state, list(fit_logs), list(ho_logs), before, after,
-                           thr, unexplained, verdict, how, time.perf_counter() - t0, variation)
+                           thr, unexplained, verdict, how, time.perf_counter() - t0, variation, base_report,
+                           raw_before, raw_after, gain)
 
 
 def log_to_log_variation(state: ModelState, ho_logs: Sequence[MotionLog], after: float, floor: float,
@@ -358,15 +498,20 @@ def log_to_log_variation(state: ModelState, ho_logs: Sequence[MotionLog], after:
             "method": "constants refitted on each held-out log alone, scored in sample"}
 
 
-def judge(c: Confirmation, thr: dict) -> list[str]:
-    """Reasons to reject a confirmed candidate (empty: it passes)."""
+def judge(c: Confirmation, thr: dict, floor: float | None = None) -> list[str]:
+    """Reasons to reject a confirmed candidate (empty: it passes). A candidate that was not tested is rejected
+    with that reason only: it is no evidence against the effect."""
+    if not c.tested:
+        return [f"not tested: {c.not_tested_reason}"]
     why = []
     if not c.identifiable:
         why.append("none of its parameters is identifiable: " + "; ".join(f"{k}: {v}" for k, v in c.not_identifiable.items()))
     if not math.isfinite(c.heldout_gain_sigma) or c.heldout_gain_sigma < thr["heldout_gain_min_sigma"]:
         why.append(f"held-out error drop {c.heldout_gain_sigma:.2f} noise floors < {thr['heldout_gain_min_sigma']:.2f}")
-    if not c.delta_bic <= thr["delta_bic_max"]:
-        why.append(f"delta BIC {c.delta_bic:.1f} > {thr['delta_bic_max']:.1f}")
-    if not c.lr_p < thr["lr_p_max"]:
-        why.append(f"likelihood-ratio p = {c.lr_p:.2g} >= {thr['lr_p_max']:.2g}")
+    if not (math.isfinite(c.gap_share) and c.gap_share >= thr["gap_share_min"]):
+        share = f"{c.gap_share:.0%}" if math.isfinite(c.gap_share) else "none (no held-out gap above the floor)"
+        why.append(f"share of the held-out gap removed {share} < {thr['gap_share_min']:.0%}")
+    p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
+    if not p < thr["family_alpha"]:
+        why.append(f"Holm-corrected likelihood-ratio p = {p:.2g} >= family-wise {thr['family_alpha']:.2g}")
     return why

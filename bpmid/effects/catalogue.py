@@ -71,6 +71,8 @@ class SecondRelaxation(Effect):
     meaning = "a second, slower Prony branch of the rubber (seconds to tens of seconds)"
     where_it_shows = "creep that continues after the first time constant has died out; long holds"
     SETTINGS: ClassVar[tuple[str, ...]] = ()
+    #: starting values a refit tries (the physical range: a branch of 2-100 s)
+    START_VALUES: ClassVar[dict] = {"weight": (0.1, 0.3), "tau": (2.0, 5.0, 12.0, 30.0, 80.0)}
 
     def default_params(self) -> ParamSet:
         return ParamSet([
@@ -111,6 +113,8 @@ class BraidFriction(Effect):
     meaning = "rate-independent dry friction between braid and bladder or between threads"
     where_it_shows = "a loop that does not shrink at slow rates; residual tracks the sign of the pressure rate"
     SETTINGS: ClassVar[tuple[str, ...]] = ("elements",)
+    #: starting values a refit tries (dead band half-widths of 0.003-0.1 bar)
+    START_VALUES: ClassVar[dict] = {"r": (300.0, 1000.0, 3000.0, 8000.0)}
 
     def __init__(self, elements: int = 1):
         self.elements = _Setting.number(self.id, "elements", elements, 1, 100, integer=True)
@@ -155,6 +159,8 @@ class PressureLag(Effect):
     meaning = "the muscle's internal pressure lags the logged pressure: valve, tubing, dead time"
     where_it_shows = "residual correlates with the pressure rate at positive lag; loops widen with rate"
     SETTINGS: ClassVar[tuple[str, ...]] = ("dead_time",)
+    #: starting values a refit tries (the physical range: a lag of 0.02-1 s)
+    START_VALUES: ClassVar[dict] = {"tau": (0.02, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0)}
 
     def __init__(self, dead_time: float = 0.0):
         self.dead_time = _Setting.number(self.id, "dead_time", dead_time, 0.0, 10.0)
@@ -191,6 +197,8 @@ class AsymmetricRelaxation(Effect):
     meaning = "the muscle relaxes at a different rate while deflating than while inflating"
     where_it_shows = "residual differs between rising and falling pressure beyond what one time constant fits"
     SETTINGS: ClassVar[tuple[str, ...]] = ()
+    #: starting values a refit tries (deflation 4 times faster to 4 times slower)
+    START_VALUES: ClassVar[dict] = {"fall_ratio": (0.25, 0.5, 0.75, 1.5, 2.5, 4.0)}
 
     def default_params(self) -> ParamSet:
         return ParamSet([Param(f"{self.id}.fall_ratio", 0.4, "1", 0.05, 20.0, log_scale=True,
@@ -219,6 +227,8 @@ class StrainStiffening(Effect):
     meaning = "the rubber stiffens at large strain (hyperelastic, beyond linear viscoelasticity)"
     where_it_shows = "residual grows with amplitude; high-pressure peaks over-predicted"
     SETTINGS: ClassVar[tuple[str, ...]] = ()
+    #: starting values a refit tries
+    START_VALUES: ClassVar[dict] = {"c": (2.0, 5.0, 10.0, 25.0, 60.0)}
 
     def default_params(self) -> ParamSet:
         return ParamSet([Param(f"{self.id}.c", 10.0, "1", 0.0, 500.0, note="stiffening coefficient")])
@@ -243,6 +253,8 @@ class AngleOffset(Effect):
     meaning = "the angle sensor reads with a constant zero offset"
     where_it_shows = "constant residual component that no material parameter can produce"
     SETTINGS: ClassVar[tuple[str, ...]] = ()
+    #: starting values a refit tries (deg; the screening regression adds its own estimate)
+    START_VALUES: ClassVar[dict] = {"offset": (-2.0, -0.5, 0.5, 2.0)}
 
     def default_params(self) -> ParamSet:
         return ParamSet([Param(f"{self.id}.offset", 2.0, "deg", -30.0, 30.0, note="sensor zero offset")])
@@ -271,6 +283,8 @@ class ThermalSoftening(Effect):
     meaning = "the muscle softens slowly over a long run as it warms"
     where_it_shows = "residual drifts with elapsed time over long logs"
     SETTINGS: ClassVar[tuple[str, ...]] = ()
+    #: starting values a refit tries (warm-up over 30 s to half an hour)
+    START_VALUES: ClassVar[dict] = {"amount": (0.03, 0.1, 0.25), "T": (30.0, 120.0, 500.0, 2000.0)}
 
     def default_params(self) -> ParamSet:
         return ParamSet([

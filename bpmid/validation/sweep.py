@@ -48,7 +48,7 @@ RECORDS = "records.jsonl"
 #: record fields that differ between runs of the same case (left out when comparing runs)
 TIMING_FIELDS = ("elapsed_s", "generate_s", "discover_s", "worker")
 #: permissive thresholds for the calibration half: every candidate is confirmed and its statistics recorded
-PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "delta_bic_max": 1e9, "lr_p_max": 0.999999, "max_effects": 2}
+PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "max_effects": 2}
 
 
 # ---------------------------------------------------------------------------------------------
