@@ -306,6 +306,9 @@ def split_logs(logs: Sequence[MotionLog], holdout: Sequence[MotionLog] | None, c
     return fit, ho, how
 
 
+#: a noise floor below this is rounding of noise-free numbers, not a sensor's noise (no sensor resolves 1e-9 deg)
+NOISE_FLOOR_MIN_DEG = 1e-9
+
 #: scale factors of the start's moduli and time constants the base fit's multi-start scores
 _BASE_MODULUS_SCALES = (0.35, 0.6, 1.0, 1.7, 3.0)
 _BASE_TAU_SCALES = (0.3, 1.0, 3.0)
@@ -395,8 +398,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                              path=None if bad is None else bad.path)
     noise = noise_floor(list(fit_logs) + list(ho_logs))
     floor = noise["sigma_deg"]
-    if not (np.isfinite(floor) and floor > 0):
-        quiet = [lg for lg in list(fit_logs) + list(ho_logs) if not noise["per_log"].get(lg.name, 0.0) > 0]
+    if not (np.isfinite(floor) and floor > NOISE_FLOOR_MIN_DEG):
+        quiet = [lg for lg in list(fit_logs) + list(ho_logs) if not noise["per_log"].get(lg.name, 0.0) > NOISE_FLOOR_MIN_DEG]
         names = ", ".join(str(lg.path or lg.name) for lg in quiet[:4]) + (", ..." if len(quiet) > 4 else "")
         raise InputError("cannot judge: the measured angle shows no noise at all (noise floor 0"
                          + (f"; logs without noise: {names}" if quiet else "") + "); discovery needs raw "
