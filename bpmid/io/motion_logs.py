@@ -19,7 +19,7 @@ import numpy as np
 from bpmid.errors import InputError
 from bpmid.io.tables import UNITS, check_time, read_table, split_unit
 
-ATMOSPHERE_PA = 101325.0
+from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR  # noqa: E402  (the one home of unit factors)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -206,7 +206,7 @@ def read_motion_log(path: str | Path, io_cfg: IOConfig | None = None, *, require
     low = np.flatnonzero(gauge < io_cfg.min_gauge_pa)
     if low.size:
         k = int(low[0])
-        raise InputError(f"pressure {given[k]:g} {unit} ({ref}, from {ref_from}) is {-gauge[k] / 1e5:.3g} bar below "
+        raise InputError(f"pressure {given[k]:g} {unit} ({ref}, from {ref_from}) is {-gauge[k] / PA_PER_BAR:.3g} bar below "
                          f"atmosphere; a muscle is not driven by vacuum: check the pressure reference "
                          f"(--pressure-reference, '# pressure_reference:') and the unit of the column "
                          f"{table.headers['pressure']!r} (--pressure-unit)", path=table.name, line=table.line_of(k))

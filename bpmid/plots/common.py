@@ -40,7 +40,7 @@ FALLBACK_STYLES = ["-", "--", "-.", ":", (0, (6, 2, 1, 2)), (0, (3, 1))]
 #: the pressure convention of every figure (the model's input; VBMM.md section 6)
 PRESSURE_LABEL = "gauge pressure (bar, above atmosphere)"
 PRESSURE_RATE_LABEL = "pressure rate (bar/s)"
-PA_PER_BAR = 1e5
+from bpmid.units import PA_PER_BAR  # noqa: E402,F401  (the one home of unit factors)
 
 SYNTHETIC_NOTE = "synthetic data (bpmid digital twin)"
 FOOTER_IN = 0.24  # the strip at the bottom that holds the synthetic stamp
