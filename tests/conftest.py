@@ -27,3 +27,105 @@ def timed_small_study(tmp_path_factory):
     from _report_study import shared_study  # the same study the report, browser and figure tests read
 
     return shared_study(tmp_path_factory)[0]
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# pytest-xdist (the README runs `pytest -n 2`): a worker computes a module or session fixture for the tests it
+# runs, so tests that share such a fixture of ours (directly or through another one) run on one worker, as one
+# work unit; every other test is scheduled on its own. The workers know the fixtures, the controller schedules:
+# each worker writes {node id: group} after collection into a folder the controller names, and the controller's
+# scheduler (LoadScopeScheduling, largest unit first) reads it. (xdist's own `--dist loadgroup` renames node ids,
+# which pytest 9.2 no longer allows.) Without xdist none of this runs.
+# ---------------------------------------------------------------------------------------------------------------
+_TESTS = os.path.dirname(os.path.abspath(__file__))
+_GROUPS_KEY = "bpmid_xdist_groups"
+
+
+def _shared_fixtures(item):
+    """'<module or session>:<fixture>' for every fixture of ours wider than a function that ``item`` uses."""
+    info = getattr(item, "_fixtureinfo", None)
+    if info is None:
+        return []
+    keys = []
+    for name in info.names_closure:
+        for fd in info.name2fixturedefs.get(name, ()):
+            if fd.scope == "function":
+                continue
+            src = getattr(getattr(fd.func, "__code__", None), "co_filename", "")
+            if not os.path.abspath(src).startswith(_TESTS + os.sep):
+                continue  # pytest's own (tmp_path_factory, ...) are cheap
+            where = "session" if fd.scope == "session" else os.path.basename(src)
+            keys.append(f"{where}:{name}")
+    return keys
+
+
+def fixture_groups(items) -> dict:
+    """{node id: group} for the tests that share a wider fixture of ours (union of tests linked by any)."""
+    parent: dict = {}
+
+    def find(k):
+        while parent.setdefault(k, k) != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    per_item = [(item.nodeid, _shared_fixtures(item)) for item in items]
+    for _, keys in per_item:
+        for k in keys[1:]:
+            parent[find(k)] = find(keys[0])
+    return {nodeid: "group:" + find(keys[0]) for nodeid, keys in per_item if keys}
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(config, items):
+    folder = getattr(config, "workerinput", {}).get(_GROUPS_KEY)
+    if folder:  # an xdist worker: hand the groups to the controller
+        import json
+
+        path = os.path.join(folder, config.workerinput["workerid"] + ".json")
+        with open(path + ".tmp", "w") as f:
+            json.dump(fixture_groups(items), f)
+        os.replace(path + ".tmp", path)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node):
+    import tempfile
+
+    cfg = node.config
+    if not hasattr(cfg, "_bpmid_groups_dir"):
+        cfg._bpmid_groups_dir = tempfile.mkdtemp(prefix="bpmid-xdist-groups-")
+    node.workerinput[_GROUPS_KEY] = cfg._bpmid_groups_dir
+
+
+def pytest_unconfigure(config):
+    folder = getattr(config, "_bpmid_groups_dir", None)
+    if folder:
+        import shutil
+
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    if config.getvalue("dist") != "load":  # another --dist asked for explicitly: xdist's own
+        return None
+    import glob
+    import json
+
+    from xdist.scheduler import LoadScopeScheduling
+
+    class SharedFixtureScheduling(LoadScopeScheduling):
+        """xdist's load scheduling, except that the tests of one fixture group are one unit of work."""
+
+        _groups = None
+
+        def _split_scope(self, nodeid):
+            if self._groups is None:
+                self._groups = {}
+                for path in glob.glob(os.path.join(getattr(config, "_bpmid_groups_dir", ""), "*.json")):
+                    with open(path) as f:
+                        self._groups.update(json.load(f))
+            return self._groups.get(nodeid, nodeid)
+
+    return SharedFixtureScheduling(config, log)

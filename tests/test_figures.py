@@ -15,7 +15,7 @@ EXPECTED = {"relax_fit.png", "vbmm_fit.png", "compare_timeseries.png", "compare_
 
 
 @pytest.fixture(scope="module")
-def figures(tmp_path_factory):
+def figures(timed_small_study, tmp_path_factory):
     return shared_study(tmp_path_factory)[1]
 
 

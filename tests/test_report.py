@@ -16,10 +16,9 @@ runner = CliRunner()
 
 
 @pytest.fixture(scope="module")
-def study(tmp_path_factory):
-    from _report_study import shared_study
-
-    return shared_study(tmp_path_factory)[0]
+def study(timed_small_study):
+    """The session's small study (tests/_report_study.py): one fixture, so pytest-xdist keeps its users together."""
+    return timed_small_study
 
 
 def _panels_md(md: str) -> tuple[str, str]:

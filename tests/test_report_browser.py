@@ -83,8 +83,8 @@ def _probe(page: str, folder: Path, width: int) -> dict:
 
 
 @pytest.fixture(scope="module")
-def study(tmp_path_factory):
-    return shared_study(tmp_path_factory)[0]
+def study(timed_small_study):
+    return timed_small_study
 
 
 @needs_browser

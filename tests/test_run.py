@@ -65,11 +65,19 @@ def make_study(root: Path, timing: bool = False) -> Path:
     return cfg
 
 
+# the stages whose numbers the reproducibility check compares (the report only presents them)
+NUMBER_STAGES = "[relax, motion, compare, history, discover]"
+
+
 @pytest.fixture(scope="module")
 def study_runs(tmp_path_factory):
-    """The small study run twice into two folders (same config)."""
+    """The small study run twice into two folders (same config), with timing off so every file is reproducible
+    to the byte, and without the report and the per-log comparison figures (they present the numbers compared
+    here; the full run with them is the session's ``timed_small_study``)."""
     root = tmp_path_factory.mktemp("study")
     cfg = make_study(root)
+    text = cfg.read_text().replace("run:\n", f"run:\n  stages: {NUMBER_STAGES}\n", 1)
+    cfg.write_text(text.replace("figure_logs: 2", "figure_logs: 0"))
     outs = []
     for name in ("run1", "run2"):
         r = runner.invoke(app, ["run", str(cfg), "--out", str(root / name)])
@@ -78,8 +86,8 @@ def study_runs(tmp_path_factory):
     return cfg, outs
 
 
-def test_run_writes_every_stage_file_with_cli_names(study_runs):
-    _cfg, (out, _) = study_runs
+def test_run_writes_every_stage_file_with_cli_names(timed_small_study):
+    out = timed_small_study  # the small study, every stage, run once per session (tests/conftest.py)
     for f in ("relax_fit.yaml", "relax_fit.png", "vbmm_fit.yaml", "vbmm_fit.png", "vbmm_mat.yaml",
               "compare/metrics.csv", "compare/summary.csv", "compare/compare.yaml", "history_modes.csv",
               "history_modes.yaml", "history_modes.png", "discover/discovery.yaml", "report.html", "report.md",
@@ -109,17 +117,36 @@ def test_run_writes_every_stage_file_with_cli_names(study_runs):
     assert h["window_vs_full"]["max_abs_diff_deg"] < 0.05  # T_win = 20 s: many time constants
 
 
+NUMBERS = {"relax_fit.yaml": ("prony", "shear", "bulk", "metrics"),
+           "vbmm_fit.yaml": ("material", "metrics"), "vbmm_mat.yaml": ("material", "metrics"),
+           "history_modes.yaml": ("accuracy", "window_vs_full"),
+           "discover/discovery.yaml": ("named_effects", "gap", "unexplained")}
+
+
 def test_two_runs_give_identical_metrics_files(study_runs):
     _cfg, (a, b) = study_runs
     for f in ("compare/metrics.csv", "compare/summary.csv", "compare/summary_by_set.csv",
               "compare/predictions/rate_0p114.csv"):
         assert (a / f).read_bytes() == (b / f).read_bytes(), f
-    numbers = {"relax_fit.yaml": ("prony", "shear", "bulk", "metrics"),
-               "vbmm_fit.yaml": ("material", "metrics"), "vbmm_mat.yaml": ("material", "metrics"),
-               "history_modes.yaml": ("accuracy", "window_vs_full"),
-               "discover/discovery.yaml": ("named_effects", "gap", "unexplained")}
-    for f, keys in numbers.items():
+    for f, keys in NUMBERS.items():
         da, db = yaml.safe_load((a / f).read_text()), yaml.safe_load((b / f).read_text())
+        for k in keys:
+            assert da[k] == db[k], f"{f}: {k}"
+
+
+def test_report_figures_and_timing_do_not_change_the_numbers(study_runs, timed_small_study):
+    """The full run (report, figures, timing on) has the numbers of the runs without them, to the last digit;
+    only the wall-clock cost per step differs."""
+    _cfg, (a, _) = study_runs
+    full = timed_small_study
+    for f in ("compare/metrics.csv", "compare/summary.csv", "compare/summary_by_set.csv"):
+        x, y = pd.read_csv(a / f), pd.read_csv(full / f)
+        assert x["us_per_step"].isna().all() and (y["us_per_step"] > 0).all(), f
+        pd.testing.assert_frame_equal(x.drop(columns="us_per_step"), y.drop(columns="us_per_step"), check_exact=True)
+    f = "compare/predictions/rate_0p114.csv"
+    assert (a / f).read_bytes() == (full / f).read_bytes(), f
+    for f, keys in NUMBERS.items():
+        da, db = yaml.safe_load((a / f).read_text()), yaml.safe_load((full / f).read_text())
         for k in keys:
             assert da[k] == db[k], f"{f}: {k}"
 
