@@ -19,7 +19,6 @@ from pathlib import Path
 
 import pytest
 
-from _report_study import shared_study
 
 CANDIDATES = ("/usr/bin/chromium", "chromium", "chromium-browser", "google-chrome")
 CHECK = """<script>
