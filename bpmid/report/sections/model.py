@@ -30,7 +30,7 @@ def _prony_fitted(st) -> tuple[str, str] | None:
 def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     doc.p("The viscoelasticity-based mechanistic model (VBMM) of the source paper, as bpmid implements it "
-          "(spec VBMM.md). The material is a Prony series; its shear and bulk parts act through hereditary "
+          "(docs/model.md in the bpmid repository). The material is a Prony series; its shear and bulk parts act through hereditary "
           "integrals on the wall strains, and a pressure closure turns the wall stresses into the gauge pressure "
           "that bends the muscle.")
     j, t, inf = M.mi("j"), M.mi("t"), M.mi("∞")
