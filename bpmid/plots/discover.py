@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from bpmid.discover.diagnose import pressure_rate
-from bpmid.discover.model import residuals
+from bpmid.discover.model import gained_residuals, residuals, simulate
 from bpmid.plots.common import (MODEL_COLORS, PA_PER_BAR, PRESSURE_LABEL, PRESSURE_RATE_LABEL, new_figure,
                                 outside_legend)
 
@@ -88,8 +88,14 @@ def ranking_figure(result):
 def heldout_figure(result):
     """Held-out RMSE per log, base VBMM vs VBMM + named effects, with the noise floor."""
     logs = result.holdout_logs
-    rb = [float(np.sqrt(np.mean(r**2))) for r in residuals(result.base_state, logs)]
-    ra = [float(np.sqrt(np.mean(r**2))) for r in residuals(result.final_state, logs)]
+    # scored as the totals are: with each held-out log's own gain when discovery scored that way (per_log_gain)
+    gain = bool(getattr(result, "per_log_gain", False))
+
+    def per_log(state):
+        parts = gained_residuals(simulate(state, logs), logs, per_log_gain=gain, normalise=False)
+        return [float(np.sqrt(np.nanmean(r**2))) for r in parts]
+
+    rb, ra = per_log(result.base_state), per_log(result.final_state)
     longest = max((len(lg.name) for lg in logs), default=8)
     fig, ax = new_figure(1, 1, width=7.5, height=3.8, legend="right", legend_size=2.6,
                          bottom=0.45 + 0.045 * longest)
@@ -99,7 +105,7 @@ def heldout_figure(result):
            label=f"+ {' + '.join(result.named_effects) or 'nothing'} (all: {result.heldout_after:.2f}°)")
     ax.axhline(result.noise_floor_deg, color="k", ls="--", lw=1, label=f"noise floor {result.noise_floor_deg:.2f}°")
     ax.set_xticks(x, [lg.name for lg in logs], rotation=30, ha="right")
-    ax.set_ylabel("held-out RMSE (°)")
+    ax.set_ylabel("held-out RMSE, each log's gain fitted (°)" if gain else "held-out RMSE (°)")
     ax.set_title("Held-out error per log")
     outside_legend(fig, ax=ax)
     return fig

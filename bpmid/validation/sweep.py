@@ -457,6 +457,10 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     if split not in ("calibration", "heldout", "all"):
         raise InputError(f"--split must be calibration, heldout or all, found {split!r}", key="--split")
     out = Path(out)
+    try:  # before anything is written: without Dask the sweep cannot run, so no folder is left behind
+        import dask.distributed  # noqa: F401
+    except ImportError as exc:  # pragma: no cover - depends on the installation
+        raise InputError("sweeps run on Dask: pip install 'bpmid[cluster]' (dask[distributed])") from exc
     out.mkdir(parents=True, exist_ok=True)
     _check_folder(out, cfg)
     say = progress or (lambda m: None)

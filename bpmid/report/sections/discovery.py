@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import re
 
-import yaml
 
 from bpmid.report.doc import fmt
 from bpmid.report.figures import find_figure
@@ -30,8 +29,9 @@ def build(doc, st, figs) -> None:
         doc.p(f"Named effects, in the order added: {', '.join(d.named)}.", css="verdict")
     else:
         doc.p("No missing effect found: no catalogue entry passed the confirmation tests.", css="good")
-    if d.verdict:
-        doc.p(re.sub(r"(\d) deg\b", "\\1°", d.verdict.replace("\n", " ")))
+    for line in (d.verdict or "").splitlines():  # one paragraph per statement of the verdict
+        if line.strip():
+            doc.p(re.sub(r"(\d) deg\b", "\\1°", line.strip()))
     doc.table(["gap on held-out data", "RMSE (°)"], [["before (base model)", fmt(d.before_deg)],
                                                     ["after (with named effects)", fmt(d.after_deg)],
                                                     ["sensor-noise floor", fmt(d.floor_deg)]])
@@ -40,11 +40,17 @@ def build(doc, st, figs) -> None:
     rows = []
     for s in d.steps:
         ev = s.get("evidence")
-        ev_txt = ev if isinstance(ev, str) else (yaml.safe_dump(ev, default_flow_style=True, width=10000).strip()
-                                                 if ev else "-")
-        rows.append([s.get("id", s.get("effect", "?")), ev_txt[:300]])
+        name = s.get("id", s.get("effect", "?"))
+        if isinstance(ev, dict):  # the numbers a reader checks; the whole record is in discovery.yaml
+            rows.append([name, f"{fmt(ev.get('heldout_rmse_before_deg'))} → {fmt(ev.get('heldout_rmse_after_deg'))}",
+                         fmt(ev.get("heldout_gain_in_noise_floors")), fmt(ev.get("share_of_heldout_gap_removed")),
+                         fmt(ev.get("likelihood_ratio_p_holm", ev.get("likelihood_ratio_p"))),
+                         fmt(ev.get("new_parameters")), "yes" if ev.get("identifiable") else "no"])
+        else:
+            rows.append([name, str(ev or "-")[:300], "", "", "", "", ""])
     if rows:
-        doc.table(["effect", "evidence"], rows)
+        doc.table(["effect", "held-out RMSE (°)", "gain (noise floors)", "share of gap removed",
+                   "LR p (Holm)", "new parameters", "identifiable"], rows)
     rel = d.dir.relative_to(st.root).as_posix() if d.dir != st.root else ""
     for stem, cap in CAPTIONS.items():
         f = find_figure(st.root, f"{rel}/{stem}" if rel else stem)
