@@ -32,6 +32,7 @@ from typing import Optional, Sequence
 import numpy as np
 from scipy.stats import chi2
 
+from bpmid.discover.screen import _orthonormal  # one basis routine for screening and confirmation
 from bpmid.discover.model import (ModelState, fit_state, gained_residuals, scored_rmse, sensitivities, simulate,
                                   stacked)
 from bpmid.effects.base import Effect
@@ -185,17 +186,6 @@ def own_identifiability(fitted: ModelState, res: FitResult, logs: Sequence[Motio
 _UNIQUE_MIN = 0.005
 
 
-def _orthonormal(A: np.ndarray, rtol: float = 1e-8) -> np.ndarray:
-    if A.size == 0 or A.shape[1] == 0:
-        return np.zeros((A.shape[0], 0))
-    A = np.where(np.isfinite(A), A, 0.0)
-    norms = np.linalg.norm(A, axis=0)
-    keep = norms > 0
-    if not keep.any():
-        return np.zeros((A.shape[0], 0))
-    A = A[:, keep] / norms[keep]
-    u, sv, _ = np.linalg.svd(A, full_matrices=False)
-    return u[:, sv > rtol * max(sv[0], 1e-300)] if sv.size else np.zeros((A.shape[0], 0))
 
 
 def start_grid(effect: Effect) -> list[dict[str, float]]:

@@ -14,6 +14,7 @@ may be given in Pa, kPa, MPa or GPa and time constants in s, ms or min; they are
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import sys
 from pathlib import Path
@@ -42,18 +43,25 @@ def _param(value: float, stderr: float | None, unit: str) -> dict:
     return {"value": float(value), "stderr": float(stderr) if ok else None, "unit": unit}
 
 
+
+def _moduli_block(fit, factor: float, name: str, inf_name: str) -> dict:
+    """``{E_inf, terms: [{E, tau}]}`` of a Prony fit (MPa inside) in Pa, scaled by ``factor`` (1 for E; the
+    G/E or K/E ratio for the shear and bulk blocks), with standard errors."""
+    return {inf_name: _param(fit.E_inf * MPA * factor, fit.se_E_inf * MPA * factor, "Pa"),
+            "terms": [{name: _param(e * MPA * factor, se * MPA * factor, "Pa"), "tau": _param(t, st, "s")}
+                      for e, se, t, st in zip(fit.E, fit.se_E, fit.tau, fit.se_tau)]}
+
+
+def _clean(v):
+    return None if v is None or not np.isfinite(v) else round(float(v), 4)
+
 def relax_fit_body(fit, poisson: float) -> dict:
     """The YAML body (everything but schema and provenance) of a :class:`~bpmid.relax.fit.RelaxFit`."""
     nu = check_poisson(poisson, key="poisson_ratio")
     g, k = E_to_G(1.0, nu), E_to_K(1.0, nu)
 
-    def moduli(factor: float, name: str, inf_name: str) -> dict:
-        return {inf_name: _param(fit.E_inf * MPA * factor, fit.se_E_inf * MPA * factor, "Pa"),
-                "terms": [{name: _param(e * MPA * factor, se * MPA * factor, "Pa"), "tau": _param(t, st, "s")}
-                          for e, se, t, st in zip(fit.E, fit.se_E, fit.tau, fit.se_tau)]}
-
-    def clean(v):
-        return None if v is None or not np.isfinite(v) else round(float(v), 4)
+    moduli = functools.partial(_moduli_block, fit)
+    clean = _clean
 
     return {
         "mode": fit.mode,
@@ -103,13 +111,8 @@ def material_fit_body(mf, poisson: float) -> dict:
     else:
         g, k = E_to_G(1.0, nu), E_to_K(1.0, nu)
 
-        def moduli(factor: float, name: str, inf_name: str) -> dict:
-            return {inf_name: _param(fit.E_inf * MPA * factor, fit.se_E_inf * MPA * factor, "Pa"),
-                    "terms": [{name: _param(e * MPA * factor, se * MPA * factor, "Pa"), "tau": _param(t, st, "s")}
-                              for e, se, t, st in zip(fit.E, fit.se_E, fit.tau, fit.se_tau)]}
-
-        def clean(v):
-            return None if v is None or not np.isfinite(v) else round(float(v), 4)
+        moduli = functools.partial(_moduli_block, fit)
+        clean = _clean
 
         y = np.concatenate([fit.storage, fit.loss])
         yf = np.concatenate([fit.storage_fit, fit.loss_fit])
