@@ -15,14 +15,14 @@ def _prony_fitted(st) -> tuple[str, str] | None:
     if vals.get("E_inf") is None:
         return None
     n = st.relax.n_terms
-    parts = [M.mn(fmt(vals["E_inf"] / 1e3)), M.mtext(" kPa")]
+    parts = [M.mn(fmt(vals["E_inf"] / 1e3)), M.mtext("\u00a0kPa")]  # a no-break space: MathML drops plain ones
     text = f"E(t) = {fmt(vals['E_inf'] / 1e3)} kPa"
     for j in range(1, n + 1):
         e, tau = vals.get(f"E_{j}"), vals.get(f"tau_{j}")
         if e is None or tau is None:
             continue
-        parts += [M.mo("+"), M.mn(fmt(e / 1e3)), M.mtext(" kPa "),
-                  M.exp(M.row(M.mo("−"), M.frac(M.mi("t"), M.row(M.mn(fmt(tau)), M.mtext(" s")))))]
+        parts += [M.mo("+"), M.mn(fmt(e / 1e3)), M.mtext("\u00a0kPa"), M.mo("·"),
+                  M.exp(M.row(M.mo("−"), M.mi("t"), M.mo("/"), M.mn(fmt(tau)), M.mtext("\u00a0s")))]
         text += f" + {fmt(e / 1e3)} kPa · exp(−t / {fmt(tau)} s)"
     return M.math(M.mi("E"), M.paren(M.mi("t")), M.mo("="), *parts), text
 
