@@ -243,6 +243,19 @@ Dumper12.add_implicit_resolver(
     list("-+0123456789"))
 
 
+if hasattr(yaml, "CSafeDumper"):  # libyaml's emitter: the same text, about 3x faster on large result files
+    class _CDumper12(yaml.CSafeDumper):
+        """:class:`Dumper12` on libyaml's emitter (the resolvers, which decide the quoting, are the same)."""
+
+    for _tag, _rx, _first in (("tag:yaml.org,2002:float", _FloatPattern(), list("-+0123456789.")),
+                              ("tag:yaml.org,2002:int", Dumper12.yaml_implicit_resolvers["0"][-1][1],
+                               list("-+0123456789"))):
+        _CDumper12.add_implicit_resolver(_tag, _rx, _first)
+    _FAST_DUMPER = _CDumper12
+else:  # pragma: no cover - PyYAML built without libyaml
+    _FAST_DUMPER = Dumper12
+
+
 def dump(data: Any, **kw) -> str:
     """YAML text of plain data (``yaml.safe_dump``'s options) that :func:`loads` reads back equal."""
-    return yaml.dump(data, Dumper=Dumper12, **kw)
+    return yaml.dump(data, Dumper=_FAST_DUMPER, **kw)
