@@ -171,7 +171,7 @@ def own_identifiability(fitted: ModelState, res: FitResult, logs: Sequence[Motio
         if nc == 0 or not math.isfinite(se):
             bad[nm] = "the data do not determine it (no sensitivity)"
         elif p.value - p.lower <= tol or p.upper - p.value <= tol:
-            bad[nm] = "the fit ran onto a bound"
+            bad[nm] = _ON_BOUND
         elif unique < _UNIQUE_MIN:
             bad[nm] = f"collinear with the base constants (only {unique:.1%} of its sensitivity is its own)"
         elif rel > rel_se_max:
@@ -180,6 +180,8 @@ def own_identifiability(fitted: ModelState, res: FitResult, logs: Sequence[Motio
             ses[nm] = se
     return bad, ses
 
+
+_ON_BOUND = "the fit ran onto a bound"
 
 #: a parameter with less than this share of its sensitivity outside the span of the other constants' is collinear
 #: (whether what remains is enough is the standard error's verdict)
@@ -322,7 +324,12 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
                               corr_max=corr_max)
     held: dict[str, str] = {}
     while bad and len(held) < len(own) - 1:
-        name = [n for n in own if n in bad and n not in held][-1]
+        # hold first a parameter that ran onto a bound (the bound is the range's statement, and the parameter
+        # it traded off against then carries the effect: e.g. a softening linear in time drives the amount to
+        # its bound and leaves the time constant collinear with it), else the last undetermined one
+        pending = [n for n in own if n in bad and n not in held]
+        on_bound = [n for n in pending if bad[n] == _ON_BOUND]
+        name = on_bound[0] if on_bound else pending[-1]
         held[name] = bad[name]
         cand = dataclasses.replace(fitted, params=fitted.params.replace(name, fixed=True))
         fitted, res = fit_state(cand, fit_logs, max_nfev=max_nfev, check_identifiability=False,

@@ -17,7 +17,7 @@ thresholds: :mod:`bpmid.discover.calibrate`):
 - at least one of its own parameters identifiable (the others held).
 
 Among the candidates that pass, the one with the largest confirmed held-out gain is added (the leading
-``n_confirm`` screened candidates are all confirmed, so screening order alone never decides); when several pass,
+``n_confirm`` screened candidates, by default all, are confirmed, so screening order never decides); when several pass,
 each one's gain is reported with why the winner won. A BIC is reported, never a gate. With ``per_log_gain``
 (default) every log gets a stiffness-like gain (a nuisance factor for log-to-log variation of the constants):
 fitted in closed form on fitting logs (geometric mean 1) and on each held-out log for every model alike.
@@ -54,7 +54,9 @@ class DiscoverConfig:
     ----------
     candidates : catalogue ids to consider (empty: the whole catalogue)
     max_effects : stop after adding this many effects
-    n_confirm : leading screening candidates refitted per round (the winner is chosen by held-out gain)
+    n_confirm : leading screening candidates refitted per round (the winner is chosen by held-out gain); the
+        default confirms every screened candidate of the catalogue (screening order missed the true effect
+        on out-of-family data, and the refits cost little next to the base fit)
     holdout_every : without ``--holdout``, every n-th log (counting from the last) is held out; at least one
     min_fit_samples : fewer fitting samples than this cannot be judged (exit 2)
     min_log_samples : a log shorter than this cannot be judged (exit 2)
@@ -71,7 +73,7 @@ class DiscoverConfig:
 
     candidates: tuple[str, ...] = ()
     max_effects: int = 3
-    n_confirm: int = 3
+    n_confirm: int = len(CATALOGUE)
     holdout_every: int = 3
     min_fit_samples: int = 200
     min_log_samples: int = 30
