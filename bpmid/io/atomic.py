@@ -594,19 +594,17 @@ class Journal:
 
     # -- ends ---------------------------------------------------------------------------------------
     def commit(self) -> None:
-        with signals_held():
-            if self.path is not None:
-                with contextlib.suppress(FileNotFoundError):
-                    os.unlink(self.path)
-            self._close()
-            if self.backup is not None:
-                self.backup.release()
-                self.backup = None
+        self._end(roll_back=False)
 
     def rollback(self) -> None:
+        self._end(roll_back=True)
+
+    def _end(self, *, roll_back: bool) -> None:
+        """Roll the files back (or keep them), then remove the journal: removing it is the commit point."""
         with signals_held():
             if self.path is not None:
-                _rollback(self.out, self.data)
+                if roll_back:
+                    _rollback(self.out, self.data)
                 with contextlib.suppress(FileNotFoundError):
                     os.unlink(self.path)
             self._close()

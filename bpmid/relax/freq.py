@@ -33,6 +33,7 @@ from bpmid.errors import InputError
 from bpmid.fitting import UNCERTAINTY_METHOD, correlation, covariance_from_jacobian, effective_sample_size
 from bpmid.progress import note
 from bpmid.relax import varpro
+from bpmid.relax.fit import _criterion  # one information criterion for time- and frequency-domain fits
 from bpmid.relax._blas import single_thread_blas
 
 #: fewest frequencies a curve must have (one term and E_inf are 3 constants; 2N equations)
@@ -179,16 +180,6 @@ def _fit_error(basis: FreqBasis, sol: varpro.VPSolution) -> float:
     return float(100 * np.sqrt(np.sum(sol.residual ** 2) / n))
 
 
-def _score(name: str, n: int):
-    def score(sol: varpro.VPSolution) -> float:
-        p = 2 * sol.m + 1
-        fit = n * math.log(max(sol.sse, 1e-300) / n)
-        if name == "aicc":
-            return fit + 2 * p + (2 * p * (p + 1) / (n - p - 1) if n - p - 1 > 0 else math.inf)
-        return fit + p * math.log(n)
-    return score
-
-
 def check_curve(f, storage, loss, where=None) -> None:
     """Refuse non-positive or non-finite frequencies or moduli and repeated frequencies (messages name ``where``)."""
     for name, v in (("frequency", f), ("storage modulus", storage), ("loss modulus", loss)):
@@ -244,7 +235,7 @@ def fit_frequency(f, storage, loss, *, modulus: str = "E", terms: int | str = "a
     if max_error_pct is not None:
         m_min, m_max, score, crit = 1, min(cfg.max_terms, m_cap), None, "max-error"
     elif terms == "auto":
-        m_min, m_max, score, crit = 1, min(cfg.max_terms, m_cap), _score(cfg.criterion, N), cfg.criterion
+        m_min, m_max, score, crit = 1, min(cfg.max_terms, m_cap), _criterion(cfg.criterion, N), cfg.criterion
     else:
         if terms > m_cap:
             raise InputError(f"{terms} terms need at least {(2 * terms + 3 + 1) // 2} frequencies, the data have {n}",
@@ -298,7 +289,7 @@ def fit_frequency(f, storage, loss, *, modulus: str = "E", terms: int | str = "a
         elif t > tau_hi:
             warn.append(f"tau_{j + 1} = {t:.4g} s is longer than 1/(2 pi f_min) = {tau_hi:.4g} s: E_{j + 1} and E_inf "
                         "are not separated by these data (their sum is)")
-    sc = _score(cfg.criterion, N)
+    sc = _criterion(cfg.criterion, N)
     selection = [{"terms": int(k), "error_pct": total[k], "rms_rel_storage_pct": errs[k][0],
                   "rms_rel_loss_pct": errs[k][1],
                   "criterion": float(sc(s)) if crit not in (None, "max-error") else None}
