@@ -217,14 +217,14 @@ ALPHAS = (0.05, 0.01, 1e-3, 1e-4, 1e-6, 1e-9)
 
 def thresholds_from_records(records: Sequence[Record]) -> dict:
     """The gate's thresholds from calibration records (see module docstring): a grid over the held-out gain
-    (0 .. 1 noise floor in steps of 0.01, then to 6 in steps of 0.25), the gap share (0 .. 0.6) and the family-wise alpha (:data:`ALPHAS`); the value
+    (0 .. 1 noise floor in steps of 0.01, then to 6 in steps of 0.25), the gap share (0 .. 0.9) and the family-wise alpha (:data:`ALPHAS`); the value
     with the most right decisions minus twice the false positives wins, ties to the stricter gate."""
     by_case: dict[str, list[Record]] = {}
     for r in records:
         by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
     cases = list(by_case.values())
     gains = np.unique(np.round(np.concatenate([np.arange(0.0, 1.0, 0.01), np.arange(1.0, 6.01, 0.25)]), 2))
-    shares = np.round(np.arange(0.0, 0.61, 0.05), 2)
+    shares = np.round(np.arange(0.0, 0.91, 0.05), 2)
     best, best_key = None, None
     for g in gains:
         for sh in shares:
