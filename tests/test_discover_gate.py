@@ -121,8 +121,8 @@ def test_thresholds_from_records_separate_true_effects_from_null_candidates():
 
 
 def test_null_with_log_to_log_variation_gets_nothing_named():
-    """5 % stiffness variation between logs: the raw held-out error is many noise floors, but with per-log gains
-    nothing is named (variation is not a missing effect)."""
+    """5 % stiffness variation between logs: the raw held-out error is several noise floors, but with per-log
+    nuisance factors nothing is named (variation is not a missing effect) and the scored error is the floor's."""
     rng = np.random.default_rng(3)
     names = ("fit_cyclic_1.6", "va_1.8", "vr_0.267", "hold_2.0", "ho_va_2.0", "ho_mixed")
     fit, ho = [], []
@@ -133,6 +133,6 @@ def test_null_with_log_to_log_variation_gets_nothing_named():
         fit += a
         ho += b
     res = discover(fit, start_model(), holdout=ho, cfg=DiscoverConfig(max_effects=1, n_confirm=2))
-    assert res.heldout_raw_before > 3 * res.noise_floor_deg      # the variation is large in raw terms
+    assert res.heldout_raw_before > 2.5 * res.noise_floor_deg    # the variation is large in raw terms
     assert res.named_effects == [], res.verdict
-    assert math.isfinite(res.heldout_before) and res.heldout_before < res.heldout_raw_before
+    assert math.isfinite(res.heldout_before) and res.heldout_before < 1.2 * res.noise_floor_deg
