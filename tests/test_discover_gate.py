@@ -136,3 +136,27 @@ def test_null_with_log_to_log_variation_gets_nothing_named():
     assert res.heldout_raw_before > 2.5 * res.noise_floor_deg    # the variation is large in raw terms
     assert res.named_effects == [], res.verdict
     assert math.isfinite(res.heldout_before) and res.heldout_before < 1.2 * res.noise_floor_deg
+
+
+def test_fit_share_threshold_tells_a_whole_explanation_from_a_partial_one():
+    """A true effect explains most of the fitting logs' gap; a catalogue term fitted to an effect outside the
+    catalogue explains a part only. When held-out gain and share do not separate them, the fitting-gap share
+    does, and the gate says so in words."""
+    recs = []
+    for k in range(4):
+        recs += [Record("strain_stiffening", 1, "strain_stiffening", 0.05 + 0.01 * k, 0.0, False, 0.9, 1e-20, 1e-20,
+                        True, True, f"s{k}", 0.92)]
+        recs += [Record("none", 1, "angle_offset", 0.06 + 0.01 * k, 0.0, False, 0.9, 1e-20, 1e-20, True, True,
+                        f"o{k}", 0.35)]
+    thr = thresholds_from_records(recs)
+    assert 0.35 < thr["fit_share_min"] <= 0.92
+    assert thr["right_decisions"] == 8 and thr["false_positives"] == 0
+    assert PERMISSIVE["fit_share_min"] == 0.0
+    from bpmid.discover.confirm import Confirmation
+    c = Confirmation.__new__(Confirmation)
+    for k, v in dict(tested=True, identifiable=True, heldout_gain_sigma=1.0, gap_share=0.9, lr_p=1e-20,
+                     lr_p_holm=1e-20, fit_share=0.3).items():
+        setattr(c, k, v)
+    why = judge(c, {**THR, "fit_share_min": 0.6})
+    assert len(why) == 1 and "fitting logs' gap removed 30% < 60%" in why[0]
+    assert judge(c, {**THR, "fit_share_min": 0.0}) == []

@@ -69,6 +69,7 @@ class Confirmation:
     lr_p_holm: float = float("nan")
     #: share of the held-out gap (RMSE before minus the noise floor) this candidate removed
     gap_share: float = float("nan")
+    fit_share: float = float("nan")   # share of the fitting logs' gap above the noise floor the refit removed
     accepted: bool = False
     reasons: list = dataclasses.field(default_factory=list)
 
@@ -88,6 +89,7 @@ class Confirmation:
             "likelihood_ratio_p": float(f"{self.lr_p:.3g}"),
             "likelihood_ratio_p_holm": float(f"{self.lr_p_holm:.3g}") if math.isfinite(self.lr_p_holm) else None,
             "share_of_heldout_gap_removed": round(self.gap_share, 3) if math.isfinite(self.gap_share) else None,
+            "share_of_fitting_gap_removed": round(self.fit_share, 3) if math.isfinite(self.fit_share) else None,
             "f_statistic": round(self.f_stat, 3),
             "delta_bic_reported_only": round(self.delta_bic, 3),
             "n_obs": int(self.n_obs),
@@ -351,6 +353,8 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
         identifiable=bool(estimated), not_identifiable=dict(bad),
         effect_params={p.name: p.to_yaml() for p in fitted.params if p.name in own},
         converged=bool(res.success), tested=tested, not_tested_reason=why_not, starts=start_log)
+    fb, fa = c.fit_rmse_before, c.fit_rmse_after
+    c.fit_share = (fb - fa) / (fb - noise_floor_deg) if fb > noise_floor_deg else float("nan")
     c.gap_share = ((heldout_before - ho_after) / (heldout_before - noise_floor_deg)
                     if heldout_before > noise_floor_deg else float("nan"))
     return c

@@ -66,6 +66,8 @@ class DiscoverConfig:
     heldout_gain_min_sigma : accept only if the held-out RMSE drops by this many noise floors (None: calibrated)
     gap_share_min : accept only if the drop removes at least this share of the held-out gap (None: calibrated)
     family_alpha : family-wise level of the Holm-corrected likelihood-ratio tests of a round (None: calibrated)
+    fit_share_min : accept only if the refit removes at least this share of the fitting logs' gap above the noise
+        floor (None: calibrated; 0: no such condition)
     per_log_gain : score with one stiffness-like gain per log (log-to-log variation is not an effect)
     per_log_constants : give every log its own small factors on K_inf, the branch moduli and the time
         constants instead of the gain (first order, :class:`~bpmid.discover.model.LogNuisance`): log-to-log
@@ -87,6 +89,7 @@ class DiscoverConfig:
     heldout_gain_min_sigma: Optional[float] = None
     gap_share_min: Optional[float] = None
     family_alpha: Optional[float] = None
+    fit_share_min: Optional[float] = None
     per_log_gain: bool = True
     per_log_constants: bool = True
     unexplained_gap_sigma: float = 0.5
@@ -103,13 +106,16 @@ class DiscoverConfig:
         if self.family_alpha is not None and not 0 < self.family_alpha < 1:
             raise InputError(f"must be between 0 and 1, found {self.family_alpha}", path=path,
                              key=f"{where}.family_alpha")
+        if self.fit_share_min is not None and not 0 <= self.fit_share_min < 1:
+            raise InputError(f"must be in [0, 1), found {self.fit_share_min}", path=path,
+                             key=f"{where}.fit_share_min")
         if self.gap_share_min is not None and not 0 <= self.gap_share_min < 1:
             raise InputError(f"must be in [0, 1), found {self.gap_share_min}", path=path,
                              key=f"{where}.gap_share_min")
 
     def thresholds(self) -> dict:
         out = dict(load_thresholds())
-        for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha"):
+        for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min"):
             if getattr(self, k) is not None:
                 out[k] = float(getattr(self, k))
         return out
@@ -120,8 +126,10 @@ def gate_in_words(thr: dict) -> str:
     return (f"an effect is named only if (1) its refit really tested it (started from the screening estimate and "
             f"from a grid over its physical range; a refit that did not move counts as 'not tested', never as "
             f"evidence against), (2) it cuts the held-out RMSE by at least {thr['heldout_gain_min_sigma']:.2f} "
-            f"noise floors and removes at least {thr['gap_share_min']:.0%} of the held-out gap above the floor, "
-            f"(3) its likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) "
+            f"noise floors and removes at least {thr['gap_share_min']:.0%} of the held-out gap above the floor"
+            + (f" and its refit removes at least {thr['fit_share_min']:.0%} of the fitting logs' gap"
+               if float(thr.get("fit_share_min", 0.0)) > 0 else "") +
+            f", (3) its likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) "
             f"passes at family-wise level {thr['family_alpha']:.2g} after a Holm correction over every candidate "
             f"screened in the round, and (4) at least one of its parameters is identifiable; of several that pass, "
             f"the largest held-out gain wins. BIC is reported, never a gate")
@@ -396,7 +404,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     thr = cfg.thresholds()
     if thresholds is not None:
         thr.update({k: float(v) for k, v in thresholds.items() if k in thr})
-        thr.update({k: float(getattr(cfg, k)) for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha")
+        thr.update({k: float(getattr(cfg, k)) for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha",
+                                                        "fit_share_min")
                     if getattr(cfg, k) is not None})
     if effects is None:
         effects = [get_effect(i) for i in (cfg.candidates or tuple(CATALOGUE))]
@@ -552,6 +561,11 @@ def judge(c: Confirmation, thr: dict, floor: float | None = None) -> list[str]:
     if not (math.isfinite(c.gap_share) and c.gap_share >= thr["gap_share_min"]):
         share = f"{c.gap_share:.0%}" if math.isfinite(c.gap_share) else "none (no held-out gap above the floor)"
         why.append(f"share of the held-out gap removed {share} < {thr['gap_share_min']:.0%}")
+    fs = float(thr.get("fit_share_min", 0.0))
+    if fs > 0 and not (math.isfinite(c.fit_share) and c.fit_share >= fs):
+        share = f"{c.fit_share:.0%}" if math.isfinite(c.fit_share) else "none (no fitting gap above the floor)"
+        why.append(f"share of the fitting logs' gap removed {share} < {fs:.0%}: it leaves most of what the model "
+                   "misses unexplained")
     p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
     if not p < thr["family_alpha"]:
         why.append(f"Holm-corrected likelihood-ratio p = {p:.2g} >= family-wise {thr['family_alpha']:.2g}")
