@@ -121,8 +121,8 @@ def test_thresholds_from_records_separate_true_effects_from_null_candidates():
 
 
 def test_null_with_log_to_log_variation_gets_nothing_named():
-    """5 % stiffness variation between logs: the raw held-out error is many noise floors, but with per-log gains
-    nothing is named (variation is not a missing effect)."""
+    """5 % stiffness variation between logs: the raw held-out error is several noise floors, but with per-log
+    nuisance factors nothing is named (variation is not a missing effect) and the scored error is the floor's."""
     rng = np.random.default_rng(3)
     names = ("fit_cyclic_1.6", "va_1.8", "vr_0.267", "hold_2.0", "ho_va_2.0", "ho_mixed")
     fit, ho = [], []
@@ -133,6 +133,30 @@ def test_null_with_log_to_log_variation_gets_nothing_named():
         fit += a
         ho += b
     res = discover(fit, start_model(), holdout=ho, cfg=DiscoverConfig(max_effects=1, n_confirm=2))
-    assert res.heldout_raw_before > 3 * res.noise_floor_deg      # the variation is large in raw terms
+    assert res.heldout_raw_before > 2.5 * res.noise_floor_deg    # the variation is large in raw terms
     assert res.named_effects == [], res.verdict
-    assert math.isfinite(res.heldout_before) and res.heldout_before < res.heldout_raw_before
+    assert math.isfinite(res.heldout_before) and res.heldout_before < 1.2 * res.noise_floor_deg
+
+
+def test_fit_share_threshold_tells_a_whole_explanation_from_a_partial_one():
+    """A true effect explains most of the fitting logs' gap; a catalogue term fitted to an effect outside the
+    catalogue explains a part only. When held-out gain and share do not separate them, the fitting-gap share
+    does, and the gate says so in words."""
+    recs = []
+    for k in range(4):
+        recs += [Record("strain_stiffening", 1, "strain_stiffening", 0.05 + 0.01 * k, 0.0, False, 0.9, 1e-20, 1e-20,
+                        True, True, f"s{k}", 0.92)]
+        recs += [Record("none", 1, "angle_offset", 0.06 + 0.01 * k, 0.0, False, 0.9, 1e-20, 1e-20, True, True,
+                        f"o{k}", 0.35)]
+    thr = thresholds_from_records(recs)
+    assert 0.35 < thr["fit_share_min"] <= 0.92
+    assert thr["right_decisions"] == 8 and thr["false_positives"] == 0
+    assert PERMISSIVE["fit_share_min"] == 0.0
+    from bpmid.discover.confirm import Confirmation
+    c = Confirmation.__new__(Confirmation)
+    for k, v in dict(tested=True, identifiable=True, heldout_gain_sigma=1.0, gap_share=0.9, lr_p=1e-20,
+                     lr_p_holm=1e-20, fit_share=0.3).items():
+        setattr(c, k, v)
+    why = judge(c, {**THR, "fit_share_min": 0.6})
+    assert len(why) == 1 and "fitting logs' gap removed 30% < 60%" in why[0]
+    assert judge(c, {**THR, "fit_share_min": 0.0}) == []

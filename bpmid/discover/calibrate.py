@@ -25,10 +25,13 @@ from bpmid.models.vbmm import VBMM, Material
 from bpmid.params import ParamSet
 
 THRESHOLDS_PATH = Path(__file__).with_name("thresholds.yaml")
-THRESHOLD_KEYS = ("heldout_gain_min_sigma", "gap_share_min", "family_alpha")
+THRESHOLD_KEYS = ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min")
+#: thresholds a file written before they existed may lack, with the value that leaves the gate as it was
+OPTIONAL_THRESHOLDS = {"fit_share_min": 0.0}
 #: discover-config overrides for a calibration run: every candidate's statistics are recorded, the best by
 #: held-out gain is added each round (so later rounds are recorded too)
-PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "max_effects": 2}
+PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
+              "max_effects": 2}
 SCHEMA = "bpmid.discover-thresholds/1"
 
 
@@ -40,6 +43,7 @@ def load_thresholds(path: str | Path | None = None) -> dict:
     data = loads(path.read_text("utf-8"), path=path)
     if not isinstance(data, dict) or data.get("schema") != SCHEMA:
         raise RuntimeError(f"{path}: not a {SCHEMA} file")
+    data = {**OPTIONAL_THRESHOLDS, **data}
     missing = [k for k in THRESHOLD_KEYS if k not in data]
     if missing:
         raise RuntimeError(f"{path}: missing {', '.join(missing)} (an old thresholds file? recalibrate)")
@@ -163,10 +167,11 @@ class Record:
     tested: bool = True
     identifiable: bool = True
     case: str = ""        # which data set (records of one case are judged together)
+    fit_share: float = float("nan")   # share of the fitting logs' gap above the floor the refit removed
 
     def __post_init__(self):
         # records read back from JSON carry None where a value was not a number
-        for f in ("gain_sigma", "delta_bic", "gap_share", "lr_p", "lr_p_holm"):
+        for f in ("gain_sigma", "delta_bic", "gap_share", "lr_p", "lr_p_holm", "fit_share"):
             v = getattr(self, f)
             setattr(self, f, float("nan") if v is None else float(v))
 
@@ -182,34 +187,40 @@ def records_from_result(truth: str, result, case: str | None = None) -> list[Rec
             out.append(Record(truth, k, c.effect_id, float(c.heldout_gain_sigma), float(c.delta_bic),
                               truth in named_before, float(c.gap_share), float(c.lr_p),
                               float(c.lr_p_holm) if math.isfinite(c.lr_p_holm) else float(c.lr_p),
-                              bool(c.tested), bool(c.identifiable), case))
+                              bool(c.tested), bool(c.identifiable), case, float(c.fit_share)))
         if rnd.accepted:
             named_before.append(rnd.accepted)
     return out
 
 
-def _passes(r: Record, g: float, share: float, alpha: float) -> bool:
+def _passes(r: Record, g: float, share: float, alpha: float, fit_share: float = 0.0) -> bool:
     return (r.tested and r.identifiable and math.isfinite(r.gain_sigma) and r.gain_sigma >= g
-            and math.isfinite(r.gap_share) and r.gap_share >= share and r.lr_p_holm < alpha)
+            and math.isfinite(r.gap_share) and r.gap_share >= share and r.lr_p_holm < alpha
+            and (fit_share <= 0 or (math.isfinite(r.fit_share) and r.fit_share >= fit_share)))
 
 
-def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float) -> tuple[int, int]:
+def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
+                  fit_share: float = 0.0) -> tuple[int, int]:
     """(right decisions, false positives) the gate (g, share, alpha) makes on one case's records: round 1 must
     name the truth (nothing, on a case with no catalogue truth); the round after the truth was added must name
     nothing."""
     truth = recs[0].truth
     r1 = [r for r in recs if r.round == 1]
-    passing = [r for r in r1 if _passes(r, g, share, alpha)]
+    passing = [r for r in r1 if _passes(r, g, share, alpha, fit_share)]
     first = max(passing, key=lambda r: r.gain_sigma).candidate if passing else None
     if truth == "none":
         return (1, 0) if first is None else (0, 1)
     right = int(first == truth)
     fp = int(first is not None and first != truth)
     later = [r for r in recs if r.truth_in_model and r.round == 2]
-    if right and later and any(_passes(r, g, share, alpha) for r in later):
+    if right and later and any(_passes(r, g, share, alpha, fit_share) for r in later):
         fp += 1
     return right, fp
 
+
+#: shares of the fitting logs' gap (above the noise floor) a named effect's refit must remove, considered by the
+#: calibration (0: no such condition)
+FIT_SHARES = (0.0, 0.3, 0.5, 0.6, 0.7, 0.8, 0.9)
 
 #: family-wise levels the calibration considers
 ALPHAS = (0.05, 0.01, 1e-3, 1e-4, 1e-6, 1e-9)
@@ -217,32 +228,34 @@ ALPHAS = (0.05, 0.01, 1e-3, 1e-4, 1e-6, 1e-9)
 
 def thresholds_from_records(records: Sequence[Record]) -> dict:
     """The gate's thresholds from calibration records (see module docstring): a grid over the held-out gain
-    (0 .. 1 noise floor in steps of 0.01, then to 6 in steps of 0.25), the gap share (0 .. 0.6) and the family-wise alpha (:data:`ALPHAS`); the value
-    with the most right decisions minus twice the false positives wins, ties to the stricter gate."""
+    (0 .. 1 noise floor in steps of 0.01, then to 6 in steps of 0.25), the held-out gap share (0 .. 0.9), the
+    fitting-gap share (:data:`FIT_SHARES`) and the family-wise alpha (:data:`ALPHAS`); the value with the most
+    right decisions minus twice the false positives wins, ties to the stricter gate."""
     by_case: dict[str, list[Record]] = {}
     for r in records:
         by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
     cases = list(by_case.values())
     gains = np.unique(np.round(np.concatenate([np.arange(0.0, 1.0, 0.01), np.arange(1.0, 6.01, 0.25)]), 2))
-    shares = np.round(np.arange(0.0, 0.61, 0.05), 2)
+    shares = np.round(np.arange(0.0, 0.91, 0.05), 2)
     best, best_key = None, None
-    for g in gains:
+    for fs in FIT_SHARES:
         for sh in shares:
             for a in ALPHAS:
-                right = fp = 0
-                for recs in cases:
-                    rr, ff = _case_outcome(recs, float(g), float(sh), a)
-                    right += rr
-                    fp += ff
-                key = (right - 2 * fp, g, sh, -a)       # ties: the stricter gate
-                if best_key is None or key > best_key:
-                    best_key, best = key, (float(g), float(sh), float(a), right, fp)
+                for g in gains:
+                    right = fp = 0
+                    for recs in cases:
+                        rr, ff = _case_outcome(recs, float(g), float(sh), a, fs)
+                        right += rr
+                        fp += ff
+                    key = (right - 2 * fp, g, sh, fs, -a)       # ties: the stricter gate
+                    if best_key is None or key > best_key:
+                        best_key, best = key, (float(g), float(sh), float(a), float(fs), right, fp)
     if best is None:
-        best = (1.0, 0.25, 0.01, 0, 0)
-    g, sh, a, right, fp = best
+        best = (1.0, 0.25, 0.01, 0.0, 0, 0)
+    g, sh, a, fs, right, fp = best
     pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate == r.truth]
     neg = [r for r in records if r.truth == "none" or r.truth_in_model]
-    return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a,
+    return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
             "n_cases": len(cases), "right_decisions": int(right), "false_positives": int(fp),
             "n_positive": len(pos), "n_negative": len(neg),
             "positive_gain_min": float(min((r.gain_sigma for r in pos), default=float("nan"))),

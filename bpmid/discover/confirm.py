@@ -33,8 +33,8 @@ import numpy as np
 from scipy.stats import chi2
 
 from bpmid.discover.screen import _orthonormal  # one basis routine for screening and confirmation
-from bpmid.discover.model import (ModelState, fit_state, gained_residuals, scored_rmse, sensitivities, simulate,
-                                  stacked)
+from bpmid.discover.model import (ModelState, fit_state, gained_residuals, nuisance_block_columns, scored_rmse,
+                                  sensitivities, simulate, stacked)
 from bpmid.effects.base import Effect
 from bpmid.fitting import FitResult, effective_sample_size
 from bpmid.io.motion_logs import MotionLog
@@ -69,6 +69,7 @@ class Confirmation:
     lr_p_holm: float = float("nan")
     #: share of the held-out gap (RMSE before minus the noise floor) this candidate removed
     gap_share: float = float("nan")
+    fit_share: float = float("nan")   # share of the fitting logs' gap above the noise floor the refit removed
     accepted: bool = False
     reasons: list = dataclasses.field(default_factory=list)
 
@@ -88,6 +89,7 @@ class Confirmation:
             "likelihood_ratio_p": float(f"{self.lr_p:.3g}"),
             "likelihood_ratio_p_holm": float(f"{self.lr_p_holm:.3g}") if math.isfinite(self.lr_p_holm) else None,
             "share_of_heldout_gap_removed": round(self.gap_share, 3) if math.isfinite(self.gap_share) else None,
+            "share_of_fitting_gap_removed": round(self.fit_share, 3) if math.isfinite(self.fit_share) else None,
             "f_statistic": round(self.f_stat, 3),
             "delta_bic_reported_only": round(self.delta_bic, 3),
             "n_obs": int(self.n_obs),
@@ -138,17 +140,8 @@ def own_identifiability(fitted: ModelState, res: FitResult, logs: Sequence[Motio
         return {}, {}
     sims = simulate(fitted, logs)
     J = sensitivities(fitted, logs, free, base_sim=sims, rel_step=1e-3)
-    if per_log_gain:
-        # the per-log gains are nuisance constants too: their columns are each log's prediction
-        cols, start = [], 0
-        for s, lg in zip(sims, logs):
-            c = np.zeros(J.shape[0])
-            c[start:start + lg.n] = np.nan_to_num(s)
-            cols.append(c)
-            start += lg.n
-        G = np.column_stack(cols)
-    else:
-        G = np.zeros((J.shape[0], 0))
+    # the per-log gains / factors are nuisance constants too
+    G = nuisance_block_columns(per_log_gain, sims, logs)
     r = res.residual
     s2 = float(r @ r) / max(r.size - len(free), 1)
     infl = r.size / max(effective_sample_size(r, [lg.n for lg in logs]), 1.0)
@@ -255,13 +248,7 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     if nuisance is None:
         nuisance = sensitivities(state, fit_logs, base_sim=base_sim)
     if per_log_gain:
-        blocks, start = [], 0
-        for s, lg in zip(base_sim, fit_logs):
-            c = np.zeros(r0.size)
-            c[start:start + lg.n] = np.nan_to_num(s)
-            blocks.append(c)
-            start += lg.n
-        nuisance = np.column_stack([nuisance] + blocks)
+        nuisance = np.column_stack([nuisance, nuisance_block_columns(per_log_gain, base_sim, fit_logs)])
     Q0 = _orthonormal(nuisance)
     own = [p.name for p in effect.default_params() if not p.fixed]
     cand0 = state.with_effect(effect)
@@ -366,6 +353,8 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
         identifiable=bool(estimated), not_identifiable=dict(bad),
         effect_params={p.name: p.to_yaml() for p in fitted.params if p.name in own},
         converged=bool(res.success), tested=tested, not_tested_reason=why_not, starts=start_log)
+    fb, fa = c.fit_rmse_before, c.fit_rmse_after
+    c.fit_share = (fb - fa) / (fb - noise_floor_deg) if fb > noise_floor_deg else float("nan")
     c.gap_share = ((heldout_before - ho_after) / (heldout_before - noise_floor_deg)
                     if heldout_before > noise_floor_deg else float("nan"))
     return c

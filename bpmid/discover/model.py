@@ -130,9 +130,196 @@ def log_gains(sims: Sequence[np.ndarray], logs: Sequence[MotionLog], *, normalis
     return g
 
 
-def gained_residuals(sims: Sequence[np.ndarray], logs: Sequence[MotionLog], *, per_log_gain: bool,
+class LogNuisance:
+    """Log-to-log variation of the constants as per-log nuisance factors (first order).
+
+    Real logs come from runs whose constants drift by a few per cent. Every log gets its own small factors on
+    the model's equilibrium modulus (``vbmm.K_inf``), its branch moduli (all ``vbmm.K_j`` together) and its time
+    constants (all ``vbmm.tau_j`` together), plus (``gain``) the stiffness-like gain on its predicted angle. They
+    act through each log's sensitivities of the predicted angle (deg per unit log-factor), computed once for a
+    model (:meth:`for_state`) and frozen while candidates of one round are refitted and scored, so every
+    candidate meets the same nuisance. On fitting logs the factors sum to zero over the logs (the common
+    constants stay with the model); on a held-out log they are fitted on that log alone, for every model alike.
+    Whatever the factors remove is log-to-log variation, never credited to an effect; an effect that differs
+    from such a rescaling (a loop, a delay, a drift within a log, an offset) is left in the residual.
+
+    An instance is accepted wherever the discovery code takes ``per_log_gain`` (it is truthy).
+    """
+
+    #: the constants that get a per-log factor: (label, parameter-name test)
+    DIRECTIONS = (("K_inf", lambda n: n == "vbmm.K_inf"),
+                  ("K_branches", lambda n: n.startswith("vbmm.K_") and n != "vbmm.K_inf"),
+                  ("tau", lambda n: n.startswith("vbmm.tau_")))
+    #: log-factor step of the finite-difference sensitivities
+    STEP = 0.01
+
+    #: the held-out logs' mean factor is bounded by this many standard errors of a mean of the variation the
+    #: fitting logs' factors show (held-out and fitting logs are different samples of runs) ...
+    BOUND_SPREADS = 2.5
+    #: ... within these limits (log-factor)
+    BOUND_RANGE = (0.002, 0.05)
+
+    def __init__(self, bases: dict, gain: bool = True, labels: Sequence[str] = (), mean_bounds=None):
+        self._bases = dict(bases)
+        self.gain = bool(gain)
+        self.labels = tuple(labels)
+        self.mean_bounds = None if mean_bounds is None else np.asarray(mean_bounds, float)
+
+    def __bool__(self) -> bool:
+        return True
+
+    @staticmethod
+    def key(lg: MotionLog) -> tuple:
+        """A log's identity for its frozen directions: its name, length and pressure record."""
+        return (lg.name, lg.n, float(np.nansum(lg.pressure_pa)), float(np.nansum(lg.time_s)))
+
+    @classmethod
+    def for_state(cls, state: "ModelState", logs: Sequence[MotionLog], *, gain: bool = True,
+                  fit_logs: Sequence[MotionLog] | None = None) -> "LogNuisance":
+        """Sensitivities of every log's predicted angle to a common log-factor on each direction's constants
+        (one simulation of ``logs`` per direction); with ``fit_logs`` (a subset of ``logs``; None: all) the
+        bounds of held-out factors come from the spread of the fitting logs' tied factors."""
+        base = simulate(state, logs)
+        bases = {cls.key(lg): [] for lg in logs}
+        labels = []
+        for label, test in cls.DIRECTIONS:
+            names = [p.name for p in state.params if test(p.name) and not p.fixed]
+            if not names:
+                continue
+            vals = {}
+            for n in names:
+                p = state.params[n]
+                vals[n] = min(max(p.value * math.exp(cls.STEP), p.lower), p.upper)
+            step = [math.log(vals[n] / state.params.value(n)) for n in names]
+            if max(abs(x) for x in step) == 0:
+                continue
+            sims = simulate(state, logs, state.params.with_values(vals))
+            labels.append(label)
+            h = float(np.mean(step))
+            for lg, s0, s1 in zip(logs, base, sims):
+                bases[cls.key(lg)].append(np.nan_to_num((np.asarray(s1, float) - np.asarray(s0, float)) / h))
+        out = {k: (np.column_stack(v) if v else None) for k, v in bases.items()}
+        nu = cls(out, gain=gain, labels=labels)
+        fit = [lg for lg in logs if fit_logs is None or any(lg is f for f in fit_logs)]
+        if not gain and len(fit) > 1 and labels:
+            # how far the fitting logs' own factors spread bounds a held-out log's: log-to-log variation of the
+            # constants is what the fitting logs show, and a held-out log is not allowed a far larger change
+            # (which would take up an offset or a delay, i.e. an effect, through large opposite factors)
+            sims_fit = [s for s, lg in zip(base, logs) if any(lg is f for f in fit)]
+            F = nu.factors(sims_fit, fit)
+            rms = np.sqrt(np.mean(F**2, axis=0) * len(fit) / (len(fit) - 1)) if F.size else np.zeros(len(labels))
+            n_ho = max(len(logs) - len(fit), 1)
+            nu.mean_bounds = np.clip(cls.BOUND_SPREADS * rms * math.sqrt(1.0 / n_ho + 1.0 / len(fit)),
+                                     *cls.BOUND_RANGE)
+        return nu
+
+    def columns(self, sim: np.ndarray, lg: MotionLog) -> np.ndarray:
+        """(n, k) nuisance columns of one log: its prediction (the gain) and its frozen sensitivities."""
+        cols = [np.nan_to_num(np.asarray(sim, float))[:, None]] if self.gain else []
+        b = self._bases.get(self.key(lg))
+        if b is not None and b.shape[0] == lg.n:
+            cols.append(b)
+        return np.column_stack(cols) if cols else np.zeros((lg.n, 0))
+
+    def residuals(self, sims: Sequence[np.ndarray], logs: Sequence[MotionLog], *, zero_sum: bool) -> list[np.ndarray]:
+        """Model minus measurement (deg) per log with each log's nuisance factors fitted by least squares
+        (``zero_sum``: the factors of the logs sum to zero, as on the fitting logs)."""
+        raw = [np.asarray(s, float) - lg.angle_deg for s, lg in zip(sims, logs)]
+        Cs = [self.columns(s, lg) for s, lg in zip(sims, logs)]
+        k = Cs[0].shape[1] if Cs else 0
+        if k == 0 or any(C.shape[1] != k for C in Cs):
+            return raw
+        Ms, bs = [], []
+        for C, r in zip(Cs, raw):
+            ok = np.isfinite(r)
+            Cf, rf = C[ok], r[ok]
+            M = Cf.T @ Cf
+            M = M + np.eye(k) * (1e-10 * max(float(np.trace(M)), 1e-300))
+            Ms.append(M)
+            bs.append(Cf.T @ rf)
+        Minv = [np.linalg.pinv(M) for M in Ms]
+        n = len(Cs)
+        # the logs' mean factor: zero on fitting logs (the common constants are the model's); on held-out logs
+        # free within what sampling a few logs' variation allows (a common shift beyond it is an effect's)
+        free = np.array([Mi @ b for Mi, b in zip(Minv, bs)])
+        mean = free.mean(axis=0)
+        if zero_sum:
+            target = np.zeros(k)
+        else:
+            lim = self.mean_bounds if self.mean_bounds is not None and self.mean_bounds.size == k else np.full(k, np.inf)
+            target = np.clip(mean, -lim, lim)
+        if n == 1 and zero_sum:
+            return raw
+        if np.array_equal(target, mean):
+            lam = np.zeros(k)
+        else:
+            S = sum(Minv)
+            lam = np.linalg.lstsq(S, sum(Mi @ b for Mi, b in zip(Minv, bs)) - n * target, rcond=None)[0]
+        out = []
+        for C, r, Mi, b in zip(Cs, raw, Minv, bs):
+            c = Mi @ (b - lam)
+            out.append(r - C @ c)
+        return out
+
+    def factors(self, sims: Sequence[np.ndarray], logs: Sequence[MotionLog]) -> np.ndarray:
+        """(n_logs, k) the tied (sum-zero) factors of fitting logs: log-factor per direction."""
+        raw = [np.asarray(s, float) - lg.angle_deg for s, lg in zip(sims, logs)]
+        corr = self.residuals(sims, logs, zero_sum=True)
+        out = []
+        for s, lg, r0, r1 in zip(sims, logs, raw, corr):
+            C = self.columns(s, lg)
+            ok = np.isfinite(r0)
+            out.append(np.linalg.lstsq(C[ok], (r0 - r1)[ok], rcond=None)[0] if C.shape[1] else np.zeros(0))
+        return np.array(out)
+
+    def block_columns(self, sims: Sequence[np.ndarray], logs: Sequence[MotionLog]) -> np.ndarray:
+        """(N, (n_logs - 1) * k) the freedom the fitting logs' tied factors have: for each direction, log i's
+        column on its rows minus the last log's on its rows (the factors sum to zero, so the last log's is
+        minus the others'); none for a single log."""
+        n = sum(lg.n for lg in logs)
+        blocks, start = [], 0
+        for s, lg in zip(sims, logs):
+            C = self.columns(s, lg)
+            B = np.zeros((n, C.shape[1]))
+            B[start:start + lg.n] = C
+            blocks.append(B)
+            start += lg.n
+        if len(blocks) < 2:
+            return np.zeros((n, 0))
+        return np.column_stack([b - blocks[-1] for b in blocks[:-1]])
+
+    def describe(self) -> str:
+        return ("per log: " + ", ".join((["gain on the predicted angle"] if self.gain else [])
+                                        + [f"factor on {lab}" for lab in self.labels])
+                + " (first order; summing to zero over the fitting logs; fitted on the held-out logs for every "
+                  "model alike, their mean within " + ("any" if self.mean_bounds is None else "+-" + "/".join(
+                      f"{b:.1%}" for b in self.mean_bounds) + ", 2.5 standard errors of a mean of the fitting logs' "
+                      "spread") + ")")
+
+
+def nuisance_block_columns(per_log_gain, sims: Sequence[np.ndarray], logs: Sequence[MotionLog]) -> np.ndarray:
+    """Per-log nuisance columns (each log's on its own rows): the gains' (each log's prediction) for
+    ``per_log_gain=True``, a :class:`LogNuisance`'s columns, or none."""
+    if isinstance(per_log_gain, LogNuisance):
+        return per_log_gain.block_columns(sims, logs)
+    n = sum(lg.n for lg in logs)
+    if not per_log_gain:
+        return np.zeros((n, 0))
+    out = np.zeros((n, len(logs)))
+    start = 0
+    for k, (s, lg) in enumerate(zip(sims, logs)):
+        out[start:start + lg.n, k] = np.nan_to_num(np.asarray(s, float))
+        start += lg.n
+    return out
+
+
+def gained_residuals(sims: Sequence[np.ndarray], logs: Sequence[MotionLog], *, per_log_gain,
                      normalise: bool = True) -> list[np.ndarray]:
-    """Model minus measurement (deg) per log, each log's prediction times its gain when ``per_log_gain``."""
+    """Model minus measurement (deg) per log, each log's prediction times its gain when ``per_log_gain`` is
+    True, or with a :class:`LogNuisance`'s per-log factors fitted when it is one (``normalise``: the factors
+    of the fitting logs are tied: geometric mean 1 / sum zero)."""
+    if isinstance(per_log_gain, LogNuisance):
+        return per_log_gain.residuals(sims, logs, zero_sum=normalise)
     if not per_log_gain:
         return [s - lg.angle_deg for s, lg in zip(sims, logs)]
     g = log_gains(sims, logs, normalise=normalise)

@@ -24,7 +24,8 @@ from typing import Sequence
 
 import numpy as np
 
-from bpmid.discover.model import ModelState, gained_residuals, sensitivities, simulate, stacked
+from bpmid.discover.model import (ModelState, gained_residuals, nuisance_block_columns, sensitivities, simulate,
+                                  stacked)
 from bpmid.effects.base import Effect
 from bpmid.fitting import effective_sample_size
 from bpmid.io.motion_logs import MotionLog
@@ -88,17 +89,6 @@ def signature_matrix(state: ModelState, effect: Effect, logs: Sequence[MotionLog
     return np.column_stack([c.reshape(y0.size, -1) for c in cols])
 
 
-def gain_columns(sims: Sequence[np.ndarray], logs: Sequence[MotionLog]) -> np.ndarray:
-    """(N, n_logs) nuisance columns of per-log gains: each log's prediction on its own rows, zero elsewhere."""
-    n = sum(lg.n for lg in logs)
-    out = np.zeros((n, len(logs)))
-    start = 0
-    for k, (s, lg) in enumerate(zip(sims, logs)):
-        out[start:start + lg.n, k] = np.nan_to_num(np.asarray(s, float))
-        start += lg.n
-    return out
-
-
 def screen(state: ModelState, effects: Sequence[Effect], logs: Sequence[MotionLog], *,
            base_sim: Sequence[np.ndarray] | None = None, nuisance: np.ndarray | None = None,
            per_log_gain: bool = False) -> list[ScreenResult]:
@@ -110,7 +100,7 @@ def screen(state: ModelState, effects: Sequence[Effect], logs: Sequence[MotionLo
     r = stacked(gained_residuals(base_sim, logs, per_log_gain=per_log_gain))
     J = sensitivities(state, logs, base_sim=base_sim) if nuisance is None else nuisance
     if per_log_gain and J.shape[1] > 0:
-        J = np.column_stack([J, gain_columns(base_sim, logs)])
+        J = np.column_stack([J, nuisance_block_columns(per_log_gain, base_sim, logs)])
     Q0 = _orthonormal(J)
     r0 = r - Q0 @ (Q0.T @ r)
     sse0 = float(r0 @ r0)

@@ -34,8 +34,8 @@ import numpy as np
 from bpmid.discover.calibrate import load_thresholds
 from bpmid.discover.confirm import Confirmation, confirm, holm_adjusted
 from bpmid.discover.diagnose import diagnose, noise_floor
-from bpmid.discover.model import (ModelState, fit_state, gained_residuals, residuals, rmse_deg, scored_rmse,
-                                  sensitivities, simulate, stacked)
+from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, residuals, rmse_deg,
+                                  scored_rmse, sensitivities, simulate, stacked)
 from bpmid.discover.screen import ScreenResult, screen
 from bpmid.effects import CATALOGUE, get_effect
 from bpmid.effects.base import Effect
@@ -66,7 +66,13 @@ class DiscoverConfig:
     heldout_gain_min_sigma : accept only if the held-out RMSE drops by this many noise floors (None: calibrated)
     gap_share_min : accept only if the drop removes at least this share of the held-out gap (None: calibrated)
     family_alpha : family-wise level of the Holm-corrected likelihood-ratio tests of a round (None: calibrated)
+    fit_share_min : accept only if the refit removes at least this share of the fitting logs' gap above the noise
+        floor (None: calibrated; 0: no such condition)
     per_log_gain : score with one stiffness-like gain per log (log-to-log variation is not an effect)
+    per_log_constants : give every log its own small factors on K_inf, the branch moduli and the time
+        constants instead of the gain (first order, :class:`~bpmid.discover.model.LogNuisance`): log-to-log
+        variation of the constants is absorbed log by log instead of being left in the residual, where it hides
+        small effects
     unexplained_gap_sigma : the remainder is reported unexplained when the held-out RMSE stays more than this
         many noise floors above the floor
     """
@@ -83,7 +89,9 @@ class DiscoverConfig:
     heldout_gain_min_sigma: Optional[float] = None
     gap_share_min: Optional[float] = None
     family_alpha: Optional[float] = None
+    fit_share_min: Optional[float] = None
     per_log_gain: bool = True
+    per_log_constants: bool = True
     unexplained_gap_sigma: float = 0.5
 
     def validate(self, where, path):
@@ -98,13 +106,16 @@ class DiscoverConfig:
         if self.family_alpha is not None and not 0 < self.family_alpha < 1:
             raise InputError(f"must be between 0 and 1, found {self.family_alpha}", path=path,
                              key=f"{where}.family_alpha")
+        if self.fit_share_min is not None and not 0 <= self.fit_share_min < 1:
+            raise InputError(f"must be in [0, 1), found {self.fit_share_min}", path=path,
+                             key=f"{where}.fit_share_min")
         if self.gap_share_min is not None and not 0 <= self.gap_share_min < 1:
             raise InputError(f"must be in [0, 1), found {self.gap_share_min}", path=path,
                              key=f"{where}.gap_share_min")
 
     def thresholds(self) -> dict:
         out = dict(load_thresholds())
-        for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha"):
+        for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min"):
             if getattr(self, k) is not None:
                 out[k] = float(getattr(self, k))
         return out
@@ -115,8 +126,10 @@ def gate_in_words(thr: dict) -> str:
     return (f"an effect is named only if (1) its refit really tested it (started from the screening estimate and "
             f"from a grid over its physical range; a refit that did not move counts as 'not tested', never as "
             f"evidence against), (2) it cuts the held-out RMSE by at least {thr['heldout_gain_min_sigma']:.2f} "
-            f"noise floors and removes at least {thr['gap_share_min']:.0%} of the held-out gap above the floor, "
-            f"(3) its likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) "
+            f"noise floors and removes at least {thr['gap_share_min']:.0%} of the held-out gap above the floor"
+            + (f" and its refit removes at least {thr['fit_share_min']:.0%} of the fitting logs' gap"
+               if float(thr.get("fit_share_min", 0.0)) > 0 else "") +
+            f", (3) its likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) "
             f"passes at family-wise level {thr['family_alpha']:.2g} after a Holm correction over every candidate "
             f"screened in the round, and (4) at least one of its parameters is identifiable; of several that pass, "
             f"the largest held-out gain wins. BIC is reported, never a gate")
@@ -159,7 +172,7 @@ class DiscoveryResult:
     base_fit: Optional[dict] = None
     heldout_raw_before: float = float("nan")
     heldout_raw_after: float = float("nan")
-    per_log_gain: bool = True
+    per_log_gain: object = True   # True/False or the LogNuisance that scored the held-out logs
 
     @property
     def noise_floor_deg(self) -> float:
@@ -177,6 +190,17 @@ class DiscoveryResult:
                         "competition": rnd.competition or None})
         return out
 
+    def scoring(self) -> str:
+        """How the held-out RMSEs (``gap.*``) were scored, in words."""
+        if isinstance(self.per_log_gain, LogNuisance):
+            return ("held-out RMSE with each held-out log's own nuisance factors fitted on that log for every model "
+                    "alike: " + self.per_log_gain.describe() + " (log-to-log variation of the constants is not "
+                    "scored as an effect); raw_*: without them")
+        if self.per_log_gain:
+            return ("held-out RMSE with one stiffness-like gain per held-out log fitted on that log for every model "
+                    "alike (log-to-log variation of the constants is not scored as an effect); raw_*: without the gain")
+        return "plain held-out RMSE"
+
     def to_yaml(self) -> dict:
         floor = self.noise_floor_deg
         return {
@@ -188,9 +212,7 @@ class DiscoveryResult:
                     "after_gap_deg": round(self.heldout_after - floor, 4),
                     "raw_before_rmse_deg": round(self.heldout_raw_before, 4),
                     "raw_after_rmse_deg": round(self.heldout_raw_after, 4),
-                    "scoring": ("held-out RMSE with one stiffness-like gain per held-out log fitted on that log for "
-                                "every model alike (log-to-log variation of the constants is not scored as an effect); "
-                                "raw_*: without the gain") if self.per_log_gain else "plain held-out RMSE"},
+                    "scoring": self.scoring()},
             "unexplained": bool(self.unexplained),
             "log_to_log_variation": self.variation,
             "verdict": self.verdict,
@@ -382,7 +404,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     thr = cfg.thresholds()
     if thresholds is not None:
         thr.update({k: float(v) for k, v in thresholds.items() if k in thr})
-        thr.update({k: float(getattr(cfg, k)) for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha")
+        thr.update({k: float(getattr(cfg, k)) for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha",
+                                                        "fit_share_min")
                     if getattr(cfg, k) is not None})
     if effects is None:
         effects = [get_effect(i) for i in (cfg.candidates or tuple(CATALOGUE))]
@@ -415,6 +438,24 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         raise ConvergenceError(f"cannot judge: the base VBMM fit did not converge ({res.message}; "
                                f"{res.nfev} evaluations, RMSE {res.rmse:.3g} deg). A verdict on missing effects needs a "
                                "converged base model: check the logs' pressure reference and units, or start it with --init")
+    all_logs = list(fit_logs) + list(ho_logs)
+
+    def nuisance_for(st: ModelState):
+        # the factors on K_inf and the branch moduli carry the stiffness; a gain beside them would be nearly
+        # collinear with them and loosen the tie of the fitting logs' factors (sum zero)
+        return (LogNuisance.for_state(st, all_logs, gain=False, fit_logs=fit_logs) if cfg.per_log_constants
+                else cfg.per_log_gain)
+
+    if cfg.per_log_constants:
+        # the common constants refitted with every log's own factors beside them (the factors sum to zero)
+        gain = nuisance_for(state)
+        state2, res2 = fit_state(state, fit_logs, max_nfev=cfg.base_max_nfev, check_identifiability=False,
+                                 per_log_gain=gain)
+        if res2.success and res2.rmse <= res.rmse:
+            state, res = state2, res2
+        base_report["per_log_constants"] = {"rmse_deg": round(res2.rmse, 4), "converged": bool(res2.success),
+                                            "evaluations": int(res2.nfev), "nuisance": gain.describe()}
+        gain = nuisance_for(state)
     base_state = state
     if res.rmse < floor:
         # the noise cannot exceed what the fitted base model leaves on the fitting logs: a coloured-noise estimate
@@ -430,6 +471,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         remaining = [e for e in effects if e.id not in named]
         if not remaining:
             break
+        if k > 0:
+            gain = nuisance_for(state)   # the per-log factors' directions of the model as it now stands
         sim = simulate(state, fit_logs)
         parts = gained_residuals(sim, fit_logs, per_log_gain=gain)
         diag = diagnose(fit_logs, parts)
@@ -473,6 +516,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         state = best.state
         note(f"discover: added {best.effect_id} (held-out {best.heldout_rmse_before:.3f} -> "
              f"{best.heldout_rmse_after:.3f} deg)")
+    if named:
+        gain = nuisance_for(state)
     after = scored_rmse(state, ho_logs, per_log_gain=gain)
     raw_after = rmse_deg(residuals(state, ho_logs))
     unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor)
@@ -516,6 +561,11 @@ def judge(c: Confirmation, thr: dict, floor: float | None = None) -> list[str]:
     if not (math.isfinite(c.gap_share) and c.gap_share >= thr["gap_share_min"]):
         share = f"{c.gap_share:.0%}" if math.isfinite(c.gap_share) else "none (no held-out gap above the floor)"
         why.append(f"share of the held-out gap removed {share} < {thr['gap_share_min']:.0%}")
+    fs = float(thr.get("fit_share_min", 0.0))
+    if fs > 0 and not (math.isfinite(c.fit_share) and c.fit_share >= fs):
+        share = f"{c.fit_share:.0%}" if math.isfinite(c.fit_share) else "none (no fitting gap above the floor)"
+        why.append(f"share of the fitting logs' gap removed {share} < {fs:.0%}: it leaves most of what the model "
+                   "misses unexplained")
     p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
     if not p < thr["family_alpha"]:
         why.append(f"Holm-corrected likelihood-ratio p = {p:.2g} >= family-wise {thr['family_alpha']:.2g}")

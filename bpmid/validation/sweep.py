@@ -48,7 +48,8 @@ RECORDS = "records.jsonl"
 #: record fields that differ between runs of the same case (left out when comparing runs)
 TIMING_FIELDS = ("elapsed_s", "generate_s", "discover_s", "worker")
 #: permissive thresholds for the calibration half: every candidate is confirmed and its statistics recorded
-PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "max_effects": 2}
+PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
+              "max_effects": 2}
 
 
 # ---------------------------------------------------------------------------------------------
@@ -262,7 +263,7 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
             shutil.rmtree(tmp, ignore_errors=True)
     t2 = time.perf_counter()
     rec.update({"generate_s": round(t1 - t0, 3), "discover_s": round(t2 - t1, 3), "elapsed_s": round(t2 - t0, 3)})
-    return json.loads(json.dumps(rec, default=_json_default))
+    return json.loads(json.dumps(_fix_nan(rec), default=_json_default))   # as written: NaN -> None
 
 
 def discover_settings(discover_cfg) -> dict:

@@ -1,0 +1,75 @@
+"""Per-log nuisance factors (log-to-log variation of the constants): what they absorb and what they must not."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from bpmid.discover.calibrate import paper_sized_set, truth_model
+from bpmid.discover.model import LogNuisance, ModelState, gained_residuals, rmse_deg, simulate
+from bpmid.io.motion_logs import from_arrays
+
+
+def _variant(k_inf: float, tau: float):
+    m = truth_model()
+    mat = dataclasses.replace(m.material, K_inf=m.material.K_inf * k_inf,
+                              tauG=tuple(t * tau for t in m.material.tauG))
+    return m.replace(material=mat)
+
+
+def _logs_with_factors(factors, seed=3, noise=0.01):
+    """Every log of the paper-sized set simulated with its own (K_inf, tau) factors, noise 0.01 deg."""
+    out = []
+    for i, (fk, ft) in enumerate(factors):
+        fit, ho = paper_sized_set(None, seed=seed + i, noise_deg=noise, truth=_variant(fk, ft))
+        out.append((fit + ho)[i])
+    return out
+
+
+@pytest.fixture(scope="module")
+def varied():
+    # log-to-log variation of 3-4 %, factors summing (in log) to about zero
+    f = [(1.04, 0.97), (0.97, 1.03), (1.02, 1.04), (0.975, 0.96), (1.0, 1.0)]
+    logs = _logs_with_factors(f)
+    state = ModelState.start(truth_model())
+    return state, logs
+
+
+def test_per_log_factors_absorb_log_to_log_variation_of_the_constants(varied):
+    state, logs = varied
+    sims = simulate(state, logs)
+    raw = rmse_deg([s - lg.angle_deg for s, lg in zip(sims, logs)])
+    gain_only = rmse_deg(gained_residuals(sims, logs, per_log_gain=True, normalise=False))
+    nu = LogNuisance.for_state(state, logs, gain=False)
+    assert nu.labels == ("K_inf", "K_branches", "tau")
+    with_factors = rmse_deg(gained_residuals(sims, logs, per_log_gain=nu, normalise=False))
+    assert raw > 0.3                                  # the variation leaves a clear gap (deg) ...
+    assert with_factors < 0.25 * gain_only            # ... which one gain per log leaves and the factors remove
+    assert with_factors < 0.1
+
+
+def test_factors_of_fitting_logs_sum_to_zero_so_a_common_error_stays(varied):
+    state, _ = varied
+    logs = _logs_with_factors([(1.05, 1.0)] * 4)       # every log 5 % stiffer: the common constant is wrong
+    nu = LogNuisance.for_state(state, logs, gain=False)
+    sims = simulate(state, logs)
+    raw = rmse_deg([s - lg.angle_deg for s, lg in zip(sims, logs)])
+    tied = rmse_deg(nu.residuals(sims, logs, zero_sum=True))
+    free = rmse_deg(nu.residuals(sims, logs, zero_sum=False))
+    assert tied > 0.8 * raw                           # the fit must move the common K_inf, not the nuisance
+    assert free < 0.2 * raw                           # each held-out log's own factors take it (scored alike)
+
+
+def test_an_offset_or_a_delay_is_not_a_log_to_log_variation(varied):
+    state, logs = varied
+    clean = [from_arrays(lg.name, lg.time_s, lg.pressure_pa, s) for lg, s in zip(logs, simulate(state, logs))]
+    nu = LogNuisance.for_state(state, clean, gain=False)
+    off = [from_arrays(lg.name, lg.time_s, lg.pressure_pa, lg.angle_deg + 1.0) for lg in clean]
+    lag = [from_arrays(lg.name, lg.time_s, lg.pressure_pa, np.concatenate([lg.angle_deg[:3], lg.angle_deg[:-3]]))
+           for lg in clean]
+    for bad in (off, lag):
+        sims = [c.angle_deg for c in clean]
+        raw = rmse_deg([s - lg.angle_deg for s, lg in zip(sims, bad)])
+        left = rmse_deg(gained_residuals(sims, bad, per_log_gain=nu, normalise=False))
+        assert left > 0.5 * raw, (raw, left)          # most of it stays for an effect to explain
