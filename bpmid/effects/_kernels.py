@@ -5,6 +5,8 @@
 - :func:`lag_kernel`: a first-order lag, exact for an input that is linear between samples
   (first-order hold), with uneven sampling
 - :func:`delay_kernel`: a pure dead time by linear interpolation in the input's own samples
+- :func:`friction_kernel`: pressure-dependent dry friction with an elastic stick (a generalised play: the
+  band grows with the pressure, the friction builds up over a slip pressure); the play is its special case
 
 Every kernel starts in equilibrium with the first sample (y_0 = x_0), like the VBMM's relaxed start.
 Each runs the one-step form (:func:`play_step`, :func:`lag_step`, :func:`delay_step`) that the closed
@@ -57,6 +59,48 @@ def delay_step(t, x, last, tq, j):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
+def friction_step(h, x_prev, x, r, mu, slip):  # pragma: no cover - compiled
+    """One step of the friction state ``h`` in [-1, 1] (the friction as a share of its sliding level):
+    ``h + (x - x_prev) / (w + slip)`` clamped to [-1, 1], w = r + mu max(x, 0) the sliding level (Pa) at the
+    new input. Returns (h, w); the friction is ``w h`` and the muscle sees ``x - w h``."""
+    w = r + mu * (x if x > 0.0 else 0.0)
+    den = w + slip
+    if den > 0.0:
+        h = h + (x - x_prev) / den
+        if h > 1.0:
+            h = 1.0
+        elif h < -1.0:
+            h = -1.0
+    return h, w
+
+
+@numba.njit(cache=True)
+def friction_kernel(x, r, mu, slip):  # pragma: no cover - compiled
+    """Dry friction on the pressure: y_k = x_k - w_k h_k (see :func:`friction_step`), h_0 = 0 (unloaded).
+
+    - ``r`` (Pa, >= 0): the part of the sliding level that does not depend on the pressure;
+    - ``mu`` (1, >= 0): the part proportional to the gauge pressure (braid-bladder contact force grows with
+      the pressure: Coulomb friction with a pressure-made normal force), w = r + mu max(x, 0);
+    - ``slip`` (Pa, >= 0): elastic stick (pre-sliding): a pressure change moves the friction by w / (w + slip)
+      of itself, so the friction reaches its sliding level after a pressure change of about 2 (w + slip) from
+      the other sliding direction (a Jenkins element, or a rounded Dahl-like loop when spread over elements).
+
+    With mu = slip = 0 this is the play operator of half-width r (:func:`play_kernel`) exactly in exact
+    arithmetic: w h moves with the input until |w h| = r. Rate-independent; |y - x| <= w.
+    """
+    n = x.size
+    y = np.empty(n)
+    if n == 0:
+        return y
+    y[0] = x[0]
+    h = 0.0
+    for k in range(1, n):
+        h, w = friction_step(h, x[k - 1], x[k], r, mu, slip)
+        y[k] = x[k] - w * h
+    return y
+
+
+@numba.njit(cache=True)
 def play_kernel(x, r):  # pragma: no cover - compiled
     """Play operator: y_k = min(x_k + r, max(x_k - r, y_{k-1})), y_0 = x_0. r >= 0 (same unit as x).
 
@@ -105,6 +149,11 @@ def delay_kernel(t, x, d):  # pragma: no cover - compiled
 def play(x: np.ndarray, r: float) -> np.ndarray:
     """Play operator of half-width ``r`` on (N,) ``x`` (see :func:`play_kernel`)."""
     return play_kernel(np.ascontiguousarray(x, float), float(r))
+
+
+def friction(x: np.ndarray, r: float, mu: float = 0.0, slip: float = 0.0) -> np.ndarray:
+    """Pressure seen through dry friction (see :func:`friction_kernel`) on (N,) ``x`` (Pa)."""
+    return friction_kernel(np.ascontiguousarray(x, float), float(r), float(mu), float(slip))
 
 
 def lag(t: np.ndarray, x: np.ndarray, tau: float) -> np.ndarray:

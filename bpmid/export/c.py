@@ -156,11 +156,16 @@ def causal_vbmm(aug, path=None) -> CausalVBMM:
                 raise InputError("pressure_lag with a dead time cannot be exported: a dead time needs a sample "
                                  "buffer whose length depends on the sample rate, and its inverse (the "
                                  "feedforward) would need the future", path=path, key=f"effects[{i}].settings.dead_time")
-            tau = p.value("pressure_lag.tau")
-            if tau != 0.0:
-                chain.append(("lag", float(tau)))
+            for tau in e.taus(p):          # one lag, or two in cascade (pressure_lag.share > 0)
+                if tau != 0.0:
+                    chain.append(("lag", float(tau)))
         elif e.id == "braid_friction":
             r = p.value("braid_friction.r")
+            if not e.is_play(p):
+                raise InputError("braid_friction with a pressure-proportional band (mu) or an elastic stick (slip) "
+                                 "cannot be exported to C yet: only its play form (mu = slip = 0) has a C step "
+                                 "and an exact inverse; export the fit without it or refit with mu and slip "
+                                 "held at 0", path=path, key=f"effects[{i}].parameters")
             if r != 0.0:
                 chain.append(("plays", tuple(float(v) for v in e.radii(r))))
         elif e.id == "angle_offset":
