@@ -59,44 +59,45 @@ def delay_step(t, x, last, tq, j):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
-def friction_step(h, x_prev, x, r, mu, slip):  # pragma: no cover - compiled
-    """One step of the friction state ``h`` in [-1, 1] (the friction as a share of its sliding level):
-    ``h + (x - x_prev) / (w + slip)`` clamped to [-1, 1], w = r + mu max(x, 0) the sliding level (Pa) at the
-    new input. Returns (h, w); the friction is ``w h`` and the muscle sees ``x - w h``."""
+def friction_step(f, x_prev, x, r, mu, slip):  # pragma: no cover - compiled
+    """One step of the friction pressure ``f`` (Pa): ``f + (x - x_prev) w / (w + slip)`` clamped to [-w, w],
+    w = r + mu max(x, 0) the sliding level (Pa) at the new input; the muscle sees ``x - f``."""
     w = r + mu * (x if x > 0.0 else 0.0)
     den = w + slip
     if den > 0.0:
-        h = h + (x - x_prev) / den
-        if h > 1.0:
-            h = 1.0
-        elif h < -1.0:
-            h = -1.0
-    return h, w
+        f = f + (x - x_prev) * (w / den)
+    if f > w:
+        f = w
+    elif f < -w:
+        f = -w
+    return f
 
 
 @numba.njit(cache=True)
 def friction_kernel(x, r, mu, slip):  # pragma: no cover - compiled
-    """Dry friction on the pressure: y_k = x_k - w_k h_k (see :func:`friction_step`), h_0 = 0 (unloaded).
+    """Dry friction on the pressure: y_k = x_k - f_k (see :func:`friction_step`), f_0 = 0 (unloaded).
 
     - ``r`` (Pa, >= 0): the part of the sliding level that does not depend on the pressure;
-    - ``mu`` (1, >= 0): the part proportional to the gauge pressure (braid-bladder contact force grows with
-      the pressure: Coulomb friction with a pressure-made normal force), w = r + mu max(x, 0);
-    - ``slip`` (Pa, >= 0): elastic stick (pre-sliding): a pressure change moves the friction by w / (w + slip)
-      of itself, so the friction reaches its sliding level after a pressure change of about 2 (w + slip) from
-      the other sliding direction (a Jenkins element, or a rounded Dahl-like loop when spread over elements).
+    - ``mu`` (1, 0 <= mu < 1): the part proportional to the gauge pressure (the braid-bladder contact force
+      grows with the pressure: Coulomb friction with a pressure-made normal force), w = r + mu max(x, 0);
+    - ``slip`` (Pa, >= 0): elastic stick (pre-sliding): while it sticks, the friction takes up w / (w + slip)
+      of a pressure change (all of it when slip = 0), so it reaches its sliding level after a pressure change
+      of about 2 (w + slip) from the other sliding direction (a Jenkins spring-and-slider element; a rounded,
+      Dahl-like loop when spread over elements).
 
-    With mu = slip = 0 this is the play operator of half-width r (:func:`play_kernel`) exactly in exact
-    arithmetic: w h moves with the input until |w h| = r. Rate-independent; |y - x| <= w.
+    With mu = slip = 0 this is the play operator of half-width r (:func:`play_kernel`) in exact arithmetic.
+    Rate-independent; |y - x| <= w; y is non-decreasing in a rising input and non-increasing in a falling one
+    (while it sticks y moves by slip / (w + slip) of the input change, while it slides by 1 -+ mu of it).
     """
     n = x.size
     y = np.empty(n)
     if n == 0:
         return y
     y[0] = x[0]
-    h = 0.0
+    f = 0.0
     for k in range(1, n):
-        h, w = friction_step(h, x[k - 1], x[k], r, mu, slip)
-        y[k] = x[k] - w * h
+        f = friction_step(f, x[k - 1], x[k], r, mu, slip)
+        y[k] = x[k] - f
     return y
 
 

@@ -102,16 +102,17 @@ class SecondRelaxation(Effect):
 class BraidFriction(Effect):
     """Rate-independent dry friction between braid and bladder (seeds 001, 003).
 
-    Model term: the muscle sees the logged pressure minus a friction pressure f = w h (Pa), h in [-1, 1]:
+    Model term: the muscle sees the logged pressure minus a friction pressure f (Pa), |f| <= w:
 
     - w = r + mu max(p, 0) is the friction's sliding level: a part r (Pa) that does not depend on the pressure
       and a part mu p proportional to it (the braid presses on the bladder with a force that grows with the
       pressure, so Coulomb friction grows with it; on a muscle whose friction acts on the axial stress, its
       pressure equivalent grows with the strain, i.e. with the pressure, too);
-    - a pressure change dp moves h by dp / (w + slip), clamped to [-1, 1]: with ``slip`` = 0 the stick is rigid
-      (the friction takes up the whole change until it slides: the play operator, a dead band of +-w); with
-      slip > 0 the stick is elastic (pre-sliding, as a Jenkins spring-and-slider or a Dahl element), so the
-      loop's reversal is gradual over about 2 (w + slip) of pressure.
+    - while it sticks, the friction takes up w / (w + slip) of a pressure change, and it is clamped to [-w, w]:
+      with ``slip`` = 0 the stick is rigid (the friction takes up the whole change until it slides: the play
+      operator, a dead band of +-w); with slip > 0 the stick is elastic (pre-sliding, as a Jenkins
+      spring-and-slider or a Dahl element), so the loop's reversal is gradual over about 2 (w + slip) of
+      pressure.
 
     With mu = slip = 0 (the defaults) this is the play operator of half-width r exactly. The loop does not
     shrink as the rate goes to zero. Setting ``elements=N`` (twin): N such elements with sliding levels and
