@@ -125,6 +125,8 @@ class BraidFriction(Effect):
     meaning = "rate-independent dry friction between braid and bladder or between threads"
     where_it_shows = "a loop that does not shrink at slow rates; residual tracks the sign of the pressure rate"
     SETTINGS: ClassVar[tuple[str, ...]] = ("elements",)
+    #: parameters added after the first release; their defaults (0) are the play, so older files may omit them
+    OPTIONAL_PARAMS: ClassVar[tuple[str, ...]] = ("mu", "slip")
     #: starting values a refit tries: a pressure-independent band of 0-0.03 bar, a pressure-proportional one of
     #: 0-3 % of the gauge pressure, a rigid to an elastic stick (0-0.15 bar of pre-sliding)
     START_VALUES: ClassVar[dict] = {"r": (0.0, 300.0, 3000.0), "mu": (0.0, 0.01, 0.03),
@@ -205,6 +207,8 @@ class PressureLag(Effect):
     meaning = "the muscle's internal pressure lags the logged pressure: valve, tubing, dead time"
     where_it_shows = "residual correlates with the pressure rate at positive lag; loops widen with rate"
     SETTINGS: ClassVar[tuple[str, ...]] = ("dead_time",)
+    #: parameters added after the first release; share = 0 is the first-order lag, so older files may omit it
+    OPTIONAL_PARAMS: ClassVar[tuple[str, ...]] = ("share",)
     #: starting values a refit tries (the physical range: a total lag of a few samples at 100 Hz to 1 s; one
     #: lag or two equal ones)
     START_VALUES: ClassVar[dict] = {"tau": (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.4, 1.0), "share": (0.0, 0.5)}

@@ -120,8 +120,11 @@ def effects_from_yaml(block, path=None):
             if unit is not None and unit != defaults[full].unit:
                 raise InputError(f"unit {unit!r} where {defaults[full].unit!r} is expected", path=path, key=pkey)
             values[full] = v
+        # parameters added to an effect later (``OPTIONAL_PARAMS``: their default keeps the older form) may be
+        # absent from files written before they existed
+        optional = {f"{eid}.{n}" for n in getattr(effect, "OPTIONAL_PARAMS", ())}
         for name in defaults.names():
-            if name not in values:
+            if name not in values and name not in optional:
                 raise InputError("missing key", path=path, key=f"{key}.parameters.{name.split('.', 1)[1]}")
         effects.append(effect)
         params.extend(defaults.with_values(values))
