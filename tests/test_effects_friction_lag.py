@@ -147,3 +147,15 @@ def test_refit_recovers_a_cascade_of_two_lags():
     assert ps.value("pressure_lag.tau") == pytest.approx(0.3, rel=0.1)
     assert ps.value("pressure_lag.share") == pytest.approx(0.4, abs=0.12)
     assert res.rmse < 0.06
+
+
+def test_files_written_before_the_new_parameters_still_load_with_the_older_form():
+    from bpmid.export.c import effects_from_yaml
+
+    effects, ps = effects_from_yaml([
+        {"id": "pressure_lag", "parameters": {"tau": {"value": 0.2, "unit": "s"}}},
+        {"id": "braid_friction", "settings": {"elements": 2}, "parameters": {"r": {"value": 900.0, "unit": "Pa"}}}])
+    assert ps.value("pressure_lag.share") == 0.0 and ps.value("braid_friction.mu") == 0.0
+    assert ps.value("braid_friction.slip") == 0.0 and effects[1].is_play(ps)
+    with pytest.raises(InputError, match="missing key"):   # the original parameters stay required
+        effects_from_yaml([{"id": "pressure_lag", "parameters": {"share": {"value": 0.2, "unit": "1"}}}])
