@@ -267,7 +267,7 @@ class PlantTerms:
 
 
 #: the operators an effect's causal pressure form may name (Effect.causal_pressure) -> kernel op code
-CAUSAL_OPS = {"delay": CK.OP_DELAY, "lag": CK.OP_LAG, "plays": CK.OP_PLAYS}
+CAUSAL_OPS = {"delay": CK.OP_DELAY, "lag": CK.OP_LAG, "plays": CK.OP_PLAYS, "frictions": CK.OP_FRICTION}
 
 
 def causal_terms(aug, t: np.ndarray) -> tuple[VBMM, PlantTerms]:

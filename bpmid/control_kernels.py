@@ -18,6 +18,7 @@ import numba
 import numpy as np
 
 from bpmid.effects._kernels import delay_step as _delay_step
+from bpmid.effects._kernels import friction_step as _friction_step
 from bpmid.effects._kernels import lag_step as _lag_step
 from bpmid.effects._kernels import play_step as _play_step
 from bpmid.models._vbmm_kernels import commit as _commit
@@ -129,7 +130,7 @@ def plant_step(k, dt, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, fall, sti
     return b, st
 
 
-OP_DELAY, OP_LAG, OP_PLAYS = 0, 1, 2
+OP_DELAY, OP_LAG, OP_PLAYS, OP_FRICTION = 0, 1, 2, 3
 
 
 @numba.njit(cache=True)
@@ -140,7 +141,9 @@ def pressure_chain(k, t, x, ch_op, ch_par, ch_cnt, ch_hist, ch_y, ch_j, ch_play)
     copied: the stepped plant equals the open-loop :class:`~bpmid.effects.base.AugmentedVBMM`): OP_DELAY ch_par[i, 0] = dead time (s),
     linear interpolation in the op's own input samples; OP_LAG ch_par[i, 0] = tau (s), first-order lag
     exact for a linear input between samples; OP_PLAYS ch_par[i, :ch_cnt[i]] = half-widths (Pa), the mean
-    of that many play operators. All start in equilibrium with the first sample.
+    of that many play operators; OP_FRICTION ch_par[i, :ch_cnt[i]] = (r, mu, slip) of each element in a row,
+    the mean of that many friction operators (:func:`bpmid.effects._kernels.friction_step`, state: the
+    friction pressure per element). All start in equilibrium with the first sample.
     """
     for i in range(ch_op.size):
         ch_hist[i, k] = x
@@ -155,6 +158,20 @@ def pressure_chain(k, t, x, ch_op, ch_par, ch_cnt, ch_hist, ch_y, ch_j, ch_play)
             tau = ch_par[i, 0]
             if tau > 0.0 and k > 0:
                 x = _lag_step(ch_y[i], ch_hist[i, k - 1], x, t[k] - t[k - 1], tau)
+        elif op == OP_FRICTION:
+            ne = ch_cnt[i] // 3
+            acc = 0.0
+            for e in range(ne):
+                if k == 0:
+                    ch_play[i, e] = 0.0
+                    v = x
+                else:
+                    fr = _friction_step(ch_play[i, e], ch_hist[i, k - 1], x, ch_par[i, 3 * e],
+                                        ch_par[i, 3 * e + 1], ch_par[i, 3 * e + 2])
+                    ch_play[i, e] = fr
+                    v = x - fr
+                acc += v
+            x = acc / ne
         else:
             acc = 0.0
             for e in range(ch_cnt[i]):

@@ -5,6 +5,8 @@
 - :func:`lag_kernel`: a first-order lag, exact for an input that is linear between samples
   (first-order hold), with uneven sampling
 - :func:`delay_kernel`: a pure dead time by linear interpolation in the input's own samples
+- :func:`friction_kernel`: pressure-dependent dry friction with an elastic stick (a generalised play: the
+  band grows with the pressure, the friction builds up over a slip pressure); the play is its special case
 
 Every kernel starts in equilibrium with the first sample (y_0 = x_0), like the VBMM's relaxed start.
 Each runs the one-step form (:func:`play_step`, :func:`lag_step`, :func:`delay_step`) that the closed
@@ -57,6 +59,49 @@ def delay_step(t, x, last, tq, j):  # pragma: no cover - compiled
 
 
 @numba.njit(cache=True)
+def friction_step(f, x_prev, x, r, mu, slip):  # pragma: no cover - compiled
+    """One step of the friction pressure ``f`` (Pa): ``f + (x - x_prev) w / (w + slip)`` clamped to [-w, w],
+    w = r + mu max(x, 0) the sliding level (Pa) at the new input; the muscle sees ``x - f``."""
+    w = r + mu * (x if x > 0.0 else 0.0)
+    den = w + slip
+    if den > 0.0:
+        f = f + (x - x_prev) * (w / den)
+    if f > w:
+        f = w
+    elif f < -w:
+        f = -w
+    return f
+
+
+@numba.njit(cache=True)
+def friction_kernel(x, r, mu, slip):  # pragma: no cover - compiled
+    """Dry friction on the pressure: y_k = x_k - f_k (see :func:`friction_step`), f_0 = 0 (unloaded).
+
+    - ``r`` (Pa, >= 0): the part of the sliding level that does not depend on the pressure;
+    - ``mu`` (1, 0 <= mu < 1): the part proportional to the gauge pressure (the braid-bladder contact force
+      grows with the pressure: Coulomb friction with a pressure-made normal force), w = r + mu max(x, 0);
+    - ``slip`` (Pa, >= 0): elastic stick (pre-sliding): while it sticks, the friction takes up w / (w + slip)
+      of a pressure change (all of it when slip = 0), so it reaches its sliding level after a pressure change
+      of about 2 (w + slip) from the other sliding direction (a Jenkins spring-and-slider element; a rounded,
+      Dahl-like loop when spread over elements).
+
+    With mu = slip = 0 this is the play operator of half-width r (:func:`play_kernel`) in exact arithmetic.
+    Rate-independent; |y - x| <= w; y is non-decreasing in a rising input and non-increasing in a falling one
+    (while it sticks y moves by slip / (w + slip) of the input change, while it slides by 1 -+ mu of it).
+    """
+    n = x.size
+    y = np.empty(n)
+    if n == 0:
+        return y
+    y[0] = x[0]
+    f = 0.0
+    for k in range(1, n):
+        f = friction_step(f, x[k - 1], x[k], r, mu, slip)
+        y[k] = x[k] - f
+    return y
+
+
+@numba.njit(cache=True)
 def play_kernel(x, r):  # pragma: no cover - compiled
     """Play operator: y_k = min(x_k + r, max(x_k - r, y_{k-1})), y_0 = x_0. r >= 0 (same unit as x).
 
@@ -105,6 +150,11 @@ def delay_kernel(t, x, d):  # pragma: no cover - compiled
 def play(x: np.ndarray, r: float) -> np.ndarray:
     """Play operator of half-width ``r`` on (N,) ``x`` (see :func:`play_kernel`)."""
     return play_kernel(np.ascontiguousarray(x, float), float(r))
+
+
+def friction(x: np.ndarray, r: float, mu: float = 0.0, slip: float = 0.0) -> np.ndarray:
+    """Pressure seen through dry friction (see :func:`friction_kernel`) on (N,) ``x`` (Pa)."""
+    return friction_kernel(np.ascontiguousarray(x, float), float(r), float(mu), float(slip))
 
 
 def lag(t: np.ndarray, x: np.ndarray, tau: float) -> np.ndarray:

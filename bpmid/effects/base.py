@@ -67,7 +67,9 @@ class Effect(abc.ABC):
     # -- causal per-step form (the closed loop steps the plant one sample at a time) ----------
     def causal_pressure(self, params: ParamSet) -> tuple | None:
         """The pressure term as operators stepped sample by sample, in order: ``(("delay", (d_s,)),
-        ("lag", (tau_s,)), ("plays", (r_1_pa, ...)))`` (see :data:`bpmid.control.CAUSAL_OPS`); ``()`` when the
+        ("lag", (tau_s,)), ("plays", (r_1_pa, ...)), ("frictions", (r_1_pa, mu_1, slip_1_pa, ...)))`` (see
+        :data:`bpmid.control.CAUSAL_OPS`; a friction element is :func:`bpmid.effects._kernels.friction_step`,
+        several are averaged like the plays); ``()`` when the
         effect leaves the pressure alone (the default when :meth:`transform_pressure` is not overridden).
         None: no causal form (the closed loop refuses the effect)."""
         return () if type(self).transform_pressure is Effect.transform_pressure else None

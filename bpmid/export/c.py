@@ -120,8 +120,11 @@ def effects_from_yaml(block, path=None):
             if unit is not None and unit != defaults[full].unit:
                 raise InputError(f"unit {unit!r} where {defaults[full].unit!r} is expected", path=path, key=pkey)
             values[full] = v
+        # parameters added to an effect later (``OPTIONAL_PARAMS``: their default keeps the older form) may be
+        # absent from files written before they existed
+        optional = {f"{eid}.{n}" for n in getattr(effect, "OPTIONAL_PARAMS", ())}
         for name in defaults.names():
-            if name not in values:
+            if name not in values and name not in optional:
                 raise InputError("missing key", path=path, key=f"{key}.parameters.{name.split('.', 1)[1]}")
         effects.append(effect)
         params.extend(defaults.with_values(values))
@@ -156,11 +159,16 @@ def causal_vbmm(aug, path=None) -> CausalVBMM:
                 raise InputError("pressure_lag with a dead time cannot be exported: a dead time needs a sample "
                                  "buffer whose length depends on the sample rate, and its inverse (the "
                                  "feedforward) would need the future", path=path, key=f"effects[{i}].settings.dead_time")
-            tau = p.value("pressure_lag.tau")
-            if tau != 0.0:
-                chain.append(("lag", float(tau)))
+            for tau in e.taus(p):          # one lag, or two in cascade (pressure_lag.share > 0)
+                if tau != 0.0:
+                    chain.append(("lag", float(tau)))
         elif e.id == "braid_friction":
             r = p.value("braid_friction.r")
+            if not e.is_play(p):
+                raise InputError("braid_friction with a pressure-proportional band (mu) or an elastic stick (slip) "
+                                 "cannot be exported to C yet: only its play form (mu = slip = 0) has a C step "
+                                 "and an exact inverse; export the fit without it or refit with mu and slip "
+                                 "held at 0", path=path, key=f"effects[{i}].parameters")
             if r != 0.0:
                 chain.append(("plays", tuple(float(v) for v in e.radii(r))))
         elif e.id == "angle_offset":
