@@ -62,6 +62,10 @@ class RunConfig:
     history_repeats : timed runs per point in the recursive and window modes (the fastest counts)
     seed : recorded in every output's provenance (no stage draws random numbers without it)
     out : default output folder (relative to the working directory) when ``--out`` is not given
+    workers : processes for the stages that only need the motion fit (compare, history, discover, control run
+        side by side, each in a process forked after the motion stage); 0 = the cores this process may use, at
+        most 2 (:data:`MAX_AUTO_WORKERS`); 1 = one stage after another in this process. The outputs are the same
+        either way except the wall-clock columns.
     """
 
     relax_logs: tuple[str, ...] = ()
@@ -75,12 +79,16 @@ class RunConfig:
     history_repeats: int = 3
     seed: int = 0
     out: Optional[str] = None
+    workers: int = 0
 
     def validate(self, where, path):
         for i, s in enumerate(self.stages):
             if s not in STAGES:
                 raise InputError(f"unknown stage {s!r} (known: {', '.join(STAGES)})", path=path,
                                  key=f"{where}.stages[{i}]")
+        if self.workers < 0:
+            raise InputError("must be 0 (as many as cores, at most 2) or a positive number of processes", path=path,
+                             key=f"{where}.workers")
         if self.history_repeats < 1:
             raise InputError("must be at least 1", path=path, key=f"{where}.history_repeats")
         if any(d <= 0 for d in self.history_durations_s):
@@ -511,31 +519,159 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
     return records
 
 
+#: stages that need nothing but the inputs and the relaxation and motion fits (they read ``ctx``, never write it),
+#: longest first: with more than one worker they run side by side, each in a process forked after the motion stage
+SIDE_BY_SIDE = ("discover", "compare", "history", "control")
+#: workers when ``run.workers`` is 0: the cores this process may use, at most this many
+MAX_AUTO_WORKERS = 2
+
+
+def stage_workers(rc: RunConfig) -> int:
+    """Processes for the :data:`SIDE_BY_SIDE` stages (1: one after another in this process)."""
+    import multiprocessing
+    import os
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return 1
+    if rc.workers:
+        return rc.workers
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, MAX_AUTO_WORKERS))
+
+
+def _run_one(stage: str, inp: RunInputs, out: Path, config, ctx: dict) -> StageRecord:
+    note(f"stage {stage} ...")
+    t0 = time.perf_counter()
+    outputs = STAGE_FUNCTIONS[stage](inp, out, config, ctx)
+    dt = time.perf_counter() - t0
+    note(f"stage {stage} done in {dt:.1f} s")
+    return StageRecord(stage, "done", dt, outputs)
+
+
+def _die_with_parent(parent: int) -> None:
+    """A stage process ends when the run's process does (killed outright included), so nothing writes into DIR
+    after the run is gone; the next command's recovery then rolls the folder back whole."""
+    import ctypes
+    import os
+    import signal
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG (Linux)
+    except (AttributeError, OSError):
+        pass
+    if os.getppid() != parent:  # the run's process died before prctl took effect
+        os._exit(1)
+
+
+def _stage_process(stage: str, conn, parent: int, inp: RunInputs, out: Path, config, ctx: dict) -> None:
+    """Body of a forked stage process: run the stage, send back its record or its exception."""
+    import traceback
+
+    _die_with_parent(parent)
+    try:
+        msg = ("done", _run_one(stage, inp, out, config, ctx))
+    except BaseException as exc:  # noqa: BLE001 -- every failure goes back to the run's process
+        msg = ("error", exc, traceback.format_exc())
+    try:
+        conn.send(msg)
+    except Exception:  # an exception that does not pickle: its text goes back instead
+        conn.send(("error", RuntimeError(f"stage {stage} failed"), msg[-1]))
+    conn.close()
+
+
+def _run_side_by_side(stages: list[str], workers: int, inp: RunInputs, out: Path, config,
+                      ctx: dict) -> dict[str, StageRecord]:
+    """Run ``stages`` (independent of each other) in up to ``workers`` forked processes at a time, longest first.
+
+    Each process is forked from this one as it stands after the motion stage, so every stage starts from the same
+    state as in a sequential run. The first failure (or Ctrl-C, SIGTERM) stops the other processes before it is
+    raised here, so the run's rollback (:class:`OutputJournal`) starts only when nothing writes into DIR any more.
+    """
+    import multiprocessing
+    import os
+    from multiprocessing.connection import wait
+
+    mp = multiprocessing.get_context("fork")
+    todo = list(stages)
+    running: dict = {}  # reader connection -> (stage, process)
+    done: dict[str, StageRecord] = {}
+    parent = os.getpid()
+    try:
+        while todo or running:
+            while todo and len(running) < workers:
+                stage = todo.pop(0)
+                reader, writer = mp.Pipe(duplex=False)
+                proc = mp.Process(target=_stage_process, name=f"bpmid-{stage}",
+                                  args=(stage, writer, parent, inp, out, config, ctx), daemon=True)
+                proc.start()
+                writer.close()
+                running[reader] = (stage, proc)
+            for reader in wait(list(running)):
+                stage, proc = running.pop(reader)
+                try:
+                    msg = reader.recv()
+                except EOFError:  # the process died without a word (killed, out of memory)
+                    proc.join()
+                    msg = ("error", RuntimeError(f"the process of stage {stage} ended with exit code "
+                                                 f"{proc.exitcode} before finishing"), "")
+                reader.close()
+                proc.join()
+                if msg[0] == "error":
+                    exc = msg[1]
+                    if not isinstance(exc, (InputError, KeyboardInterrupt)) and msg[2]:
+                        exc.add_note(f"in the process of stage {stage}:\n{msg[2]}")
+                    raise exc
+                done[stage] = msg[1]
+    except BaseException:
+        for stage, proc in running.values():
+            proc.terminate()  # SIGTERM: the stage stops like on Ctrl-C (staged writes cleaned up)
+        for stage, proc in running.values():
+            proc.join(5.0)
+            if proc.is_alive():
+                proc.kill()
+                proc.join()
+        raise
+    return done
+
+
 def _run_stages(config, rc: RunConfig, inp: RunInputs, out: Path, ctx: dict, write_result) -> list[StageRecord]:
     out.mkdir(parents=True, exist_ok=True)
     stale = out / "run.yaml"
     if stale.is_file():
         stale.unlink()  # a folder with run.yaml holds a complete run; this one is about to be replaced
-    records: list[StageRecord] = []
+    records: dict[str, StageRecord] = {}
+    todo = []
     for stage in STAGES:
         if stage not in rc.stages:
-            records.append(StageRecord(stage, "skipped", note="not in run.stages"))
+            records[stage] = StageRecord(stage, "skipped", note="not in run.stages")
             continue
         why = _missing_inputs(stage, inp)
         if why:
             note(f"{stage}: {why}")
-            records.append(StageRecord(stage, "skipped", note=why))
+            records[stage] = StageRecord(stage, "skipped", note=why)
+            continue
+        todo.append(stage)
+    workers = stage_workers(rc)
+    side = [s for s in SIDE_BY_SIDE if s in todo] if workers > 1 else []
+    if len(side) < 2:
+        side = []
+
+    def so_far() -> list[StageRecord]:
+        return [records[s] for s in STAGES if s in records]
+
+    for stage in todo:
+        if stage in side:
+            if stage not in records:  # the first of them (they follow each other in STAGES): run them all now
+                records.update(_run_side_by_side(side, workers, inp, out, config, ctx))
             continue
         if stage == "report":  # run.yaml first, so the report can show the stages
-            _write_run_yaml(out, records + [StageRecord("report", "running")], inp, config, ctx, write_result)
-        note(f"stage {stage} ...")
-        t0 = time.perf_counter()
-        outputs = STAGE_FUNCTIONS[stage](inp, out, config, ctx)
-        dt = time.perf_counter() - t0
-        note(f"stage {stage} done in {dt:.1f} s")
-        records.append(StageRecord(stage, "done", dt, outputs))
-    _write_run_yaml(out, records, inp, config, ctx, write_result)
-    return records
+            _write_run_yaml(out, so_far() + [StageRecord("report", "running")], inp, config, ctx, write_result)
+        records[stage] = _run_one(stage, inp, out, config, ctx)
+    _write_run_yaml(out, so_far(), inp, config, ctx, write_result)
+    return so_far()
 
 
 def _write_run_yaml(out, records, inp, config, ctx, write_result) -> None:
