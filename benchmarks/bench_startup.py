@@ -40,6 +40,7 @@ def main() -> None:
     a = ap.parse_args()
     env = {**os.environ, "PYTHONPATH": str(ROOT), "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
     env.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".numba_cache"))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # a user's install has its bytecode cached (pip writes it)
     py = sys.executable
     bpmid = [py, "-m", "bpmid"]
     with tempfile.TemporaryDirectory() as tmp:

@@ -184,7 +184,7 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
     """Read and check every input of every stage in ``stages`` with the reader that stage uses, before any
     stage runs (InputError naming the file, line or key). Returns the motion logs of the fitting and test sets
     (read without requiring angles when the stages that need them do not run), for the synthetic flag."""
-    from bpmid.io.motion_logs import read_motion_logs
+    from bpmid.io.motion_logs import read_motion_log, read_motion_logs
     from bpmid.io.relax_logs import read_relax_logs
     from bpmid.motion_fit import initial_material, material_from_relax
 
@@ -204,11 +204,10 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
         angled.append(inp.long_term)
     if "discover" in stages:
         angled += list(inp.discover_logs) + list(inp.discover_holdout)
-    seen: set[str] = set()
+    seen: dict = {}
     for p in angled:
         if str(p) not in seen:
-            seen.add(str(p))
-            read_motion_logs([p], io_cfg, require_angle=True)
+            seen[str(p)] = read_motion_logs([p], io_cfg, require_angle=True)[0]
     # the parameter files the config names (used when this run's relaxation fit does not replace them)
     if "relax" not in stages:
         mcfg = config.section("motion")
@@ -219,7 +218,15 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
         if "compare" in stages and ccfg.relax is not None:
             material_from_relax(_param_file(config, "compare", "relax", ccfg.relax))
     motion_paths = inp.fitting_set + [p for v in inp.test_sets.values() for p in v]
-    return read_motion_logs(motion_paths, io_cfg) if motion_paths else []
+    if not motion_paths:
+        return []
+    # each file read once: the logs checked above are the same files read the same way (their angle is there)
+    logs = [seen.get(str(p)) or read_motion_log(p, io_cfg) for p in motion_paths]
+    names = [lg.name for lg in logs]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InputError(f"two logs share the file name {dup[0]!r}; outputs are named by it")
+    return logs
 
 
 # the names a run writes in DIR (files, and folders written whole)
@@ -323,10 +330,41 @@ def stage_relax(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
 
     from bpmid.plots.common import figure_path
 
-    yaml_path, fig, _fit = run_fit_relax(inp.relax_logs, out / "relax_fit.yaml", config=config,
-                                         figure=figure_path(out / "relax_fit.png"))
+    fig_path = figure_path(out / "relax_fit.png")
+    deferred = ctx.get("deferred")
+    if deferred is not None:  # the figure is drawn later, beside the stages that follow the motion fit
+        from bpmid.api import fit_relaxation
+        from bpmid.plots.common import save_figure
+        from bpmid.relax.result import save_relax_result
+
+        # what run_fit_relax does, with the figure left for later
+        result = fit_relaxation(inp.relax_logs, config=config, _flags=True)
+        yaml_path, _, _fit = save_relax_result(result, out / "relax_fit.yaml", figure=False)
+        deferred.append(("relax figure", lambda: save_figure(result._figure(), fig_path)))
+        fig = fig_path
+    else:
+        yaml_path, fig, _fit = run_fit_relax(inp.relax_logs, out / "relax_fit.yaml", config=config, figure=fig_path)
     ctx["relax_fit"] = yaml_path
     return ["relax_fit.yaml"] + ([Path(fig).name] if fig else [])
+
+
+def _motion_figure(mf, figure: Path, synthetic: bool) -> None:
+    """The figure :func:`bpmid.models.vbmm.fit.write_motion_fit` draws beside ``vbmm_fit.yaml`` (same drawing)."""
+    import io
+
+    import matplotlib.pyplot as plt
+
+    from bpmid.io.atomic import write_bytes
+    from bpmid.plots.motion import motion_fit_figure
+
+    fig = motion_fit_figure(mf.logs, mf.predictions, title=f"VBMM fit ({mf.model.closure} closure, "
+                            f"{mf.model.history} history): RMSE {mf.metrics['rmse_deg']:.3g}°", synthetic=synthetic)
+    buf = io.BytesIO()
+    try:
+        fig.savefig(buf, dpi=110, format=Path(figure).suffix.lstrip(".") or "png")
+    finally:
+        plt.close(fig)
+    write_bytes(figure, buf.getvalue())
 
 
 def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
@@ -348,8 +386,12 @@ def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     warnings = plaus.reader_warnings(logs) + plaus.motion_fit_warnings(mf)
     plaus.emit(warnings, strict=config.section("io").strict, what=str(out / "vbmm_fit.yaml"))
     fig = figure_path(out / "vbmm_fit.png")
-    write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings), figure=fig,
-                     synthetic=ctx["synthetic"])
+    deferred = ctx.get("deferred")
+    write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings),
+                     figure=fig if deferred is None else None, synthetic=ctx["synthetic"])
+    if deferred is not None:  # drawn beside the stages that follow (same figure)
+        synthetic = ctx["synthetic"]
+        deferred.append(("motion figure", lambda: _motion_figure(mf, fig, synthetic)))
     ctx["vbmm_fit"] = out / "vbmm_fit.yaml"
     # VBMM-mat.: the relaxation constants as they are, scored on the same fitting set
     mat, source = initial_material(config.section("motion"), relax, base_dir=config.base_dir)
@@ -566,25 +608,35 @@ def _die_with_parent(parent: int) -> None:
         os._exit(1)
 
 
-def _stage_process(stage: str, conn, parent: int, inp: RunInputs, out: Path, config, ctx: dict) -> None:
-    """Body of a forked stage process: run the stage, send back its record or its exception."""
+def _job_name(job) -> str:
+    return job if isinstance(job, str) else job[0]
+
+
+def _stage_process(job, conn, parent: int, inp: RunInputs, out: Path, config, ctx: dict) -> None:
+    """Body of a forked process: run the stage (or the deferred figure), send back its record or its exception."""
     import traceback
 
     _die_with_parent(parent)
     try:
-        msg = ("done", _run_one(stage, inp, out, config, ctx))
+        if isinstance(job, str):
+            msg = ("done", _run_one(job, inp, out, config, ctx))
+        else:
+            job[1]()
+            msg = ("done", None)
     except BaseException as exc:  # noqa: BLE001 -- every failure goes back to the run's process
         msg = ("error", exc, traceback.format_exc())
     try:
         conn.send(msg)
     except Exception:  # an exception that does not pickle: its text goes back instead
-        conn.send(("error", RuntimeError(f"stage {stage} failed"), msg[-1]))
+        conn.send(("error", RuntimeError(f"{_job_name(job)} failed"), msg[-1]))
     conn.close()
 
 
-def _run_side_by_side(stages: list[str], workers: int, inp: RunInputs, out: Path, config,
+def _run_side_by_side(jobs: list, workers: int, inp: RunInputs, out: Path, config,
                       ctx: dict) -> dict[str, StageRecord]:
-    """Run ``stages`` (independent of each other) in up to ``workers`` forked processes at a time, longest first.
+    """Run ``jobs`` (stage names, or ``(label, function)`` for a figure of an earlier stage; independent of each
+    other) in up to ``workers`` forked processes at a time, in the order given (longest first). Returns the
+    stages' records.
 
     Each process is forked from this one as it stands after the motion stage, so every stage starts from the same
     state as in a sequential run. The first failure (or Ctrl-C, SIGTERM) stops the other processes before it is
@@ -595,36 +647,37 @@ def _run_side_by_side(stages: list[str], workers: int, inp: RunInputs, out: Path
     from multiprocessing.connection import wait
 
     mp = multiprocessing.get_context("fork")
-    todo = list(stages)
-    running: dict = {}  # reader connection -> (stage, process)
+    todo = list(jobs)
+    running: dict = {}  # reader connection -> (job name, process)
     done: dict[str, StageRecord] = {}
     parent = os.getpid()
     try:
         while todo or running:
             while todo and len(running) < workers:
-                stage = todo.pop(0)
+                job = todo.pop(0)
                 reader, writer = mp.Pipe(duplex=False)
-                proc = mp.Process(target=_stage_process, name=f"bpmid-{stage}",
-                                  args=(stage, writer, parent, inp, out, config, ctx), daemon=True)
+                proc = mp.Process(target=_stage_process, name=f"bpmid-{_job_name(job)}",
+                                  args=(job, writer, parent, inp, out, config, ctx), daemon=True)
                 proc.start()
                 writer.close()
-                running[reader] = (stage, proc)
+                running[reader] = (_job_name(job), proc)
             for reader in wait(list(running)):
                 stage, proc = running.pop(reader)
                 try:
                     msg = reader.recv()
                 except EOFError:  # the process died without a word (killed, out of memory)
                     proc.join()
-                    msg = ("error", RuntimeError(f"the process of stage {stage} ended with exit code "
+                    msg = ("error", RuntimeError(f"the process of {stage} ended with exit code "
                                                  f"{proc.exitcode} before finishing"), "")
                 reader.close()
                 proc.join()
                 if msg[0] == "error":
                     exc = msg[1]
                     if not isinstance(exc, (InputError, KeyboardInterrupt)) and msg[2]:
-                        exc.add_note(f"in the process of stage {stage}:\n{msg[2]}")
+                        exc.add_note(f"in the process of {stage}:\n{msg[2]}")
                     raise exc
-                done[stage] = msg[1]
+                if msg[1] is not None:
+                    done[stage] = msg[1]
     except BaseException:
         for stage, proc in running.values():
             proc.terminate()  # SIGTERM: the stage stops like on Ctrl-C (staged writes cleaned up)
@@ -658,6 +711,8 @@ def _run_stages(config, rc: RunConfig, inp: RunInputs, out: Path, ctx: dict, wri
     side = [s for s in SIDE_BY_SIDE if s in todo] if workers > 1 else []
     if len(side) < 2:
         side = []
+    else:  # the relaxation and motion figures are drawn beside those stages, off the critical path
+        ctx["deferred"] = []
 
     def so_far() -> list[StageRecord]:
         return [records[s] for s in STAGES if s in records]
@@ -665,7 +720,10 @@ def _run_stages(config, rc: RunConfig, inp: RunInputs, out: Path, ctx: dict, wri
     for stage in todo:
         if stage in side:
             if stage not in records:  # the first of them (they follow each other in STAGES): run them all now
-                records.update(_run_side_by_side(side, workers, inp, out, config, ctx))
+                figures = ctx.pop("deferred", [])[::-1]  # the motion figure (the larger) first
+                at = side.index("history") + 1 if "history" in side else len(side)
+                jobs = side[:at] + figures + side[at:]
+                records.update(_run_side_by_side(jobs, workers, inp, out, config, ctx))
             continue
         if stage == "report":  # run.yaml first, so the report can show the stages
             _write_run_yaml(out, so_far() + [StageRecord("report", "running")], inp, config, ctx, write_result)
