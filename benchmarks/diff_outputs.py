@@ -3,7 +3,8 @@
 Run ``python benchmarks/diff_outputs.py DIR_A DIR_B``. Every CSV, YAML and text file in either folder is compared
 (figures are not); the output folders' own paths are made equal first (they are recorded in provenance). Prints,
 per file, the CSV columns or the YAML keys (dotted, list indices as [*]) whose values differ, and exits 1 when
-anything else than those listed by ``--allow`` differs.
+anything else than those listed by ``--allow`` (and, with ``--timing``, the wall-clock keys of :data:`TIMING`)
+differs. The report (report.md, report.html) is compared as text: it quotes the timings too.
 """
 from __future__ import annotations
 
@@ -15,6 +16,18 @@ import sys
 from pathlib import Path
 
 import yaml
+
+
+#: what differs between two runs of one config on purpose: wall-clock times and what records them
+TIMING = {
+    "us_per_step", "seconds", "fit_seconds", "elapsed_s", "data.fit_seconds", "fit.seconds", "stages[*].seconds",
+    "summary[*].us_per_step", "window_cost_reduction_pct", "us_per_step_longest.full",
+    "us_per_step_longest.recursive", "us_per_step_longest.window", "feedforward.cost.incremental_kernel_us_per_step",
+    "feedforward.cost.vectorised_inverse_us_per_sample", "feedforward.cost.share_of_period_pct",
+    "provenance.created", "provenance.command", "provenance.inputs.<OUT>/relax_fit.yaml",
+    "provenance.inputs.<OUT>/vbmm_fit.yaml",
+} | {f"models.{m}.fit_seconds" for m in ("gpi", "maxwell-slip", "three-element", "two-branch", "vbmm-fit",
+                                          "vbmm-mat")}
 
 
 def _flat(obj, prefix="", out=None):
@@ -58,8 +71,11 @@ def main() -> int:
     ap.add_argument("a", type=Path)
     ap.add_argument("b", type=Path)
     ap.add_argument("--allow", default="", help="comma-separated column names / generic YAML keys that may differ")
+    ap.add_argument("--timing", action="store_true", help="allow the wall-clock columns and keys of a bpmid run "
+                    "(TIMING), the creation time and command line in provenance, and the sha256 of the two "
+                    "outputs that carry a fit time (relax_fit.yaml, vbmm_fit.yaml) where later stages record them")
     args = ap.parse_args()
-    allow = {s for s in args.allow.split(",") if s}
+    allow = {s for s in args.allow.split(",") if s} | (TIMING if args.timing else set())
     names = sorted({p.relative_to(d).as_posix() for d in (args.a, args.b) for p in d.rglob("*")
                     if p.is_file() and p.suffix in (".csv", ".yaml", ".txt", ".md", ".html")})
     bad = False
