@@ -221,7 +221,7 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
     if not motion_paths:
         return []
     # each file read once: the logs checked above are the same files read the same way (their angle is there)
-    logs = [seen.get(str(p)) or read_motion_log(p, io_cfg) for p in motion_paths]
+    logs = [seen[str(p)] if str(p) in seen else read_motion_log(p, io_cfg) for p in motion_paths]
     names = [lg.name for lg in logs]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
