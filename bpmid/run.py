@@ -27,6 +27,13 @@ fails in a stage, or is interrupted (Ctrl-C), is rolled back (:class:`OutputJour
 removed and the files it replaced are put back, so DIR is as it was before (absent if it did not exist). The
 stages write in place, so every path recorded in the outputs (provenance, report) is the final one.
 
+Side by side: compare, history, discover and control need nothing but the inputs and the two fits, so after the
+motion stage they run in processes forked from the run, up to ``run.workers`` at a time (default: the cores, at
+most 2; :func:`stage_workers`), together with the drawing of the relaxation and motion figures; the report comes
+last, in the run's process. Each process starts from the run's state after the motion stage, so the numbers are
+those of a run with ``workers: 1``. A failure in one, Ctrl-C or SIGTERM stops the others before the rollback; a
+run killed outright takes them with it (``PR_SET_PDEATHSIG``), and the next command rolls the folder back.
+
 Determinism: no stage draws random numbers except where a seed is recorded (``run.seed``); two runs of the
 same config give identical tables except the wall-clock columns (``us_per_step``, ``seconds``).
 """
@@ -63,9 +70,9 @@ class RunConfig:
     seed : recorded in every output's provenance (no stage draws random numbers without it)
     out : default output folder (relative to the working directory) when ``--out`` is not given
     workers : processes for the stages that only need the motion fit (compare, history, discover, control run
-        side by side, each in a process forked after the motion stage); 0 = the cores this process may use, at
-        most 2 (:data:`MAX_AUTO_WORKERS`); 1 = one stage after another in this process. The outputs are the same
-        either way except the wall-clock columns.
+        side by side, each in a process forked after the motion stage; Linux only, elsewhere always 1); 0 = the
+        cores this process may use, at most 2 (:data:`MAX_AUTO_WORKERS`); 1 = one stage after another in this
+        process. The outputs are the same either way except the wall-clock columns.
     """
 
     relax_logs: tuple[str, ...] = ()
@@ -572,8 +579,11 @@ def stage_workers(rc: RunConfig) -> int:
     """Processes for the :data:`SIDE_BY_SIDE` stages (1: one after another in this process)."""
     import multiprocessing
     import os
+    import sys
 
-    if "fork" not in multiprocessing.get_all_start_methods():
+    # forking a process that has loaded numpy, numba and matplotlib is safe on Linux; macOS system libraries
+    # (Accelerate, Objective-C) are not fork-safe, and Windows cannot fork
+    if not sys.platform.startswith("linux") or "fork" not in multiprocessing.get_all_start_methods():
         return 1
     if rc.workers:
         return rc.workers
