@@ -183,7 +183,9 @@ def test_a_failing_stage_beside_others_rolls_the_run_back(tmp_path, monkeypatch)
         raise InputError("the long-term log is broken", path="long.csv")
 
     monkeypatch.setitem(R.STAGE_FUNCTIONS, "history", failing)
-    assert R.stage_workers(R.RunConfig(workers=2)) == 2
+    import sys
+
+    assert R.stage_workers(R.RunConfig(workers=2)) == (2 if sys.platform.startswith("linux") else 1)
     r = runner.invoke(app, ["run", str(cfg), "--out", str(out)])
     assert r.exit_code == 2 and "long.csv: the long-term log is broken" in r.output, r.output
     assert sorted(p.name for p in out.iterdir()) == ["history_modes.csv"]
