@@ -652,8 +652,10 @@ def _run_side_by_side(jobs: list, workers: int, inp: RunInputs, out: Path, confi
     state as in a sequential run. The first failure (or Ctrl-C, SIGTERM) stops the other processes before it is
     raised here, so the run's rollback (:class:`OutputJournal`) starts only when nothing writes into DIR any more.
     """
+    import contextlib
     import multiprocessing
     import os
+    import sys
     from multiprocessing.connection import wait
 
     mp = multiprocessing.get_context("fork")
@@ -665,6 +667,9 @@ def _run_side_by_side(jobs: list, workers: int, inp: RunInputs, out: Path, confi
         while todo or running:
             while todo and len(running) < workers:
                 job = todo.pop(0)
+                for stream in (sys.stdout, sys.stderr):  # nothing buffered here is written twice by a child
+                    with contextlib.suppress(Exception):
+                        stream.flush()
                 reader, writer = mp.Pipe(duplex=False)
                 proc = mp.Process(target=_stage_process, name=f"bpmid-{_job_name(job)}",
                                   args=(job, writer, parent, inp, out, config, ctx), daemon=True)
