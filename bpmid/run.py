@@ -28,7 +28,7 @@ removed and the files it replaced are put back, so DIR is as it was before (abse
 stages write in place, so every path recorded in the outputs (provenance, report) is the final one.
 
 Side by side: compare, history, discover and control need nothing but the inputs and the two fits, so after the
-motion stage they run in processes forked from the run, up to ``run.workers`` at a time (default: the cores, at
+motion stage they run in processes forked from the run, up to ``run.workers`` at a time (default: the idle cores, at
 most 2; :func:`stage_workers`), together with the drawing of the relaxation and motion figures; the report comes
 last, in the run's process. Each process starts from the run's state after the motion stage, so the numbers are
 those of a run with ``workers: 1``. A failure in one, Ctrl-C or SIGTERM stops the others before the rollback; a
@@ -71,8 +71,9 @@ class RunConfig:
     out : default output folder (relative to the working directory) when ``--out`` is not given
     workers : processes for the stages that only need the motion fit (compare, history, discover, control run
         side by side, each in a process forked after the motion stage; Linux only, elsewhere always 1); 0 = the
-        cores this process may use, at most 2 (:data:`MAX_AUTO_WORKERS`); 1 = one stage after another in this
-        process. The outputs are the same either way except the wall-clock columns.
+        idle cores this process may use (cores minus the load average, rounded), at least 1 and at most 2
+        (:data:`MAX_AUTO_WORKERS`); 1 = one stage after another in this process. The outputs are the same
+        either way except the wall-clock columns.
     """
 
     relax_logs: tuple[str, ...] = ()
@@ -591,7 +592,11 @@ def stage_workers(rc: RunConfig) -> int:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
         cores = os.cpu_count() or 1
-    return max(1, min(cores, MAX_AUTO_WORKERS))
+    try:  # cores other work keeps busy do not speed the run up; the forked processes' own start costs ~8 % CPU
+        idle = cores - os.getloadavg()[0]
+    except OSError:
+        idle = cores
+    return max(1, min(int(idle + 0.5), cores, MAX_AUTO_WORKERS))
 
 
 def _run_one(stage: str, inp: RunInputs, out: Path, config, ctx: dict) -> StageRecord:

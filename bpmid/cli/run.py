@@ -24,8 +24,8 @@ def run(
     figures: Optional[str] = figures_option(),
     workers: Optional[int] = typer.Option(None, "--workers", min=0, help="Processes for the stages after the motion "
                                           "fit (compare, history, discover, control side by side); 1 = one after "
-                                          "another; 0 = the cores, at most 2. Default: run.workers of the config "
-                                          "(0). The numbers are the same either way."),
+                                          "another; 0 = the idle cores, at most 2. Default: run.workers of the "
+                                          "config (0). The numbers are the same either way."),
 ):
     """The whole study in one command: relaxation fit, motion fit (VBMM-mat and VBMM-fit), comparison of all
     models, history modes, discovery and the report; every stage's files in the output folder, progress on stderr."""
