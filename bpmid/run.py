@@ -71,9 +71,9 @@ class RunConfig:
     out : default output folder (relative to the working directory) when ``--out`` is not given
     workers : processes for the stages that only need the motion fit (compare, history, discover, control run
         side by side, each in a process forked after the motion stage; Linux only, elsewhere always 1); 0 = the
-        idle cores this process may use (cores minus the load average, rounded), at least 1 and at most 2
-        (:data:`MAX_AUTO_WORKERS`); 1 = one stage after another in this process. The outputs are the same
-        either way except the wall-clock columns.
+        idle cores this process may use (cores minus the load average beyond this run's own 1, rounded), at
+        least 1 and at most 2 (:data:`MAX_AUTO_WORKERS`); 1 = one stage after another in this process. The
+        outputs are the same either way except the wall-clock columns.
     """
 
     relax_logs: tuple[str, ...] = ()
@@ -592,8 +592,9 @@ def stage_workers(rc: RunConfig) -> int:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
         cores = os.cpu_count() or 1
-    try:  # cores other work keeps busy do not speed the run up; the forked processes' own start costs ~8 % CPU
-        idle = cores - os.getloadavg()[0]
+    try:  # cores other work keeps busy do not speed the run up (the forked processes' own start costs CPU);
+        # this run itself accounts for up to 1 of the load average (so does an earlier run just finished)
+        idle = cores - max(os.getloadavg()[0] - 1.0, 0.0)
     except OSError:
         idle = cores
     return max(1, min(int(idle + 0.5), cores, MAX_AUTO_WORKERS))
