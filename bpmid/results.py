@@ -130,8 +130,7 @@ def _normalised(data: dict) -> dict:
     481-point master curve (tests/test_api.py checks both agree on every result type)."""
     from bpmid.io.results import _plain
 
-    def plain(v):
-        v = _plain(v)
+    def plain(v):  # on the output of _plain (plain types already): one pass, no second conversion per node
         if isinstance(v, dict):
             return {k: plain(x) for k, x in v.items()}
         if isinstance(v, list):
@@ -145,7 +144,7 @@ def _normalised(data: dict) -> dict:
             return loads(dump_yaml({"v": v}))["v"]
         return v
 
-    return plain(data) or {}
+    return plain(_plain(data)) or {}
 
 
 class Result:

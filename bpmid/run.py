@@ -27,6 +27,13 @@ fails in a stage, or is interrupted (Ctrl-C), is rolled back (:class:`OutputJour
 removed and the files it replaced are put back, so DIR is as it was before (absent if it did not exist). The
 stages write in place, so every path recorded in the outputs (provenance, report) is the final one.
 
+Side by side: compare, history, discover and control need nothing but the inputs and the two fits, so after the
+motion stage they run in processes forked from the run, up to ``run.workers`` at a time (default: the idle cores, at
+most 2; :func:`stage_workers`), together with the drawing of the relaxation and motion figures; the report comes
+last, in the run's process. Each process starts from the run's state after the motion stage, so the numbers are
+those of a run with ``workers: 1``. A failure in one, Ctrl-C or SIGTERM stops the others before the rollback; a
+run killed outright takes them with it (``PR_SET_PDEATHSIG``), and the next command rolls the folder back.
+
 Determinism: no stage draws random numbers except where a seed is recorded (``run.seed``); two runs of the
 same config give identical tables except the wall-clock columns (``us_per_step``, ``seconds``).
 """
@@ -62,6 +69,11 @@ class RunConfig:
     history_repeats : timed runs per point in the recursive and window modes (the fastest counts)
     seed : recorded in every output's provenance (no stage draws random numbers without it)
     out : default output folder (relative to the working directory) when ``--out`` is not given
+    workers : processes for the stages that only need the motion fit (compare, history, discover, control run
+        side by side, each in a process forked after the motion stage; Linux only, elsewhere always 1); 0 = the
+        idle cores this process may use (cores minus the load average beyond this run's own 1, rounded), at
+        least 1 and at most 2 (:data:`MAX_AUTO_WORKERS`); 1 = one stage after another in this process. The
+        outputs are the same either way except the wall-clock columns.
     """
 
     relax_logs: tuple[str, ...] = ()
@@ -75,12 +87,16 @@ class RunConfig:
     history_repeats: int = 3
     seed: int = 0
     out: Optional[str] = None
+    workers: int = 0
 
     def validate(self, where, path):
         for i, s in enumerate(self.stages):
             if s not in STAGES:
                 raise InputError(f"unknown stage {s!r} (known: {', '.join(STAGES)})", path=path,
                                  key=f"{where}.stages[{i}]")
+        if self.workers < 0:
+            raise InputError("must be 0 (as many as cores, at most 2) or a positive number of processes", path=path,
+                             key=f"{where}.workers")
         if self.history_repeats < 1:
             raise InputError("must be at least 1", path=path, key=f"{where}.history_repeats")
         if any(d <= 0 for d in self.history_durations_s):
@@ -176,7 +192,7 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
     """Read and check every input of every stage in ``stages`` with the reader that stage uses, before any
     stage runs (InputError naming the file, line or key). Returns the motion logs of the fitting and test sets
     (read without requiring angles when the stages that need them do not run), for the synthetic flag."""
-    from bpmid.io.motion_logs import read_motion_logs
+    from bpmid.io.motion_logs import read_motion_log, read_motion_logs
     from bpmid.io.relax_logs import read_relax_logs
     from bpmid.motion_fit import initial_material, material_from_relax
 
@@ -196,11 +212,10 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
         angled.append(inp.long_term)
     if "discover" in stages:
         angled += list(inp.discover_logs) + list(inp.discover_holdout)
-    seen: set[str] = set()
+    seen: dict = {}
     for p in angled:
         if str(p) not in seen:
-            seen.add(str(p))
-            read_motion_logs([p], io_cfg, require_angle=True)
+            seen[str(p)] = read_motion_logs([p], io_cfg, require_angle=True)[0]
     # the parameter files the config names (used when this run's relaxation fit does not replace them)
     if "relax" not in stages:
         mcfg = config.section("motion")
@@ -211,7 +226,15 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
         if "compare" in stages and ccfg.relax is not None:
             material_from_relax(_param_file(config, "compare", "relax", ccfg.relax))
     motion_paths = inp.fitting_set + [p for v in inp.test_sets.values() for p in v]
-    return read_motion_logs(motion_paths, io_cfg) if motion_paths else []
+    if not motion_paths:
+        return []
+    # each file read once: the logs checked above are the same files read the same way (their angle is there)
+    logs = [seen[str(p)] if str(p) in seen else read_motion_log(p, io_cfg) for p in motion_paths]
+    names = [lg.name for lg in logs]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InputError(f"two logs share the file name {dup[0]!r}; outputs are named by it")
+    return logs
 
 
 # the names a run writes in DIR (files, and folders written whole)
@@ -315,10 +338,41 @@ def stage_relax(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
 
     from bpmid.plots.common import figure_path
 
-    yaml_path, fig, _fit = run_fit_relax(inp.relax_logs, out / "relax_fit.yaml", config=config,
-                                         figure=figure_path(out / "relax_fit.png"))
+    fig_path = figure_path(out / "relax_fit.png")
+    deferred = ctx.get("deferred")
+    if deferred is not None:  # the figure is drawn later, beside the stages that follow the motion fit
+        from bpmid.api import fit_relaxation
+        from bpmid.plots.common import save_figure
+        from bpmid.relax.result import save_relax_result
+
+        # what run_fit_relax does, with the figure left for later
+        result = fit_relaxation(inp.relax_logs, config=config, _flags=True)
+        yaml_path, _, _fit = save_relax_result(result, out / "relax_fit.yaml", figure=False)
+        deferred.append(("relax figure", lambda: save_figure(result._figure(), fig_path)))
+        fig = fig_path
+    else:
+        yaml_path, fig, _fit = run_fit_relax(inp.relax_logs, out / "relax_fit.yaml", config=config, figure=fig_path)
     ctx["relax_fit"] = yaml_path
     return ["relax_fit.yaml"] + ([Path(fig).name] if fig else [])
+
+
+def _motion_figure(mf, figure: Path, synthetic: bool) -> None:
+    """The figure :func:`bpmid.models.vbmm.fit.write_motion_fit` draws beside ``vbmm_fit.yaml`` (same drawing)."""
+    import io
+
+    import matplotlib.pyplot as plt
+
+    from bpmid.io.atomic import write_bytes
+    from bpmid.plots.motion import motion_fit_figure
+
+    fig = motion_fit_figure(mf.logs, mf.predictions, title=f"VBMM fit ({mf.model.closure} closure, "
+                            f"{mf.model.history} history): RMSE {mf.metrics['rmse_deg']:.3g}°", synthetic=synthetic)
+    buf = io.BytesIO()
+    try:
+        fig.savefig(buf, dpi=110, format=Path(figure).suffix.lstrip(".") or "png")
+    finally:
+        plt.close(fig)
+    write_bytes(figure, buf.getvalue())
 
 
 def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
@@ -340,8 +394,12 @@ def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     warnings = plaus.reader_warnings(logs) + plaus.motion_fit_warnings(mf)
     plaus.emit(warnings, strict=config.section("io").strict, what=str(out / "vbmm_fit.yaml"))
     fig = figure_path(out / "vbmm_fit.png")
-    write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings), figure=fig,
-                     synthetic=ctx["synthetic"])
+    deferred = ctx.get("deferred")
+    write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings),
+                     figure=fig if deferred is None else None, synthetic=ctx["synthetic"])
+    if deferred is not None:  # drawn beside the stages that follow (same figure)
+        synthetic = ctx["synthetic"]
+        deferred.append(("motion figure", lambda: _motion_figure(mf, fig, synthetic)))
     ctx["vbmm_fit"] = out / "vbmm_fit.yaml"
     # VBMM-mat.: the relaxation constants as they are, scored on the same fitting set
     mat, source = initial_material(config.section("motion"), relax, base_dir=config.base_dir)
@@ -511,31 +569,188 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
     return records
 
 
+#: stages that need nothing but the inputs and the relaxation and motion fits (they read ``ctx``, never write it),
+#: longest first: with more than one worker they run side by side, each in a process forked after the motion stage
+SIDE_BY_SIDE = ("discover", "compare", "history", "control")
+#: workers when ``run.workers`` is 0: the cores this process may use, at most this many
+MAX_AUTO_WORKERS = 2
+
+
+def stage_workers(rc: RunConfig) -> int:
+    """Processes for the :data:`SIDE_BY_SIDE` stages (1: one after another in this process)."""
+    import multiprocessing
+    import os
+    import sys
+
+    # forking a process that has loaded numpy, numba and matplotlib is safe on Linux; macOS system libraries
+    # (Accelerate, Objective-C) are not fork-safe, and Windows cannot fork
+    if not sys.platform.startswith("linux") or "fork" not in multiprocessing.get_all_start_methods():
+        return 1
+    if rc.workers:
+        return rc.workers
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    try:  # cores other work keeps busy do not speed the run up (the forked processes' own start costs CPU);
+        # this run itself accounts for up to 1 of the load average (so does an earlier run just finished)
+        idle = cores - max(os.getloadavg()[0] - 1.0, 0.0)
+    except OSError:
+        idle = cores
+    return max(1, min(int(idle + 0.5), cores, MAX_AUTO_WORKERS))
+
+
+def _run_one(stage: str, inp: RunInputs, out: Path, config, ctx: dict) -> StageRecord:
+    note(f"stage {stage} ...")
+    t0 = time.perf_counter()
+    outputs = STAGE_FUNCTIONS[stage](inp, out, config, ctx)
+    dt = time.perf_counter() - t0
+    note(f"stage {stage} done in {dt:.1f} s")
+    return StageRecord(stage, "done", dt, outputs)
+
+
+def _die_with_parent(parent: int) -> None:
+    """A stage process ends when the run's process does (killed outright included), so nothing writes into DIR
+    after the run is gone; the next command's recovery then rolls the folder back whole."""
+    import ctypes
+    import os
+    import signal
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG (Linux)
+    except (AttributeError, OSError):
+        pass
+    if os.getppid() != parent:  # the run's process died before prctl took effect
+        os._exit(1)
+
+
+def _job_name(job) -> str:
+    return job if isinstance(job, str) else job[0]
+
+
+def _stage_process(job, conn, parent: int, inp: RunInputs, out: Path, config, ctx: dict) -> None:
+    """Body of a forked process: run the stage (or the deferred figure), send back its record or its exception."""
+    import traceback
+
+    _die_with_parent(parent)
+    try:
+        if isinstance(job, str):
+            msg = ("done", _run_one(job, inp, out, config, ctx))
+        else:
+            job[1]()
+            msg = ("done", None)
+    except BaseException as exc:  # noqa: BLE001 -- every failure goes back to the run's process
+        msg = ("error", exc, traceback.format_exc())
+    try:
+        conn.send(msg)
+    except Exception:  # an exception that does not pickle: its text goes back instead
+        conn.send(("error", RuntimeError(f"{_job_name(job)} failed"), msg[-1]))
+    conn.close()
+
+
+def _run_side_by_side(jobs: list, workers: int, inp: RunInputs, out: Path, config,
+                      ctx: dict) -> dict[str, StageRecord]:
+    """Run ``jobs`` (stage names, or ``(label, function)`` for a figure of an earlier stage; independent of each
+    other) in up to ``workers`` forked processes at a time, in the order given (longest first). Returns the
+    stages' records.
+
+    Each process is forked from this one as it stands after the motion stage, so every stage starts from the same
+    state as in a sequential run. The first failure (or Ctrl-C, SIGTERM) stops the other processes before it is
+    raised here, so the run's rollback (:class:`OutputJournal`) starts only when nothing writes into DIR any more.
+    """
+    import contextlib
+    import multiprocessing
+    import os
+    import sys
+    from multiprocessing.connection import wait
+
+    mp = multiprocessing.get_context("fork")
+    todo = list(jobs)
+    running: dict = {}  # reader connection -> (job name, process)
+    done: dict[str, StageRecord] = {}
+    parent = os.getpid()
+    try:
+        while todo or running:
+            while todo and len(running) < workers:
+                job = todo.pop(0)
+                for stream in (sys.stdout, sys.stderr):  # nothing buffered here is written twice by a child
+                    with contextlib.suppress(Exception):
+                        stream.flush()
+                reader, writer = mp.Pipe(duplex=False)
+                proc = mp.Process(target=_stage_process, name=f"bpmid-{_job_name(job)}",
+                                  args=(job, writer, parent, inp, out, config, ctx), daemon=True)
+                proc.start()
+                writer.close()
+                running[reader] = (_job_name(job), proc)
+            for reader in wait(list(running)):
+                stage, proc = running.pop(reader)
+                try:
+                    msg = reader.recv()
+                except EOFError:  # the process died without a word (killed, out of memory)
+                    proc.join()
+                    msg = ("error", RuntimeError(f"the process of {stage} ended with exit code "
+                                                 f"{proc.exitcode} before finishing"), "")
+                reader.close()
+                proc.join()
+                if msg[0] == "error":
+                    exc = msg[1]
+                    if not isinstance(exc, (InputError, KeyboardInterrupt)) and msg[2]:
+                        exc.add_note(f"in the process of {stage}:\n{msg[2]}")
+                    raise exc
+                if msg[1] is not None:
+                    done[stage] = msg[1]
+    except BaseException:
+        for stage, proc in running.values():
+            proc.terminate()  # SIGTERM: the stage stops like on Ctrl-C (staged writes cleaned up)
+        for stage, proc in running.values():
+            proc.join(5.0)
+            if proc.is_alive():
+                proc.kill()
+                proc.join()
+        raise
+    return done
+
+
 def _run_stages(config, rc: RunConfig, inp: RunInputs, out: Path, ctx: dict, write_result) -> list[StageRecord]:
     out.mkdir(parents=True, exist_ok=True)
     stale = out / "run.yaml"
     if stale.is_file():
         stale.unlink()  # a folder with run.yaml holds a complete run; this one is about to be replaced
-    records: list[StageRecord] = []
+    records: dict[str, StageRecord] = {}
+    todo = []
     for stage in STAGES:
         if stage not in rc.stages:
-            records.append(StageRecord(stage, "skipped", note="not in run.stages"))
+            records[stage] = StageRecord(stage, "skipped", note="not in run.stages")
             continue
         why = _missing_inputs(stage, inp)
         if why:
             note(f"{stage}: {why}")
-            records.append(StageRecord(stage, "skipped", note=why))
+            records[stage] = StageRecord(stage, "skipped", note=why)
+            continue
+        todo.append(stage)
+    workers = stage_workers(rc)
+    side = [s for s in SIDE_BY_SIDE if s in todo] if workers > 1 else []
+    if len(side) < 2:
+        side = []
+    else:  # the relaxation and motion figures are drawn beside those stages, off the critical path
+        ctx["deferred"] = []
+
+    def so_far() -> list[StageRecord]:
+        return [records[s] for s in STAGES if s in records]
+
+    for stage in todo:
+        if stage in side:
+            if stage not in records:  # the first of them (they follow each other in STAGES): run them all now
+                figures = ctx.pop("deferred", [])[::-1]  # the motion figure (the larger) first
+                at = side.index("history") + 1 if "history" in side else len(side)
+                jobs = side[:at] + figures + side[at:]
+                records.update(_run_side_by_side(jobs, workers, inp, out, config, ctx))
             continue
         if stage == "report":  # run.yaml first, so the report can show the stages
-            _write_run_yaml(out, records + [StageRecord("report", "running")], inp, config, ctx, write_result)
-        note(f"stage {stage} ...")
-        t0 = time.perf_counter()
-        outputs = STAGE_FUNCTIONS[stage](inp, out, config, ctx)
-        dt = time.perf_counter() - t0
-        note(f"stage {stage} done in {dt:.1f} s")
-        records.append(StageRecord(stage, "done", dt, outputs))
-    _write_run_yaml(out, records, inp, config, ctx, write_result)
-    return records
+            _write_run_yaml(out, so_far() + [StageRecord("report", "running")], inp, config, ctx, write_result)
+        records[stage] = _run_one(stage, inp, out, config, ctx)
+    _write_run_yaml(out, so_far(), inp, config, ctx, write_result)
+    return so_far()
 
 
 def _write_run_yaml(out, records, inp, config, ctx, write_result) -> None:

@@ -77,9 +77,11 @@ def study_runs(tmp_path_factory):
     root = tmp_path_factory.mktemp("study")
     cfg = make_study(root)
     text = cfg.read_text().replace("run:\n", f"run:\n  stages: {NUMBER_STAGES}\n", 1)
-    cfg.write_text(text.replace("figure_logs: 2", "figure_logs: 0"))
+    text = text.replace("figure_logs: 2", "figure_logs: 0")
     outs = []
-    for name in ("run1", "run2"):
+    # run1 one stage after another in this process, run2 the stages after the motion fit side by side
+    for name, workers in (("run1", 1), ("run2", 2)):
+        cfg.write_text(text.replace("run:\n", f"run:\n  workers: {workers}\n", 1))
         r = runner.invoke(app, ["run", str(cfg), "--out", str(root / name)])
         assert r.exit_code == 0, r.output
         outs.append(root / name)
@@ -163,6 +165,31 @@ def test_timing_is_measured_when_on(tmp_path):
     off = compare_models(logs, test, ["two-branch"], timing=False)
     assert (on.metrics["us_per_step"] > 0).all() and off.metrics["us_per_step"].isna().all()
     pd.testing.assert_frame_equal(on.metrics.drop(columns="us_per_step"), off.metrics.drop(columns="us_per_step"))
+
+
+def test_a_failing_stage_beside_others_rolls_the_run_back(tmp_path, monkeypatch):
+    """Stages run side by side (forked processes): one failing stops the run with its message (exit 2), and the
+    folder is put back as it was, including what the other stage process wrote."""
+    import bpmid.run as R
+
+    cfg = make_study(tmp_path)
+    cfg.write_text(cfg.read_text().replace("run:\n", "run:\n  stages: [history, control]\n  workers: 2\n", 1))
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "history_modes.csv").write_text("earlier run\n")
+
+    def failing(inp, out_dir, config, ctx):
+        (out_dir / "history_modes.csv").write_text("half\n")
+        raise InputError("the long-term log is broken", path="long.csv")
+
+    monkeypatch.setitem(R.STAGE_FUNCTIONS, "history", failing)
+    import sys
+
+    assert R.stage_workers(R.RunConfig(workers=2)) == (2 if sys.platform.startswith("linux") else 1)
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(out)])
+    assert r.exit_code == 2 and "long.csv: the long-term log is broken" in r.output, r.output
+    assert sorted(p.name for p in out.iterdir()) == ["history_modes.csv"]
+    assert (out / "history_modes.csv").read_text() == "earlier run\n"
 
 
 def test_missing_input_names_key_and_path(tmp_path):

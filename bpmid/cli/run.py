@@ -22,6 +22,10 @@ def run(
     out: Optional[Path] = typer.Option(None, "--out", help="Output folder (default: run.out of the config, else "
                                        "out/<config name>)."),
     figures: Optional[str] = figures_option(),
+    workers: Optional[int] = typer.Option(None, "--workers", min=0, help="Processes for the stages after the motion "
+                                          "fit (compare, history, discover, control side by side); 1 = one after "
+                                          "another; 0 = the idle cores, at most 2. Default: run.workers of the "
+                                          "config (0). The numbers are the same either way."),
 ):
     """The whole study in one command: relaxation fit, motion fit (VBMM-mat and VBMM-fit), comparison of all
     models, history modes, discovery and the report; every stage's files in the output folder, progress on stderr."""
@@ -31,6 +35,13 @@ def run(
 
     path = Path(config) if config is not None else default_config_path()
     cfg = load_config(path)
+    if workers is not None:
+        import dataclasses
+
+        from bpmid.config import Config
+
+        rc0 = cfg.section("run")
+        cfg = Config({**cfg.sections, "run": dataclasses.replace(rc0, workers=workers)}, cfg.path, cfg.sha256)
     rc = cfg.section("run")
     out_dir = out if out is not None else Path(rc.out) if rc.out else Path("out") / path.stem
     records = run_study(cfg, out_dir)
