@@ -152,6 +152,8 @@ def test_fit_share_threshold_tells_a_whole_explanation_from_a_partial_one():
     assert 0.35 < thr["fit_share_min"] <= 0.92
     assert thr["right_decisions"] == 8 and thr["false_positives"] == 0
     assert PERMISSIVE["fit_share_min"] == 0.0
+    # not asked above the largest gain a wrong candidate reached on the cases with nothing to find (0.09)
+    assert thr["fit_share_waived_above_sigma"] == pytest.approx(0.09)
     from bpmid.discover.confirm import Confirmation
     c = Confirmation.__new__(Confirmation)
     for k, v in dict(tested=True, identifiable=True, heldout_gain_sigma=1.0, gap_share=0.9, lr_p=1e-20,
@@ -160,3 +162,6 @@ def test_fit_share_threshold_tells_a_whole_explanation_from_a_partial_one():
     why = judge(c, {**THR, "fit_share_min": 0.6})
     assert len(why) == 1 and "fitting logs' gap removed 30% < 60%" in why[0]
     assert judge(c, {**THR, "fit_share_min": 0.0}) == []
+    # a candidate far stronger than any imitation (the first of two effects present at once) is not asked it
+    assert judge(c, {**THR, "fit_share_min": 0.6, "fit_share_waived_above_sigma": 0.5}) == []
+    assert len(judge(c, {**THR, "fit_share_min": 0.6, "fit_share_waived_above_sigma": 1.5})) == 1

@@ -25,13 +25,14 @@ from bpmid.models.vbmm import VBMM, Material
 from bpmid.params import ParamSet
 
 THRESHOLDS_PATH = Path(__file__).with_name("thresholds.yaml")
-THRESHOLD_KEYS = ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min")
+THRESHOLD_KEYS = ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min",
+                  "fit_share_waived_above_sigma")
 #: thresholds a file written before they existed may lack, with the value that leaves the gate as it was
-OPTIONAL_THRESHOLDS = {"fit_share_min": 0.0}
+OPTIONAL_THRESHOLDS = {"fit_share_min": 0.0, "fit_share_waived_above_sigma": math.inf}
 #: discover-config overrides for a calibration run: every candidate's statistics are recorded, the best by
 #: held-out gain is added each round (so later rounds are recorded too)
 PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
-              "max_effects": 2}
+              "fit_share_waived_above_sigma": 0.0, "max_effects": 2}
 SCHEMA = "bpmid.discover-thresholds/1"
 
 
@@ -193,27 +194,39 @@ def records_from_result(truth: str, result, case: str | None = None) -> list[Rec
     return out
 
 
-def _passes(r: Record, g: float, share: float, alpha: float, fit_share: float = 0.0) -> bool:
+def _passes(r: Record, g: float, share: float, alpha: float, fit_share: float = 0.0,
+            waive: float = math.inf) -> bool:
     return (r.tested and r.identifiable and math.isfinite(r.gain_sigma) and r.gain_sigma >= g
             and math.isfinite(r.gap_share) and r.gap_share >= share and r.lr_p_holm < alpha
-            and (fit_share <= 0 or (math.isfinite(r.fit_share) and r.fit_share >= fit_share)))
+            and (fit_share <= 0 or r.gain_sigma > waive
+                 or (math.isfinite(r.fit_share) and r.fit_share >= fit_share)))
+
+
+def fit_share_waiver(records: Sequence[Record]) -> float:
+    """Held-out gain (noise floors) above which (strictly) the fitting-gap share is not asked: any candidate
+    reached in round 1 on a calibration case with nothing in the catalogue to find (nulls, effects outside the
+    catalogue), rounded up to 0.01. A candidate that strong is no imitation of an absent effect, and asking it to
+    explain most of the fitting gap alone would refuse the first of two effects present at once (pairs, whose
+    records the calibration cannot score)."""
+    neg = [r.gain_sigma for r in records if r.truth == "none" and r.round == 1 and math.isfinite(r.gain_sigma)]
+    return math.ceil(max(neg) * 100.0 - 1e-9) / 100.0 if neg else math.inf
 
 
 def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
-                  fit_share: float = 0.0) -> tuple[int, int]:
+                  fit_share: float = 0.0, waive: float = math.inf) -> tuple[int, int]:
     """(right decisions, false positives) the gate (g, share, alpha) makes on one case's records: round 1 must
     name the truth (nothing, on a case with no catalogue truth); the round after the truth was added must name
     nothing."""
     truth = recs[0].truth
     r1 = [r for r in recs if r.round == 1]
-    passing = [r for r in r1 if _passes(r, g, share, alpha, fit_share)]
+    passing = [r for r in r1 if _passes(r, g, share, alpha, fit_share, waive)]
     first = max(passing, key=lambda r: r.gain_sigma).candidate if passing else None
     if truth == "none":
         return (1, 0) if first is None else (0, 1)
     right = int(first == truth)
     fp = int(first is not None and first != truth)
     later = [r for r in recs if r.truth_in_model and r.round == 2]
-    if right and later and any(_passes(r, g, share, alpha, fit_share) for r in later):
+    if right and later and any(_passes(r, g, share, alpha, fit_share, waive) for r in later):
         fp += 1
     return right, fp
 
@@ -235,6 +248,7 @@ def thresholds_from_records(records: Sequence[Record]) -> dict:
     for r in records:
         by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
     cases = list(by_case.values())
+    waive = fit_share_waiver(records)
     gains = np.unique(np.round(np.concatenate([np.arange(0.0, 1.0, 0.01), np.arange(1.0, 6.01, 0.25)]), 2))
     shares = np.round(np.arange(0.0, 0.91, 0.05), 2)
     best, best_key = None, None
@@ -244,7 +258,7 @@ def thresholds_from_records(records: Sequence[Record]) -> dict:
                 for g in gains:
                     right = fp = 0
                     for recs in cases:
-                        rr, ff = _case_outcome(recs, float(g), float(sh), a, fs)
+                        rr, ff = _case_outcome(recs, float(g), float(sh), a, fs, waive)
                         right += rr
                         fp += ff
                     key = (right - 2 * fp, g, sh, fs, -a)       # ties: the stricter gate
@@ -256,6 +270,7 @@ def thresholds_from_records(records: Sequence[Record]) -> dict:
     pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate == r.truth]
     neg = [r for r in records if r.truth == "none" or r.truth_in_model]
     return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
+            "fit_share_waived_above_sigma": waive,
             "n_cases": len(cases), "right_decisions": int(right), "false_positives": int(fp),
             "n_positive": len(pos), "n_negative": len(neg),
             "positive_gain_min": float(min((r.gain_sigma for r in pos), default=float("nan"))),

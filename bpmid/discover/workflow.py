@@ -67,7 +67,9 @@ class DiscoverConfig:
     gap_share_min : accept only if the drop removes at least this share of the held-out gap (None: calibrated)
     family_alpha : family-wise level of the Holm-corrected likelihood-ratio tests of a round (None: calibrated)
     fit_share_min : accept only if the refit removes at least this share of the fitting logs' gap above the noise
-        floor (None: calibrated; 0: no such condition)
+        floor (None: calibrated; 0: no such condition) ...
+    fit_share_waived_above_sigma : ... unless its held-out gain is at least this many noise floors (None:
+        calibrated: above any wrong candidate's gain on the calibration cases with nothing to find)
     per_log_gain : score with one stiffness-like gain per log (log-to-log variation is not an effect)
     per_log_constants : give every log its own small factors on K_inf, the branch moduli and the time
         constants instead of the gain (first order, :class:`~bpmid.discover.model.LogNuisance`): log-to-log
@@ -90,6 +92,7 @@ class DiscoverConfig:
     gap_share_min: Optional[float] = None
     family_alpha: Optional[float] = None
     fit_share_min: Optional[float] = None
+    fit_share_waived_above_sigma: Optional[float] = None
     per_log_gain: bool = True
     per_log_constants: bool = True
     unexplained_gap_sigma: float = 0.5
@@ -115,7 +118,8 @@ class DiscoverConfig:
 
     def thresholds(self) -> dict:
         out = dict(load_thresholds())
-        for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min"):
+        for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min",
+                  "fit_share_waived_above_sigma"):
             if getattr(self, k) is not None:
                 out[k] = float(getattr(self, k))
         return out
@@ -127,7 +131,9 @@ def gate_in_words(thr: dict) -> str:
             f"from a grid over its physical range; a refit that did not move counts as 'not tested', never as "
             f"evidence against), (2) it cuts the held-out RMSE by at least {thr['heldout_gain_min_sigma']:.2f} "
             f"noise floors and removes at least {thr['gap_share_min']:.0%} of the held-out gap above the floor"
-            + (f" and its refit removes at least {thr['fit_share_min']:.0%} of the fitting logs' gap"
+            + (f" and its refit removes at least {thr['fit_share_min']:.0%} of the fitting logs' gap (not asked of a "
+               f"held-out gain above {thr.get('fit_share_waived_above_sigma', math.inf):.2f} noise floors, more than "
+               f"any wrong candidate's on the calibration cases with nothing to find)"
                if float(thr.get("fit_share_min", 0.0)) > 0 else "") +
             f", (3) its likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) "
             f"passes at family-wise level {thr['family_alpha']:.2g} after a Holm correction over every candidate "
@@ -405,7 +411,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     if thresholds is not None:
         thr.update({k: float(v) for k, v in thresholds.items() if k in thr})
         thr.update({k: float(getattr(cfg, k)) for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha",
-                                                        "fit_share_min")
+                                                        "fit_share_min", "fit_share_waived_above_sigma")
                     if getattr(cfg, k) is not None})
     if effects is None:
         effects = [get_effect(i) for i in (cfg.candidates or tuple(CATALOGUE))]
@@ -562,7 +568,9 @@ def judge(c: Confirmation, thr: dict, floor: float | None = None) -> list[str]:
         share = f"{c.gap_share:.0%}" if math.isfinite(c.gap_share) else "none (no held-out gap above the floor)"
         why.append(f"share of the held-out gap removed {share} < {thr['gap_share_min']:.0%}")
     fs = float(thr.get("fit_share_min", 0.0))
-    if fs > 0 and not (math.isfinite(c.fit_share) and c.fit_share >= fs):
+    waive = float(thr.get("fit_share_waived_above_sigma", math.inf))
+    if fs > 0 and not (math.isfinite(c.heldout_gain_sigma) and c.heldout_gain_sigma > waive) and not (
+            math.isfinite(c.fit_share) and c.fit_share >= fs):
         share = f"{c.fit_share:.0%}" if math.isfinite(c.fit_share) else "none (no fitting gap above the floor)"
         why.append(f"share of the fitting logs' gap removed {share} < {fs:.0%}: it leaves most of what the model "
                    "misses unexplained")
