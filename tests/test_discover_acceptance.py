@@ -14,9 +14,13 @@ TWIN = {"braid_friction": {"elements": 4}, "pressure_lag": {"dead_time": 0.1}}
 SEEDS = (21, 22)
 
 
+#: every catalogue id once, the seeds alternating over them (two seeds per id cost 27 s of the 100 s test budget;
+#: discovery on many seeds and forms is the out-of-family benchmark's job, docs/validation.md)
+CASES = [(eid, SEEDS[k % len(SEEDS)]) for k, eid in enumerate(CATALOGUE)]
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize("effect_id", list(CATALOGUE))
+@pytest.mark.parametrize("effect_id, seed", CASES)
 def test_hidden_effect_is_named_first_and_the_gap_halves(effect_id, seed):
     fit, ho = paper_sized_set(get_effect(effect_id, **TWIN.get(effect_id, {})), seed=seed, noise_deg=0.15)
     res = discover(fit, start_model(), holdout=ho)
