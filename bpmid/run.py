@@ -40,6 +40,7 @@ same config give identical tables except the wall-clock columns (``us_per_step``
 from __future__ import annotations
 
 import dataclasses
+import signal
 import time
 from pathlib import Path
 from typing import Mapping, Optional
@@ -628,12 +629,19 @@ def _job_name(job) -> str:
     return job if isinstance(job, str) else job[0]
 
 
+#: the signals that stop a run (Ctrl-C, SIGTERM): blocked across the fork of a stage process
+_STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
 def _stage_process(job, conn, parent: int, inp: RunInputs, out: Path, config, ctx: dict) -> None:
     """Body of a forked process: run the stage (or the deferred figure), send back its record or its exception."""
     import traceback
 
     _die_with_parent(parent)
     try:
+        # the run forked this process with SIGTERM and SIGINT blocked (see _run_side_by_side); from here on a
+        # stop request ends the stage like Ctrl-C, inside this try, and goes back to the run as an error
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)
         if isinstance(job, str):
             msg = ("done", _run_one(job, inp, out, config, ctx))
         else:
@@ -679,7 +687,14 @@ def _run_side_by_side(jobs: list, workers: int, inp: RunInputs, out: Path, confi
                 reader, writer = mp.Pipe(duplex=False)
                 proc = mp.Process(target=_stage_process, name=f"bpmid-{_job_name(job)}",
                                   args=(job, writer, parent, inp, out, config, ctx), daemon=True)
-                proc.start()
+                # a stop signal arriving while the child is still inside fork() would run this process's handler
+                # in the child, on a copy of this stack (it would then act as the run): block them across the
+                # fork; the child unblocks them once it is inside its own stage
+                mask = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+                try:
+                    proc.start()
+                finally:
+                    signal.pthread_sigmask(signal.SIG_SETMASK, mask)
                 writer.close()
                 running[reader] = (_job_name(job), proc)
             for reader in wait(list(running)):
