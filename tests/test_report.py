@@ -167,6 +167,8 @@ def test_svg_figures_inlined_one_self_contained_file(study, tmp_path):
     shutil.copytree(study, d)
     r = runner.invoke(app, ["report", str(d), "--figures", "svg"])
     assert r.exit_code == 0, r.output
+    from bpmid.plots.options import figure_format
+    assert figure_format() == "png"     # the command's --figures ends with it (nothing left for the next call)
     for name in ("modulus_curves", "error_bands", "residuals"):
         assert (d / "report_figures" / f"{name}.svg").is_file()
     page = (d / "report.html").read_text()

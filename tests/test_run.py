@@ -48,6 +48,9 @@ compare:
   timing: {timing}
   timing_repeats: 1
   figure_logs: 2
+discover:
+  candidates: [second_relaxation, pressure_lag, angle_offset, braid_friction]
+  max_effects: 1
 """
 
 

@@ -22,6 +22,17 @@ def set_figure_format(fmt: str | None) -> None:
     _format = fmt
 
 
+@contextlib.contextmanager
+def figure_format_kept():
+    """Whatever format a command chooses (``--figures``) is put back when it ends: a command run in-process
+    (a test, a notebook driving the CLI) leaves no format behind for the next call."""
+    old = _format
+    try:
+        yield
+    finally:
+        set_figure_format(old)
+
+
 def figure_format() -> str:
     return _format or "png"
 
