@@ -181,3 +181,16 @@ def test_boundary_corrected_lr_p_value():
     assert boundary_lr_p(6.0, 2) == pytest.approx(0.5 * chi2.sf(6.0, 1) + 0.5 * chi2.sf(6.0, 2))
     assert boundary_lr_p(6.0, 2) > 0.5 * chi2.sf(6.0, 2)
     assert boundary_lr_p(0.0, 2) == 1.0
+
+
+@pytest.mark.parametrize("text, key", [("fit_share_min: 1.5", "discover.fit_share_min"),
+                                       ("fit_share_waived_above_sigma: -1", "discover.fit_share_waived_above_sigma"),
+                                       ("per_log_constants: maybe", "discover.per_log_constants")])
+def test_cli_rejects_bad_gate_settings_naming_the_key(tmp_path, text, key):
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text(f"discover:\n  {text}\n")
+    paths = _write_set(tmp_path, seed=1, names={"va_1.8", "va_2.2"})
+    r = runner.invoke(app, ["discover", *[str(p) for p in paths.values()], "--config", str(cfg),
+                            "--out", str(tmp_path / "out")])
+    assert r.exit_code == 2 and key in r.output, r.output
+    assert not (tmp_path / "out").exists()

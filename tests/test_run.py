@@ -249,3 +249,10 @@ def test_default_config_is_found_from_any_working_directory(tmp_path, monkeypatc
     monkeypatch.setattr(R, "DEFAULT_CONFIG", Path("configs") / "no_such.yaml")
     with pytest.raises(InputError, match="default configs/paper.yaml was not found"):
         R.default_config_path()
+
+
+def test_negative_workers_is_refused_before_any_work(tmp_path):
+    cfg = make_study(tmp_path)
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "out"), "--workers", "-1"])
+    assert r.exit_code == 2 and "--workers" in r.output
+    assert not (tmp_path / "out").exists()

@@ -109,6 +109,10 @@ class DiscoverConfig:
         if self.family_alpha is not None and not 0 < self.family_alpha < 1:
             raise InputError(f"must be between 0 and 1, found {self.family_alpha}", path=path,
                              key=f"{where}.family_alpha")
+        w = self.fit_share_waived_above_sigma
+        if w is not None and not (w >= 0):
+            raise InputError(f"must be 0 or more noise floors, found {w}", path=path,
+                             key=f"{where}.fit_share_waived_above_sigma")
         if self.fit_share_min is not None and not 0 <= self.fit_share_min < 1:
             raise InputError(f"must be in [0, 1), found {self.fit_share_min}", path=path,
                              key=f"{where}.fit_share_min")
