@@ -484,7 +484,7 @@ def stage_control(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
 def stage_report(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     from bpmid.report import write_report
 
-    write_report(out)
+    write_report(out, drawn=ctx.get("drawn"))
     return ["report.html", "report.md"]
 
 
@@ -544,6 +544,13 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
     out_dir : output folder (created)
     command : the command line to record (default: ``sys.argv``)
     """
+    from bpmid.io.read_once import reading_once
+
+    with reading_once():  # every log is parsed once: checked before the stages, then handed to them
+        return _run_study(config, out_dir, command)
+
+
+def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRecord]:
     from bpmid.io.motion_logs import is_synthetic
     from bpmid.io.results import command_line, write_result
 
@@ -629,6 +636,11 @@ def _job_name(job) -> str:
     return job if isinstance(job, str) else job[0]
 
 
+def _job_after(job) -> str | None:
+    """The stage a job waits for (a figure drawn from that stage's files), or None."""
+    return job[2] if not isinstance(job, str) and len(job) > 2 else None
+
+
 #: the signals that stop a run (Ctrl-C, SIGTERM): blocked across the fork of a stage process
 _STOP_SIGNALS = {signal.SIGINT, signal.SIGTERM}
 
@@ -645,8 +657,7 @@ def _stage_process(job, conn, parent: int, inp: RunInputs, out: Path, config, ct
         if isinstance(job, str):
             msg = ("done", _run_one(job, inp, out, config, ctx))
         else:
-            job[1]()
-            msg = ("done", None)
+            msg = ("drawn", job[1]())
     except BaseException as exc:  # noqa: BLE001 -- every failure goes back to the run's process
         msg = ("error", exc, traceback.format_exc())
     try:
@@ -658,9 +669,11 @@ def _stage_process(job, conn, parent: int, inp: RunInputs, out: Path, config, ct
 
 def _run_side_by_side(jobs: list, workers: int, inp: RunInputs, out: Path, config,
                       ctx: dict) -> dict[str, StageRecord]:
-    """Run ``jobs`` (stage names, or ``(label, function)`` for a figure of an earlier stage; independent of each
-    other) in up to ``workers`` forked processes at a time, in the order given (longest first). Returns the
-    stages' records.
+    """Run ``jobs`` (stage names, or ``(label, function)`` for a figure of an earlier stage, or
+    ``(label, function, stage)`` for a figure drawn from the files of ``stage``, one of ``jobs``) in up to
+    ``workers`` forked processes at a time, each as soon as a process is free and the stage it waits for is done,
+    in the order given (longest first). Returns the stages' records; what a figure's function returns (a dict) is
+    gathered in ``ctx["drawn"]``.
 
     Each process is forked from this one as it stands after the motion stage, so every stage starts from the same
     state as in a sequential run. The first failure (or Ctrl-C, SIGTERM) stops the other processes before it is
@@ -679,8 +692,14 @@ def _run_side_by_side(jobs: list, workers: int, inp: RunInputs, out: Path, confi
     parent = os.getpid()
     try:
         while todo or running:
-            while todo and len(running) < workers:
-                job = todo.pop(0)
+            while len(running) < workers:
+                ready = [j for j in todo if _job_after(j) is None or _job_after(j) in done]
+                if not ready:
+                    if not running:  # waits for a stage that is not among the jobs: a bug, not the user's
+                        raise RuntimeError(f"{_job_name(todo[0])} waits for {_job_after(todo[0])}, which never runs")
+                    break
+                job = ready[0]
+                todo.remove(job)
                 for stream in (sys.stdout, sys.stderr):  # nothing buffered here is written twice by a child
                     with contextlib.suppress(Exception):
                         stream.flush()
@@ -712,7 +731,10 @@ def _run_side_by_side(jobs: list, workers: int, inp: RunInputs, out: Path, confi
                     if not isinstance(exc, (InputError, KeyboardInterrupt)) and msg[2]:
                         exc.add_note(f"in the process of {stage}:\n{msg[2]}")
                     raise exc
-                if msg[1] is not None:
+                if msg[0] == "drawn":
+                    if isinstance(msg[1], dict):  # the report's figures (the stages' own return their path)
+                        ctx.setdefault("drawn", {}).update(msg[1])
+                else:
                     done[stage] = msg[1]
     except BaseException:
         for stage, proc in running.values():
@@ -758,7 +780,7 @@ def _run_stages(config, rc: RunConfig, inp: RunInputs, out: Path, ctx: dict, wri
             if stage not in records:  # the first of them (they follow each other in STAGES): run them all now
                 figures = ctx.pop("deferred", [])[::-1]  # the motion figure (the larger) first
                 at = side.index("history") + 1 if "history" in side else len(side)
-                jobs = side[:at] + figures + side[at:]
+                jobs = side[:at] + figures + side[at:] + _report_figure_jobs(out, side, records, todo, ctx)
                 records.update(_run_side_by_side(jobs, workers, inp, out, config, ctx))
             continue
         if stage == "report":  # run.yaml first, so the report can show the stages
@@ -766,6 +788,25 @@ def _run_stages(config, rc: RunConfig, inp: RunInputs, out: Path, ctx: dict, wri
         records[stage] = _run_one(stage, inp, out, config, ctx)
     _write_run_yaml(out, so_far(), inp, config, ctx, write_result)
     return so_far()
+
+
+def _report_figure_jobs(out: Path, side: list[str], records: dict, todo: list[str], ctx: dict) -> list:
+    """The report's own figures, drawn beside the stages as soon as the files they are drawn from are written
+    (the same drawing as in the report stage, which then only assembles the page): of the relaxation fit when
+    this run made it, of the comparison when it runs beside the others."""
+    from functools import partial
+
+    if "report" not in todo:
+        return []
+    from bpmid.report.figures import stage_figures
+
+    syn = bool(ctx["synthetic"])
+    jobs: list = []
+    if "relax" in records and records["relax"].status == "done":
+        jobs.append(("report figure of relax", partial(stage_figures, out, "relax", syn)))
+    if "compare" in side:
+        jobs.append(("report figures of compare", partial(stage_figures, out, "compare", syn), "compare"))
+    return jobs
 
 
 def _write_run_yaml(out, records, inp, config, ctx, write_result) -> None:

@@ -52,3 +52,29 @@ def test_an_output_the_file_system_refuses_is_exit_2(repo_root, tmp_path):
     res = runner.invoke(app, ["fit", "relax", str(log), "--out", str(blocker / "sub" / "fit.yaml")])
     assert res.exit_code == 2, res.output
     assert "internal error" not in res.output
+
+
+def test_console_script_exit_keeps_output_status_and_exit_handlers(tmp_path):
+    """The console script ends without the interpreter's teardown (bpmid.cli._exit): everything printed arrives,
+    the exit status is the command's, SystemExit('message') prints it with status 1, atexit handlers run."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    marker = tmp_path / "atexit.txt"
+    code = ("import atexit, sys\n"
+            f"atexit.register(lambda: open({str(marker)!r}, 'w').write('ran'))\n"
+            "from bpmid.cli import _exit\n"
+            "sys.stdout.write('x' * 200000)\n"
+            "_exit(int(sys.argv[1]) if sys.argv[1].isdigit() else sys.argv[1])\n")
+    r = subprocess.run([sys.executable, "-c", code, "3"], env=env, capture_output=True, text=True, timeout=60)
+    assert r.returncode == 3 and len(r.stdout) == 200000 and marker.read_text() == "ran"
+    marker.unlink()
+    r = subprocess.run([sys.executable, "-c", code, "stopped: reason"], env=env, capture_output=True, text=True,
+                       timeout=60)
+    assert r.returncode == 1 and "stopped: reason" in r.stderr and marker.read_text() == "ran"
+    r = subprocess.run([sys.executable, "-m", "bpmid", "fit", "relax", str(tmp_path / "none.csv"), "--out",
+                        str(tmp_path / "x.yaml")], env=env, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "none.csv" in r.stderr + r.stdout
+    assert not (tmp_path / "x.yaml").exists()

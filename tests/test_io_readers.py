@@ -328,3 +328,48 @@ def test_control_references_use_the_same_readers(tmp_path):
     f.write_text("time_s,angle_deg\n0,45\n0.1,46,5\n0.2,48\n")
     with pytest.raises(InputError, match="row has 3 fields"):
         read_reference(f, 10.0)
+
+
+def test_reading_once_parses_a_file_once_and_hands_out_copies(tmp_path, monkeypatch):
+    """Inside reading_once (bpmid run) a log read again the same way is parsed once; each reader gets its own copy;
+    a changed file, other options or a read outside the block parse again; a failed read is not kept."""
+    import os
+
+    import bpmid.io.motion_logs as ML
+    import bpmid.io.relax_logs as RL
+    from bpmid.io.read_once import reading_once
+
+    src = sorted((ROOT / "datasets" / "motion" / "fitting_set").glob("*.csv"))[0]
+    log_path = tmp_path / "fit.csv"
+    shutil.copy(src, log_path)
+    calls = []
+    real = ML._read_motion_log
+    monkeypatch.setattr(ML, "_read_motion_log", lambda *a: calls.append(a[0]) or real(*a))
+    with reading_once():
+        a = read_motion_log(log_path, require_angle=True)
+        b = read_motion_log(log_path, require_angle=True)
+        assert len(calls) == 1
+        np.testing.assert_array_equal(a.angle_deg, b.angle_deg)
+        b.angle_deg[:] = 0.0  # one caller's change never reaches another
+        c = read_motion_log(log_path, require_angle=True)
+        assert len(calls) == 1 and np.array_equal(c.angle_deg, a.angle_deg) and c.angle_deg.any()
+        read_motion_log(log_path, IOConfig(max_gap_factor=50.0), require_angle=True)  # other options: parsed
+        assert len(calls) == 2
+        st = log_path.stat()
+        log_path.write_text(log_path.read_text().replace("\n", "\n", 1) + "\n")  # changed on disk
+        os.utime(log_path, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+        read_motion_log(log_path, require_angle=True)
+        assert len(calls) == 3
+        with pytest.raises(InputError, match="missing.csv"):
+            read_motion_log(tmp_path / "missing.csv")
+        assert len(calls) == 4  # parsed, failed, not kept
+        rel = _relax_csv()
+        r1, r2 = read_relax_log(rel), read_relax_log(rel)
+        assert r1 is not r2 and np.array_equal(r1.stress_mpa, r2.stress_mpa)
+        rcalls = []
+        monkeypatch.setattr(RL, "_read_relax_log", lambda *a: rcalls.append(a) or None)
+        read_relax_log(rel)
+        assert rcalls == []  # the relaxation log came from the first read
+    read_motion_log(log_path, require_angle=True)
+    read_motion_log(log_path, require_angle=True)
+    assert len(calls) == 6  # outside the block every read parses

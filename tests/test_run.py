@@ -1,6 +1,7 @@
 """bpmid run: every stage on a small config, reproducible numbers, config errors naming key and path."""
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -77,17 +78,32 @@ def study_runs(tmp_path_factory):
     """The small study run twice into two folders (same config), with timing off so every file is reproducible
     to the byte, and without the report and the per-log comparison figures (they present the numbers compared
     here; the full run with them is the session's ``timed_small_study``)."""
+    import os
+
+    import bpmid.report.figures as RF
+
     root = tmp_path_factory.mktemp("study")
     cfg = make_study(root)
-    text = cfg.read_text().replace("run:\n", f"run:\n  stages: {NUMBER_STAGES}\n", 1)
+    text = cfg.read_text().replace("run:\n", f"run:\n  stages: {NUMBER_STAGES[:-1]}, report]\n", 1)
     text = text.replace("figure_logs: 2", "figure_logs: 0")
     outs = []
+
+    def recorded(draw, what):  # where (which process) each of the report's own figures is drawn
+        def wrapper(root_dir, info, synthetic):
+            with open(Path(root_dir) / "drawn.txt", "a") as f:
+                f.write(f"{what} {os.getpid()}\n")
+            return draw(root_dir, info, synthetic)
+        return wrapper
+
     # run1 one stage after another in this process, run2 the stages after the motion fit side by side
-    for name, workers in (("run1", 1), ("run2", 2)):
-        cfg.write_text(text.replace("run:\n", f"run:\n  workers: {workers}\n", 1))
-        r = runner.invoke(app, ["run", str(cfg), "--out", str(root / name)])
-        assert r.exit_code == 0, r.output
-        outs.append(root / name)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(RF, "relax_figures", recorded(RF.relax_figures, "relax"))
+        mp.setattr(RF, "compare_figures", recorded(RF.compare_figures, "compare"))
+        for name, workers in (("run1", 1), ("run2", 2)):
+            cfg.write_text(text.replace("run:\n", f"run:\n  workers: {workers}\n", 1))
+            r = runner.invoke(app, ["run", str(cfg), "--out", str(root / name)])
+            assert r.exit_code == 0, r.output
+            outs.append(root / name)
     return cfg, outs
 
 
@@ -137,6 +153,29 @@ def test_two_runs_give_identical_metrics_files(study_runs):
         da, db = yaml.safe_load((a / f).read_text()), yaml.safe_load((b / f).read_text())
         for k in keys:
             assert da[k] == db[k], f"{f}: {k}"
+
+
+def test_report_figures_drawn_beside_the_stages_are_the_report_stage_s(study_runs):
+    """Side by side, the report's own figures are drawn in the stage processes as soon as their files are written
+    (each once), and the report uses them: the same files, to the byte, as the report draws itself in a run of one
+    stage after another."""
+    import os
+
+    _cfg, (a, b) = study_runs
+    here = str(os.getpid())
+    drawn_a = sorted(line.split() for line in (a / "drawn.txt").read_text().splitlines())
+    drawn_b = sorted(line.split() for line in (b / "drawn.txt").read_text().splitlines())
+    assert [w for w, _ in drawn_a] == [w for w, _ in drawn_b] == ["compare", "relax"]
+    assert all(pid == here for _, pid in drawn_a)
+    if sys.platform.startswith("linux"):  # side by side only where processes fork
+        assert all(pid != here for _, pid in drawn_b)
+    figs = sorted(p.name for p in (a / "report_figures").iterdir())
+    assert figs == sorted(p.name for p in (b / "report_figures").iterdir())
+    assert {"modulus_curves.png", "error_bands.png", "residuals.png"} <= set(figs)
+    for f in figs:
+        assert (a / "report_figures" / f).read_bytes() == (b / "report_figures" / f).read_bytes(), f
+    md = (b / "report.md").read_text()
+    assert all(f"report_figures/{f}" in md for f in ("modulus_curves.png", "error_bands.png", "residuals.png"))
 
 
 def test_report_figures_and_timing_do_not_change_the_numbers(study_runs, timed_small_study):
@@ -256,3 +295,35 @@ def test_negative_workers_is_refused_before_any_work(tmp_path):
     r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "out"), "--workers", "-1"])
     assert r.exit_code == 2 and "--workers" in r.output
     assert not (tmp_path / "out").exists()
+
+
+def test_side_by_side_jobs_wait_for_the_stage_they_are_drawn_from(tmp_path, monkeypatch):
+    """A figure job that waits for a stage starts only once that stage is done, even with a process free; what it
+    returns reaches ctx['drawn']; a job waiting for a stage that never runs is a bug, said as such."""
+    import time
+
+    import bpmid.run as R
+
+    if not sys.platform.startswith("linux"):
+        pytest.skip("side by side only where processes fork (Linux)")
+
+    def slow(inp, out, config, ctx):
+        time.sleep(0.3)
+        (out / "slow.done").write_text("done")
+        return ["slow.done"]
+
+    def quick(inp, out, config, ctx):
+        return []
+
+    monkeypatch.setitem(R.STAGE_FUNCTIONS, "slowstage", slow)
+    monkeypatch.setitem(R.STAGE_FUNCTIONS, "quickstage", quick)
+    out = tmp_path
+
+    def figure():
+        return {"seen": (out / "slow.done").read_text()}  # FileNotFoundError if it ran too early
+
+    ctx: dict = {}
+    done = R._run_side_by_side(["slowstage", ("fig", figure, "slowstage"), "quickstage"], 2, None, out, None, ctx)
+    assert set(done) == {"slowstage", "quickstage"} and ctx["drawn"] == {"seen": "done"}
+    with pytest.raises(RuntimeError, match="waits for nostage"):
+        R._run_side_by_side([("fig", figure, "nostage")], 2, None, out, None, {})

@@ -24,6 +24,46 @@ def _quiet_first(argv: list[str]) -> list[str]:
 
 
 def main() -> None:
+    """The console script: the command, then :func:`_exit`."""
     import sys
 
-    app(args=_quiet_first(sys.argv[1:]), prog_name="bpmid")
+    try:
+        app(args=_quiet_first(sys.argv[1:]), prog_name="bpmid")
+        code = 0
+    except SystemExit as e:
+        code = e.code
+    _exit(code)
+
+
+def _exit(code) -> None:
+    """End the process with ``code`` (as ``SystemExit`` would) without the interpreter's teardown.
+
+    Tearing down the modules a command has loaded (numba's compiled code, llvmlite, matplotlib, scipy) took 0.5-0.6 s
+    after ``bpmid run`` (measured from the command's return to the shell's prompt), a twentieth of the run. Every
+    file a command writes is closed (and renamed into place) before it returns, so nothing is lost: the ``atexit``
+    handlers still run (temporary folders, logging), the standard streams are flushed, and the usual exit is used
+    when a non-daemon thread is still running (the interpreter would wait for it) or ``BPMID_SLOW_EXIT`` is set.
+    Only the console script ends this way; a command called in-process (tests, ``CliRunner``) never does.
+    """
+    import atexit
+    import os
+    import sys
+    import threading
+
+    if code is None:
+        code = 0
+    elif not isinstance(code, int):  # SystemExit("message"): printed to stderr, exit status 1
+        print(code, file=sys.stderr)
+        code = 1
+    if os.environ.get("BPMID_SLOW_EXIT") or any(t.is_alive() and not t.daemon for t in threading.enumerate()
+                                                if t is not threading.main_thread()):
+        raise SystemExit(code)
+    try:
+        atexit._run_exitfuncs()
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError, AttributeError):  # closed or replaced by the caller
+                pass
+        os._exit(code)

@@ -192,8 +192,15 @@ def _reference(table, io_cfg: IOConfig, path: Path) -> tuple[str, str]:
 
 def read_motion_log(path: str | Path, io_cfg: IOConfig | None = None, *, require_angle: bool = False) -> MotionLog:
     """Read one motion log (see module docstring). Errors name the file and line."""
+    from bpmid.io.read_once import read_once
+
     io_cfg = io_cfg or IOConfig()
     path = Path(path)
+    return read_once("motion log", path, (repr(io_cfg), require_angle),
+                     lambda: _read_motion_log(path, io_cfg, require_angle))
+
+
+def _read_motion_log(path: Path, io_cfg: IOConfig, require_angle: bool) -> MotionLog:
     required = ("time", "pressure") + (("angle",) if require_angle else ())
     table = read_table(path, column_map=io_cfg.columns, required=required, optional=("angle",), kind="motion log",
                        units=io_cfg.units, unit_sources=io_cfg.unit_sources(), sheet=io_cfg.sheet)

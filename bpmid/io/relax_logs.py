@@ -142,7 +142,15 @@ def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = N
     io_cfg : the config section ``io`` (:class:`bpmid.io.motion_logs.IOConfig`): units, sheet, column map and
         ``max_gap_s`` stated there or by the command-line flags
     """
+    from bpmid.io.read_once import read_once
+
     path = Path(path)
+    return read_once("relaxation log", path, (repr(column_map), gauge_length_mm, cross_section_mm2, gap_factor,
+                                              repr(io_cfg)),
+                     lambda: _read_relax_log(path, column_map, gauge_length_mm, cross_section_mm2, gap_factor, io_cfg))
+
+
+def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, gap_factor, io_cfg) -> RelaxLog:
     opts = _table_options(column_map, io_cfg)
     table = read_table(path, kind=KIND, optional=("time",), **opts)
     if table.has("modulus"):

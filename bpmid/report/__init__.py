@@ -63,9 +63,11 @@ class ReportResult:
                 + [f"stage {s}: {why}" for s, why in self.stale.items()])
 
 
-def report_study(out_dir: str | Path, *, title: str = "bpmid study report", figures: str | None = None) -> ReportResult:
+def report_study(out_dir: str | Path, *, title: str = "bpmid study report", figures: str | None = None,
+                 drawn: dict[str, str] | None = None) -> ReportResult:
     """Write ``out_dir/report.html`` and ``out_dir/report.md``; ``figures``: 'png', 'svg' or 'pdf' for the
-    figures the report draws (default: the current format, PNG).
+    figures the report draws (default: the current format, PNG); ``drawn``: those of its figures already drawn
+    from the same files (:func:`bpmid.report.figures.stage_figures`: ``bpmid run`` draws them beside its stages).
 
     InputError when the folder holds no readable stage output at all (the message names the unusable files).
     """
@@ -79,7 +81,7 @@ def report_study(out_dir: str | Path, *, title: str = "bpmid study report", figu
                          "compare/, history_modes.yaml, discover/discovery.yaml or control/)"
                          + (f"; {what}" if what else ""), path=out_dir)
     with figure_format_as(figures) if figures else contextlib.nullcontext():
-        figs = make_figures(st)
+        figs = make_figures(st, drawn)
         doc = build_report(st, figs)
     root = Path(out_dir)
     md = write_text(root / "report.md", render_markdown(doc, title))
@@ -87,9 +89,10 @@ def report_study(out_dir: str | Path, *, title: str = "bpmid study report", figu
     return ReportResult(page, md, st.problems, st.stale)
 
 
-def write_report(out_dir: str | Path, *, title: str = "bpmid study report", figures: str | None = None) -> tuple[Path, Path]:
+def write_report(out_dir: str | Path, *, title: str = "bpmid study report", figures: str | None = None,
+                 drawn: dict[str, str] | None = None) -> tuple[Path, Path]:
     """:func:`report_study`, returning the two paths."""
-    r = report_study(out_dir, title=title, figures=figures)
+    r = report_study(out_dir, title=title, figures=figures, drawn=drawn)
     return r.html, r.markdown
 
 

@@ -25,24 +25,62 @@ def find_figure(root: Path, stem: str) -> str | None:
     return None
 
 
-def make_figures(st: Study) -> dict[str, str]:
-    """Draw the report's own figures; returns key -> path relative to DIR."""
-    from bpmid.plots import report as RP
+def _save(root: Path, figs: dict, key: str, fig, name: str) -> None:
     from bpmid.plots.common import save_figure
 
+    p = save_figure(fig, root / FIGURE_DIR / f"{name}.png", png_twin=True)
+    figs[key] = p.relative_to(root).as_posix()
+
+
+def relax_figures(root: Path, relax, synthetic: bool) -> dict[str, str]:
+    """The report's figure of the relaxation fit (``relax``: :class:`~bpmid.report.inputs.RelaxInfo`)."""
+    from bpmid.plots import report as RP
+
     figs: dict[str, str] = {}
-    fdir = st.root / FIGURE_DIR
+    _save(root, figs, "modulus", RP.modulus_curves(relax.raw, paper=PAPER_RELAX, synthetic=synthetic), "modulus_curves")
+    return figs
 
-    def save(key, fig, name):
-        p = save_figure(fig, fdir / f"{name}.png", png_twin=True)
-        figs[key] = p.relative_to(st.root).as_posix()
 
-    if st.relax is not None:
-        save("modulus", RP.modulus_curves(st.relax.raw, paper=PAPER_RELAX, synthetic=st.synthetic), "modulus_curves")
-    c = st.compare
-    if c is not None and c.predictions:
-        models = list(c.summary["model"])
-        save("bands", RP.error_bands(c.predictions, models, synthetic=st.synthetic), "error_bands")
-        frames = [f for v in c.predictions.values() for f in v]
-        save("residuals", RP.residual_diagnostics(frames, models, synthetic=st.synthetic), "residuals")
+def compare_figures(root: Path, compare, synthetic: bool) -> dict[str, str]:
+    """The report's figures of the comparison's predictions (``compare``: :class:`~bpmid.report.inputs.CompareInfo`)."""
+    from bpmid.plots import report as RP
+
+    figs: dict[str, str] = {}
+    if compare.predictions:
+        models = list(compare.summary["model"])
+        _save(root, figs, "bands", RP.error_bands(compare.predictions, models, synthetic=synthetic), "error_bands")
+        frames = [f for v in compare.predictions.values() for f in v]
+        _save(root, figs, "residuals", RP.residual_diagnostics(frames, models, synthetic=synthetic), "residuals")
+    return figs
+
+
+#: the stages whose outputs the report's own figures are drawn from
+FIGURE_STAGES = ("relax", "compare")
+
+
+def stage_figures(root: str | Path, stage: str, synthetic: bool) -> dict[str, str]:
+    """Draw the report's figures of one stage (:data:`FIGURE_STAGES`) from that stage's files under ``root``,
+    as :func:`make_figures` draws them; ``bpmid run`` draws them beside its other stages, as soon as the stage's
+    files are written, and hands them to the report (``drawn``). Returns key -> path relative to ``root``."""
+    from bpmid.report.inputs import _Reader, load_compare, load_relax
+
+    root = Path(root)
+    rd = _Reader(root)
+    if stage == "relax":
+        info = load_relax(rd)
+        return {} if info is None else relax_figures(root, info, synthetic)
+    if stage == "compare":
+        info = load_compare(rd)
+        return {} if info is None else compare_figures(root, info, synthetic)
+    raise ValueError(f"no report figures for stage {stage!r} (those of {', '.join(FIGURE_STAGES)})")
+
+
+def make_figures(st: Study, drawn: dict[str, str] | None = None) -> dict[str, str]:
+    """Draw the report's own figures; returns key -> path relative to DIR. ``drawn``: figures already drawn from
+    this study's files (:func:`stage_figures`), used as they are."""
+    figs: dict[str, str] = dict(drawn or {})
+    if st.relax is not None and "modulus" not in figs:
+        figs.update(relax_figures(st.root, st.relax, st.synthetic))
+    if st.compare is not None and not {"bands", "residuals"} & set(figs):
+        figs.update(compare_figures(st.root, st.compare, st.synthetic))
     return figs
