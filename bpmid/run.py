@@ -780,7 +780,10 @@ def _run_stages(config, rc: RunConfig, inp: RunInputs, out: Path, ctx: dict, wri
             if stage not in records:  # the first of them (they follow each other in STAGES): run them all now
                 figures = ctx.pop("deferred", [])[::-1]  # the motion figure (the larger) first
                 at = side.index("history") + 1 if "history" in side else len(side)
-                jobs = side[:at] + figures + side[at:] + _report_figure_jobs(out, side, records, todo, ctx)
+                of_relax, of_compare = _report_figure_jobs(out, side, records, todo, ctx)
+                # longest first: the comparison's report figures (about 1 s) as soon as a process is free after
+                # the comparison, the relaxation's (0.3 s) last
+                jobs = [j for j in side[:at] + [of_compare] + figures + side[at:] + [of_relax] if j is not None]
                 records.update(_run_side_by_side(jobs, workers, inp, out, config, ctx))
             continue
         if stage == "report":  # run.yaml first, so the report can show the stages
@@ -790,23 +793,23 @@ def _run_stages(config, rc: RunConfig, inp: RunInputs, out: Path, ctx: dict, wri
     return so_far()
 
 
-def _report_figure_jobs(out: Path, side: list[str], records: dict, todo: list[str], ctx: dict) -> list:
+def _report_figure_jobs(out: Path, side: list[str], records: dict, todo: list[str], ctx: dict) -> tuple:
     """The report's own figures, drawn beside the stages as soon as the files they are drawn from are written
-    (the same drawing as in the report stage, which then only assembles the page): of the relaxation fit when
-    this run made it, of the comparison when it runs beside the others."""
+    (the same drawing as in the report stage, which then only assembles the page): ``(of the relaxation fit, of
+    the comparison)``, each a job of :func:`_run_side_by_side` or None (that stage did not run in this run, or
+    not beside the others, or there is no report)."""
     from functools import partial
 
     if "report" not in todo:
-        return []
+        return None, None
     from bpmid.report.figures import stage_figures
 
     syn = bool(ctx["synthetic"])
-    jobs: list = []
-    if "relax" in records and records["relax"].status == "done":
-        jobs.append(("report figure of relax", partial(stage_figures, out, "relax", syn)))
-    if "compare" in side:
-        jobs.append(("report figures of compare", partial(stage_figures, out, "compare", syn), "compare"))
-    return jobs
+    of_relax = (("report figure of relax", partial(stage_figures, out, "relax", syn))
+                if "relax" in records and records["relax"].status == "done" else None)
+    of_compare = (("report figures of compare", partial(stage_figures, out, "compare", syn), "compare")
+                  if "compare" in side else None)
+    return of_relax, of_compare
 
 
 def _write_run_yaml(out, records, inp, config, ctx, write_result) -> None:

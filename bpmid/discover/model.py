@@ -164,6 +164,7 @@ class LogNuisance:
         self.gain = bool(gain)
         self.labels = tuple(labels)
         self.mean_bounds = None if mean_bounds is None else np.asarray(mean_bounds, float)
+        self._keys: dict[int, tuple] = {}  # id(log) -> (log, key): a log's key computed once (not per residual)
 
     def __bool__(self) -> bool:
         return True
@@ -216,7 +217,10 @@ class LogNuisance:
     def columns(self, sim: np.ndarray, lg: MotionLog) -> np.ndarray:
         """(n, k) nuisance columns of one log: its prediction (the gain) and its frozen sensitivities."""
         cols = [np.nan_to_num(np.asarray(sim, float))[:, None]] if self.gain else []
-        b = self._bases.get(self.key(lg))
+        hit = self._keys.get(id(lg))
+        if hit is None or hit[0] is not lg:
+            hit = self._keys[id(lg)] = (lg, self.key(lg))
+        b = self._bases.get(hit[1])
         if b is not None and b.shape[0] == lg.n:
             cols.append(b)
         return np.column_stack(cols) if cols else np.zeros((lg.n, 0))
@@ -237,7 +241,7 @@ class LogNuisance:
             M = M + np.eye(k) * (1e-10 * max(float(np.trace(M)), 1e-300))
             Ms.append(M)
             bs.append(Cf.T @ rf)
-        Minv = [np.linalg.pinv(M) for M in Ms]
+        Minv = list(np.linalg.pinv(np.array(Ms)))  # one call for the stack: the same numbers as one per log
         n = len(Cs)
         # the logs' mean factor: zero on fitting logs (the common constants are the model's); on held-out logs
         # free within what sampling a few logs' variation allows (a common shift beyond it is an effect's)
