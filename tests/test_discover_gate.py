@@ -39,7 +39,7 @@ def test_holm_adjusted_p_values():
 
 def test_gate_passes_on_gain_share_and_holm_p_whatever_the_bic():
     assert judge(_conf(delta_bic=+50.0), THR) == []           # a positive delta BIC does not block
-    assert judge(_conf(heldout_gain_sigma=0.5), THR)[0].startswith("held-out error drop 0.50")
+    assert judge(_conf(heldout_gain_sigma=0.5), THR)[0].startswith("held-out error drop above the noise 0.50")
     assert any("share of the held-out gap" in r for r in judge(_conf(gap_share=0.1), THR))
     assert any("Holm-corrected" in r for r in judge(_conf(lr_p_holm=0.02), THR))
     words = gate_in_words(THR)
@@ -165,3 +165,75 @@ def test_fit_share_threshold_tells_a_whole_explanation_from_a_partial_one():
     # a candidate far stronger than any imitation (the first of two effects present at once) is not asked it
     assert judge(c, {**THR, "fit_share_min": 0.6, "fit_share_waived_above_sigma": 0.5}) == []
     assert len(judge(c, {**THR, "fit_share_min": 0.6, "fit_share_waived_above_sigma": 1.5})) == 1
+
+
+def test_gaps_are_the_error_above_the_noise_in_quadrature():
+    """Noise and a systematic error add in quadrature: a 0.3-floor systematic error raises the RMSE by 4 % of the
+    floor only; the gate's gain and shares are taken on sqrt(RMSE^2 - floor^2), so removing it counts 0.3 floors."""
+    from bpmid.discover.confirm import excess_deg, gap_share
+
+    f = 0.2
+    assert excess_deg(f, f) == 0.0 and excess_deg(0.9 * f, f) == 0.0
+    assert excess_deg(math.sqrt(2) * f, f) == pytest.approx(f)
+    before, after = math.hypot(f, 0.3 * f), f
+    assert (before - after) / f == pytest.approx(0.044, abs=1e-3)                      # the RMSE drop
+    assert (excess_deg(before, f) - excess_deg(after, f)) / f == pytest.approx(0.3)    # the gate's gain
+    assert gap_share(before, after, f) == pytest.approx(1.0)
+    assert gap_share(before, math.hypot(f, 0.15 * f), f) == pytest.approx(0.5)
+    assert math.isnan(gap_share(f, 0.5 * f, f))                                         # no gap to remove
+
+
+def _pair_records(case, first, second, g1, g2, wrong_g2=0.0):
+    """A two-effect case as the permissive calibration run records it: round 1 (both effects and a wrong one),
+    round 2 after ``first`` was added (the other effect and the wrong one)."""
+    truth = f"{first}+{second}"
+    mk = lambda rnd, cand, g, before: Record(truth, rnd, cand, g, 0.0, rnd > 1, 0.8 if g > 0.1 else 0.1, 1e-20, 1e-20,
+                                            True, True, case, 0.9, "pair", before)
+    return [mk(1, first, g1, ""), mk(1, second, g1 / 2, ""), mk(1, "angle_offset", 0.02, ""),
+            mk(2, second, g2, first), mk(2, "angle_offset", wrong_g2, first)]
+
+
+def test_calibration_scores_pairs_and_allows_a_few_out_of_catalogue_names():
+    """Pairs are calibration cases too: a gate is right on one when round 1 names one effect and round 2 (recorded
+    after that effect) the other. Among gates that name nothing on nulls and something on at most 10 % of the
+    out-of-catalogue cases, the one with the most right decisions wins: here a gain threshold low enough for the
+    weaker second effects of pairs, which names one of 10 out-of-catalogue cases."""
+    from bpmid.discover.calibrate import OOC_NAMED_MAX, _case_outcome
+
+    recs = []
+    for k in range(6):  # second effects: three at 0.2 noise floors, three at 0.4
+        recs += _pair_records(f"p{k}", "braid_friction", "angle_offset", 1.5, 0.2 if k < 3 else 0.4)
+    for k in range(10):  # a wrong candidate reaches 0.02-0.10 on nine cases outside the catalogue, 0.3 on one
+        recs.append(Record("none", 1, "strain_stiffening", 0.3 if k == 9 else 0.02 + 0.01 * k, 0.0, False, 0.9,
+                           1e-20, 1e-20, True, True, f"o{k}", 0.9, "out_of_catalogue", ""))
+    for k in range(5):
+        recs.append(Record("none", 1, "strain_stiffening", 0.02, 0.0, False, 0.9, 1e-20, 1e-20, True, True, f"n{k}",
+                           0.9, "null", ""))
+    one = [r for r in recs if r.case == "p0"]
+    assert _case_outcome(one, 0.15, 0.5, 1e-9) == (1, 0)      # both named
+    assert _case_outcome(one, 0.25, 0.5, 1e-9) == (0, 0)      # the second stays under the gate
+    thr = thresholds_from_records(recs)
+    assert OOC_NAMED_MAX == 0.1
+    # naming one of the ten cases outside the catalogue buys three pairs: allowed (at most 10 %), and chosen
+    assert thr["null_cases_named"] == 0 and thr["out_of_catalogue_named"] == 1, thr
+    assert thr["right_decisions"] == 6 + 5 + 9, thr             # every pair, every null, 9 of 10 outside
+    assert 0.1 < thr["heldout_gain_min_sigma"] <= 0.2
+    # two names outside the catalogue would not be allowed, however many pairs they bought
+    recs2 = [r for r in recs if r.case != "o8"] + [Record("none", 1, "strain_stiffening", 0.3, 0.0, False, 0.9,
+                                                          1e-20, 1e-20, True, True, "o8", 0.9, "out_of_catalogue", "")]
+    thr2 = thresholds_from_records(recs2)
+    assert thr2["out_of_catalogue_named"] == 0 and thr2["heldout_gain_min_sigma"] > 0.3, thr2
+    # a gate naming two of the ten would be infeasible, however many pairs it got right
+    wrong_first = _pair_records("px", "pressure_lag", "thermal_softening", 0.5, 0.5)
+    for r in wrong_first:
+        if r.round == 1 and r.candidate == "angle_offset":
+            r.gain_sigma, r.gap_share = 2.0, 0.9  # a wrong effect beats both in round 1
+    assert _case_outcome(wrong_first, 0.25, 0.5, 1e-9) == (0, 1)
+
+
+def test_sweep_records_pairs_for_the_calibration():
+    from bpmid.validation.sweep import calibration_truth
+
+    assert calibration_truth("pair", ["braid_friction", "angle_offset"]) == "braid_friction+angle_offset"
+    assert calibration_truth("single", ["pressure_lag"]) == "pressure_lag"
+    assert calibration_truth("out_of_catalogue", ["mullins"]) == "none"

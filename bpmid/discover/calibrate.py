@@ -1,12 +1,13 @@
 """Thresholds of the discovery loop's gate, calibrated on simulated data (never tuned by hand to one case).
 
 The gate (:func:`bpmid.discover.workflow.judge`) has three numbers whose meaning does not depend on any
-generator: ``heldout_gain_min_sigma`` (the held-out RMSE drop, in noise floors), ``gap_share_min`` (the share of
-the held-out gap above the noise floor the effect must remove) and ``family_alpha`` (the family-wise level of the
+generator: ``heldout_gain_min_sigma`` (the drop of the held-out error above the noise, ``sqrt(RMSE^2 - floor^2)``,
+in noise floors), ``gap_share_min`` (the share of that gap the effect must remove) and ``family_alpha`` (the family-wise level of the
 Holm-corrected likelihood-ratio tests of a round). :func:`thresholds_from_records` chooses them from the
-candidates recorded on a CALIBRATION set run with permissive thresholds (:data:`PERMISSIVE`): the values that
-reproduce the most right decisions case by case (a false positive on a case with nothing to find counts double),
-ties broken towards the stricter gate. The committed ``thresholds.yaml`` is written by the out-of-family sweep's
+candidates recorded on a CALIBRATION set run with permissive thresholds (:data:`PERMISSIVE`), pairs included: among
+the gates that name nothing on a null case and something on at most :data:`OOC_NAMED_MAX` of the out-of-catalogue
+cases, the values that reproduce the most right decisions case by case, wrong names counting double against, ties
+broken towards the stricter gate. The committed ``thresholds.yaml`` is written by the out-of-family sweep's
 calibration half (``bpmid calibrate``) or by ``python benchmarks/bench_discover.py --calibrate``.
 """
 from __future__ import annotations
@@ -159,7 +160,7 @@ class Record:
     truth: str            # injected effect id, or "none" (null or out-of-catalogue: nothing in the catalogue is true)
     round: int            # 1-based
     candidate: str
-    gain_sigma: float     # held-out RMSE drop in noise floors
+    gain_sigma: float     # drop of the held-out error above the noise (in quadrature), in noise floors
     delta_bic: float      # reported only
     truth_in_model: bool  # the injected effect was already added before this round
     gap_share: float = float("nan")
@@ -169,6 +170,8 @@ class Record:
     identifiable: bool = True
     case: str = ""        # which data set (records of one case are judged together)
     fit_share: float = float("nan")   # share of the fitting logs' gap above the floor the refit removed
+    kind: str = ""        # single, null, out_of_catalogue or pair ("" in records written before it existed)
+    named_before: str = ""  # the effects added before this round, joined by "+" (the permissive run's path)
 
     def __post_init__(self):
         # records read back from JSON carry None where a value was not a number
@@ -177,18 +180,21 @@ class Record:
             setattr(self, f, float("nan") if v is None else float(v))
 
 
-def records_from_result(truth: str, result, case: str | None = None) -> list[Record]:
-    """The confirmed candidates of a discovery result, labelled with the injected ``truth``."""
+def records_from_result(truth: str, result, case: str | None = None, kind: str = "") -> list[Record]:
+    """The confirmed candidates of a discovery result, labelled with the injected ``truth`` (a catalogue id,
+    ``none``, or two ids joined by ``+`` for a pair) and the case's ``kind``."""
     # deterministic (a resumed sweep must reproduce it): the data set's own numbers, never a time
     case = case or f"{truth}|{result.heldout_raw_before:.12g}|{result.noise_floor_deg:.12g}"
+    truths = set(truth.split("+"))
     out = []
     named_before: list[str] = []
     for k, rnd in enumerate(result.rounds, start=1):
         for c in rnd.confirmations:
             out.append(Record(truth, k, c.effect_id, float(c.heldout_gain_sigma), float(c.delta_bic),
-                              truth in named_before, float(c.gap_share), float(c.lr_p),
+                              bool(truths & set(named_before)), float(c.gap_share), float(c.lr_p),
                               float(c.lr_p_holm) if math.isfinite(c.lr_p_holm) else float(c.lr_p),
-                              bool(c.tested), bool(c.identifiable), case, float(c.fit_share)))
+                              bool(c.tested), bool(c.identifiable), case, float(c.fit_share), kind,
+                              "+".join(named_before)))
         if rnd.accepted:
             named_before.append(rnd.accepted)
     return out
@@ -212,15 +218,39 @@ def fit_share_waiver(records: Sequence[Record]) -> float:
     return math.ceil(max(neg) * 100.0 - 1e-9) / 100.0 if neg else math.inf
 
 
+def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive) -> str | None:
+    passing = [r for r in recs if _passes(r, g, share, alpha, fit_share, waive)]
+    return max(passing, key=lambda r: r.gain_sigma).candidate if passing else None
+
+
+def _pair_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
+                  fit_share: float = 0.0, waive: float = math.inf) -> tuple[int, int]:
+    """(both named, wrong names) the gate makes on a two-effect case: round 1 must name one of the two, the round
+    after it (recorded when the permissive run took the same first effect) the other one. When the gate's first
+    choice is not the one the recorded run continued from, the second round is unknown: not counted as right."""
+    truths = set(recs[0].truth.split("+"))
+    first = _first_passing([r for r in recs if r.round == 1], g, share, alpha, fit_share, waive)
+    if first is None:
+        return 0, 0
+    if first not in truths:
+        return 0, 1
+    later = [r for r in recs if r.round == 2 and r.named_before == first]
+    second = _first_passing(later, g, share, alpha, fit_share, waive) if later else None
+    if second is None:
+        return 0, 0
+    return (1, 0) if second in truths - {first} else (0, 1)
+
+
 def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
                   fit_share: float = 0.0, waive: float = math.inf) -> tuple[int, int]:
     """(right decisions, false positives) the gate (g, share, alpha) makes on one case's records: round 1 must
     name the truth (nothing, on a case with no catalogue truth); the round after the truth was added must name
-    nothing."""
+    nothing; on a pair, both effects must be named (:func:`_pair_outcome`)."""
     truth = recs[0].truth
+    if "+" in truth:
+        return _pair_outcome(recs, g, share, alpha, fit_share, waive)
     r1 = [r for r in recs if r.round == 1]
-    passing = [r for r in r1 if _passes(r, g, share, alpha, fit_share, waive)]
-    first = max(passing, key=lambda r: r.gain_sigma).candidate if passing else None
+    first = _first_passing(r1, g, share, alpha, fit_share, waive)
     if truth == "none":
         return (1, 0) if first is None else (0, 1)
     right = int(first == truth)
@@ -239,11 +269,40 @@ FIT_SHARES = (0.0, 0.3, 0.5, 0.6, 0.7, 0.8, 0.9)
 ALPHAS = (0.05, 0.01, 1e-3, 1e-4, 1e-6, 1e-9)
 
 
+#: the largest share of out-of-catalogue calibration cases the chosen gate may name something on (the target is
+#: nothing named on at least 80 %: half of the allowance, so the gate keeps a margin on data it has not seen)
+OOC_NAMED_MAX = 0.1
+
+
+def _tally(cases: Sequence[Sequence[Record]], g: float, sh: float, a: float, fs: float, waive: float) -> dict:
+    """Outcomes of one gate over the calibration cases: right decisions, wrong names (on cases with a catalogue
+    truth), names on nulls, names on out-of-catalogue cases."""
+    t = {"right": 0, "wrong": 0, "null_named": 0, "ooc_named": 0, "ooc": 0}
+    for recs in cases:
+        rr, ff = _case_outcome(recs, g, sh, a, fs, waive)
+        t["right"] += rr
+        kind = recs[0].kind
+        if recs[0].truth == "none" and kind == "out_of_catalogue":
+            t["ooc"] += 1
+            t["ooc_named"] += ff
+        elif recs[0].truth == "none":
+            t["null_named"] += ff
+        else:
+            t["wrong"] += ff
+    return t
+
+
 def thresholds_from_records(records: Sequence[Record]) -> dict:
     """The gate's thresholds from calibration records (see module docstring): a grid over the held-out gain
     (0 .. 1 noise floor in steps of 0.01, then to 6 in steps of 0.25), the held-out gap share (0 .. 0.9), the
-    fitting-gap share (:data:`FIT_SHARES`) and the family-wise alpha (:data:`ALPHAS`); the value with the most
-    right decisions minus twice the false positives wins, ties to the stricter gate."""
+    fitting-gap share (:data:`FIT_SHARES`) and the family-wise alpha (:data:`ALPHAS`).
+
+    Among the gates that name nothing on any null case and something on at most :data:`OOC_NAMED_MAX` of the
+    out-of-catalogue cases, the one with the most right decisions (a single effect named first, both effects of a
+    pair named, nothing named where nothing in the catalogue is true) minus twice the wrong names (another effect,
+    or a further one after the truth) minus the names on out-of-catalogue cases wins; ties go to the stricter gate.
+    Records without a case kind (written before pairs were recorded) count every case with nothing to find as a
+    null."""
     by_case: dict[str, list[Record]] = {}
     for r in records:
         by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
@@ -256,22 +315,23 @@ def thresholds_from_records(records: Sequence[Record]) -> dict:
         for sh in shares:
             for a in ALPHAS:
                 for g in gains:
-                    right = fp = 0
-                    for recs in cases:
-                        rr, ff = _case_outcome(recs, float(g), float(sh), a, fs, waive)
-                        right += rr
-                        fp += ff
-                    key = (right - 2 * fp, g, sh, fs, -a)       # ties: the stricter gate
+                    t = _tally(cases, float(g), float(sh), a, fs, waive)
+                    feasible = t["null_named"] == 0 and t["ooc_named"] <= OOC_NAMED_MAX * t["ooc"]
+                    score = t["right"] - 2 * t["wrong"] - t["ooc_named"] - 2 * t["null_named"]
+                    key = (feasible, score, g, sh, fs, -a)       # ties: the stricter gate
                     if best_key is None or key > best_key:
-                        best_key, best = key, (float(g), float(sh), float(a), float(fs), right, fp)
+                        best_key, best = key, (float(g), float(sh), float(a), float(fs), t)
     if best is None:
-        best = (1.0, 0.25, 0.01, 0.0, 0, 0)
-    g, sh, a, fs, right, fp = best
-    pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate == r.truth]
-    neg = [r for r in records if r.truth == "none" or r.truth_in_model]
+        best = (1.0, 0.25, 0.01, 0.0, {"right": 0, "wrong": 0, "null_named": 0, "ooc_named": 0, "ooc": 0})
+    g, sh, a, fs, t = best
+    pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate in r.truth.split("+")]
+    neg = [r for r in records if r.truth == "none" or (r.truth_in_model and "+" not in r.truth)]
     return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
             "fit_share_waived_above_sigma": waive,
-            "n_cases": len(cases), "right_decisions": int(right), "false_positives": int(fp),
+            "n_cases": len(cases), "right_decisions": int(t["right"]),
+            "false_positives": int(t["wrong"] + t["null_named"] + t["ooc_named"]),
+            "wrong_names": int(t["wrong"]), "null_cases_named": int(t["null_named"]),
+            "out_of_catalogue_named": int(t["ooc_named"]), "out_of_catalogue_cases": int(t["ooc"]),
             "n_positive": len(pos), "n_negative": len(neg),
             "positive_gain_min": float(min((r.gain_sigma for r in pos), default=float("nan"))),
             "negative_gain_max": float(max((r.gain_sigma for r in neg), default=float("nan")))}

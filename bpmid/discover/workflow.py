@@ -10,8 +10,9 @@ thresholds: :mod:`bpmid.discover.calibrate`):
 
 - its refit really tested it: started from the screening regression's estimate and from a grid over the effect's
   physical range; a refit that did not move is reported "not tested", never counted as evidence against it,
-- a held-out RMSE drop of at least ``heldout_gain_min_sigma`` noise floors that removes at least
-  ``gap_share_min`` of the held-out gap (RMSE minus the noise floor),
+- a drop of the held-out error above the noise of at least ``heldout_gain_min_sigma`` noise floors that removes at
+  least ``gap_share_min`` of that gap (the gap is the RMSE above the noise floor in quadrature,
+  ``sqrt(RMSE^2 - floor^2)``: noise and a systematic error add that way, :func:`bpmid.discover.confirm.excess_deg`),
 - a likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) that passes at
   family-wise level ``family_alpha`` after a Holm correction over every candidate screened in the round,
 - at least one of its own parameters identifiable (the others held).
@@ -63,8 +64,9 @@ class DiscoverConfig:
     base_max_nfev : function-evaluation budget of each base fit; a fit that runs out did not converge (exit 2)
     base_starts : starts of the base fit refitted (best of the given start and scaled variants of it)
     confirm_max_nfev : budget of each augmented refit (fixed: the cost grows linearly with the data)
-    heldout_gain_min_sigma : accept only if the held-out RMSE drops by this many noise floors (None: calibrated)
-    gap_share_min : accept only if the drop removes at least this share of the held-out gap (None: calibrated)
+    heldout_gain_min_sigma : accept only if the held-out error above the noise (``sqrt(RMSE^2 - floor^2)``) drops by
+        this many noise floors (None: calibrated)
+    gap_share_min : accept only if the drop removes at least this share of that gap (None: calibrated)
     family_alpha : family-wise level of the Holm-corrected likelihood-ratio tests of a round (None: calibrated)
     fit_share_min : accept only if the refit removes at least this share of the fitting logs' gap above the noise
         floor (None: calibrated; 0: no such condition) ...
@@ -133,8 +135,9 @@ def gate_in_words(thr: dict) -> str:
     """The acceptance rule, as printed in discovery.yaml and the verdict."""
     return (f"an effect is named only if (1) its refit really tested it (started from the screening estimate and "
             f"from a grid over its physical range; a refit that did not move counts as 'not tested', never as "
-            f"evidence against), (2) it cuts the held-out RMSE by at least {thr['heldout_gain_min_sigma']:.2f} "
-            f"noise floors and removes at least {thr['gap_share_min']:.0%} of the held-out gap above the floor"
+            f"evidence against), (2) it cuts the held-out error above the noise (sqrt(RMSE^2 - floor^2)) by at least "
+            f"{thr['heldout_gain_min_sigma']:.2f} noise floors, removing at least {thr['gap_share_min']:.0%} of "
+            f"that gap"
             + (f" and its refit removes at least {thr['fit_share_min']:.0%} of the fitting logs' gap (not asked of a "
                f"held-out gain above {thr.get('fit_share_waived_above_sigma', math.inf):.2f} noise floors, more than "
                f"any wrong candidate's on the calibration cases with nothing to find)"
@@ -271,7 +274,8 @@ def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
     return (f"{e.describe(c.state.params)}: {e.meaning}. Where it shows: {e.where_it_shows}. Here the residual "
             f"{residual_feature(rnd.diagnostics)}, and the effect's signature explains {s.explained:.0%} of what the "
             f"model left; adding it cut the held-out error from {c.heldout_rmse_before:.2f} to "
-            f"{c.heldout_rmse_after:.2f} deg ({c.heldout_gain_sigma:.1f} noise floors of {floor:.2f} deg; "
+            f"{c.heldout_rmse_after:.2f} deg (its part above the noise by {c.heldout_gain_sigma:.2f} noise floors of "
+            f"{floor:.2f} deg; "
             f"likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected {c.lr_p_holm:.2g})")
 
 
@@ -567,7 +571,8 @@ def judge(c: Confirmation, thr: dict, floor: float | None = None) -> list[str]:
     if not c.identifiable:
         why.append("none of its parameters is identifiable: " + "; ".join(f"{k}: {v}" for k, v in c.not_identifiable.items()))
     if not math.isfinite(c.heldout_gain_sigma) or c.heldout_gain_sigma < thr["heldout_gain_min_sigma"]:
-        why.append(f"held-out error drop {c.heldout_gain_sigma:.2f} noise floors < {thr['heldout_gain_min_sigma']:.2f}")
+        why.append(f"held-out error drop above the noise {c.heldout_gain_sigma:.2f} noise floors < "
+                   f"{thr['heldout_gain_min_sigma']:.2f}")
     if not (math.isfinite(c.gap_share) and c.gap_share >= thr["gap_share_min"]):
         share = f"{c.gap_share:.0%}" if math.isfinite(c.gap_share) else "none (no held-out gap above the floor)"
         why.append(f"share of the held-out gap removed {share} < {thr['gap_share_min']:.0%}")

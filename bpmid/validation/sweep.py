@@ -201,11 +201,14 @@ def _plain_result(res) -> dict:
 
 def calibration_truth(case_kind: str, truth_ids: Sequence[str]) -> Optional[str]:
     """The ``truth`` handed to ``records_from_result``: the id for a single effect, ``none`` for a null and for an
-    out-of-catalogue case (nothing in the catalogue is true there), None (no calibration records) for a pair."""
+    out-of-catalogue case (nothing in the catalogue is true there), the two ids joined by ``+`` for a pair, None
+    (no calibration records) for anything else."""
     if case_kind == "single":
         return truth_ids[0]
     if case_kind in ("null", "out_of_catalogue"):
         return "none"
+    if case_kind == "pair" and len(truth_ids) == 2:
+        return "+".join(truth_ids)
     return None
 
 
@@ -252,7 +255,7 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
         else:
             rec.update(_plain_result(res))
             truth = calibration_truth(case.kind, rec["truth_ids"])
-            recs = records_from_result(truth, res) if truth is not None else []
+            recs = records_from_result(truth, res, kind=case.kind) if truth is not None else []
             rec["calibration_truth"] = truth
             rec["calibration_records"] = [_record_dict(r) for r in recs]
             rec["error"] = None
@@ -523,7 +526,8 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     evaluated = "heldout" if "heldout" in phases else "calibration"
     recs = [done[c.id] for c in halves[evaluated]]
     summary = summarize(recs, evaluated)
-    summary["thresholds"] = ({k: round(float(v), 4) for k, v in thresholds.items()} if thresholds and
+    # 4 significant digits (rounding to 4 decimals wrote a family alpha of 1e-9 as 0)
+    summary["thresholds"] = ({k: float(f"{float(v):.4g}") for k, v in thresholds.items()} if thresholds and
                              evaluated == "heldout" else "permissive (calibration half)")
     files.update(write_tables(out, summary, recs))
     for phase in phases:
