@@ -237,3 +237,31 @@ def test_sweep_records_pairs_for_the_calibration():
     assert calibration_truth("pair", ["braid_friction", "angle_offset"]) == "braid_friction+angle_offset"
     assert calibration_truth("single", ["pressure_lag"]) == "pressure_lag"
     assert calibration_truth("out_of_catalogue", ["mullins"]) == "none"
+
+
+def test_calibration_tallies_every_gain_at_once_as_case_by_case():
+    """The calibration scores every gain threshold of a gate at once; its counts equal the case-by-case ones."""
+    from bpmid.discover.calibrate import _tally, _tally_gains
+
+    rng = np.random.default_rng(11)
+    effects = ["braid_friction", "pressure_lag", "angle_offset", "second_relaxation"]
+    recs = []
+    for k in range(40):
+        kind = ["single", "null", "out_of_catalogue", "pair"][k % 4]
+        truth = {"single": effects[k % 3], "pair": "braid_friction+pressure_lag"}.get(kind, "none")
+        first = str(rng.choice(effects))
+        for rnd in (1, 2):
+            for c in effects:
+                g = float(rng.normal(0.2, 0.2)) if rng.random() > 0.05 else float("nan")
+                recs.append(Record(truth, rnd, c, g, 0.0, rnd == 2 and first in truth.split("+"),
+                                   float(rng.uniform(-0.2, 1.0)), 1e-9, float(10 ** rng.uniform(-12, -1)), True,
+                                   bool(rng.random() > 0.1), f"c{k}", float(rng.uniform(0, 1)), kind,
+                                   first if rnd == 2 else ""))
+    cases = [[r for r in recs if r.case == f"c{k}"] for k in range(40)]
+    gains = np.round(np.arange(0.0, 0.6, 0.01), 2)
+    for sh, a, fs, w in ((0.0, 0.05, 0.0, math.inf), (0.3, 1e-4, 0.5, 0.3), (0.5, 1e-9, 0.8, 0.15)):
+        tg = _tally_gains(cases, gains, sh, a, fs, w)
+        for i, g in enumerate(gains):
+            t = _tally(cases, float(g), sh, a, fs, w)
+            assert {k: int(tg[k][i]) for k in ("right", "wrong", "null_named", "ooc_named")} == \
+                {k: t[k] for k in ("right", "wrong", "null_named", "ooc_named")}, (sh, a, fs, w, g)
