@@ -27,6 +27,9 @@ def main(argv=None) -> int:
     from bpmid.discover.calibrate import Record, _case_outcome, thresholds_from_records, write_thresholds
     from bpmid.validation.sweep import GENERATOR, load_sweep
 
+    missing = [str(p) for p in a.records if not p.is_file()]
+    if missing:
+        ap.error(f"records file not found: {', '.join(missing)} (a finished sweep's OUT/records.jsonl)")
     cfgs = [load_sweep(c) for c in a.configs]
     recs = [r for path in a.records for r in (json.loads(line) for line in open(path) if line.strip())
             if r.get("split") == "calibration"]

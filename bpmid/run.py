@@ -692,7 +692,7 @@ def _run_side_by_side(jobs: list, workers: int, inp: RunInputs, out: Path, confi
     parent = os.getpid()
     try:
         while todo or running:
-            while len(running) < workers:
+            while todo and len(running) < workers:
                 ready = [j for j in todo if _job_after(j) is None or _job_after(j) in done]
                 if not ready:
                     if not running:  # waits for a stage that is not among the jobs: a bug, not the user's

@@ -1,14 +1,16 @@
 """Thresholds of the discovery loop's gate, calibrated on simulated data (never tuned by hand to one case).
 
-The gate (:func:`bpmid.discover.workflow.judge`) has three numbers whose meaning does not depend on any
-generator: ``heldout_gain_min_sigma`` (the drop of the held-out error above the noise, ``sqrt(RMSE^2 - floor^2)``,
-in noise floors), ``gap_share_min`` (the share of that gap the effect must remove) and ``family_alpha`` (the family-wise level of the
-Holm-corrected likelihood-ratio tests of a round). :func:`thresholds_from_records` chooses them from the
-candidates recorded on a CALIBRATION set run with permissive thresholds (:data:`PERMISSIVE`), pairs included: among
-the gates that name nothing on a null case and something on so few out-of-catalogue cases that the naming rate
-stays under 20 % with 90 % confidence (:func:`ooc_names_allowed`), the values that reproduce the most right decisions case by case, wrong names counting double against, ties
-broken towards the stricter gate. The committed ``thresholds.yaml`` is written by the out-of-family sweep's
-calibration half (``bpmid calibrate``) or by ``python benchmarks/bench_discover.py --calibrate``.
+The gate (:func:`bpmid.discover.workflow.judge`) has numbers whose meaning does not depend on any generator:
+``heldout_gain_min_sigma`` (the drop of the held-out error above the noise, ``sqrt(RMSE^2 - floor^2)``, in noise
+floors), ``gap_share_min`` (the share of that gap the effect must remove), ``family_alpha`` (the family-wise level
+of the Holm-corrected likelihood-ratio tests of a round) and the fitting-share condition.
+:func:`thresholds_from_records` chooses them from the candidates recorded on a CALIBRATION set run with permissive
+thresholds (:data:`PERMISSIVE`), pairs included: among the gates that name nothing on a null case and something on
+so few out-of-catalogue cases that the naming rate stays under 20 % with 90 % confidence
+(:func:`ooc_names_allowed`), the values that reproduce the most right decisions case by case, wrong names counting
+double against, ties broken towards the stricter gate. The committed ``thresholds.yaml`` is written by
+``python benchmarks/recalibrate.py`` from the calibration halves of out-of-family sweeps (``bpmid calibrate``), or by
+``python benchmarks/bench_discover.py --calibrate``.
 """
 from __future__ import annotations
 
@@ -212,8 +214,7 @@ def fit_share_waiver(records: Sequence[Record]) -> float:
     """Held-out gain (noise floors) above which (strictly) the fitting-gap share is not asked: any candidate
     reached in round 1 on a calibration case with nothing in the catalogue to find (nulls, effects outside the
     catalogue), rounded up to 0.01. A candidate that strong is no imitation of an absent effect, and asking it to
-    explain most of the fitting gap alone would refuse the first of two effects present at once (pairs, whose
-    records the calibration cannot score)."""
+    explain most of the fitting gap alone would refuse the first of two effects present at once."""
     neg = [r.gain_sigma for r in records if r.truth == "none" and r.round == 1 and math.isfinite(r.gain_sigma)]
     return math.ceil(max(neg) * 100.0 - 1e-9) / 100.0 if neg else math.inf
 
