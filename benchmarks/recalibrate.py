@@ -36,7 +36,7 @@ def main(argv=None) -> int:
     R = [Record(**x) for rec in recs for x in (rec.get("calibration_records") or [])]
     values = thresholds_from_records(R)
     gate = tuple(values[k] for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min",
-                                     "fit_share_waived_above_sigma"))
+                                     "fit_share_waived_above_sigma", "heldout_gain_min_sigma_later"))
     tally = Counter()
     for rec in recs:
         rs = [Record(**x) for x in (rec.get("calibration_records") or [])]

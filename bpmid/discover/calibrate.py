@@ -29,13 +29,15 @@ from bpmid.params import ParamSet
 
 THRESHOLDS_PATH = Path(__file__).with_name("thresholds.yaml")
 THRESHOLD_KEYS = ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min",
-                  "fit_share_waived_above_sigma")
-#: thresholds a file written before they existed may lack, with the value that leaves the gate as it was
-OPTIONAL_THRESHOLDS = {"fit_share_min": 0.0, "fit_share_waived_above_sigma": math.inf}
+                  "fit_share_waived_above_sigma", "heldout_gain_min_sigma_later")
+#: thresholds a file written before they existed may lack, with the value that leaves the gate as it was (None:
+#: the held-out gain asked of a further effect is the one asked of the first)
+OPTIONAL_THRESHOLDS = {"fit_share_min": 0.0, "fit_share_waived_above_sigma": math.inf,
+                       "heldout_gain_min_sigma_later": None}
 #: discover-config overrides for a calibration run: every candidate's statistics are recorded, the best by
 #: held-out gain is added each round (so later rounds are recorded too)
 PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
-              "fit_share_waived_above_sigma": 0.0, "max_effects": 2}
+              "fit_share_waived_above_sigma": 0.0, "heldout_gain_min_sigma_later": -1e9, "max_effects": 2}
 SCHEMA = "bpmid.discover-thresholds/1"
 
 
@@ -51,6 +53,8 @@ def load_thresholds(path: str | Path | None = None) -> dict:
     missing = [k for k in THRESHOLD_KEYS if k not in data]
     if missing:
         raise RuntimeError(f"{path}: missing {', '.join(missing)} (an old thresholds file? recalibrate)")
+    if data["heldout_gain_min_sigma_later"] is None:
+        data["heldout_gain_min_sigma_later"] = data["heldout_gain_min_sigma"]
     return {k: float(data[k]) for k in THRESHOLD_KEYS}
 
 
@@ -225,10 +229,12 @@ def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive) ->
 
 
 def _pair_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
-                  fit_share: float = 0.0, waive: float = math.inf) -> tuple[int, int]:
+                  fit_share: float = 0.0, waive: float = math.inf, g_later: float | None = None) -> tuple[int, int]:
     """(both named, wrong names) the gate makes on a two-effect case: round 1 must name one of the two, the round
-    after it (recorded when the permissive run took the same first effect) the other one. When the gate's first
-    choice is not the one the recorded run continued from, the second round is unknown: not counted as right."""
+    after it (recorded when the permissive run took the same first effect) the other one, judged with the held-out
+    gain ``g_later`` (None: ``g``). When the gate's first choice is not the one the recorded run continued from,
+    the second round is unknown: not counted as right."""
+    g2 = g if g_later is None else g_later
     truths = set(recs[0].truth.split("+"))
     first = _first_passing([r for r in recs if r.round == 1], g, share, alpha, fit_share, waive)
     if first is None:
@@ -236,20 +242,22 @@ def _pair_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
     if first not in truths:
         return 0, 1
     later = [r for r in recs if r.round == 2 and r.named_before == first]
-    second = _first_passing(later, g, share, alpha, fit_share, waive) if later else None
+    second = _first_passing(later, g2, share, alpha, fit_share, waive) if later else None
     if second is None:
         return 0, 0
     return (1, 0) if second in truths - {first} else (0, 1)
 
 
 def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
-                  fit_share: float = 0.0, waive: float = math.inf) -> tuple[int, int]:
+                  fit_share: float = 0.0, waive: float = math.inf, g_later: float | None = None) -> tuple[int, int]:
     """(right decisions, false positives) the gate (g, share, alpha) makes on one case's records: round 1 must
     name the truth (nothing, on a case with no catalogue truth); the round after the truth was added must name
-    nothing; on a pair, both effects must be named (:func:`_pair_outcome`)."""
+    nothing (judged with the held-out gain ``g_later``, None: ``g``); on a pair, both effects must be named
+    (:func:`_pair_outcome`)."""
     truth = recs[0].truth
+    g2 = g if g_later is None else g_later
     if "+" in truth:
-        return _pair_outcome(recs, g, share, alpha, fit_share, waive)
+        return _pair_outcome(recs, g, share, alpha, fit_share, waive, g_later)
     r1 = [r for r in recs if r.round == 1]
     first = _first_passing(r1, g, share, alpha, fit_share, waive)
     if truth == "none":
@@ -257,7 +265,7 @@ def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
     right = int(first == truth)
     fp = int(first is not None and first != truth)
     later = [r for r in recs if r.truth_in_model and r.round == 2]
-    if right and later and any(_passes(r, g, share, alpha, fit_share, waive) for r in later):
+    if right and later and any(_passes(r, g2, share, alpha, fit_share, waive) for r in later):
         fp += 1
     return right, fp
 
@@ -289,12 +297,13 @@ def ooc_names_allowed(n_cases: int, target: float = OOC_NAMED_TARGET, confidence
     return k
 
 
-def _tally(cases: Sequence[Sequence[Record]], g: float, sh: float, a: float, fs: float, waive: float) -> dict:
+def _tally(cases: Sequence[Sequence[Record]], g: float, sh: float, a: float, fs: float, waive: float,
+           g_later: float | None = None) -> dict:
     """Outcomes of one gate over the calibration cases: right decisions, wrong names (on cases with a catalogue
     truth), names on nulls, names on out-of-catalogue cases."""
     t = {"right": 0, "wrong": 0, "null_named": 0, "ooc_named": 0, "ooc": 0}
     for recs in cases:
-        rr, ff = _case_outcome(recs, g, sh, a, fs, waive)
+        rr, ff = _case_outcome(recs, g, sh, a, fs, waive, g_later)
         t["right"] += rr
         kind = recs[0].kind
         if recs[0].truth == "none" and kind == "out_of_catalogue":
@@ -390,10 +399,20 @@ def thresholds_from_records(records: Sequence[Record]) -> dict:
     if best is None:
         best = (1.0, 0.25, 0.01, 0.0, {"right": 0, "wrong": 0, "null_named": 0, "ooc_named": 0, "ooc": 0})
     g, sh, a, fs, t = best
+    # a further effect, once one is named: the gap left is smaller, so the same gain in noise floors asks more of
+    # it. With the first round's gate fixed, the held-out gain asked in later rounds (never more than g) that makes
+    # the most right decisions minus twice the wrong names; ties to the stricter. Nulls and out-of-catalogue cases
+    # are judged on round 1 only, so the feasibility above holds for every value tried.
+    g_later, best_later = g, (t["right"] - 2 * t["wrong"], g)
+    for g2 in gains[gains < g][::-1]:
+        t2 = _tally(cases, g, sh, a, fs, waive, float(g2))
+        key = (t2["right"] - 2 * t2["wrong"], float(g2))
+        if key[0] > best_later[0]:
+            best_later, g_later, t = key, float(g2), t2
     pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate in r.truth.split("+")]
     neg = [r for r in records if r.truth == "none" or (r.truth_in_model and "+" not in r.truth)]
     return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
-            "fit_share_waived_above_sigma": waive,
+            "fit_share_waived_above_sigma": waive, "heldout_gain_min_sigma_later": g_later,
             "n_cases": len(cases), "right_decisions": int(t["right"]),
             "false_positives": int(t["wrong"] + t["null_named"] + t["ooc_named"]),
             "wrong_names": int(t["wrong"]), "null_cases_named": int(t["null_named"]),

@@ -32,7 +32,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from bpmid.discover.calibrate import load_thresholds
+from bpmid.discover.calibrate import THRESHOLD_KEYS as GATE_KEYS, load_thresholds
 from bpmid.discover.confirm import Confirmation, confirm, holm_adjusted
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, residuals, rmse_deg,
@@ -72,6 +72,8 @@ class DiscoverConfig:
         floor (None: calibrated; 0: no such condition) ...
     fit_share_waived_above_sigma : ... unless its held-out gain is at least this many noise floors (None:
         calibrated: above any wrong candidate's gain on the calibration cases with nothing to find)
+    heldout_gain_min_sigma_later : the held-out gain asked of a further effect once one is named (the gap left is
+        smaller); None: calibrated, or ``heldout_gain_min_sigma`` when that is set here
     per_log_gain : score with one stiffness-like gain per log (log-to-log variation is not an effect)
     per_log_constants : give every log its own small factors on K_inf, the branch moduli and the time
         constants instead of the gain (first order, :class:`~bpmid.discover.model.LogNuisance`): log-to-log
@@ -95,6 +97,7 @@ class DiscoverConfig:
     family_alpha: Optional[float] = None
     fit_share_min: Optional[float] = None
     fit_share_waived_above_sigma: Optional[float] = None
+    heldout_gain_min_sigma_later: Optional[float] = None
     per_log_gain: bool = True
     per_log_constants: bool = True
     unexplained_gap_sigma: float = 0.5
@@ -123,12 +126,26 @@ class DiscoverConfig:
                              key=f"{where}.gap_share_min")
 
     def thresholds(self) -> dict:
-        out = dict(load_thresholds())
-        for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min",
-                  "fit_share_waived_above_sigma"):
+        return self.overrides(load_thresholds())
+
+    def overrides(self, thr: dict) -> dict:
+        """``thr`` with this config's threshold overrides; a ``heldout_gain_min_sigma`` set here without
+        ``heldout_gain_min_sigma_later`` sets both."""
+        out = dict(thr)
+        for k in GATE_KEYS:
             if getattr(self, k) is not None:
                 out[k] = float(getattr(self, k))
+        if self.heldout_gain_min_sigma is not None and self.heldout_gain_min_sigma_later is None:
+            out["heldout_gain_min_sigma_later"] = float(self.heldout_gain_min_sigma)
+        out.setdefault("heldout_gain_min_sigma_later", out["heldout_gain_min_sigma"])
         return out
+
+
+def _later_words(thr: dict) -> str:
+    g, later = float(thr["heldout_gain_min_sigma"]), float(thr.get("heldout_gain_min_sigma_later", math.nan))
+    if not math.isfinite(later) or later == g:
+        return ""
+    return f" ({later:.2f} for a further effect once one is named: the gap left is smaller)"
 
 
 def gate_in_words(thr: dict) -> str:
@@ -136,8 +153,8 @@ def gate_in_words(thr: dict) -> str:
     return (f"an effect is named only if (1) its refit really tested it (started from the screening estimate and "
             f"from a grid over its physical range; a refit that did not move counts as 'not tested', never as "
             f"evidence against), (2) it cuts the held-out error above the noise (sqrt(RMSE^2 - floor^2)) by at least "
-            f"{thr['heldout_gain_min_sigma']:.2f} noise floors, removing at least {thr['gap_share_min']:.0%} of "
-            f"that gap"
+            f"{thr['heldout_gain_min_sigma']:.2f} noise floors" + _later_words(thr)
+            + f", removing at least {thr['gap_share_min']:.0%} of that gap"
             + (f" and its refit removes at least {thr['fit_share_min']:.0%} of the fitting logs' gap (not asked of a "
                f"held-out gain above {thr.get('fit_share_waived_above_sigma', math.inf):.2f} noise floors, more than "
                f"any wrong candidate's on the calibration cases with nothing to find)"
@@ -417,10 +434,10 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     cfg = cfg or DiscoverConfig()
     thr = cfg.thresholds()
     if thresholds is not None:
-        thr.update({k: float(v) for k, v in thresholds.items() if k in thr})
-        thr.update({k: float(getattr(cfg, k)) for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha",
-                                                        "fit_share_min", "fit_share_waived_above_sigma")
-                    if getattr(cfg, k) is not None})
+        given = {k: float(v) for k, v in thresholds.items() if k in thr}
+        if "heldout_gain_min_sigma" in given and "heldout_gain_min_sigma_later" not in thresholds:
+            given["heldout_gain_min_sigma_later"] = given["heldout_gain_min_sigma"]
+        thr = cfg.overrides({**thr, **given})
     if effects is None:
         effects = [get_effect(i) for i in (cfg.candidates or tuple(CATALOGUE))]
     fit_logs, ho_logs, how = split_logs(logs, holdout, cfg)
@@ -507,7 +524,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         for c, ph in zip(confs, holm_adjusted([c.lr_p if c.tested else 1.0 for c in confs], family)):
             c.lr_p_holm = ph
         for c in confs:
-            c.reasons = judge(c, thr, floor)
+            c.reasons = judge(c, thr, floor, later=k > 0)
             c.accepted = not c.reasons
         passing = [c for c in confs if c.accepted]
         best = max(passing, key=lambda c: c.heldout_gain_sigma) if passing else None
@@ -562,17 +579,21 @@ def log_to_log_variation(state: ModelState, ho_logs: Sequence[MotionLog], after:
             "method": "constants refitted on each held-out log alone, scored in sample"}
 
 
-def judge(c: Confirmation, thr: dict, floor: float | None = None) -> list[str]:
+def judge(c: Confirmation, thr: dict, floor: float | None = None, later: bool = False) -> list[str]:
     """Reasons to reject a confirmed candidate (empty: it passes). A candidate that was not tested is rejected
-    with that reason only: it is no evidence against the effect."""
+    with that reason only: it is no evidence against the effect. ``later``: a further effect, after one was named
+    (judged with ``heldout_gain_min_sigma_later``)."""
     if not c.tested:
         return [f"not tested: {c.not_tested_reason}"]
     why = []
     if not c.identifiable:
         why.append("none of its parameters is identifiable: " + "; ".join(f"{k}: {v}" for k, v in c.not_identifiable.items()))
-    if not math.isfinite(c.heldout_gain_sigma) or c.heldout_gain_sigma < thr["heldout_gain_min_sigma"]:
-        why.append(f"held-out error drop above the noise {c.heldout_gain_sigma:.2f} noise floors < "
-                   f"{thr['heldout_gain_min_sigma']:.2f}")
+    g_min = thr["heldout_gain_min_sigma"]
+    if later:
+        g_min = thr.get("heldout_gain_min_sigma_later", g_min)
+    if not math.isfinite(c.heldout_gain_sigma) or c.heldout_gain_sigma < g_min:
+        why.append(f"held-out error drop above the noise {c.heldout_gain_sigma:.2f} noise floors < {g_min:.2f}"
+                   + (" (asked of a further effect)" if later else ""))
     if not (math.isfinite(c.gap_share) and c.gap_share >= thr["gap_share_min"]):
         share = f"{c.gap_share:.0%}" if math.isfinite(c.gap_share) else "none (no held-out gap above the floor)"
         why.append(f"share of the held-out gap removed {share} < {thr['gap_share_min']:.0%}")

@@ -71,6 +71,48 @@ def beta_of_u3(u3, geo):
 
 
 # ---------------------------------------------------------------------------------------------
+# Bouc-Wen (n = 1), exact over a strain increment
+# ---------------------------------------------------------------------------------------------
+@numba.njit(cache=True)
+def _lin_ode(w0, A, k, x):
+    """w(x) for dw/dx = A - k w, w(0) = w0."""
+    if abs(k * x) < 1e-12:
+        return w0 + (A - k * w0) * x
+    e = math.exp(-max(min(k * x, 700.0), -700.0))
+    return A / k + (w0 - A / k) * e
+
+
+@numba.njit(cache=True)
+def bouc_wen_step(z, de, A, b, g):
+    """z after a strain increment ``de`` of dz/de = A - (b sgn(z de) + g)|z|, exact for any increment.
+
+    Along the motion (x = |de| travelled, w = sgn(de) z): dw/dx = A - (b + g) w while w >= 0 and
+    dw/dx = A - (b - g) w while w < 0, each linear with a closed-form solution; a w < 0 that reaches 0 continues
+    on the first branch. (An explicit update over a large trial increment, as the step solver tries at beta = 0,
+    is unstable once (b + g)|de| is more than a few: it made the pressure balance wrong and the angle collapse.)"""
+    if de == 0.0:
+        return z
+    s = 1.0 if de > 0.0 else -1.0
+    x = abs(de)
+    w = s * z
+    if w < 0.0:
+        k = b - g
+        if abs(k) < 1e-300:
+            xs = -w / A if A > 0.0 else math.inf
+        else:
+            arg = 1.0 - k * w / A if A > 0.0 else -1.0
+            xs = math.log(arg) / k if arg > 0.0 else math.inf
+        if xs >= x:
+            return s * _lin_ode(w, A, k, x)
+        x -= xs
+        w = 0.0
+    return s * _lin_ode(w, A, b + g, x)
+
+
+_bouc_wen_step = bouc_wen_step
+
+
+# ---------------------------------------------------------------------------------------------
 # one step's pressure balance as a function of the trial angle
 # ---------------------------------------------------------------------------------------------
 @numba.njit(cache=True)
@@ -116,13 +158,8 @@ def _balance(beta, geo, Ginf, Kinf, Gj, Kj, tauj, fall_ratio, dt, soft, e1p, e2p
             F = sg * Fc + (F - sg * Fc) * math.exp(-fr_par[0] * abs(de1) / Fc)
         fr_new[0] = F
         s1 += F
-    elif fr_kind == 2:  # Bouc-Wen, n = 1, explicit over the strain increment in sub-increments
-        z = fr_state[0]
-        nsub = 4
-        d = de1 / nsub
-        for _ in range(nsub):
-            sgn = 1.0 if z * d > 0.0 else -1.0
-            z += (fr_par[1] - (fr_par[2] * sgn + fr_par[3]) * abs(z)) * d
+    elif fr_kind == 2:  # Bouc-Wen, n = 1, integrated exactly over the strain increment (any size)
+        z = _bouc_wen_step(fr_state[0], de1, fr_par[1], fr_par[2], fr_par[3])
         fr_new[0] = z
         s1 += fr_par[0] * z
     elif fr_kind == 3:  # Jenkins elements: spring k_i in series with a slider of limit f_i

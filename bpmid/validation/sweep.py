@@ -49,7 +49,7 @@ RECORDS = "records.jsonl"
 TIMING_FIELDS = ("elapsed_s", "generate_s", "discover_s", "worker")
 #: permissive thresholds for the calibration half: every candidate is confirmed and its statistics recorded
 PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
-              "max_effects": 2}
+              "heldout_gain_min_sigma_later": -1e9, "max_effects": 2}
 
 
 # ---------------------------------------------------------------------------------------------
