@@ -265,3 +265,55 @@ def test_calibration_tallies_every_gain_at_once_as_case_by_case():
             t = _tally(cases, float(g), sh, a, fs, w)
             assert {k: int(tg[k][i]) for k in ("right", "wrong", "null_named", "ooc_named")} == \
                 {k: t[k] for k in ("right", "wrong", "null_named", "ooc_named")}, (sh, a, fs, w, g)
+
+
+def test_a_further_effect_is_judged_with_its_own_calibrated_gain():
+    """Once one effect is named the gap left is smaller, so the second effect of a pair gains fewer noise floors.
+    The calibration fixes the first round's gate, then picks the gain asked in later rounds (never above it): here
+    low enough for every pair's second effect (0.12), not so low that a wrong candidate (0.06) is added after a
+    single effect. The workflow's gate uses it from round 2 on and says so in words."""
+    recs = []
+    for k in range(6):
+        recs += _pair_records(f"p{k}", "braid_friction", "angle_offset", 1.5, 0.12)
+    for k in range(21):  # outside the catalogue: a wrong candidate at 0.02-0.10, and at 0.25 on two cases
+        g = 0.25 if k >= 19 else 0.02 + 0.004 * k
+        recs.append(Record("none", 1, "strain_stiffening", g, 0.0, False, 0.9, 1e-20, 1e-20, True, True, f"o{k}",
+                           0.9, "out_of_catalogue", ""))
+    for k in range(4):   # single effects; after the truth is in, a wrong candidate gains 0.06
+        recs.append(Record("pressure_lag", 1, "pressure_lag", 1.0, 0.0, False, 0.8, 1e-20, 1e-20, True, True,
+                           f"s{k}", 0.9, "single", ""))
+        recs.append(Record("pressure_lag", 2, "angle_offset", 0.06, 0.0, True, 0.8, 1e-20, 1e-20, True, True,
+                           f"s{k}", 0.9, "single", "pressure_lag"))
+    thr = thresholds_from_records(recs)
+    assert thr["heldout_gain_min_sigma"] > 0.25, thr
+    assert thr["heldout_gain_min_sigma_later"] == pytest.approx(0.12), thr
+    assert thr["right_decisions"] == 6 + 4 + 21 and thr["false_positives"] == 0, thr
+
+    gate = {**THR, "heldout_gain_min_sigma_later": 0.1}
+    assert judge(_conf(heldout_gain_sigma=0.5), gate)                       # round 1: 0.5 < 1.0
+    assert judge(_conf(heldout_gain_sigma=0.5), gate, later=True) == []     # a further effect: 0.5 >= 0.1
+    assert "(asked of a further effect)" in judge(_conf(heldout_gain_sigma=0.05), gate, later=True)[0]
+    assert "0.10 for a further effect once one is named" in gate_in_words(gate)
+    assert "further effect" not in gate_in_words(THR)
+
+
+def test_a_gain_set_in_the_config_sets_the_later_rounds_gain_too():
+    from bpmid.discover.calibrate import load_thresholds
+
+    shipped = load_thresholds()
+    assert shipped["heldout_gain_min_sigma_later"] <= shipped["heldout_gain_min_sigma"]
+    assert DiscoverConfig().thresholds() == shipped
+    both = DiscoverConfig(heldout_gain_min_sigma=0.5).thresholds()
+    assert both["heldout_gain_min_sigma"] == both["heldout_gain_min_sigma_later"] == 0.5
+    own = DiscoverConfig(heldout_gain_min_sigma=0.5, heldout_gain_min_sigma_later=0.2).thresholds()
+    assert (own["heldout_gain_min_sigma"], own["heldout_gain_min_sigma_later"]) == (0.5, 0.2)
+
+
+def test_a_thresholds_file_without_the_later_gain_asks_the_same_of_every_round(tmp_path):
+    from bpmid.discover.calibrate import THRESHOLDS_PATH, load_thresholds
+
+    text = "".join(line for line in THRESHOLDS_PATH.read_text().splitlines(keepends=True)
+                   if not line.startswith("heldout_gain_min_sigma_later"))
+    (tmp_path / "old.yaml").write_text(text)
+    old = load_thresholds(tmp_path / "old.yaml")
+    assert old["heldout_gain_min_sigma_later"] == old["heldout_gain_min_sigma"]

@@ -1,6 +1,7 @@
 """The out-of-family generator (bpmid.validation): independent base muscle, physical forms, files, splits."""
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -79,6 +80,48 @@ def test_friction_loop_does_not_shrink_at_slow_rates():
         assert extra[0] >= 0.8 * extra[1], form  # rate-independent: the slow loop is as wide as the fast one
     # the viscoelastic loop of the base muscle itself does shrink at slow rates
     assert _mid_loop_width(*base[0]) < 0.6 * _mid_loop_width(*base[1])
+
+
+def test_bouc_wen_step_is_exact_and_bounded_for_any_increment():
+    """The Bouc-Wen state over one strain increment equals a fine explicit integration, and stays within its
+    saturation A / (b + g) for increments of any size: the step solver tries beta = 0 every step, an increment of
+    the whole bend, where the explicit update it replaced went unstable."""
+    A, z_max = 1.0, 0.003
+    rng = np.random.default_rng(5)
+    for share in (0.3, 0.5, 0.7):
+        b, g = share / z_max, (1.0 - share) / z_max
+
+        def fine(z, de, n=20000):
+            d = de / n
+            for _ in range(n):
+                z += (A - (b * (1.0 if z * d > 0 else -1.0) + g) * abs(z)) * d
+            return z
+
+        for z0, de in [(0.0, 0.004), (0.002, -0.006), (-0.0029, 0.0005), (0.001, 0.0001), (-0.002, -0.001)]:
+            assert physics.bouc_wen_step(z0, de, A, b, g) == pytest.approx(fine(z0, de), abs=2e-7)
+        for _ in range(200):
+            z0, de = rng.uniform(-z_max, z_max), rng.choice([-1.0, 1.0]) * 10 ** rng.uniform(-6, 0)
+            z1 = physics.bouc_wen_step(z0, de, A, b, g)
+            assert abs(z1) <= z_max * (1 + 1e-12) and math.isfinite(z1)
+        assert physics.bouc_wen_step(0.9 * z_max, -0.5, A, b, g) == pytest.approx(-z_max, rel=1e-12)
+
+
+def test_bouc_wen_case_that_collapsed_keeps_its_bend(repo_root):
+    """Draw 14's case 0083 (Bouc-Wen friction, slim muscle, 50 Hz): with the explicit update, the angle of its
+    hold log fell from 56 deg to 0 at the start of unloading and stayed there, so the case's fitting logs were
+    not a muscle at all. Now every log moves smoothly and the hold log's angle returns near its start."""
+    from bpmid.validation.sweep import load_sweep
+
+    cfg = load_sweep(Path(repo_root) / "configs" / "sweeps" / "draw14.yaml")
+    case = next(c for c in make_cases(cfg.effective_generator, cfg.sweep.seed, prefix="draw14")
+                if c.id == "draw14-0083")
+    assert case.effects[0].form == "bouc_wen"
+    data = realize(case)
+    for lg in data.logs:
+        assert np.max(np.abs(np.diff(lg.angle_true_deg))) < 5.0, lg.name   # deg per sample: no jump
+    hold = next(lg for lg in data.logs if lg.name.endswith("hold"))
+    a = hold.angle_true_deg
+    assert a.max() > 50.0 and a[-200:].min() > 0.5 * a[0], (a.max(), a[-200:].min(), a[0])
 
 
 def _crossing_time(t, ang, level):
