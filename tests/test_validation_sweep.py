@@ -87,6 +87,26 @@ def test_a_case_run_with_other_discover_settings_is_rerun(full_run, tmp_path):
     assert comparable(res.records) == comparable(read_records(out_full / RECORDS))
 
 
+def test_pool_runs_both_halves_as_calibration(full_run, tmp_path):
+    """``split="pool"``: every case runs with the calibration half's permissive settings and calibrates (a draw
+    whose held-out half was looked at still calibrates); nothing is scored as held out."""
+    out_full, _ = full_run
+    res = run_sweep(load_sweep(TINY), tmp_path, split="pool", workers=2, processes=False)
+    recs = read_records(tmp_path / RECORDS)
+    assert len(recs) == 4 and {r["phase"] for r in recs} == {"calibration"}
+    assert {r["split"] for r in recs} == {"calibration", "heldout"}
+    assert all(r["calibration_records"] for r in recs)
+    same = [r for r in recs if r["split"] == "calibration"]
+    assert comparable(same) == comparable([r for r in read_records(out_full / RECORDS) if r["split"] == "calibration"])
+    thr = yaml.safe_load((tmp_path / "thresholds.yaml").read_text())
+    assert "4 out-of-family cases" in thr["calibration"]["data"]
+    ans = yaml.safe_load((tmp_path / "answers" / "calibration.yaml").read_text())["cases"]
+    assert {k: v["split"] for k, v in ans.items()} == {r["id"]: r["split"] for r in recs}
+    assert not (tmp_path / "answers" / "heldout.yaml").exists() and res.thresholds is not None
+    bad = CliRunner().invoke(app, ["calibrate", str(TINY), "--out", str(tmp_path / "x"), "--split", "half"])
+    assert bad.exit_code == 2 and "calibration, heldout, all or pool" in bad.output
+
+
 def test_summary_rates():
     base = {"error": None, "unexplained": False, "noise_floor_deg": 0.1, "heldout_before_deg": 0.5,
             "heldout_after_deg": 0.2}

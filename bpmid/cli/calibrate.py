@@ -20,7 +20,8 @@ def calibrate_cmd(
     out: Path = typer.Option(..., "--out", help="Output folder: records.jsonl (streamed), thresholds.yaml, "
                              "confusion.csv/.md, summary.yaml, answers/<split>.yaml."),
     split: str = typer.Option("all", "--split", help="calibration, heldout or all (calibrate on one half, score "
-                              "on the other)."),
+                              "on the other), or pool (every case run as calibration: a draw whose held-out half "
+                              "was looked at can still calibrate)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", metavar="ADDRESS",
                                             help="Address of a running Dask scheduler (default: a LocalCluster)."),
     workers: Optional[int] = typer.Option(None, "--workers", min=1, help="LocalCluster workers (default: cores)."),
@@ -34,10 +35,10 @@ def calibrate_cmd(
     appended to DIR/records.jsonl at once; rerunning into the same DIR resumes."""
     from bpmid.errors import InputError
     from bpmid.progress import note
-    from bpmid.validation.sweep import confusion_markdown, load_sweep, run_sweep
+    from bpmid.validation.sweep import SPLITS, confusion_markdown, load_sweep, run_sweep
 
-    if split not in ("calibration", "heldout", "all"):
-        raise InputError(f"must be calibration, heldout or all, found {split!r}", key="--split")
+    if split not in SPLITS:
+        raise InputError(f"must be {', '.join(SPLITS[:-1])} or {SPLITS[-1]}, found {split!r}", key="--split")
     if thresholds is not None and not Path(thresholds).is_file():
         raise InputError("thresholds file not found", path=thresholds, key="--thresholds")
     cfg = load_sweep(sweep)

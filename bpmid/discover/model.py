@@ -156,8 +156,11 @@ class LogNuisance:
     #: the held-out logs' mean factor is bounded by this many standard errors of a mean of the variation the
     #: fitting logs' factors show (held-out and fitting logs are different samples of runs) ...
     BOUND_SPREADS = 2.5
-    #: ... within these limits (log-factor)
-    BOUND_RANGE = (0.002, 0.05)
+    #: ... within these limits (log-factor). The upper limit was 0.05: when the few held-out logs happened to
+    #: differ as a group by more (4-5 % log-to-log variation), the bound left that shift in every model's held-out
+    #: error, and a true effect (a constant offset of 0.33 deg, fitted right) made the scored error worse. The
+    #: 2.5-standard-error rule above is the bound; this limit only guards against a wild spread estimate.
+    BOUND_RANGE = (0.002, 0.10)
 
     def __init__(self, bases: dict, gain: bool = True, labels: Sequence[str] = (), mean_bounds=None):
         self._bases = dict(bases)

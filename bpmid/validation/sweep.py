@@ -45,6 +45,10 @@ from bpmid.validation.generator import (GENERATOR, Case, GeneratorConfig, Geomet
 
 SWEEP_SCHEMA = "bpmid.sweep/1"
 RECORDS = "records.jsonl"
+#: what a sweep runs: one half, both (calibrate on one, score the other), or ``pool``: every case with the
+#: calibration half's permissive settings, all of them calibrating (more calibration data from a draw whose
+#: held-out half was already looked at, so it can no longer score a gate)
+SPLITS = ("calibration", "heldout", "all", "pool")
 #: record fields that differ between runs of the same case (left out when comparing runs)
 TIMING_FIELDS = ("elapsed_s", "generate_s", "discover_s", "worker")
 #: permissive thresholds for the calibration half: every candidate is confirmed and its statistics recorded
@@ -458,8 +462,8 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     ``max_cases`` keeps only the first cases of each half (by id; a quick subset that a full rerun extends)."""
     from bpmid.discover.calibrate import THRESHOLD_KEYS, load_thresholds, thresholds_from_records, write_thresholds
 
-    if split not in ("calibration", "heldout", "all"):
-        raise InputError(f"--split must be calibration, heldout or all, found {split!r}", key="--split")
+    if split not in SPLITS:
+        raise InputError(f"--split must be {', '.join(SPLITS[:-1])} or {SPLITS[-1]}, found {split!r}", key="--split")
     out = Path(out)
     try:  # before anything is written: without Dask the sweep cannot run, so no folder is left behind
         import dask.distributed  # noqa: F401
@@ -474,7 +478,10 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
               "heldout": [c for c in cases if c.split == "heldout"]}
     if max_cases is not None:
         halves = {k: v[:max(int(max_cases), 0)] for k, v in halves.items()}
-    phases = ["calibration", "heldout"] if split == "all" else [split]
+    if split == "pool":  # both halves calibrate: a held-out half once looked at can no longer score anything
+        halves = {"calibration": sorted(halves["calibration"] + halves["heldout"], key=lambda c: c.index),
+                  "heldout": []}
+    phases = {"all": ["calibration", "heldout"], "pool": ["calibration"]}.get(split, [split])
     done = {r["id"]: r for r in read_records(out / RECORDS)}
     writer = RecordWriter(out / RECORDS)
     keep = str(out / "cases") if cfg.sweep.keep_cases else None
@@ -531,7 +538,7 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
                              evaluated == "heldout" else "permissive (calibration half)")
     files.update(write_tables(out, summary, recs))
     for phase in phases:
-        entries = [{"id": done[c.id]["id"], "split": phase, "truth": done[c.id]["truth"]} for c in halves[phase]]
+        entries = [{"id": done[c.id]["id"], "split": c.split, "truth": done[c.id]["truth"]} for c in halves[phase]]
         p = write_answers(entries, out / "answers" / f"{phase}.yaml", config=gen, seed=cfg.sweep.seed)
         files[f"answers_{phase}"] = str(p)
     return SweepOutcome(sorted(done.values(), key=lambda r: r["id"]), thresholds, summary, files, True)
@@ -554,7 +561,9 @@ def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_re
     n_err = sum(1 for r in recs if r.get("error"))
     meta = {"produced_by": f"bpmid calibrate {cfg.path or 'SWEEP.yaml'} (sweep {cfg.sweep.name}, "
                            f"seed {cfg.sweep.seed})",
-            "data": f"{len(recs)} out-of-family cases ({GENERATOR}), calibration half; {n_err} not judged",
+            "data": f"{len(recs)} out-of-family cases ({GENERATOR}), "
+                    + ("both halves run as calibration (pool)" if any(r.get("split") == "heldout" for r in recs)
+                       else "calibration half") + f"; {n_err} not judged",
             "generator": cfg.effective_generator.to_yaml()}
     write_thresholds(values, meta, out / "thresholds.yaml")
     from bpmid.discover.calibrate import THRESHOLD_KEYS
