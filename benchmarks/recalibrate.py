@@ -18,6 +18,13 @@ from collections import Counter
 from pathlib import Path
 
 
+def _halves(recs, name: str) -> str:
+    """Which halves of the sweep ``name`` the records cover, in words."""
+    got = {r["split"] for r in recs if r["id"].startswith(name + "-")}
+    return {frozenset({"calibration", "heldout"}): "both halves", frozenset({"heldout"}): "held-out half",
+            frozenset({"calibration"}): "calibration half"}.get(frozenset(got), "no case")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("records", nargs="+", type=Path, help="records.jsonl of finished sweeps")
@@ -55,9 +62,7 @@ def main(argv=None) -> int:
                 + " --configs " + " ".join(a.configs) + " --write",
                 "data": f"{len(recs)} out-of-family cases ({GENERATOR}), run with the permissive calibration "
                         "settings: " + ", ".join(
-                            f"{c.sweep.name} (seed {c.sweep.seed}, " + (
-                                "both halves" if {r['split'] for r in recs if r['id'].startswith(c.sweep.name + '-')}
-                                >= {"calibration", "heldout"} else "calibration half") + ")" for c in cfgs)
+                            f"{c.sweep.name} (seed {c.sweep.seed}, " + _halves(recs, c.sweep.name) + ")" for c in cfgs)
                         + "; pairs included; the draw that scores the gate is not among them",
                 "method": "gaps above the noise in quadrature (sqrt(RMSE^2 - floor^2)); per-log nuisance factors on "
                           "K_inf, branch moduli and time constants (held-out logs' mean within 2.5 standard "
