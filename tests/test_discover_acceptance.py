@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from bpmid.discover.calibrate import paper_sized_set, start_model
-from bpmid.discover.workflow import discover
+from bpmid.discover.workflow import DiscoverConfig, discover
 from bpmid.effects import CATALOGUE, get_effect
 
 TWIN = {"braid_friction": {"elements": 4}, "pressure_lag": {"dead_time": 0.1}}
@@ -23,7 +23,8 @@ CASES = [(eid, SEEDS[k % len(SEEDS)]) for k, eid in enumerate(CATALOGUE)]
 @pytest.mark.parametrize("effect_id, seed", CASES)
 def test_hidden_effect_is_named_first_and_the_gap_halves(effect_id, seed):
     fit, ho = paper_sized_set(get_effect(effect_id, **TWIN.get(effect_id, {})), seed=seed, noise_deg=0.15)
-    res = discover(fit, start_model(), holdout=ho)
+    # one round: what is asserted is the first name and the gap it closes (a second round cost 30 % of the test)
+    res = discover(fit, start_model(), holdout=ho, cfg=DiscoverConfig(max_effects=1))
     floor = res.noise_floor_deg
     assert res.heldout_before >= 1.8 * floor          # moderate size: at least about twice the floor
     assert res.named_effects and res.named_effects[0] == effect_id, res.verdict
