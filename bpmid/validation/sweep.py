@@ -535,7 +535,8 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     summary = summarize(recs, evaluated)
     # 4 significant digits (rounding to 4 decimals wrote a family alpha of 1e-9 as 0)
     summary["thresholds"] = ({k: float(f"{float(v):.4g}") for k, v in thresholds.items()} if thresholds and
-                             evaluated == "heldout" else "permissive (calibration half)")
+                             evaluated == "heldout" else "permissive (calibration half)" if split != "pool"
+                             else "permissive (both halves run as calibration)")
     files.update(write_tables(out, summary, recs))
     for phase in phases:
         entries = [{"id": done[c.id]["id"], "split": c.split, "truth": done[c.id]["truth"]} for c in halves[phase]]
