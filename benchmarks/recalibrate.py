@@ -32,7 +32,8 @@ def main(argv=None) -> int:
     ap.add_argument("--write", action="store_true", help="write bpmid/discover/thresholds.yaml")
     a = ap.parse_args(argv)
 
-    from bpmid.discover.calibrate import Record, _case_outcome, thresholds_from_records, write_thresholds
+    from bpmid.discover.calibrate import (THRESHOLD_KEYS, Record, _case_outcome, thresholds_from_records,
+                                          write_thresholds)
     from bpmid.validation.sweep import GENERATOR, load_sweep
 
     missing = [str(p) for p in a.records if not p.is_file()]
@@ -43,8 +44,7 @@ def main(argv=None) -> int:
             if r.get("phase", r.get("split")) == "calibration"]
     R = [Record(**x) for rec in recs for x in (rec.get("calibration_records") or [])]
     values = thresholds_from_records(R)
-    gate = tuple(values[k] for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min",
-                                     "fit_share_waived_above_sigma", "heldout_gain_min_sigma_later"))
+    gate = tuple(values[k] for k in THRESHOLD_KEYS)   # _case_outcome's argument order
     tally = Counter()
     for rec in recs:
         rs = [Record(**x) for x in (rec.get("calibration_records") or [])]

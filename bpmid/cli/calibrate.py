@@ -35,10 +35,9 @@ def calibrate_cmd(
     appended to DIR/records.jsonl at once; rerunning into the same DIR resumes."""
     from bpmid.errors import InputError
     from bpmid.progress import note
-    from bpmid.validation.sweep import SPLITS, confusion_markdown, load_sweep, run_sweep
+    from bpmid.validation.sweep import check_split, confusion_markdown, load_sweep, run_sweep
 
-    if split not in SPLITS:
-        raise InputError(f"must be {', '.join(SPLITS[:-1])} or {SPLITS[-1]}, found {split!r}", key="--split")
+    check_split(split)
     if thresholds is not None and not Path(thresholds).is_file():
         raise InputError("thresholds file not found", path=thresholds, key="--thresholds")
     cfg = load_sweep(sweep)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 import yaml
@@ -53,9 +53,18 @@ def load_thresholds(path: str | Path | None = None) -> dict:
     missing = [k for k in THRESHOLD_KEYS if k not in data]
     if missing:
         raise RuntimeError(f"{path}: missing {', '.join(missing)} (an old thresholds file? recalibrate)")
-    if data["heldout_gain_min_sigma_later"] is None:
-        data["heldout_gain_min_sigma_later"] = data["heldout_gain_min_sigma"]
+    data = later_gain_follows(data)
     return {k: float(data[k]) for k in THRESHOLD_KEYS}
+
+
+def later_gain_follows(thr: Mapping, given: Mapping | None = None) -> dict:
+    """``thr`` where the gain asked of a further effect follows the first round's when it is not set, or when
+    ``given`` (the overrides just applied) set the first round's gain without it."""
+    out, given = dict(thr), given or {}
+    if out.get("heldout_gain_min_sigma_later") is None or (
+            given.get("heldout_gain_min_sigma") is not None and given.get("heldout_gain_min_sigma_later") is None):
+        out["heldout_gain_min_sigma_later"] = out["heldout_gain_min_sigma"]
+    return out
 
 
 # ---------------------------------------------------------------------------------------------

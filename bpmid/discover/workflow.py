@@ -32,7 +32,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from bpmid.discover.calibrate import THRESHOLD_KEYS as GATE_KEYS, load_thresholds
+from bpmid.discover.calibrate import THRESHOLD_KEYS as GATE_KEYS, later_gain_follows, load_thresholds
 from bpmid.discover.confirm import Confirmation, confirm, holm_adjusted
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, residuals, rmse_deg,
@@ -131,14 +131,8 @@ class DiscoverConfig:
     def overrides(self, thr: dict) -> dict:
         """``thr`` with this config's threshold overrides; a ``heldout_gain_min_sigma`` set here without
         ``heldout_gain_min_sigma_later`` sets both."""
-        out = dict(thr)
-        for k in GATE_KEYS:
-            if getattr(self, k) is not None:
-                out[k] = float(getattr(self, k))
-        if self.heldout_gain_min_sigma is not None and self.heldout_gain_min_sigma_later is None:
-            out["heldout_gain_min_sigma_later"] = float(self.heldout_gain_min_sigma)
-        out.setdefault("heldout_gain_min_sigma_later", out["heldout_gain_min_sigma"])
-        return out
+        given = {k: float(getattr(self, k)) for k in GATE_KEYS if getattr(self, k) is not None}
+        return later_gain_follows({**thr, **given}, given)
 
 
 def _later_words(thr: dict) -> str:
@@ -435,9 +429,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     thr = cfg.thresholds()
     if thresholds is not None:
         given = {k: float(v) for k, v in thresholds.items() if k in thr}
-        if "heldout_gain_min_sigma" in given and "heldout_gain_min_sigma_later" not in thresholds:
-            given["heldout_gain_min_sigma_later"] = given["heldout_gain_min_sigma"]
-        thr = cfg.overrides({**thr, **given})
+        thr = cfg.overrides(later_gain_follows({**thr, **given}, given))
     if effects is None:
         effects = [get_effect(i) for i in (cfg.candidates or tuple(CATALOGUE))]
     fit_logs, ho_logs, how = split_logs(logs, holdout, cfg)

@@ -109,9 +109,6 @@ def bouc_wen_step(z, de, A, b, g):
     return s * _lin_ode(w, A, b + g, x)
 
 
-_bouc_wen_step = bouc_wen_step
-
-
 # ---------------------------------------------------------------------------------------------
 # one step's pressure balance as a function of the trial angle
 # ---------------------------------------------------------------------------------------------
@@ -159,7 +156,7 @@ def _balance(beta, geo, Ginf, Kinf, Gj, Kj, tauj, fall_ratio, dt, soft, e1p, e2p
         fr_new[0] = F
         s1 += F
     elif fr_kind == 2:  # Bouc-Wen, n = 1, integrated exactly over the strain increment (any size)
-        z = _bouc_wen_step(fr_state[0], de1, fr_par[1], fr_par[2], fr_par[3])
+        z = bouc_wen_step(fr_state[0], de1, fr_par[1], fr_par[2], fr_par[3])
         fr_new[0] = z
         s1 += fr_par[0] * z
     elif fr_kind == 3:  # Jenkins elements: spring k_i in series with a slider of limit f_i

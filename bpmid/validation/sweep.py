@@ -51,9 +51,18 @@ RECORDS = "records.jsonl"
 SPLITS = ("calibration", "heldout", "all", "pool")
 #: record fields that differ between runs of the same case (left out when comparing runs)
 TIMING_FIELDS = ("elapsed_s", "generate_s", "discover_s", "worker")
-#: permissive thresholds for the calibration half: every candidate is confirmed and its statistics recorded
-PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
-              "heldout_gain_min_sigma_later": -1e9, "max_effects": 2}
+
+
+def _permissive() -> dict:
+    """The calibration half's default discover settings: :data:`bpmid.discover.calibrate.PERMISSIVE` (every
+    candidate is confirmed and its statistics recorded)."""
+    from bpmid.discover.calibrate import PERMISSIVE
+    return dict(PERMISSIVE)
+
+
+def check_split(split: str) -> None:
+    if split not in SPLITS:
+        raise InputError(f"must be {', '.join(SPLITS[:-1])} or {SPLITS[-1]}, found {split!r}", key="--split")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -130,7 +139,7 @@ class SweepConfig:
     sweep: SweepSection = dataclasses.field(default_factory=SweepSection)
     generator: GeneratorConfig = dataclasses.field(default_factory=GeneratorConfig)
     rig: RigSection = dataclasses.field(default_factory=RigSection)
-    calibration: PhaseSection = dataclasses.field(default_factory=lambda: PhaseSection(dict(PERMISSIVE)))
+    calibration: PhaseSection = dataclasses.field(default_factory=lambda: PhaseSection(_permissive()))
     evaluation: PhaseSection = dataclasses.field(default_factory=PhaseSection)
     path: Optional[str] = None
     sha256: Optional[str] = None
@@ -177,7 +186,7 @@ def load_sweep(path: str | Path) -> SweepConfig:
         if name in data:
             kw[name] = build_dataclass(cls, data[name], name, path)
     if "calibration" in data and "discover" not in (data["calibration"] or {}):
-        kw["calibration"] = PhaseSection(dict(PERMISSIVE))
+        kw["calibration"] = PhaseSection(_permissive())
     cfg = SweepConfig(**kw, path=str(path), sha256=sha)
     _ = cfg.effective_generator
     cfg.discover_config("calibration")  # check the discover overrides now, naming the key
@@ -462,8 +471,7 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     ``max_cases`` keeps only the first cases of each half (by id; a quick subset that a full rerun extends)."""
     from bpmid.discover.calibrate import THRESHOLD_KEYS, load_thresholds, thresholds_from_records, write_thresholds
 
-    if split not in SPLITS:
-        raise InputError(f"--split must be {', '.join(SPLITS[:-1])} or {SPLITS[-1]}, found {split!r}", key="--split")
+    check_split(split)
     out = Path(out)
     try:  # before anything is written: without Dask the sweep cannot run, so no folder is left behind
         import dask.distributed  # noqa: F401
