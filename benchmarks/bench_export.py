@@ -137,14 +137,21 @@ def main() -> None:
             {"id": "pressure_lag", "parameters": {"tau": 0.2}},
             {"id": "braid_friction", "parameters": {"r": 2500.0}},
             {"id": "angle_offset", "parameters": {"offset": 1.0}}]),
+        # the friction discovery names: 3 elements with a pressure-proportional band and an elastic stick (the
+        # inverse bisects the friction operators' mean output)
+        "VBMM, 1 branch + lag + friction (3 el., mu, slip) + offset": (VBMM(Material.paper_fit()), [
+            {"id": "pressure_lag", "parameters": {"tau": 0.2}},
+            {"id": "braid_friction", "settings": {"elements": 3},
+             "parameters": {"r": 1500.0, "mu": 0.02, "slip": 8000.0}},
+            {"id": "angle_offset", "parameters": {"offset": 1.0}}]),
     }
     print(f"{n} samples ({len(logs)} shipped motion logs); times on a shared 2-core machine")
     print(f"{'model':58s} {'C fwd ns/step':>13s} {'C inv ns/step':>13s} {'state B':>8s} {'bpmid fwd us/step':>17s} "
           f"{'ratio':>6s}")
-    for label, (model, fx) in cases.items():
-        src = export_model(model, work, f"m{len(label)}", fx)
+    for i, (label, (model, fx)) in enumerate(cases.items()):
+        src = export_model(model, work, f"m{i}", fx)
         fwd_ns, size = time_c(src, logs, [lg.pressure_pa for lg in logs], work=work)
-        ang = [load_vbmm_fit(work / f"m{len(label)}.yaml").simulate_deg(lg.time_s, lg.pressure_pa) for lg in logs]
+        ang = [load_vbmm_fit(work / f"m{i}.yaml").simulate_deg(lg.time_s, lg.pressure_pa) for lg in logs]
         inv_ns, _ = time_c(src, logs, ang, inverse=True, work=work)
         us = time_bpmid_forward(model, logs) if not fx else float("nan")
         print(f"{label:58s} {fwd_ns:13.1f} {inv_ns:13.1f} {size:8d} {us:17.3f} {1e3 * us / fwd_ns:6.1f}")

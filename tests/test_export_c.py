@@ -165,6 +165,33 @@ def test_effects_forward_equals_the_augmented_model_and_inverse_is_a_right_inver
         assert np.max(np.abs(lib.run_forward(lg.time_s, p_ff) - ang)) < 1e-6
 
 
+@pytest.mark.parametrize("mu, slip", [(0.02, 8000.0), (0.03, 0.0)])
+def test_general_friction_forward_equals_the_augmented_model_and_inverse_is_a_right_inverse(
+        tmp_path_factory, logs, mu, slip):
+    # the friction discovery names: a sliding level growing with the pressure (mu) and an elastic stick (slip),
+    # or a rigid stick whose dead band grows with the pressure (slip = 0); beside a lag, as fitted
+    fx = [EFFECTS[0], {"id": "braid_friction", "settings": {"elements": 3},
+                       "parameters": {"r": 1500.0, "mu": mu, "slip": slip}}]
+    d = tmp_path_factory.mktemp("gen_friction_fit")
+    fit = write_fit(d / "VBMM.yaml", VBMM(FITTED), fx)
+    dd, _exe, lib = exported(tmp_path_factory, "gen_friction", fit)
+    src = (dd / "src" / "bpmid_model.c").read_text()
+    assert "friction_inverse" in src and "mean of 3 friction operator(s)" in src
+    aug = load_vbmm_fit(fit)
+    assert not aug.effects[1].is_play(aug.params)
+    for lg in logs[::8]:
+        ref = aug.simulate_deg(lg.time_s, lg.pressure_pa)
+        ang = lib.run_forward(lg.time_s, lg.pressure_pa)
+        assert np.max(np.abs(ang - ref)) < 1e-6
+        # mu and slip change the loop: the exported model is not the play form under another name
+        play = dataclasses.replace(aug, params=aug.params.with_values({"braid_friction.mu": 0.0,
+                                                                        "braid_friction.slip": 0.0}))
+        assert np.max(np.abs(ang - play.simulate_deg(lg.time_s, lg.pressure_pa))) > 1e-2
+        p_ff = lib.run_inverse(lg.time_s, ang)
+        assert np.all(np.isfinite(p_ff))
+        assert np.max(np.abs(lib.run_forward(lg.time_s, p_ff) - ang)) < 1e-6
+
+
 def test_lag_and_offset_inverse_gives_the_pressure_back(tmp_path_factory, logs):
     d = tmp_path_factory.mktemp("lag_fit")
     fit = write_fit(d / "VBMM.yaml", VBMM(FITTED), [EFFECTS[0], EFFECTS[-1]])

@@ -10,11 +10,13 @@ Two model kinds:
 - ``vbmm`` (a ``bpmid.vbmm/1`` file): the VBMM with any number of branches, either closure, shared or
   split time constants, recursive (exact) history, plus the catalogue effects of an optional
   ``effects`` list in the file (see :func:`effects_from_yaml`): pressure_lag (first-order lag; a dead
-  time is refused), braid_friction (mean of play operators), angle_offset, second_relaxation (one more
+  time is refused), braid_friction (mean of play operators, or of friction operators with a
+  pressure-proportional band and an elastic stick), angle_offset, second_relaxation (one more
   branch), strain_stiffening, asymmetric_relaxation and thermal_softening. ``step_forward`` is the
   forward model of ``bpmid predict``; ``step_inverse`` is the feedforward of eq. 20 (closed form),
   followed by the exact causal inverses of the pressure terms (lag: the discrete lag solved for its
-  input; plays: the smallest input move that gives the wanted output).
+  input; plays: the smallest input move that gives the wanted output; friction operators: the same, by
+  bisection on their mean output, which never falls as the input rises).
 - ``maxwell-slip`` (``--model maxwell-slip``): the Maxwell-slip model of a ``bpmid.compare/1`` file
   (pressure in bar gauge -> angle in deg; ``step_inverse`` solves it for the pressure) or the MS-PI
   feedforward of a ``bpmid.control/1`` file (angle in deg -> pressure in bar gauge, seed 003's inverse
@@ -134,7 +136,8 @@ def effects_from_yaml(block, path=None):
 @dataclasses.dataclass(frozen=True)
 class CausalVBMM:
     """The VBMM of a fit split into what the C code steps: the VBMM (structural effects applied), the
-    pressure terms in order (("lag", tau_s) or ("plays", radii_pa)), the modulus scale of thermal
+    pressure terms in order (("lag", tau_s), ("plays", radii_pa) or ("frictions", (r_pa, mu, slip_pa) per
+    element in a row)), the modulus scale of thermal
     softening ((amount, T_s) or None) and the angle offset (deg)."""
 
     model: object
@@ -163,14 +166,9 @@ def causal_vbmm(aug, path=None) -> CausalVBMM:
                 if tau != 0.0:
                     chain.append(("lag", float(tau)))
         elif e.id == "braid_friction":
-            r = p.value("braid_friction.r")
-            if not e.is_play(p):
-                raise InputError("braid_friction with a pressure-proportional band (mu) or an elastic stick (slip) "
-                                 "cannot be exported to C yet: only its play form (mu = slip = 0) has a C step "
-                                 "and an exact inverse; export the fit without it or refit with mu and slip "
-                                 "held at 0", path=path, key=f"effects[{i}].parameters")
-            if r != 0.0:
-                chain.append(("plays", tuple(float(v) for v in e.radii(r))))
+            # the play form (mu = slip = 0) as play operators; the general form (a pressure-proportional band,
+            # an elastic stick) as friction operators, one (r, mu, slip) per element: the plant's causal chain
+            chain.extend(e.causal_pressure(p))
         elif e.id == "angle_offset":
             offset += p.value("angle_offset.offset")
         elif e.id == "thermal_softening":
@@ -353,6 +351,22 @@ def _chain_sources(chain) -> tuple[str, list[str], list[str]]:
                 f"        x = s->lag{i}_x + (y - s->lag{i}_a * s->lag{i}_y - (R(1.0) - s->lag{i}_a) * s->lag{i}_x)\n"
                 f"            / (R(1.0) - {tau} * (R(1.0) - s->lag{i}_a) / dt);\n    }}\n"
                 f"    s->lag{i}_x = x;\n    s->lag{i}_y = y;\n    y = x;\n")
+        elif op == "frictions":
+            ne = len(val) // 3
+            fields.append(f"    bpmid_real fr{i}_f[{ne}];   /* friction operators: friction pressure (Pa) per element */")
+            fields.append(f"    bpmid_real fr{i}_x;")
+            reset.append(f"    {{\n        int e;\n        for (e = 0; e < {ne}; ++e) {{\n            s->fr{i}_f[e] = R(0.0);\n"
+                         f"        }}\n    }}\n    s->fr{i}_x = R(0.0);")
+            par = "{" + ", ".join(_lit(v) for v in val) + "}"
+            fwd.append(
+                f"    /* braid friction: the mean of {ne} friction operator(s) (r, mu, slip) */\n"
+                f"    {{\n        static const bpmid_real pp[{3 * ne}] = {par};\n"
+                f"        x = friction_mean(s->fr{i}_f, pp, {ne}, &s->fr{i}_x, x, s->k == 0, 1);\n    }}\n")
+            inv.append(
+                f"    /* inverse of the friction operators: the smallest move of their input that gives the wanted mean */\n"
+                f"    {{\n        static const bpmid_real pp[{3 * ne}] = {par};\n"
+                f"        x = friction_inverse(s->fr{i}_f, pp, {ne}, &s->fr{i}_x, y, s->k == 0);\n"
+                f"        y = x;\n    }}\n")
         else:
             radii = list(val)
             nr = len(radii)
@@ -378,6 +392,9 @@ def _chain_sources(chain) -> tuple[str, list[str], list[str]]:
     helpers = ""
     if any(op == "plays" for op, _v in chain):
         helpers = f"#define PLAY_MAX {max(len(v) for op, v in chain if op == 'plays')}\n" + _PLAY_INVERSE
+    if any(op == "frictions" for op, _v in chain):
+        helpers += (f"#define FRICTION_MAX {max(len(v) // 3 for op, v in chain if op == 'frictions')}\n"
+                    + _FRICTION_OPERATORS)
     code = helpers
     code += ("/* The logged pressure (Pa) -> the pressure the rubber sees, through the pressure terms in order. */\n"
              "static bpmid_real pressure_chain_forward(bpmid_state *s, bpmid_real dt, bpmid_real x)\n{\n"
@@ -449,6 +466,88 @@ static bpmid_real play_inverse(bpmid_real *v, const bpmid_real *r, int n, bpmid_
 
 """
 
+_FRICTION_OPERATORS = """/* n friction operators (bpmid.effects._kernels.friction_step): parameters (r, mu, slip) per element in
+ * a row, states f (friction pressure, Pa), previous input *xp_io. Returns the mean output for the input x,
+ * the mean of x - f_e; with commit, the states and xp take the step. First step: unloaded (f = 0). */
+static bpmid_real friction_mean(bpmid_real *f, const bpmid_real *pp, int n, bpmid_real *xp_io, bpmid_real x,
+                                int first, int commit)
+{
+    bpmid_real acc = R(0.0);
+    int e;
+    for (e = 0; e < n; ++e) {
+        bpmid_real fe = R(0.0);
+        if (!first) {
+            const bpmid_real w = pp[3 * e] + pp[3 * e + 1] * (x > R(0.0) ? x : R(0.0));
+            const bpmid_real den = w + pp[3 * e + 2];
+            fe = f[e];
+            if (den > R(0.0)) {
+                fe = fe + (x - *xp_io) * (w / den);
+            }
+            if (fe > w) {
+                fe = w;
+            } else if (fe < -w) {
+                fe = -w;
+            }
+        }
+        if (commit) {
+            f[e] = fe;
+        }
+        acc += x - fe;
+    }
+    if (commit) {
+        *xp_io = x;
+    }
+    return acc / (bpmid_real)n;
+}
+
+/* Returns the input x of the friction operators whose mean output is y, the states committed. The mean output never
+ * falls as the input rises (sticking it moves by slip / (w + slip) of the input, sliding by 1 -+ mu), so
+ * the input is bracketed from the previous one in the direction of y and bisected to the smallest move. */
+static bpmid_real friction_inverse(bpmid_real *f, const bpmid_real *pp, int n, bpmid_real *xp_io, bpmid_real y,
+                                   int first)
+{
+    bpmid_real lo, hi, step, g, xp = *xp_io;
+    int it;
+    if (first) {
+        (void)friction_mean(f, pp, n, xp_io, y, 1, 1);
+        return y;
+    }
+    g = friction_mean(f, pp, n, xp_io, xp, 0, 0);
+    if (g == y) {
+        (void)friction_mean(f, pp, n, xp_io, xp, 0, 1);
+        return xp;
+    }
+    /* bracket: lo gives an output short of y, hi one at or beyond it */
+    step = y - g;
+    lo = xp;
+    hi = xp + step;
+    for (it = 0; it < 200; ++it) {
+        g = friction_mean(f, pp, n, xp_io, hi, 0, 0);
+        if (step > R(0.0) ? g >= y : g <= y) {
+            break;
+        }
+        lo = hi;
+        step = step * R(2.0);
+        hi = xp + step;
+    }
+    for (it = 0; it < 200; ++it) {
+        const bpmid_real mid = lo + (hi - lo) / R(2.0);
+        if (mid == lo || mid == hi) {
+            break;
+        }
+        g = friction_mean(f, pp, n, xp_io, mid, 0, 0);
+        if (step > R(0.0) ? g >= y : g <= y) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    (void)friction_mean(f, pp, n, xp_io, hi, 0, 1);
+    return hi;
+}
+
+"""
+
 
 def _vbmm_description(cv: CausalVBMM, meta: dict) -> list[str]:
     m = cv.model
@@ -464,8 +563,14 @@ def _vbmm_description(cv: CausalVBMM, meta: dict) -> list[str]:
     if cv.effect_ids:
         out.append(f"Effects (in the order they act): {', '.join(cv.effect_ids)}.")
         for op, v in cv.chain:
-            out.append(f"  pressure lag, tau {v!r} s" if op == "lag" else
-                       f"  braid friction: mean of {len(v)} play operator(s), dead bands {', '.join(repr(r) for r in v)} Pa")
+            if op == "lag":
+                out.append(f"  pressure lag, tau {v!r} s")
+            elif op == "plays":
+                out.append(f"  braid friction: mean of {len(v)} play operator(s), dead bands {', '.join(repr(r) for r in v)} Pa")
+            else:
+                out.append(f"  braid friction: mean of {len(v) // 3} friction operator(s), sliding level r + mu max(p, 0) "
+                           f"and elastic stick slip; (r Pa, mu, slip Pa) = "
+                           + ", ".join(f"({v[j]!r}, {v[j + 1]!r}, {v[j + 2]!r})" for j in range(0, len(v), 3)))
         if m.fall_ratio != 1.0:
             out.append(f"  asymmetric relaxation: tau times {m.fall_ratio!r} while the pressure falls (forward) or "
                        "the angle falls (inverse)")
