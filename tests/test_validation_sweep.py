@@ -196,3 +196,22 @@ def test_rig_section_sets_noise_rate_and_geometry(tmp_path):
     with pytest.raises(InputError) as e:
         load_sweep(cfg_path)
     assert "rig.noise_deg" in e.value.format()
+
+
+def test_calibration_section_fills_every_gate_key_it_does_not_set_permissively(tmp_path):
+    # a section written before fit_share_min and the later-round gain existed: the shipped values of those must
+    # not be applied to the run that records the statistics they are calibrated from
+    from bpmid.discover.calibrate import PERMISSIVE
+    from bpmid.validation.sweep import load_sweep
+
+    p = tmp_path / "sweep.yaml"
+    p.write_text("sweep: {name: t, seed: 1}\ngenerator: {n_cases: 4}\n"
+                 "calibration:\n  discover: {heldout_gain_min_sigma: -1.0e+9, gap_share_min: 0.0, max_effects: 1}\n")
+    cfg = load_sweep(p).discover_config("calibration")
+    assert cfg.fit_share_min == PERMISSIVE["fit_share_min"] == 0.0
+    assert cfg.heldout_gain_min_sigma_later == PERMISSIVE["heldout_gain_min_sigma_later"]
+    assert cfg.family_alpha == PERMISSIVE["family_alpha"]
+    assert cfg.max_effects == 1                       # what the section sets wins
+    # the held-out half is not touched: the calibrated gate applies there
+    ev = load_sweep(p).discover_config("heldout", {"fit_share_min": 0.3})
+    assert ev.fit_share_min == 0.3

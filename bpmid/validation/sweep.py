@@ -123,7 +123,8 @@ class RigSection:
 
 @dataclasses.dataclass(frozen=True)
 class PhaseSection:
-    """Sections ``calibration`` and ``evaluation``: overrides of the config section ``discover`` for that half."""
+    """Sections ``calibration`` and ``evaluation``: overrides of the config section ``discover`` for that half
+    (the calibration half: of :data:`bpmid.discover.calibrate.PERMISSIVE`, which fills every key not given)."""
 
     discover: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
@@ -185,8 +186,11 @@ def load_sweep(path: str | Path) -> SweepConfig:
                       ("calibration", PhaseSection), ("evaluation", PhaseSection)):
         if name in data:
             kw[name] = build_dataclass(cls, data[name], name, path)
-    if "calibration" in data and "discover" not in (data["calibration"] or {}):
-        kw["calibration"] = PhaseSection(_permissive())
+    if "calibration" in kw:
+        # the calibration half stays permissive in every key its section does not set: a section written before a
+        # gate condition existed (fit_share_min, the later-round gain) must not have the shipped value of it
+        # applied to the run that records the statistics to calibrate it from
+        kw["calibration"] = PhaseSection({**_permissive(), **kw["calibration"].discover})
     cfg = SweepConfig(**kw, path=str(path), sha256=sha)
     _ = cfg.effective_generator
     cfg.discover_config("calibration")  # check the discover overrides now, naming the key
