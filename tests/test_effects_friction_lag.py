@@ -102,12 +102,15 @@ def test_second_lag_share_zero_is_the_first_order_lag_and_one_half_two_equal_lag
     assert np.array_equal(e.transform_pressure(t, p, ps), K.lag(t, K.lag(t, p, 0.1), 0.1))
 
 
-def test_c_export_refuses_the_non_play_friction_and_exports_two_lags():
+def test_c_export_steps_the_non_play_friction_as_friction_operators_and_exports_two_lags():
     from bpmid.export.c import causal_vbmm
 
-    fr, fp = build_effect("braid_friction", {"r": 300.0, "mu": 0.02})
-    with pytest.raises(InputError, match="mu"):
-        causal_vbmm(AugmentedVBMM(VBMM(), (fr,), fp))
+    # the same (r, mu, slip) per element as the closed loop's plant (causal_pressure), never the play form
+    fr, fp = build_effect("braid_friction", {"r": 300.0, "mu": 0.02, "elements": 2})
+    cv = causal_vbmm(AugmentedVBMM(VBMM(), (fr,), fp))
+    assert [op for op, _v in cv.chain] == ["frictions"]
+    assert cv.chain == fr.causal_pressure(fp)
+    assert cv.chain[0][1] == pytest.approx([200.0, 0.02 * 2 / 3, 0.0, 400.0, 0.02 * 4 / 3, 0.0])
     lag, lp = build_effect("pressure_lag", {"tau": 0.2, "share": 0.25})
     cv = causal_vbmm(AugmentedVBMM(VBMM(), (lag,), lp))
     assert [op for op, _v in cv.chain] == ["lag", "lag"]
