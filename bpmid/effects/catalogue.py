@@ -159,7 +159,8 @@ class BraidFriction(Effect):
         return v(f"{self.id}.r"), mu, slip
 
     def is_play(self, params) -> bool:
-        """True when the friction is the plain play operator (mu = slip = 0): the form the C export steps."""
+        """True when the friction is the plain play operator (mu = slip = 0): stepped as play operators (the C
+        export and the closed loop), the general form as friction operators."""
         _r, mu, slip = self._values(params)
         return mu == 0.0 and slip == 0.0
 
