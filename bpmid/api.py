@@ -231,7 +231,8 @@ def predict(logs, params, *, config=None):
     Parameters
     ----------
     logs : motion log paths or :func:`from_arrays` logs (angles optional: with them, metrics are computed)
-    params : the VBMM: a ``bpmid.vbmm/1`` path, a :class:`VBMMFitResult` or a ``bpmid.models.vbmm.VBMM``
+    params : the VBMM: a ``bpmid.vbmm/1`` path (with its ``effects`` list, if it has one), a
+        :class:`VBMMFitResult` or a ``bpmid.models.vbmm.VBMM``
 
     Returns
     -------
@@ -242,8 +243,12 @@ def predict(logs, params, *, config=None):
     from bpmid.predict import predict as _predict, predict_yaml_body
     from bpmid.results import PredictionResult
 
+    from bpmid.effects.fitfile import augmented_from_file
+
     cfg = _config(config)
     model, ppath = _vbmm(params, cfg.section("model"))
+    if ppath is not None and isinstance(params, (str, Path)):
+        model = augmented_from_file(model, ppath)   # the file's effects list acts too (never silently dropped)
     motion, paths = _motion_logs(logs, cfg)
     preds = _predict(motion, model)
     warnings = plaus.reader_warnings(motion) + plaus.prediction_warnings(preds)
@@ -381,8 +386,13 @@ def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequ
         cfg.validate()
     controllers = list(cfg.controllers)
     model_cfg = cfg_all.section("model")
+    from bpmid.effects.fitfile import refuse_effects_list
+
     model, ppath = _vbmm(params, model_cfg)
     plant_base, plant_path = _vbmm(plant_params, model_cfg) if plant_params is not None else (model, None)
+    for pth in (ppath, plant_path):
+        if isinstance(pth, Path):
+            refuse_effects_list(pth, "bpmid control", "give the plant's effects with --plant-effect ID:key=value")
     plant_base = scaled_plant_model(plant_base, cfg.plant_modulus_scale, cfg.plant_tau_scale)
     plant = build_plant(plant_base, list(_as_list(plant_effects)), cfg)
     spec = reference if isinstance(reference, str) else ",".join(str(r) for r in reference)

@@ -52,15 +52,21 @@ class Prediction:
         return df
 
 
-def predict(logs: Sequence[MotionLog], model: VBMM) -> list[Prediction]:
-    """Forward model on each log (free-running, from the pressure only).
+def predict(logs: Sequence[MotionLog], model) -> list[Prediction]:
+    """Forward model on each log (free-running, from the pressure only). ``model``: a VBMM, or an
+    :class:`~bpmid.effects.base.AugmentedVBMM` (a fit file with an ``effects`` list: the effects act too).
 
     Raises InputError naming the log when a pressure is below vacuum or beyond the model's range.
     """
+    from bpmid.effects.base import AugmentedVBMM
+
     out = []
     for lg in logs:
         check_pressure_range(lg)
-        pred = model.forward_deg(lg.time_s, lg.pressure_pa, name=lg.name, path=lg.path)
+        if isinstance(model, AugmentedVBMM):
+            pred = model.simulate_deg(lg.time_s, lg.pressure_pa, name=lg.name, path=lg.path)
+        else:
+            pred = model.forward_deg(lg.time_s, lg.pressure_pa, name=lg.name, path=lg.path)
         met = None if lg.angle_deg is None else log_metrics(lg.angle_deg, pred)
         out.append(Prediction(lg, pred, met))
     return out
@@ -69,9 +75,15 @@ def predict(logs: Sequence[MotionLog], model: VBMM) -> list[Prediction]:
 def predict_yaml_body(preds: Sequence[Prediction], *, params: str | Path | None = None, model=None) -> dict:
     """The body of ``predict.yaml`` (schema ``bpmid.predict/1``): the parameter file, model settings, per-log
     metrics."""
+    from bpmid.effects.base import AugmentedVBMM
+
     body = {"params": None if params is None else str(params)}
     if model is not None:
-        body["model"] = {"closure": model.closure, "history": model.history, "window_s": model.window_s}
+        base = model.base if isinstance(model, AugmentedVBMM) else model
+        body["model"] = {"closure": base.closure, "history": base.history, "window_s": base.window_s}
+        if isinstance(model, AugmentedVBMM):
+            # the fit file's effects list acted on every prediction (in this order)
+            body["model"]["effects"] = [e.id for e in model.effects]
     body["logs"] = {p.log.name: {"samples": p.log.n, "file": f"{p.log.name}.csv",
                                  "metrics": None if p.metrics is None else
                                  {k: float(v) for k, v in p.metrics.items()}} for p in preds}

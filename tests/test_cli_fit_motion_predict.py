@@ -88,6 +88,40 @@ def test_params_with_only_contract_keys(fitted, data, tmp_path):
     assert res.exit_code == 0, res.output
 
 
+def test_predict_runs_the_effects_list_of_the_fit_file(fitted, data, tmp_path):
+    # a fit file carrying effects (what bpmid export --to c steps) predicts with them, never silently without
+    from bpmid.effects.base import AugmentedVBMM
+    from bpmid.effects.fitfile import effects_from_yaml
+    from bpmid.io.motion_logs import read_motion_logs
+    from bpmid.models.vbmm import load_vbmm
+
+    d = yaml.safe_load(fitted[0].read_text())
+    d["effects"] = [{"id": "pressure_lag", "parameters": {"tau": 0.4}},
+                    {"id": "braid_friction", "settings": {"elements": 2}, "parameters": {"r": 3000.0, "mu": 0.02}},
+                    {"id": "angle_offset", "parameters": {"offset": {"value": 2.0, "unit": "deg"}}}]
+    fx = tmp_path / "with_effects.yaml"
+    fx.write_text(yaml.safe_dump(d))
+    for name, params in (("plain", fitted[0]), ("fx", fx)):
+        res = runner.invoke(app, ["predict", str(data["tri20"]), "--params", str(params), "--out", str(tmp_path / name)])
+        assert res.exit_code == 0, res.output
+    plain = pd.read_csv(tmp_path / "plain" / "tri20.csv", comment="#")["angle_pred_deg"].to_numpy()
+    got = pd.read_csv(tmp_path / "fx" / "tri20.csv", comment="#")["angle_pred_deg"].to_numpy()
+    lg = read_motion_logs([data["tri20"]])[0]
+    effects, ps = effects_from_yaml(d["effects"], fx)
+    want = AugmentedVBMM(load_vbmm(fitted[0]), effects, ps).simulate_deg(lg.time_s, lg.pressure_pa)
+    np.testing.assert_allclose(got, want, atol=2e-6)      # the CSV keeps 6 decimals
+    assert np.max(np.abs(got - plain)) > 1.0               # the effects act: not the plain fit under another name
+    meta = yaml.safe_load((tmp_path / "fx" / "predict.yaml").read_text())
+    assert meta["model"]["effects"] == ["pressure_lag", "braid_friction", "angle_offset"]
+    assert "effects" not in yaml.safe_load((tmp_path / "plain" / "predict.yaml").read_text())["model"]
+    # a bad entry is refused naming the file and the key; nothing written
+    d["effects"][1]["parameters"]["nu"] = 0.1
+    fx.write_text(yaml.safe_dump(d))
+    res = runner.invoke(app, ["predict", str(data["tri20"]), "--params", str(fx), "--out", str(tmp_path / "bad")])
+    assert res.exit_code == 2 and "with_effects.yaml" in res.output and "effects[1].parameters.nu" in res.output
+    assert not (tmp_path / "bad").exists()
+
+
 def test_help_has_examples():
     for args in (["fit", "motion", "--help"], ["predict", "--help"]):
         res = runner.invoke(app, args)

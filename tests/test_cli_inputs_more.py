@@ -234,6 +234,31 @@ def test_simulate_effect_out_of_range_message_reads_value_then_unit(tmp_path):
     assert not out.exists()
 
 
+def test_control_and_simulate_refuse_a_fit_file_whose_effects_they_would_leave_out(tmp_path):
+    """A fit file with an effects list (bpmid predict and export --to c run them) is refused by the commands that
+    take only its VBMM constants, naming the file and the key and saying where they take effects."""
+    fx = [{"id": "pressure_lag", "parameters": {"tau": 0.2}}]
+    p = _params(tmp_path, lambda d: d.update(effects=fx), name="with_effects.yaml")
+    out = tmp_path / "c"
+    r = runner.invoke(app, ["control", "--params", str(p), "--reference", "steps", "--controller", "pi",
+                            "--out", str(out)])
+    assert r.exit_code == 2, r.output
+    line = _one_line(r)
+    assert "with_effects.yaml" in line and "effects" in line and "pressure_lag" in line and "--plant-effect" in line
+    assert not out.exists()
+    proto = tmp_path / "proto.yaml"
+    proto.write_text(PROTO)
+    r = runner.invoke(app, ["simulate", str(proto), "--params", str(p), "--out", str(tmp_path / "sim")])
+    assert r.exit_code == 2, r.output
+    line = _one_line(r)
+    assert "with_effects.yaml" in line and "--effect" in line
+    assert not (tmp_path / "sim").exists()
+    # the same file without effects runs
+    plain = _params(tmp_path, name="plain.yaml")
+    r = runner.invoke(app, ["simulate", str(proto), "--params", str(plain), "--out", str(tmp_path / "sim2")])
+    assert r.exit_code == 0, r.output
+
+
 # ---------------------------------------------------------------------------------------------
 # 21: discover --init without a schema
 # ---------------------------------------------------------------------------------------------

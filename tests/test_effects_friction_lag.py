@@ -156,7 +156,7 @@ def test_refit_recovers_a_cascade_of_two_lags():
 
 
 def test_files_written_before_the_new_parameters_still_load_with_the_older_form():
-    from bpmid.export.c import effects_from_yaml
+    from bpmid.effects.fitfile import effects_from_yaml
 
     effects, ps = effects_from_yaml([
         {"id": "pressure_lag", "parameters": {"tau": {"value": 0.2, "unit": "s"}}},

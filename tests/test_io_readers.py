@@ -318,6 +318,18 @@ def test_a_wrong_statement_is_caught_by_the_plausibility_checks(name, io, word):
     assert not plaus.motion_data_warnings([read_motion_log(DATA / "clean.csv")])
 
 
+def test_a_short_log_in_seconds_is_warned_about_without_a_unit_to_suggest(tmp_path):
+    """A 0.3 s log whose column already says seconds: the warning says it is short, not "seconds, not s"."""
+    from bpmid.io import plausibility as plaus
+
+    f = tmp_path / "short.csv"
+    f.write_text("# pressure_reference: gauge\ntime_s,pressure_pa,angle_deg\n0,20000,15\n0.1,40000,16\n"
+                 "0.2,60000,18\n0.3,40000,20\n")
+    w = plaus.motion_data_warnings([read_motion_log(f)])
+    assert any("lasts only 0.3 s" in x and "too short" in x for x in w), w
+    assert not any("not s," in x or "--time-unit s" in x for x in w), w
+
+
 def test_control_references_use_the_same_readers(tmp_path):
     from bpmid.control import read_reference
 

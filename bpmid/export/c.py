@@ -9,7 +9,7 @@ Two model kinds:
 
 - ``vbmm`` (a ``bpmid.vbmm/1`` file): the VBMM with any number of branches, either closure, shared or
   split time constants, recursive (exact) history, plus the catalogue effects of an optional
-  ``effects`` list in the file (see :func:`effects_from_yaml`): pressure_lag (first-order lag; a dead
+  ``effects`` list in the file (see :func:`bpmid.effects.fitfile.effects_from_yaml`): pressure_lag (first-order lag; a dead
   time is refused), braid_friction (mean of play operators, or of friction operators with a
   pressure-proportional band and an elastic stick), angle_offset, second_relaxation (one more
   branch), strain_stiffening, asymmetric_relaxation and thermal_softening. ``step_forward`` is the
@@ -68,69 +68,6 @@ def _comment(lines: Sequence[str]) -> str:
 # ---------------------------------------------------------------------------------------------
 # the VBMM with its causal effects
 # ---------------------------------------------------------------------------------------------
-def effects_from_yaml(block, path=None):
-    """The optional ``effects`` list of a ``bpmid.vbmm/1`` file: the effects and one ParamSet of their constants.
-
-    Each entry is ``{id: <catalogue id>, parameters: {<name>: {value, stderr, unit}}, settings: {...}}``
-    (parameter names with or without the ``<id>.`` prefix; ``settings`` optional), in the order the
-    effects act. Returns (effects tuple, ParamSet).
-    """
-    from bpmid.effects import CATALOGUE, get_effect
-    from bpmid.params import ParamSet, parse_param_entry
-
-    if block is None:
-        return (), ParamSet([])
-    if not isinstance(block, list):
-        raise InputError("effects must be a list of {id, parameters, settings}", path=path, key="effects")
-    effects, params, seen = [], [], set()
-    for i, entry in enumerate(block):
-        key = f"effects[{i}]"
-        if not isinstance(entry, dict):
-            raise InputError("expected a mapping {id, parameters, settings}", path=path, key=key)
-        for k in entry:
-            if k not in ("id", "parameters", "settings"):
-                raise InputError("unknown key (known: id, parameters, settings)", path=path, key=f"{key}.{k}")
-        eid = entry.get("id")
-        if not isinstance(eid, str) or eid not in CATALOGUE:
-            raise InputError(f"unknown effect {eid!r} (known: {', '.join(CATALOGUE)})", path=path, key=f"{key}.id")
-        if eid in seen:
-            raise InputError(f"effect {eid} is listed twice", path=path, key=f"{key}.id")
-        seen.add(eid)
-        settings = entry.get("settings") or {}
-        if not isinstance(settings, dict):
-            raise InputError("settings must be a mapping", path=path, key=f"{key}.settings")
-        try:
-            effect = get_effect(eid, **settings)
-        except InputError as exc:
-            raise InputError(exc.message, path=path, key=f"{key}.settings") from None
-        except TypeError:
-            known = ", ".join(getattr(type(get_effect(eid)), "SETTINGS", ())) or "none"
-            raise InputError(f"unknown setting for {eid} (known: {known})", path=path, key=f"{key}.settings") from None
-        defaults = effect.default_params()
-        given = entry.get("parameters")
-        if not isinstance(given, dict):
-            raise InputError("parameters must be a mapping name -> {value, stderr, unit}", path=path,
-                             key=f"{key}.parameters")
-        values = {}
-        for name, val in given.items():
-            full = name if str(name).startswith(eid + ".") else f"{eid}.{name}"
-            pkey = f"{key}.parameters.{name}"
-            if full not in defaults:
-                known = ", ".join(n.split(".", 1)[1] for n in defaults.names())
-                raise InputError(f"unknown parameter of {eid} (known: {known})", path=path, key=pkey)
-            v, _se, unit = parse_param_entry(val, path=path, key=pkey)
-            if unit is not None and unit != defaults[full].unit:
-                raise InputError(f"unit {unit!r} where {defaults[full].unit!r} is expected", path=path, key=pkey)
-            values[full] = v
-        # parameters added to an effect later (``OPTIONAL_PARAMS``: their default keeps the older form) may be
-        # absent from files written before they existed
-        optional = {f"{eid}.{n}" for n in getattr(effect, "OPTIONAL_PARAMS", ())}
-        for name in defaults.names():
-            if name not in values and name not in optional:
-                raise InputError("missing key", path=path, key=f"{key}.parameters.{name.split('.', 1)[1]}")
-        effects.append(effect)
-        params.extend(defaults.with_values(values))
-    return tuple(effects), ParamSet(params)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -183,14 +120,11 @@ def load_vbmm_fit(path: str | Path):
     """The :class:`~bpmid.effects.base.AugmentedVBMM` of a ``bpmid.vbmm/1`` file (its ``effects`` list
     included; recursive history)."""
     from bpmid.effects.base import AugmentedVBMM
-    from bpmid.io.results import read_result
+    from bpmid.effects.fitfile import augmented_from_file
     from bpmid.models.vbmm import load_vbmm
 
-    path = Path(path)
-    data = read_result(path, "bpmid.vbmm/")
-    base = load_vbmm(path)
-    effects, params = effects_from_yaml(data.get("effects"), path)
-    return AugmentedVBMM(base, effects, params)
+    aug = augmented_from_file(load_vbmm(Path(path)), path)
+    return aug if isinstance(aug, AugmentedVBMM) else AugmentedVBMM(aug)
 
 
 def load_vbmm_from_compare(path: str | Path, name: str):
@@ -835,5 +769,5 @@ class CModel:
 
 
 __all__ = ["find_cc", "build_c", "CModel", "STRICT_FLAGS", "export_c", "c_sources", "load_vbmm_fit",
-           "load_vbmm_from_compare", "effects_from_yaml", "causal_vbmm", "CausalVBMM",
+           "load_vbmm_from_compare", "causal_vbmm", "CausalVBMM",
            "load_maxwell_slip", "MaxwellSlipMap", "FILES", "MODELS", "EXPORTABLE_EFFECTS"]

@@ -96,9 +96,15 @@ def motion_data_warnings(logs: Iterable) -> list[str]:
                 out.append(f"{where}: samples are {dt:g} s apart and every time is a whole number: if the times are "
                            f"milliseconds, state --time-unit ms (or name the column time_ms)")
         if t.size > 2 and float(t[-1] - t[0]) < MIN_DURATION_S:
-            out.append(f"{where}: the log lasts only {float(t[-1] - t[0]):.3g} s ({t.size} samples): if the times are "
-                       f"seconds, not {tcol.get('unit', 'the stated unit')}, state --time-unit s (or name the column "
-                       f"time_s)")
+            if tcol.get("unit") == "s":
+                # the column already says seconds: no unit to suggest, only the warning that so short a log says
+                # little about creep and hysteresis
+                out.append(f"{where}: the log lasts only {float(t[-1] - t[0]):.3g} s ({t.size} samples): too short "
+                           f"to show creep or hysteresis; check that the time column holds seconds")
+            else:
+                out.append(f"{where}: the log lasts only {float(t[-1] - t[0]):.3g} s ({t.size} samples): if the times "
+                           f"are seconds, not {tcol.get('unit', 'the stated unit')}, state --time-unit s (or name the "
+                           f"column time_s)")
     return out
 
 

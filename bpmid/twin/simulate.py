@@ -136,6 +136,10 @@ class Simulation:
 
 def _base_model(proto: Protocol, params_path) -> tuple[VBMM, dict]:
     if params_path is not None:
+        from bpmid.effects.fitfile import refuse_effects_list
+
+        refuse_effects_list(params_path, "bpmid simulate --params",
+                            "inject them with --effect ID:key=value or the protocol's effects section")
         model = load_vbmm(params_path)
         return model, {"params_file": str(params_path)}
     material = Material.paper_fit() if proto.plant.material == "paper_fit" else Material.paper_mat()
