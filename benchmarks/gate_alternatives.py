@@ -105,6 +105,42 @@ def later_table(recs, thr, share_later):
     return t
 
 
+def later_score(recs, thr, share_later):
+    """Right decisions minus twice the wrong names over every case (the calibration's score; round 1 the shipped
+    gate, later rounds asked ``share_later``): what ``thresholds_from_records`` would weigh."""
+    g, sh, a = thr["heldout_gain_min_sigma"], thr["gap_share_min"], thr["family_alpha"]
+    fs, w, gl = thr["fit_share_min"], thr["fit_share_waived_above_sigma"], thr["heldout_gain_min_sigma_later"]
+    score = 0
+    for rec in recs:
+        rs = [Record(**x) for x in rec.get("calibration_records") or []]
+        if not rs:
+            continue
+        # as bpmid.discover.calibrate._case_outcome, with the later round asked share_later (round 1 as shipped)
+        truth = rs[0].truth
+        first = _first_passing([r for r in rs if r.round == 1], g, sh, a, fs, w)
+        if truth == "none":
+            score += 1 if first is None else -2
+            continue
+        if "+" in truth:
+            truths = set(truth.split("+"))
+            if first is None:
+                continue
+            if first not in truths:
+                score -= 2
+                continue
+            later = [r for r in rs if r.round == 2 and r.named_before == first]
+            second = _first_passing(later, gl, share_later, a, fs, w) if later else None
+            score += 0 if second is None else (1 if second in truths else -2)
+            continue
+        if first != truth:
+            score -= 2 if first is not None else 0
+            continue
+        score += 1
+        if any(_passes(r, gl, share_later, a, fs, w) for r in rs if r.truth_in_model and r.round == 2):
+            score -= 2
+    return score
+
+
 def show(title, t):
     print(f"  {title:28s} " + "  ".join(f"{k[:6]} {t[k, 'ok']}/{t[k, 'n']} (-{t[k, 'wrong']})"
                                       for k in ("single", "pair", "null", "out_of_catalogue")))
@@ -125,9 +161,10 @@ def main(argv):
         show("shipped", round1_table(recs, lambda r: first_named_shipped(r, thr)))
         for t_min in (40.0, 60.0, 100.0):
             show(f"heldout-LR T >= {t_min:g}", round1_table(recs, lambda r, t_min=t_min: first_named_ho_lr(r, thr, t_min)))
-        for s in (thr["gap_share_min"], 0.25, 0.15):
+        for s in (thr["gap_share_min"], 0.30, 0.25, 0.20, 0.15):
             lt = later_table(recs, thr, s)
-            print(f"  later share {s:.2f}: " + ", ".join(f"{k} {v}" for k, v in sorted(lt.items())))
+            print(f"  later share {s:.2f}: score {later_score(recs, thr, s)}; "
+                  + ", ".join(f"{k} {v}" for k, v in sorted(lt.items())))
 
 
 if __name__ == "__main__":

@@ -244,11 +244,12 @@ def predict(logs, params, *, config=None):
     from bpmid.results import PredictionResult
 
     from bpmid.effects.fitfile import augmented_from_file
+    from bpmid.models.vbmm import VBMM
 
     cfg = _config(config)
     model, ppath = _vbmm(params, cfg.section("model"))
-    if ppath is not None and isinstance(params, (str, Path)):
-        model = augmented_from_file(model, ppath)   # the file's effects list acts too (never silently dropped)
+    if not isinstance(params, VBMM):
+        model = augmented_from_file(model, params)  # the fit's effects list acts too (never silently dropped)
     motion, paths = _motion_logs(logs, cfg)
     preds = _predict(motion, model)
     warnings = plaus.reader_warnings(motion) + plaus.prediction_warnings(preds)
@@ -387,12 +388,13 @@ def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequ
     controllers = list(cfg.controllers)
     model_cfg = cfg_all.section("model")
     from bpmid.effects.fitfile import refuse_effects_list
+    from bpmid.models.vbmm import VBMM
 
     model, ppath = _vbmm(params, model_cfg)
     plant_base, plant_path = _vbmm(plant_params, model_cfg) if plant_params is not None else (model, None)
-    for pth in (ppath, plant_path):
-        if isinstance(pth, Path):
-            refuse_effects_list(pth, "bpmid control", "give the plant's effects with --plant-effect ID:key=value")
+    for fit in (params, plant_params):
+        if fit is not None and not isinstance(fit, VBMM):
+            refuse_effects_list(fit, "bpmid control", "give the plant's effects with --plant-effect ID:key=value")
     plant_base = scaled_plant_model(plant_base, cfg.plant_modulus_scale, cfg.plant_tau_scale)
     plant = build_plant(plant_base, list(_as_list(plant_effects)), cfg)
     spec = reference if isinstance(reference, str) else ",".join(str(r) for r in reference)

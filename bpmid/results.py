@@ -470,7 +470,9 @@ class VBMMFitResult(Result):
 
     @property
     def model(self):
-        """The fitted :class:`bpmid.models.vbmm.VBMM` (history settings as recorded in the file)."""
+        """The fitted :class:`bpmid.models.vbmm.VBMM` (history settings as recorded in the file): the constants only;
+        a file's ``effects`` list is run by :func:`bpmid.predict` (or
+        ``bpmid.effects.fitfile.augmented_from_file(result.model, result)``)."""
         if self.raw is not None and hasattr(self.raw, "model"):
             return self.raw.model
         from bpmid.models.vbmm import vbmm_from_mapping

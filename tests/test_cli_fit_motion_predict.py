@@ -6,6 +6,7 @@ import yaml
 from typer.testing import CliRunner
 
 from bpmid.cli import app
+from bpmid.errors import InputError
 from bpmid.io.motion_logs import from_arrays, write_motion_log
 from bpmid.models.vbmm import VBMM, Material, triangle_pressure
 
@@ -114,6 +115,15 @@ def test_predict_runs_the_effects_list_of_the_fit_file(fitted, data, tmp_path):
     meta = yaml.safe_load((tmp_path / "fx" / "predict.yaml").read_text())
     assert meta["model"]["effects"] == ["pressure_lag", "braid_friction", "angle_offset"]
     assert "effects" not in yaml.safe_load((tmp_path / "plain" / "predict.yaml").read_text())["model"]
+    # the library with the loaded result instead of the path: the same effects act
+    import bpmid
+
+    res = bpmid.predict([lg], bpmid.load(fx))
+    np.testing.assert_allclose(res.predictions[lg.name], want, atol=1e-9)
+    assert res.body["model"]["effects"] == ["pressure_lag", "braid_friction", "angle_offset"]
+    # and bpmid control, which takes only the constants, refuses the loaded result too (naming the key)
+    with pytest.raises(InputError, match="effects"):
+        bpmid.control(bpmid.load(fx), reference="steps", controllers="pi")
     # a bad entry is refused naming the file and the key; nothing written
     d["effects"][1]["parameters"]["nu"] = 0.1
     fx.write_text(yaml.safe_dump(d))

@@ -190,6 +190,14 @@ def test_general_friction_forward_equals_the_augmented_model_and_inverse_is_a_ri
         p_ff = lib.run_inverse(lg.time_s, ang)
         assert np.all(np.isfinite(p_ff))
         assert np.max(np.abs(lib.run_forward(lg.time_s, p_ff) - ang)) < 1e-6
+    if slip > 0:
+        # single precision: the friction operators and their bisection at float resolution
+        lib_f = CModel(build_c(dd / "src", dd / "libf.so", shared=True, single=True))
+        lg = logs[0]
+        ang = lib.run_forward(lg.time_s, lg.pressure_pa)
+        assert np.max(np.abs(lib_f.run_forward(lg.time_s, lg.pressure_pa) - ang)) < 1e-2
+        p_f = lib_f.run_inverse(lg.time_s, ang)
+        assert np.max(np.abs(lib.run_forward(lg.time_s, p_f) - ang)) < 1e-2
 
 
 def test_lag_and_offset_inverse_gives_the_pressure_back(tmp_path_factory, logs):

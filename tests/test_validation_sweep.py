@@ -215,3 +215,9 @@ def test_calibration_section_fills_every_gate_key_it_does_not_set_permissively(t
     # the held-out half is not touched: the calibrated gate applies there
     ev = load_sweep(p).discover_config("heldout", {"fit_share_min": 0.3})
     assert ev.fit_share_min == 0.3
+    # a first-round gain the section sets without the later one sets both (as everywhere else)
+    p.write_text("sweep: {name: t, seed: 1}\ngenerator: {n_cases: 4}\n"
+                 "calibration:\n  discover: {heldout_gain_min_sigma: 0.1}\n")
+    cfg = load_sweep(p).discover_config("calibration")
+    assert cfg.heldout_gain_min_sigma == cfg.heldout_gain_min_sigma_later == 0.1
+    assert cfg.fit_share_min == 0.0

@@ -1,6 +1,8 @@
 """The ``effects`` list of a ``bpmid.vbmm/1`` file: the catalogue effects a fitted VBMM carries, in the order they
-act, with their constants. Read by every command that runs a fit file (``bpmid predict``, ``bpmid export --to c``),
-so a file with effects never runs without them.
+act, with their constants. Every command that runs a fit file as the model runs them (``bpmid predict``,
+``bpmid export --to c``) or refuses the file (``bpmid control``, ``bpmid simulate --params``, which take only its
+constants), so a fit is never run without its effects. A file given as starting values (``--init`` of
+``fit motion`` and ``discover``) gives only its constants, as a start should: those commands fit the effects.
 """
 from __future__ import annotations
 
@@ -74,26 +76,34 @@ def effects_from_yaml(block, path=None):
     return tuple(effects), ParamSet(params)
 
 
-def augmented_from_file(base, path: str | Path):
-    """``base`` (the file's VBMM, as loaded with the caller's model settings) with the effects of the fit file at
-    ``path``: an :class:`~bpmid.effects.base.AugmentedVBMM`, or ``base`` itself when the file lists none."""
-    from bpmid.effects.base import AugmentedVBMM
-    from bpmid.io.results import read_result
+def _fit_body(fit, path=None) -> tuple[dict, str | Path | None]:
+    """The mapping of a fit: read from a ``bpmid.vbmm/1`` path, or a loaded result's (``to_dict``) or a mapping."""
+    if isinstance(fit, (str, Path)):
+        from bpmid.io.results import read_result
 
-    data = read_result(Path(path), "bpmid.vbmm/")
-    effects, params = effects_from_yaml(data.get("effects"), path)
+        return read_result(Path(fit), "bpmid.vbmm/"), fit
+    body = fit.to_dict() if hasattr(fit, "to_dict") else fit
+    return (body if isinstance(body, dict) else {}), path if path is not None else getattr(fit, "source", None)
+
+
+def augmented_from_file(base, fit, path: str | Path | None = None):
+    """``base`` (the fit's VBMM, as loaded with the caller's model settings) with the effects of the fit (a
+    ``bpmid.vbmm/1`` path, a loaded :class:`~bpmid.results.VBMMFitResult` or its mapping): an
+    :class:`~bpmid.effects.base.AugmentedVBMM`, or ``base`` itself when the fit lists none."""
+    from bpmid.effects.base import AugmentedVBMM
+
+    data, where = _fit_body(fit, path)
+    effects, params = effects_from_yaml(data.get("effects"), where)
     return AugmentedVBMM(base, effects, params) if effects else base
 
 
-def refuse_effects_list(path: str | Path | None, command: str, instead: str) -> None:
-    """``command`` takes only a fit file's VBMM constants: a file whose ``effects`` list is not empty is refused
-    (InputError naming the file and the key, with ``instead``: where that command takes effects), never run
-    silently without them."""
-    if path is None:
+def refuse_effects_list(fit, command: str, instead: str) -> None:
+    """``command`` takes only a fit's VBMM constants: a fit (a ``bpmid.vbmm/1`` path, a loaded result or its
+    mapping; None: nothing to check) whose ``effects`` list is not empty is refused (InputError naming the file and
+    the key, with ``instead``: where that command takes effects), never run silently without them."""
+    if fit is None:
         return
-    from bpmid.io.results import read_result
-
-    data = read_result(Path(path), "bpmid.vbmm/")
+    data, path = _fit_body(fit)
     if data.get("effects"):
         ids = ", ".join(str(e.get("id")) if isinstance(e, dict) else "?" for e in data["effects"])
         raise InputError(f"{command} uses only the VBMM constants of this file, and it lists effects ({ids}) that "

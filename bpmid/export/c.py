@@ -327,8 +327,7 @@ def _chain_sources(chain) -> tuple[str, list[str], list[str]]:
     if any(op == "plays" for op, _v in chain):
         helpers = f"#define PLAY_MAX {max(len(v) for op, v in chain if op == 'plays')}\n" + _PLAY_INVERSE
     if any(op == "frictions" for op, _v in chain):
-        helpers += (f"#define FRICTION_MAX {max(len(v) // 3 for op, v in chain if op == 'frictions')}\n"
-                    + _FRICTION_OPERATORS)
+        helpers += _FRICTION_OPERATORS
     code = helpers
     code += ("/* The logged pressure (Pa) -> the pressure the rubber sees, through the pressure terms in order. */\n"
              "static bpmid_real pressure_chain_forward(bpmid_state *s, bpmid_real dt, bpmid_real x)\n{\n"

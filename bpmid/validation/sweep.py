@@ -190,7 +190,10 @@ def load_sweep(path: str | Path) -> SweepConfig:
         # the calibration half stays permissive in every key its section does not set: a section written before a
         # gate condition existed (fit_share_min, the later-round gain) must not have the shipped value of it
         # applied to the run that records the statistics to calibrate it from
-        kw["calibration"] = PhaseSection({**_permissive(), **kw["calibration"].discover})
+        from bpmid.discover.calibrate import later_gain_follows
+
+        given = kw["calibration"].discover
+        kw["calibration"] = PhaseSection(later_gain_follows({**_permissive(), **given}, given))
     cfg = SweepConfig(**kw, path=str(path), sha256=sha)
     _ = cfg.effective_generator
     cfg.discover_config("calibration")  # check the discover overrides now, naming the key
