@@ -20,7 +20,8 @@ import json
 import math
 import sys
 
-from bpmid.discover.calibrate import Record, _first_passing, _passes, load_thresholds
+from bpmid.discover.calibrate import Record, _case_outcome, _first_passing, load_thresholds
+from bpmid.discover.confirm import excess_deg, gap_share
 
 
 def load(paths):
@@ -33,10 +34,6 @@ def load(paths):
     return out
 
 
-def _excess(r, f):
-    return math.sqrt(max(r * r - f * f, 0.0))
-
-
 def first_named_ho_lr(rec, thr, t_min):
     """Round 1 of the held-out likelihood-ratio variant (see module docstring)."""
     f = rec["noise_floor_deg"]
@@ -45,11 +42,9 @@ def first_named_ho_lr(rec, thr, t_min):
         if c["round"] != 1 or not c["tested"] or not c["identifiable"]:
             continue
         b, a = c["heldout_rmse_before_deg"], c["heldout_rmse_after_deg"]
-        gb = _excess(b, f)
-        g = (gb - _excess(a, f)) / f
-        share = (gb - _excess(a, f)) / gb if gb > 0 else math.nan
-        fb = _excess(c["fit_rmse_before_deg"], f)
-        fs = (fb - _excess(c["fit_rmse_after_deg"], f)) / fb if fb > 0 else math.nan
+        g = (excess_deg(b, f) - excess_deg(a, f)) / f
+        share = gap_share(b, a, f)
+        fs = gap_share(c["fit_rmse_before_deg"], c["fit_rmse_after_deg"], f)
         t = 0.5 * c["n_eff"] * math.log(b * b / (a * a))
         p = c["likelihood_ratio_p_holm"] if c["likelihood_ratio_p_holm"] is not None else c["likelihood_ratio_p"]
         ok = ((g >= thr["heldout_gain_min_sigma"] or t >= t_min)
@@ -108,36 +103,15 @@ def later_table(recs, thr, share_later):
 def later_score(recs, thr, share_later):
     """Right decisions minus twice the wrong names over every case (the calibration's score; round 1 the shipped
     gate, later rounds asked ``share_later``): what ``thresholds_from_records`` would weigh."""
-    g, sh, a = thr["heldout_gain_min_sigma"], thr["gap_share_min"], thr["family_alpha"]
-    fs, w, gl = thr["fit_share_min"], thr["fit_share_waived_above_sigma"], thr["heldout_gain_min_sigma_later"]
     score = 0
     for rec in recs:
         rs = [Record(**x) for x in rec.get("calibration_records") or []]
-        if not rs:
-            continue
-        # as bpmid.discover.calibrate._case_outcome, with the later round asked share_later (round 1 as shipped)
-        truth = rs[0].truth
-        first = _first_passing([r for r in rs if r.round == 1], g, sh, a, fs, w)
-        if truth == "none":
-            score += 1 if first is None else -2
-            continue
-        if "+" in truth:
-            truths = set(truth.split("+"))
-            if first is None:
-                continue
-            if first not in truths:
-                score -= 2
-                continue
-            later = [r for r in rs if r.round == 2 and r.named_before == first]
-            second = _first_passing(later, gl, share_later, a, fs, w) if later else None
-            score += 0 if second is None else (1 if second in truths else -2)
-            continue
-        if first != truth:
-            score -= 2 if first is not None else 0
-            continue
-        score += 1
-        if any(_passes(r, gl, share_later, a, fs, w) for r in rs if r.truth_in_model and r.round == 2):
-            score -= 2
+        if rs:
+            right, wrong = _case_outcome(rs, thr["heldout_gain_min_sigma"], thr["gap_share_min"],
+                                         thr["family_alpha"], thr["fit_share_min"],
+                                         thr["fit_share_waived_above_sigma"], thr["heldout_gain_min_sigma_later"],
+                                         share_later)
+            score += right - 2 * wrong
     return score
 
 

@@ -240,11 +240,10 @@ def predict(logs, params, *, config=None):
     """
     from bpmid.io.results import provenance
     from bpmid.io import plausibility as plaus
-    from bpmid.predict import predict as _predict, predict_yaml_body
-    from bpmid.results import PredictionResult
-
     from bpmid.effects.fitfile import augmented_from_file
     from bpmid.models.vbmm import VBMM
+    from bpmid.predict import predict as _predict, predict_yaml_body
+    from bpmid.results import PredictionResult
 
     cfg = _config(config)
     model, ppath = _vbmm(params, cfg.section("model"))

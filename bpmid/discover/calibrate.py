@@ -238,12 +238,14 @@ def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive) ->
 
 
 def _pair_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
-                  fit_share: float = 0.0, waive: float = math.inf, g_later: float | None = None) -> tuple[int, int]:
+                  fit_share: float = 0.0, waive: float = math.inf, g_later: float | None = None,
+                  share_later: float | None = None) -> tuple[int, int]:
     """(both named, wrong names) the gate makes on a two-effect case: round 1 must name one of the two, the round
     after it (recorded when the permissive run took the same first effect) the other one, judged with the held-out
-    gain ``g_later`` (None: ``g``). When the gate's first choice is not the one the recorded run continued from,
-    the second round is unknown: not counted as right."""
+    gain ``g_later`` and share ``share_later`` (None: ``g``, ``share``). When the gate's first choice is not the one
+    the recorded run continued from, the second round is unknown: not counted as right."""
     g2 = g if g_later is None else g_later
+    sh2 = share if share_later is None else share_later
     truths = set(recs[0].truth.split("+"))
     first = _first_passing([r for r in recs if r.round == 1], g, share, alpha, fit_share, waive)
     if first is None:
@@ -251,22 +253,24 @@ def _pair_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
     if first not in truths:
         return 0, 1
     later = [r for r in recs if r.round == 2 and r.named_before == first]
-    second = _first_passing(later, g2, share, alpha, fit_share, waive) if later else None
+    second = _first_passing(later, g2, sh2, alpha, fit_share, waive) if later else None
     if second is None:
         return 0, 0
     return (1, 0) if second in truths - {first} else (0, 1)
 
 
 def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
-                  fit_share: float = 0.0, waive: float = math.inf, g_later: float | None = None) -> tuple[int, int]:
+                  fit_share: float = 0.0, waive: float = math.inf, g_later: float | None = None,
+                  share_later: float | None = None) -> tuple[int, int]:
     """(right decisions, false positives) the gate (g, share, alpha) makes on one case's records: round 1 must
     name the truth (nothing, on a case with no catalogue truth); the round after the truth was added must name
-    nothing (judged with the held-out gain ``g_later``, None: ``g``); on a pair, both effects must be named
-    (:func:`_pair_outcome`)."""
+    nothing (judged with the held-out gain ``g_later`` and share ``share_later``, None: ``g``, ``share``); on a
+    pair, both effects must be named (:func:`_pair_outcome`)."""
     truth = recs[0].truth
-    g2 = g if g_later is None else g_later
     if "+" in truth:
-        return _pair_outcome(recs, g, share, alpha, fit_share, waive, g_later)
+        return _pair_outcome(recs, g, share, alpha, fit_share, waive, g_later, share_later)
+    g2 = g if g_later is None else g_later
+    sh2 = share if share_later is None else share_later
     r1 = [r for r in recs if r.round == 1]
     first = _first_passing(r1, g, share, alpha, fit_share, waive)
     if truth == "none":
@@ -274,7 +278,7 @@ def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
     right = int(first == truth)
     fp = int(first is not None and first != truth)
     later = [r for r in recs if r.truth_in_model and r.round == 2]
-    if right and later and any(_passes(r, g2, share, alpha, fit_share, waive) for r in later):
+    if right and later and any(_passes(r, g2, sh2, alpha, fit_share, waive) for r in later):
         fp += 1
     return right, fp
 

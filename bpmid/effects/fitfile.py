@@ -76,23 +76,24 @@ def effects_from_yaml(block, path=None):
     return tuple(effects), ParamSet(params)
 
 
-def _fit_body(fit, path=None) -> tuple[dict, str | Path | None]:
-    """The mapping of a fit: read from a ``bpmid.vbmm/1`` path, or a loaded result's (``to_dict``) or a mapping."""
+def _fit_body(fit) -> tuple[dict, str | Path | None]:
+    """The mapping of a fit and its file: read from a ``bpmid.vbmm/1`` path, or a loaded result's (``to_dict``,
+    ``source``) or a mapping."""
     if isinstance(fit, (str, Path)):
         from bpmid.io.results import read_result
 
         return read_result(Path(fit), "bpmid.vbmm/"), fit
     body = fit.to_dict() if hasattr(fit, "to_dict") else fit
-    return (body if isinstance(body, dict) else {}), path if path is not None else getattr(fit, "source", None)
+    return (body if isinstance(body, dict) else {}), getattr(fit, "source", None)
 
 
-def augmented_from_file(base, fit, path: str | Path | None = None):
+def augmented_from_file(base, fit):
     """``base`` (the fit's VBMM, as loaded with the caller's model settings) with the effects of the fit (a
     ``bpmid.vbmm/1`` path, a loaded :class:`~bpmid.results.VBMMFitResult` or its mapping): an
     :class:`~bpmid.effects.base.AugmentedVBMM`, or ``base`` itself when the fit lists none."""
     from bpmid.effects.base import AugmentedVBMM
 
-    data, where = _fit_body(fit, path)
+    data, where = _fit_body(fit)
     effects, params = effects_from_yaml(data.get("effects"), where)
     return AugmentedVBMM(base, effects, params) if effects else base
 
