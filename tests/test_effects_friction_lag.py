@@ -165,3 +165,10 @@ def test_files_written_before_the_new_parameters_still_load_with_the_older_form(
     assert ps.value("braid_friction.slip") == 0.0 and effects[1].is_play(ps)
     with pytest.raises(InputError, match="missing key"):   # the original parameters stay required
         effects_from_yaml([{"id": "pressure_lag", "parameters": {"share": {"value": 0.2, "unit": "1"}}}])
+
+
+def test_describe_prints_dimensionless_parameters_without_a_unit():
+    # the verdict's wording: "share = 0", not "share = 0 1"; units kept where there is one
+    lag, lp = build_effect("pressure_lag", {"tau": 0.2})
+    text = lag.describe(lp)
+    assert "tau = 0.2 s" in text and "share = 0" in text and "share = 0 1" not in text

@@ -86,8 +86,9 @@ class Effect(abc.ABC):
         return np.zeros((log.n, 0))
 
     def describe(self, params: ParamSet) -> str:
-        vals = ", ".join(f"{p.name.split('.', 1)[-1]} = {p.value:.4g} {p.unit}" for p in params
-                         if p.name.startswith(self.id + "."))
+        # a dimensionless parameter (unit "1") is printed bare: "share = 0", not "share = 0 1"
+        vals = ", ".join(f"{p.name.split('.', 1)[-1]} = {p.value:.4g}" + ("" if p.unit in ("1", "") else f" {p.unit}")
+                         for p in params if p.name.startswith(self.id + "."))
         return f"{self.id} ({vals})"
 
 
