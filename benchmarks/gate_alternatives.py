@@ -3,7 +3,8 @@
 Reads ``records.jsonl`` files of ``bpmid calibrate`` (permissive calibration runs: every candidate's statistics
 recorded; held-out runs: the shipped gate's path) and replays, case by case:
 
-- ``shipped``: the gate of ``bpmid/discover/thresholds.yaml`` (first round only, on every record file);
+- ``shipped``: the gate of ``bpmid/discover/thresholds.yaml``, its path to the noise floor included (first round
+  only, on every record file);
 - ``heldout-LR T``: the shipped gate, but a candidate whose held-out error drop is significant may pass without the
   gain in noise floors, and with no held-out gap above the floor its share is not asked. The statistic is
   ``n_ho log(SSE_before / SSE_after)`` on the held-out logs, with ``n_ho`` approximated as half the fitting logs'
@@ -20,7 +21,7 @@ import json
 import math
 import sys
 
-from bpmid.discover.calibrate import Record, _case_outcome, _first_passing, load_thresholds
+from bpmid.discover.calibrate import _case_outcome, _first_passing, case_records, load_thresholds
 from bpmid.discover.confirm import excess_deg, gap_share
 
 
@@ -56,9 +57,10 @@ def first_named_ho_lr(rec, thr, t_min):
 
 
 def first_named_shipped(rec, thr):
-    recs = [Record(**x) for x in rec.get("calibration_records") or []]
+    recs = case_records(rec)
     return _first_passing([r for r in recs if r.round == 1], thr["heldout_gain_min_sigma"], thr["gap_share_min"],
-                          thr["family_alpha"], thr["fit_share_min"], thr["fit_share_waived_above_sigma"])
+                          thr["family_alpha"], thr["fit_share_min"], thr["fit_share_waived_above_sigma"],
+                          thr["to_floor_drop_min_sigma"])
 
 
 def round1_table(recs, namer):
@@ -82,17 +84,18 @@ def later_table(recs, thr, share_later):
     """Singles: right first and nothing further; pairs: both named (the recorded round 2 after the gate's first)."""
     g, sh, a = thr["heldout_gain_min_sigma"], thr["gap_share_min"], thr["family_alpha"]
     fs, w, gl = thr["fit_share_min"], thr["fit_share_waived_above_sigma"], thr["heldout_gain_min_sigma_later"]
+    d = thr["to_floor_drop_min_sigma"]
     t = collections.Counter()
     for rec in recs:
-        rs = [Record(**x) for x in rec.get("calibration_records") or []]
+        rs = case_records(rec)
         if not rs or rec["kind"] not in ("single", "pair"):
             continue
-        first = _first_passing([r for r in rs if r.round == 1], g, sh, a, fs, w)
+        first = _first_passing([r for r in rs if r.round == 1], g, sh, a, fs, w, d)
         truth = set(rec["truth_ids"])
         if first is None or first not in truth:
             continue
         later = [r for r in rs if r.round == 2 and r.named_before == first]
-        second = _first_passing(later, gl, share_later, a, fs, w) if later else None
+        second = _first_passing(later, gl, share_later, a, fs, w, d) if later else None
         if rec["kind"] == "single":
             t["single extra name" if second else "single right, nothing further"] += 1
         else:
@@ -105,12 +108,12 @@ def later_score(recs, thr, share_later):
     gate, later rounds asked ``share_later``): what ``thresholds_from_records`` would weigh."""
     score = 0
     for rec in recs:
-        rs = [Record(**x) for x in rec.get("calibration_records") or []]
+        rs = case_records(rec)
         if rs:
             right, wrong = _case_outcome(rs, thr["heldout_gain_min_sigma"], thr["gap_share_min"],
                                          thr["family_alpha"], thr["fit_share_min"],
                                          thr["fit_share_waived_above_sigma"], thr["heldout_gain_min_sigma_later"],
-                                         share_later)
+                                         share_later, thr["to_floor_drop_min_sigma"])
             score += right - 2 * wrong
     return score
 

@@ -32,8 +32,7 @@ def main(argv=None) -> int:
     ap.add_argument("--write", action="store_true", help="write bpmid/discover/thresholds.yaml")
     a = ap.parse_args(argv)
 
-    from bpmid.discover.calibrate import (THRESHOLD_KEYS, Record, _case_outcome, thresholds_from_records,
-                                          write_thresholds)
+    from bpmid.discover.calibrate import _case_outcome, case_records, thresholds_from_records, write_thresholds
     from bpmid.validation.sweep import GENERATOR, load_sweep
 
     missing = [str(p) for p in a.records if not p.is_file()]
@@ -42,14 +41,16 @@ def main(argv=None) -> int:
     cfgs = [load_sweep(c) for c in a.configs]
     recs = [r for path in a.records for r in (json.loads(line) for line in open(path) if line.strip())
             if r.get("phase", r.get("split")) == "calibration"]
-    R = [Record(**x) for rec in recs for x in (rec.get("calibration_records") or [])]
+    R = [x for rec in recs for x in case_records(rec)]
     values = thresholds_from_records(R)
-    gate = tuple(values[k] for k in THRESHOLD_KEYS)   # _case_outcome's argument order
+    gate = dict(g=values["heldout_gain_min_sigma"], share=values["gap_share_min"], alpha=values["family_alpha"],
+                fit_share=values["fit_share_min"], waive=values["fit_share_waived_above_sigma"],
+                g_later=values["heldout_gain_min_sigma_later"], to_floor=values["to_floor_drop_min_sigma"])
     tally = Counter()
     for rec in recs:
-        rs = [Record(**x) for x in (rec.get("calibration_records") or [])]
+        rs = case_records(rec)
         if rs:
-            right, wrong = _case_outcome(rs, *gate)
+            right, wrong = _case_outcome(rs, **gate)
             tally[(rec["kind"], "cases")] += 1
             tally[(rec["kind"], "right")] += right
             tally[(rec["kind"], "wrong")] += wrong
@@ -71,7 +72,8 @@ def main(argv=None) -> int:
                 "rule": "thresholds_from_records: no null named; out-of-catalogue names within the 90 % upper bound "
                         "of a 20 % rate; then the most right decisions minus twice the wrong names minus the "
                         "out-of-catalogue names; ties to the stricter gate; then the gain asked of a further effect "
-                        "(at most the first round's) by the same score",
+                        "(at most the first round's) by the same score; then the drop asked on the path to the noise "
+                        "floor (a round where nothing passes) by the same score, within the same bounds",
                 "generator": cfgs[0].effective_generator.to_yaml()}
         print("wrote", write_thresholds(values, meta))
     return 0

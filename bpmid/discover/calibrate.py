@@ -3,7 +3,10 @@
 The gate (:func:`bpmid.discover.workflow.judge`) has numbers whose meaning does not depend on any generator:
 ``heldout_gain_min_sigma`` (the drop of the held-out error above the noise, ``sqrt(RMSE^2 - floor^2)``, in noise
 floors), ``gap_share_min`` (the share of that gap the effect must remove), ``family_alpha`` (the family-wise level
-of the Holm-corrected likelihood-ratio tests of a round) and the fitting-share condition.
+of the Holm-corrected likelihood-ratio tests of a round) and the fitting-share condition; and, for a round where
+no candidate passes those, the path down to the noise floor: ``to_floor_drop_min_sigma`` (the held-out error the
+effect removes, ``sqrt(before^2 - after^2)``, in noise floors) with the held-out RMSE left at most
+``to_floor_ratio_max`` (1: not above the floor).
 :func:`thresholds_from_records` chooses them from the candidates recorded on a CALIBRATION set run with permissive
 thresholds (:data:`PERMISSIVE`), pairs included: among the gates that name nothing on a null case and something on
 so few out-of-catalogue cases that the naming rate stays under 20 % with 90 % confidence
@@ -29,15 +32,21 @@ from bpmid.params import ParamSet
 
 THRESHOLDS_PATH = Path(__file__).with_name("thresholds.yaml")
 THRESHOLD_KEYS = ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min",
-                  "fit_share_waived_above_sigma", "heldout_gain_min_sigma_later")
+                  "fit_share_waived_above_sigma", "heldout_gain_min_sigma_later", "to_floor_drop_min_sigma",
+                  "to_floor_ratio_max")
 #: thresholds a file written before they existed may lack, with the value that leaves the gate as it was (None:
 #: the held-out gain asked of a further effect is the one asked of the first)
 OPTIONAL_THRESHOLDS = {"fit_share_min": 0.0, "fit_share_waived_above_sigma": math.inf,
-                       "heldout_gain_min_sigma_later": None}
+                       "heldout_gain_min_sigma_later": None, "to_floor_drop_min_sigma": math.inf,
+                       "to_floor_ratio_max": 1.0}
+#: the held-out RMSE an effect named on the path to the floor may leave, in noise floors: at the floor, by the
+#: path's meaning (the effect explains what the base model left); not calibrated
+TO_FLOOR_RATIO = 1.0
 #: discover-config overrides for a calibration run: every candidate's statistics are recorded, the best by
 #: held-out gain is added each round (so later rounds are recorded too)
 PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
-              "fit_share_waived_above_sigma": 0.0, "heldout_gain_min_sigma_later": -1e9, "max_effects": 2}
+              "fit_share_waived_above_sigma": 0.0, "heldout_gain_min_sigma_later": -1e9,
+              "to_floor_drop_min_sigma": 0.0, "to_floor_ratio_max": 1e9, "max_effects": 2}
 SCHEMA = "bpmid.discover-thresholds/1"
 
 
@@ -187,10 +196,13 @@ class Record:
     fit_share: float = float("nan")   # share of the fitting logs' gap above the floor the refit removed
     kind: str = ""        # single, null, out_of_catalogue or pair ("" in records written before it existed)
     named_before: str = ""  # the effects added before this round, joined by "+" (the permissive run's path)
+    drop_sigma: float = float("nan")        # held-out error removed, sqrt(before^2 - after^2), in noise floors
+    after_over_floor: float = float("nan")  # held-out RMSE with the candidate, in noise floors
 
     def __post_init__(self):
         # records read back from JSON carry None where a value was not a number
-        for f in ("gain_sigma", "delta_bic", "gap_share", "lr_p", "lr_p_holm", "fit_share"):
+        for f in ("gain_sigma", "delta_bic", "gap_share", "lr_p", "lr_p_holm", "fit_share", "drop_sigma",
+                  "after_over_floor"):
             v = getattr(self, f)
             setattr(self, f, float("nan") if v is None else float(v))
 
@@ -209,9 +221,31 @@ def records_from_result(truth: str, result, case: str | None = None, kind: str =
                               bool(truths & set(named_before)), float(c.gap_share), float(c.lr_p),
                               float(c.lr_p_holm) if math.isfinite(c.lr_p_holm) else float(c.lr_p),
                               bool(c.tested), bool(c.identifiable), case, float(c.fit_share), kind,
-                              "+".join(named_before)))
+                              "+".join(named_before), float(c.drop_sigma),
+                              float(c.heldout_rmse_after) / result.noise_floor_deg))
         if rnd.accepted:
             named_before.append(rnd.accepted)
+    return out
+
+
+def case_records(rec: Mapping) -> list[Record]:
+    """The calibration records of one sweep record (a line of ``records.jsonl``). Records written before the path
+    to the noise floor existed lack its two numbers; they are taken from the same case's confirmed candidates
+    (``candidates``: one per round and effect, with the held-out RMSE before and after and the case's floor)."""
+    out = [Record(**x) for x in (rec.get("calibration_records") or [])]
+    floor = rec.get("noise_floor_deg")
+    if not floor or not all(math.isnan(r.drop_sigma) for r in out):
+        return out
+    from bpmid.discover.confirm import heldout_drop_sigma
+
+    seen = {}
+    for c in rec.get("candidates") or []:
+        b, a = c.get("heldout_rmse_before_deg"), c.get("heldout_rmse_after_deg")
+        if b is not None and a is not None:
+            seen[(int(c["round"]), c["effect"])] = (heldout_drop_sigma(float(b), float(a), float(floor)),
+                                                    float(a) / float(floor))
+    for r in out:
+        r.drop_sigma, r.after_over_floor = seen.get((r.round, r.candidate), (float("nan"), float("nan")))
     return out
 
 
@@ -232,14 +266,29 @@ def fit_share_waiver(records: Sequence[Record]) -> float:
     return math.ceil(max(neg) * 100.0 - 1e-9) / 100.0 if neg else math.inf
 
 
-def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive) -> str | None:
+def _passes_to_floor(r: Record, drop: float, alpha: float, ratio: float = TO_FLOOR_RATIO) -> bool:
+    """The path down to the noise floor (:func:`bpmid.discover.workflow.judge_to_floor`)."""
+    return (r.tested and r.identifiable and r.lr_p_holm < alpha and math.isfinite(r.drop_sigma)
+            and r.drop_sigma >= drop and math.isfinite(r.after_over_floor) and r.after_over_floor <= ratio)
+
+
+def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
+                   to_floor: float = math.inf) -> str | None:
+    """The candidate a round names: the largest held-out gain among those passing the gate; when none does, the
+    largest held-out drop among those taking the held-out error to the floor with a drop of ``to_floor``."""
     passing = [r for r in recs if _passes(r, g, share, alpha, fit_share, waive)]
-    return max(passing, key=lambda r: r.gain_sigma).candidate if passing else None
+    if passing:
+        return max(passing, key=lambda r: r.gain_sigma).candidate
+    if math.isfinite(to_floor):
+        passing = [r for r in recs if _passes_to_floor(r, to_floor, alpha)]
+        if passing:
+            return max(passing, key=lambda r: r.drop_sigma).candidate
+    return None
 
 
 def _pair_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
                   fit_share: float = 0.0, waive: float = math.inf, g_later: float | None = None,
-                  share_later: float | None = None) -> tuple[int, int]:
+                  share_later: float | None = None, to_floor: float = math.inf) -> tuple[int, int]:
     """(both named, wrong names) the gate makes on a two-effect case: round 1 must name one of the two, the round
     after it (recorded when the permissive run took the same first effect) the other one, judged with the held-out
     gain ``g_later`` and share ``share_later`` (None: ``g``, ``share``). When the gate's first choice is not the one
@@ -247,13 +296,13 @@ def _pair_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
     g2 = g if g_later is None else g_later
     sh2 = share if share_later is None else share_later
     truths = set(recs[0].truth.split("+"))
-    first = _first_passing([r for r in recs if r.round == 1], g, share, alpha, fit_share, waive)
+    first = _first_passing([r for r in recs if r.round == 1], g, share, alpha, fit_share, waive, to_floor)
     if first is None:
         return 0, 0
     if first not in truths:
         return 0, 1
     later = [r for r in recs if r.round == 2 and r.named_before == first]
-    second = _first_passing(later, g2, sh2, alpha, fit_share, waive) if later else None
+    second = _first_passing(later, g2, sh2, alpha, fit_share, waive, to_floor) if later else None
     if second is None:
         return 0, 0
     return (1, 0) if second in truths - {first} else (0, 1)
@@ -261,24 +310,25 @@ def _pair_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
 
 def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
                   fit_share: float = 0.0, waive: float = math.inf, g_later: float | None = None,
-                  share_later: float | None = None) -> tuple[int, int]:
+                  share_later: float | None = None, to_floor: float = math.inf) -> tuple[int, int]:
     """(right decisions, false positives) the gate (g, share, alpha) makes on one case's records: round 1 must
     name the truth (nothing, on a case with no catalogue truth); the round after the truth was added must name
     nothing (judged with the held-out gain ``g_later`` and share ``share_later``, None: ``g``, ``share``); on a
-    pair, both effects must be named (:func:`_pair_outcome`)."""
+    pair, both effects must be named (:func:`_pair_outcome`). ``to_floor``: the drop asked on the path to the noise
+    floor (inf: no such path)."""
     truth = recs[0].truth
     if "+" in truth:
-        return _pair_outcome(recs, g, share, alpha, fit_share, waive, g_later, share_later)
+        return _pair_outcome(recs, g, share, alpha, fit_share, waive, g_later, share_later, to_floor)
     g2 = g if g_later is None else g_later
     sh2 = share if share_later is None else share_later
     r1 = [r for r in recs if r.round == 1]
-    first = _first_passing(r1, g, share, alpha, fit_share, waive)
+    first = _first_passing(r1, g, share, alpha, fit_share, waive, to_floor)
     if truth == "none":
         return (1, 0) if first is None else (0, 1)
     right = int(first == truth)
     fp = int(first is not None and first != truth)
     later = [r for r in recs if r.truth_in_model and r.round == 2]
-    if right and later and any(_passes(r, g2, sh2, alpha, fit_share, waive) for r in later):
+    if right and later and _first_passing(later, g2, sh2, alpha, fit_share, waive, to_floor) is not None:
         fp += 1
     return right, fp
 
@@ -311,12 +361,12 @@ def ooc_names_allowed(n_cases: int, target: float = OOC_NAMED_TARGET, confidence
 
 
 def _tally(cases: Sequence[Sequence[Record]], g: float, sh: float, a: float, fs: float, waive: float,
-           g_later: float | None = None) -> dict:
+           g_later: float | None = None, to_floor: float = math.inf) -> dict:
     """Outcomes of one gate over the calibration cases: right decisions, wrong names (on cases with a catalogue
     truth), names on nulls, names on out-of-catalogue cases."""
     t = {"right": 0, "wrong": 0, "null_named": 0, "ooc_named": 0, "ooc": 0}
     for recs in cases:
-        rr, ff = _case_outcome(recs, g, sh, a, fs, waive, g_later)
+        rr, ff = _case_outcome(recs, g, sh, a, fs, waive, g_later, to_floor=to_floor)
         t["right"] += rr
         kind = recs[0].kind
         if recs[0].truth == "none" and kind == "out_of_catalogue":
@@ -377,6 +427,26 @@ def _tally_gains(cases: Sequence[Sequence[Record]], gains: np.ndarray, sh: float
     return t
 
 
+#: held-out drops (noise floors) the calibration considers for the path to the noise floor
+TO_FLOOR_DROPS = tuple(np.round(np.arange(0.05, 1.0001, 0.025), 3))
+
+
+def _to_floor_from(cases, gate: tuple, t: dict, allowed: int) -> tuple[float, dict]:
+    """The drop asked on the path to the noise floor, with the gate ``(g, share, alpha, fit_share, waive, g_later)``
+    fixed: among the drops in :data:`TO_FLOOR_DROPS` that name nothing on a null case and keep the names on
+    out-of-catalogue cases within ``allowed``, the one whose right decisions minus twice the wrong names minus the
+    out-of-catalogue names beat the gate without the path (``t``); ties to the larger drop. inf (no path) when none
+    does. The path only decides rounds where no candidate passes the gate, so it cannot undo a decision the gate
+    makes."""
+    score = lambda x: x["right"] - 2 * x["wrong"] - x["ooc_named"] - 2 * x["null_named"]  # noqa: E731
+    best, best_t = math.inf, t
+    for d in sorted(TO_FLOOR_DROPS, reverse=True):
+        t2 = _tally(cases, *gate, to_floor=float(d))
+        if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and score(t2) > score(best_t):
+            best, best_t = float(d), t2
+    return best, best_t
+
+
 def thresholds_from_records(records: Sequence[Record]) -> dict:
     """The gate's thresholds from calibration records (see module docstring): a grid over the held-out gain
     (0 .. 1 noise floor in steps of 0.01, then to 6 in steps of 0.25), the held-out gap share (0 .. 0.9), the
@@ -387,7 +457,8 @@ def thresholds_from_records(records: Sequence[Record]) -> dict:
     pair named, nothing named where nothing in the catalogue is true) minus twice the wrong names (another effect,
     or a further one after the truth) minus the names on out-of-catalogue cases wins; ties go to the stricter gate.
     Records without a case kind (written before pairs were recorded) count every case with nothing to find as a
-    null."""
+    null. Then, with that gate fixed, the gain asked of a further effect, and the drop asked on the path to the
+    noise floor (:func:`_to_floor_from`)."""
     by_case: dict[str, list[Record]] = {}
     for r in records:
         by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
@@ -422,10 +493,12 @@ def thresholds_from_records(records: Sequence[Record]) -> dict:
         key = (t2["right"] - 2 * t2["wrong"], float(g2))
         if key[0] > best_later[0]:
             best_later, g_later, t = key, float(g2), t2
+    to_floor, t = _to_floor_from(cases, (g, sh, a, fs, waive, g_later), t, allowed)
     pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate in r.truth.split("+")]
     neg = [r for r in records if r.truth == "none" or (r.truth_in_model and "+" not in r.truth)]
     return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
             "fit_share_waived_above_sigma": waive, "heldout_gain_min_sigma_later": g_later,
+            "to_floor_drop_min_sigma": to_floor, "to_floor_ratio_max": TO_FLOOR_RATIO,
             "n_cases": len(cases), "right_decisions": int(t["right"]),
             "false_positives": int(t["wrong"] + t["null_named"] + t["ooc_named"]),
             "wrong_names": int(t["wrong"]), "null_cases_named": int(t["null_named"]),

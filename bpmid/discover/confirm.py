@@ -70,7 +70,11 @@ class Confirmation:
     #: share of the held-out gap (the RMSE above the noise floor, in quadrature: :func:`excess_deg`) removed
     gap_share: float = float("nan")
     fit_share: float = float("nan")   # the same share on the fitting logs
+    #: held-out drop in quadrature, sqrt(before^2 - after^2), in noise floors (:func:`heldout_drop_sigma`)
+    drop_sigma: float = float("nan")
     accepted: bool = False
+    #: which rule of the gate named it: "gap" (the gap above the noise) or "floor" (down to the noise floor)
+    passed_by: str = ""
     reasons: list = dataclasses.field(default_factory=list)
 
     def to_yaml(self) -> dict:
@@ -83,6 +87,8 @@ class Confirmation:
             "heldout_rmse_before_deg": round(self.heldout_rmse_before, 4),
             "heldout_rmse_after_deg": round(self.heldout_rmse_after, 4),
             "heldout_gain_in_noise_floors": round(self.heldout_gain_sigma, 3),
+            "heldout_drop_in_noise_floors": round(self.drop_sigma, 3) if math.isfinite(self.drop_sigma) else None,
+            "named_by": self.passed_by or None,
             "fit_rmse_before_deg": round(self.fit_rmse_before, 4),
             "fit_rmse_after_deg": round(self.fit_rmse_after, 4),
             "likelihood_ratio": round(self.lr, 3),
@@ -356,6 +362,7 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
         converged=bool(res.success), tested=tested, not_tested_reason=why_not, starts=start_log)
     c.fit_share = gap_share(c.fit_rmse_before, c.fit_rmse_after, noise_floor_deg)
     c.gap_share = gap_share(heldout_before, ho_after, noise_floor_deg)
+    c.drop_sigma = heldout_drop_sigma(heldout_before, ho_after, noise_floor_deg)
     return c
 
 
@@ -366,6 +373,17 @@ def excess_deg(rmse_deg: float, noise_floor_deg: float) -> float:
     raises the RMSE by only 4 % of the floor: a gain or a share taken on RMSE differences would hide a real effect
     that a refitted base model has already half absorbed. Every gap of the gate is this excess."""
     return math.sqrt(max(rmse_deg * rmse_deg - noise_floor_deg * noise_floor_deg, 0.0))
+
+
+def heldout_drop_sigma(before_deg: float, after_deg: float, noise_floor_deg: float) -> float:
+    """The held-out error an effect removes, in quadrature and in noise floors: ``sqrt(before^2 - after^2) /
+    floor`` (0 when it removes none). Unlike the gap above the floor (:func:`excess_deg`), it does not depend on
+    where the floor sits: once a refitted base model has absorbed most of an effect, the held-out error is within a
+    few per cent of the floor, and the floor's own uncertainty decides whether any gap is left; the drop still
+    measures what the effect explains on logs it was not fitted on."""
+    if not (math.isfinite(before_deg) and math.isfinite(after_deg)) or not noise_floor_deg > 0:
+        return float("nan")
+    return math.sqrt(max(before_deg * before_deg - after_deg * after_deg, 0.0)) / noise_floor_deg
 
 
 def gap_share(before_deg: float, after_deg: float, noise_floor_deg: float) -> float:

@@ -17,6 +17,14 @@ thresholds: :mod:`bpmid.discover.calibrate`):
   family-wise level ``family_alpha`` after a Holm correction over every candidate screened in the round,
 - at least one of its own parameters identifiable (the others held).
 
+When no candidate passes, the path down to the noise floor (:func:`judge_to_floor`): a candidate that was tested,
+is identifiable and passes the same likelihood-ratio test, whose refit leaves the held-out RMSE at the noise floor
+(at most ``to_floor_ratio_max`` floors) and removes at least ``to_floor_drop_min_sigma`` noise floors of held-out
+error in quadrature (``sqrt(before^2 - after^2)``, :func:`bpmid.discover.confirm.heldout_drop_sigma`). It names an
+effect the refitted base model had mostly absorbed (a short pressure lag looks much like a faster relaxation
+branch): the gap left above the floor is then within the floor's own uncertainty, but the drop is still measured on
+logs the effect was not fitted on. Its drop is calibrated like the rest of the gate.
+
 Among the candidates that pass, the one with the largest confirmed held-out gain is added (the leading
 ``n_confirm`` screened candidates, by default all, are confirmed, so screening order never decides); when several pass,
 each one's gain is reported with why the winner won. A BIC is reported, never a gate. With ``per_log_gain``
@@ -74,6 +82,10 @@ class DiscoverConfig:
         calibrated: above any wrong candidate's gain on the calibration cases with nothing to find)
     heldout_gain_min_sigma_later : the held-out gain asked of a further effect once one is named (the gap left is
         smaller); None: calibrated, or ``heldout_gain_min_sigma`` when that is set here
+    to_floor_drop_min_sigma : the path down to the noise floor, for a round where no candidate passes the gate:
+        the held-out error (in quadrature) a candidate must remove, in noise floors (None: calibrated; inf: no
+        such path) ...
+    to_floor_ratio_max : ... leaving a held-out RMSE of at most this many noise floors (None: calibrated, 1)
     per_log_gain : score with one stiffness-like gain per log (log-to-log variation is not an effect)
     per_log_constants : give every log its own small factors on K_inf, the branch moduli and the time
         constants instead of the gain (first order, :class:`~bpmid.discover.model.LogNuisance`): log-to-log
@@ -98,6 +110,8 @@ class DiscoverConfig:
     fit_share_min: Optional[float] = None
     fit_share_waived_above_sigma: Optional[float] = None
     heldout_gain_min_sigma_later: Optional[float] = None
+    to_floor_drop_min_sigma: Optional[float] = None
+    to_floor_ratio_max: Optional[float] = None
     per_log_gain: bool = True
     per_log_constants: bool = True
     unexplained_gap_sigma: float = 0.5
@@ -124,6 +138,13 @@ class DiscoverConfig:
         if self.gap_share_min is not None and not 0 <= self.gap_share_min < 1:
             raise InputError(f"must be in [0, 1), found {self.gap_share_min}", path=path,
                              key=f"{where}.gap_share_min")
+        d = self.to_floor_drop_min_sigma
+        if d is not None and not d >= 0:
+            raise InputError(f"must be 0 or more noise floors (.inf: no path to the floor), found {d}", path=path,
+                             key=f"{where}.to_floor_drop_min_sigma")
+        q = self.to_floor_ratio_max
+        if q is not None and not q > 0:
+            raise InputError(f"must be above 0 noise floors, found {q}", path=path, key=f"{where}.to_floor_ratio_max")
 
     def thresholds(self) -> dict:
         return self.overrides(load_thresholds())
@@ -156,7 +177,18 @@ def gate_in_words(thr: dict) -> str:
             f", (3) its likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) "
             f"passes at family-wise level {thr['family_alpha']:.2g} after a Holm correction over every candidate "
             f"screened in the round, and (4) at least one of its parameters is identifiable; of several that pass, "
-            f"the largest held-out gain wins. BIC is reported, never a gate")
+            f"the largest held-out gain wins" + _to_floor_words(thr) + ". BIC is reported, never a gate")
+
+
+def _to_floor_words(thr: dict) -> str:
+    d = float(thr.get("to_floor_drop_min_sigma", math.inf))
+    if not math.isfinite(d):
+        return ""
+    q = float(thr.get("to_floor_ratio_max", 1.0))
+    where = "at the noise floor" if q == 1.0 else f"at most {q:.2f} noise floors"
+    return (f". When none passes (2), a candidate meeting (1), (3) and (4) whose refit leaves the held-out RMSE "
+            f"{where} and removes at least {d:.3g} noise floors of held-out error (sqrt(before^2 - after^2)) is "
+            f"named: the refitted base model had absorbed most of it (of several, the largest such drop wins)")
 
 
 @dataclasses.dataclass
@@ -282,11 +314,18 @@ def residual_feature(diag: dict) -> str:
 def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
     s = next(s for s in rnd.ranking if s.effect_id == c.effect_id)
     e = c.state.effects[-1]
+    if c.passed_by == "floor":
+        how = (f"{c.heldout_rmse_after:.3f} deg, the noise floor ({floor:.3f} deg): it removed {c.drop_sigma:.2f} "
+               f"noise floors of held-out error (sqrt(before^2 - after^2)); the refitted base model had absorbed most "
+               f"of it, so the gap above the floor was small, and it was named on the path to the floor (")
+    else:
+        how = (f"{c.heldout_rmse_after:.2f} deg (its part above the noise by {c.heldout_gain_sigma:.2f} noise floors "
+               f"of {floor:.2f} deg; ")
     return (f"{e.describe(c.state.params)}: {e.meaning}. Where it shows: {e.where_it_shows}. Here the residual "
             f"{residual_feature(rnd.diagnostics)}, and the effect's signature explains {s.explained:.0%} of what the "
-            f"model left; adding it cut the held-out error from {c.heldout_rmse_before:.2f} to "
-            f"{c.heldout_rmse_after:.2f} deg (its part above the noise by {c.heldout_gain_sigma:.2f} noise floors of "
-            f"{floor:.2f} deg; "
+            f"model left; adding it cut the held-out error from "
+            + (f"{c.heldout_rmse_before:.3f}" if c.passed_by == "floor" else f"{c.heldout_rmse_before:.2f}") + " to "
+            + how +
             f"likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected {c.lr_p_holm:.2g})")
 
 
@@ -518,20 +557,36 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         for c in confs:
             c.reasons = judge(c, thr, floor, later=k > 0)
             c.accepted = not c.reasons
+            c.passed_by = "gap" if c.accepted else ""
         passing = [c for c in confs if c.accepted]
-        best = max(passing, key=lambda c: c.heldout_gain_sigma) if passing else None
+        if not passing and math.isfinite(float(thr.get("to_floor_drop_min_sigma", math.inf))):
+            for c in confs:
+                why = judge_to_floor(c, thr, floor)
+                if not why:
+                    c.accepted, c.passed_by = True, "floor"
+                    c.reasons = []
+                elif c.tested:
+                    c.reasons.append("nor does it take the held-out error to the noise floor: " + "; ".join(why))
+            passing = [c for c in confs if c.accepted]
+        by_floor = bool(passing) and passing[0].passed_by == "floor"
+        score = (lambda c: c.drop_sigma) if by_floor else (lambda c: c.heldout_gain_sigma)
+        what = "held-out drop" if by_floor else "held-out gain"
+        best = max(passing, key=score) if passing else None
         competition = ""
         if best is not None and len(passing) > 1:
             others = [c for c in passing if c is not best]
-            competition = (f"{len(passing)} candidates passed the gate this round and may explain the same residual: "
-                           + ", ".join(f"{c.effect_id} (held-out gain {c.heldout_gain_sigma:.2f} noise floors, "
-                                       f"{c.gap_share:.0%} of the gap)" for c in sorted(passing, key=lambda c: -c.heldout_gain_sigma))
-                           + f"; {best.effect_id} won on the larger confirmed held-out gain, and the others are "
+            competition = (f"{len(passing)} candidates passed the gate"
+                           + (" on the path to the noise floor" if by_floor else "")
+                           + " this round and may explain the same residual: "
+                           + ", ".join(f"{c.effect_id} ({what} {score(c):.2f} noise floors"
+                                       + ("" if by_floor else f", {c.gap_share:.0%} of the gap") + ")"
+                                       for c in sorted(passing, key=lambda c: -score(c)))
+                           + f"; {best.effect_id} won on the larger confirmed {what}, and the others are "
                              "judged again in the next round with it in the model")
             for c in others:
                 c.accepted = False
                 c.reasons = [f"passed, but {best.effect_id} explains the held-out logs better "
-                             f"({best.heldout_gain_sigma:.2f} vs {c.heldout_gain_sigma:.2f} noise floors)"]
+                             f"({what} {score(best):.2f} vs {score(c):.2f} noise floors)"]
         rounds.append(Round(diag, ranking, confs, best.effect_id if best else None, family, competition))
         if best is None:
             break
@@ -599,4 +654,24 @@ def judge(c: Confirmation, thr: dict, floor: float | None = None, later: bool = 
     p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
     if not p < thr["family_alpha"]:
         why.append(f"Holm-corrected likelihood-ratio p = {p:.2g} >= family-wise {thr['family_alpha']:.2g}")
+    return why
+
+
+def judge_to_floor(c: Confirmation, thr: dict, floor: float) -> list[str]:
+    """Reasons a candidate does not pass the path down to the noise floor (empty: it passes; the path is asked
+    only in a round where no candidate passes :func:`judge`). Only the reasons of this path's own numbers: the
+    test, identifiability and likelihood-ratio conditions are :func:`judge`'s, already stated."""
+    d = float(thr.get("to_floor_drop_min_sigma", math.inf))
+    if not math.isfinite(d):
+        return ["no path to the floor in this gate"]
+    q = float(thr.get("to_floor_ratio_max", 1.0))
+    p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
+    if not (c.tested and c.identifiable and p < thr["family_alpha"]):
+        return ["not tested, not identifiable or not significant (above)"]
+    why = []
+    if not (math.isfinite(c.drop_sigma) and c.drop_sigma >= d):
+        why.append(f"held-out drop {c.drop_sigma:.2f} < {d:.3g} noise floors")
+    if not c.heldout_rmse_after <= q * floor:
+        why.append(f"held-out RMSE left {c.heldout_rmse_after:.3f} deg > " + (
+            f"the noise floor {floor:.3f} deg" if q == 1.0 else f"{q:.2f} x the noise floor {floor:.3f} deg"))
     return why

@@ -571,8 +571,8 @@ def _thresholds_for_heldout(out: Path, given, calibrated, load_thresholds, keys)
 
 
 def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_records, write_thresholds) -> dict:
-    from bpmid.discover.calibrate import Record
-    records = [Record(**r) for rec in recs for r in (rec.get("calibration_records") or [])]
+    from bpmid.discover.calibrate import case_records
+    records = [r for rec in recs for r in case_records(rec)]
     values = thresholds_from_records(records)
     n_err = sum(1 for r in recs if r.get("error"))
     meta = {"produced_by": f"bpmid calibrate {cfg.path or 'SWEEP.yaml'} (sweep {cfg.sweep.name}, "
