@@ -584,7 +584,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                            + f"; {best.effect_id} won on the larger confirmed {what}, and the others are "
                              "judged again in the next round with it in the model")
             for c in others:
-                c.accepted = False
+                c.accepted, c.passed_by = False, ""
                 c.reasons = [f"passed, but {best.effect_id} explains the held-out logs better "
                              f"({what} {score(best):.2f} vs {score(c):.2f} noise floors)"]
         rounds.append(Round(diag, ranking, confs, best.effect_id if best else None, family, competition))
