@@ -60,7 +60,7 @@ def first_named_shipped(rec, thr):
     recs = case_records(rec)
     return _first_passing([r for r in recs if r.round == 1], thr["heldout_gain_min_sigma"], thr["gap_share_min"],
                           thr["family_alpha"], thr["fit_share_min"], thr["fit_share_waived_above_sigma"],
-                          thr["to_floor_drop_min_sigma"])
+                          thr["to_floor_drop_min_sigma"], thr["to_floor_ratio_max"])
 
 
 def round1_table(recs, namer):
@@ -84,18 +84,18 @@ def later_table(recs, thr, share_later):
     """Singles: right first and nothing further; pairs: both named (the recorded round 2 after the gate's first)."""
     g, sh, a = thr["heldout_gain_min_sigma"], thr["gap_share_min"], thr["family_alpha"]
     fs, w, gl = thr["fit_share_min"], thr["fit_share_waived_above_sigma"], thr["heldout_gain_min_sigma_later"]
-    d = thr["to_floor_drop_min_sigma"]
+    d, q = thr["to_floor_drop_min_sigma"], thr["to_floor_ratio_max"]
     t = collections.Counter()
     for rec in recs:
         rs = case_records(rec)
         if not rs or rec["kind"] not in ("single", "pair"):
             continue
-        first = _first_passing([r for r in rs if r.round == 1], g, sh, a, fs, w, d)
+        first = _first_passing([r for r in rs if r.round == 1], g, sh, a, fs, w, d, q)
         truth = set(rec["truth_ids"])
         if first is None or first not in truth:
             continue
         later = [r for r in rs if r.round == 2 and r.named_before == first]
-        second = _first_passing(later, gl, share_later, a, fs, w, d) if later else None
+        second = _first_passing(later, gl, share_later, a, fs, w, d, q) if later else None
         if rec["kind"] == "single":
             t["single extra name" if second else "single right, nothing further"] += 1
         else:

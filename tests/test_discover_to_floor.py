@@ -49,16 +49,24 @@ def test_an_absorbed_effect_passes_the_path_to_the_floor_and_only_that():
     assert judge(big, GATE)                                   # gain 0.1 < 0.2: the gate refuses it
     assert judge_to_floor(big, GATE, FLOOR) == []             # ... the path names it
     small = _absorbed()                                       # drop 0.14 < 0.225
-    assert judge_to_floor(small, GATE, FLOOR) == ["held-out drop 0.14 < 0.225 noise floors"]
+    assert judge_to_floor(small, GATE, FLOOR) == ["held-out drop 0.141 < 0.225 noise floors"]
     above = _absorbed(heldout_rmse_before=0.2300, heldout_rmse_after=0.2050)  # drop 0.52, but 0.205 > floor
-    assert judge_to_floor(above, GATE, FLOOR)[0].startswith("held-out RMSE left 0.205 deg > the noise floor 0.200")
+    assert judge_to_floor(above, GATE, FLOOR) == [
+        "held-out RMSE left 1.025 noise floors (0.205 deg against a floor of 0.200 deg) > 1.000"]
+    # a reason never prints two equal numbers: the decimals grow until they differ
+    edge = _absorbed(heldout_rmse_before=0.2100, heldout_rmse_after=0.20004)
+    edge.drop_sigma = 0.22495
+    assert judge_to_floor(edge, GATE, FLOOR) == [
+        "held-out drop 0.22495 < 0.22500 noise floors",
+        "held-out RMSE left 1.0002 noise floors (0.200 deg against a floor of 0.200 deg) > 1.0000"]
     for bad in (dict(tested=False, not_tested_reason="did not move"), dict(identifiable=False),
                 dict(lr_p_holm=1e-3)):
         assert judge_to_floor(_absorbed(heldout_rmse_before=0.21, heldout_rmse_after=0.1995, **bad), GATE, FLOOR)
     assert judge_to_floor(big, {**GATE, "to_floor_drop_min_sigma": math.inf}, FLOOR) == \
         ["no path to the floor in this gate"]
     words = gate_in_words(GATE)
-    assert "leaves the held-out RMSE at the noise floor and removes at least 0.225 noise floors" in words
+    assert "leaves the held-out RMSE at or below the noise floor and removes at least 0.225 noise floors" in words
+    assert "When no candidate passes (1)-(4)" in words
     assert "noise floor and removes" not in gate_in_words({**GATE, "to_floor_drop_min_sigma": math.inf})
 
 
@@ -158,7 +166,9 @@ def test_cli_names_on_the_path_to_the_floor_and_says_so(tmp_path):
     assert len(d["named_effects"]) == 1
     ev = d["steps"][0]["evidence"]
     assert ev["named_by"] == "floor" and ev["heldout_drop_in_noise_floors"] > 0
-    assert "named on the path to the floor" in d["steps"][0]["explanation"]
+    assert ev["refused_by_the_gate_because"] and "noise floors < 99.00" in ev["refused_by_the_gate_because"][0]
+    assert "named on the path to the floor, the gate having refused it because held-out error drop" in \
+        d["steps"][0]["explanation"]
     assert "removes at least 0 noise floors" in d["gate"]
     rejected = [c for c in d["rounds"][0]["confirmed"] if not c["accepted"]]
-    assert all(c["named_by"] is None for c in rejected)
+    assert all(c["named_by"] is None and c["refused_by_the_gate_because"] is None for c in rejected)

@@ -273,14 +273,15 @@ def _passes_to_floor(r: Record, drop: float, alpha: float, ratio: float = TO_FLO
 
 
 def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
-                   to_floor: float = math.inf) -> str | None:
+                   to_floor: float = math.inf, to_floor_ratio: float = TO_FLOOR_RATIO) -> str | None:
     """The candidate a round names: the largest held-out gain among those passing the gate; when none does, the
-    largest held-out drop among those taking the held-out error to the floor with a drop of ``to_floor``."""
+    largest held-out drop among those leaving the held-out error at most ``to_floor_ratio`` floors with a drop of
+    ``to_floor``."""
     passing = [r for r in recs if _passes(r, g, share, alpha, fit_share, waive)]
     if passing:
         return max(passing, key=lambda r: r.gain_sigma).candidate
     if math.isfinite(to_floor):
-        passing = [r for r in recs if _passes_to_floor(r, to_floor, alpha)]
+        passing = [r for r in recs if _passes_to_floor(r, to_floor, alpha, to_floor_ratio)]
         if passing:
             return max(passing, key=lambda r: r.drop_sigma).candidate
     return None

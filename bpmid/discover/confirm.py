@@ -75,6 +75,8 @@ class Confirmation:
     accepted: bool = False
     #: which rule of the gate named it: "gap" (the gap above the noise) or "floor" (down to the noise floor)
     passed_by: str = ""
+    #: named on the path to the floor: why the gate itself had refused it
+    gate_reasons: list = dataclasses.field(default_factory=list)
     reasons: list = dataclasses.field(default_factory=list)
 
     def to_yaml(self) -> dict:
@@ -84,6 +86,7 @@ class Confirmation:
             "tested": bool(self.tested),
             "not_tested_reason": self.not_tested_reason or None,
             "reasons_rejected": list(self.reasons),
+            "refused_by_the_gate_because": list(self.gate_reasons) if self.passed_by == "floor" else None,
             "heldout_rmse_before_deg": round(self.heldout_rmse_before, 4),
             "heldout_rmse_after_deg": round(self.heldout_rmse_after, 4),
             "heldout_gain_in_noise_floors": round(self.heldout_gain_sigma, 3),

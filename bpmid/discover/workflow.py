@@ -17,13 +17,15 @@ thresholds: :mod:`bpmid.discover.calibrate`):
   family-wise level ``family_alpha`` after a Holm correction over every candidate screened in the round,
 - at least one of its own parameters identifiable (the others held).
 
-When no candidate passes, the path down to the noise floor (:func:`judge_to_floor`): a candidate that was tested,
-is identifiable and passes the same likelihood-ratio test, whose refit leaves the held-out RMSE at the noise floor
-(at most ``to_floor_ratio_max`` floors) and removes at least ``to_floor_drop_min_sigma`` noise floors of held-out
-error in quadrature (``sqrt(before^2 - after^2)``, :func:`bpmid.discover.confirm.heldout_drop_sigma`). It names an
-effect the refitted base model had mostly absorbed (a short pressure lag looks much like a faster relaxation
-branch): the gap left above the floor is then within the floor's own uncertainty, but the drop is still measured on
-logs the effect was not fitted on. Its drop is calibrated like the rest of the gate.
+When no candidate passes all of these, the path down to the noise floor (:func:`judge_to_floor`): a candidate that
+was tested, is identifiable and passes the same likelihood-ratio test, whose refit leaves the held-out RMSE at or
+below the noise floor (at most ``to_floor_ratio_max`` floors) and removes at least ``to_floor_drop_min_sigma`` noise
+floors of held-out error in quadrature (``sqrt(before^2 - after^2)``,
+:func:`bpmid.discover.confirm.heldout_drop_sigma`). It is there for an effect the refitted base model had mostly
+absorbed (a short pressure lag looks much like a faster relaxation branch): the gap left above the floor is then
+within the floor's own uncertainty, so the gap-based gain and shares say little, or there is no fitting gap for the
+fitting share to measure; the drop is still measured on logs the effect was not fitted on. Why the gate refused
+the candidate is reported beside it. Its drop is calibrated like the rest of the gate.
 
 Among the candidates that pass, the one with the largest confirmed held-out gain is added (the leading
 ``n_confirm`` screened candidates, by default all, are confirmed, so screening order never decides); when several pass,
@@ -143,8 +145,9 @@ class DiscoverConfig:
             raise InputError(f"must be 0 or more noise floors (.inf: no path to the floor), found {d}", path=path,
                              key=f"{where}.to_floor_drop_min_sigma")
         q = self.to_floor_ratio_max
-        if q is not None and not q > 0:
-            raise InputError(f"must be above 0 noise floors, found {q}", path=path, key=f"{where}.to_floor_ratio_max")
+        if q is not None and not (q > 0 and math.isfinite(q)):
+            raise InputError(f"must be a finite number of noise floors above 0, found {q}", path=path,
+                             key=f"{where}.to_floor_ratio_max")
 
     def thresholds(self) -> dict:
         return self.overrides(load_thresholds())
@@ -185,10 +188,11 @@ def _to_floor_words(thr: dict) -> str:
     if not math.isfinite(d):
         return ""
     q = float(thr.get("to_floor_ratio_max", 1.0))
-    where = "at the noise floor" if q == 1.0 else f"at most {q:.2f} noise floors"
-    return (f". When none passes (2), a candidate meeting (1), (3) and (4) whose refit leaves the held-out RMSE "
+    where = "at or below the noise floor" if q == 1.0 else f"at most {q:.3g} noise floors"
+    return (f". When no candidate passes (1)-(4), one meeting (1), (3) and (4) whose refit leaves the held-out RMSE "
             f"{where} and removes at least {d:.3g} noise floors of held-out error (sqrt(before^2 - after^2)) is "
-            f"named: the refitted base model had absorbed most of it (of several, the largest such drop wins)")
+            f"named, with the gate's reasons for refusing it (an effect the refitted base model mostly absorbed "
+            f"leaves too little gap above the floor for (2); of several, the largest such drop wins)")
 
 
 @dataclasses.dataclass
@@ -315,9 +319,9 @@ def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
     s = next(s for s in rnd.ranking if s.effect_id == c.effect_id)
     e = c.state.effects[-1]
     if c.passed_by == "floor":
-        how = (f"{c.heldout_rmse_after:.3f} deg, the noise floor ({floor:.3f} deg): it removed {c.drop_sigma:.2f} "
-               f"noise floors of held-out error (sqrt(before^2 - after^2)); the refitted base model had absorbed most "
-               f"of it, so the gap above the floor was small, and it was named on the path to the floor (")
+        how = (f"{c.heldout_rmse_after:.3f} deg against a noise floor of {floor:.3f} deg, removing "
+               f"{c.drop_sigma:.3f} noise floors of held-out error (sqrt(before^2 - after^2)); named on the path to "
+               f"the floor, the gate having refused it because " + "; ".join(c.gate_reasons) + " (")
     else:
         how = (f"{c.heldout_rmse_after:.2f} deg (its part above the noise by {c.heldout_gain_sigma:.2f} noise floors "
                f"of {floor:.2f} deg; ")
@@ -564,13 +568,15 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 why = judge_to_floor(c, thr, floor)
                 if not why:
                     c.accepted, c.passed_by = True, "floor"
-                    c.reasons = []
-                elif c.tested:
+                    c.gate_reasons, c.reasons = list(c.reasons), []
+                elif c.tested and c.identifiable and (c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p) \
+                        < thr["family_alpha"]:
                     c.reasons.append("nor does it take the held-out error to the noise floor: " + "; ".join(why))
             passing = [c for c in confs if c.accepted]
         by_floor = bool(passing) and passing[0].passed_by == "floor"
         score = (lambda c: c.drop_sigma) if by_floor else (lambda c: c.heldout_gain_sigma)
         what = "held-out drop" if by_floor else "held-out gain"
+        what_vs = "held-out drop " if by_floor else ""
         best = max(passing, key=score) if passing else None
         competition = ""
         if best is not None and len(passing) > 1:
@@ -586,7 +592,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
             for c in others:
                 c.accepted, c.passed_by = False, ""
                 c.reasons = [f"passed, but {best.effect_id} explains the held-out logs better "
-                             f"({what} {score(best):.2f} vs {score(c):.2f} noise floors)"]
+                             f"({what_vs}{score(best):.2f} vs {score(c):.2f} noise floors)"]
         rounds.append(Round(diag, ranking, confs, best.effect_id if best else None, family, competition))
         if best is None:
             break
@@ -670,8 +676,21 @@ def judge_to_floor(c: Confirmation, thr: dict, floor: float) -> list[str]:
         return ["not tested, not identifiable or not significant (above)"]
     why = []
     if not (math.isfinite(c.drop_sigma) and c.drop_sigma >= d):
-        why.append(f"held-out drop {c.drop_sigma:.2f} < {d:.3g} noise floors")
-    if not c.heldout_rmse_after <= q * floor:
-        why.append(f"held-out RMSE left {c.heldout_rmse_after:.3f} deg > " + (
-            f"the noise floor {floor:.3f} deg" if q == 1.0 else f"{q:.2f} x the noise floor {floor:.3f} deg"))
+        x, lim = _apart(c.drop_sigma, d)
+        why.append(f"held-out drop {x} < {lim} noise floors")
+    ratio = c.heldout_rmse_after / floor
+    if not ratio <= q:
+        x, lim = _apart(ratio, q)
+        why.append(f"held-out RMSE left {x} noise floors ({c.heldout_rmse_after:.3f} deg against a floor of "
+                   f"{floor:.3f} deg) > {lim}")
     return why
+
+
+def _apart(x: float, limit: float, digits: int = 3) -> tuple[str, str]:
+    """``x`` and ``limit`` printed with the fewest decimals (at least ``digits``) that tell them apart, so that a
+    reason never reads "0.225 < 0.225"."""
+    for n in range(digits, 12):
+        a, b = f"{x:.{n}f}", f"{limit:.{n}f}"
+        if a != b:
+            return a, b
+    return repr(x), repr(limit)
