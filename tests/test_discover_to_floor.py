@@ -152,10 +152,11 @@ def test_a_thresholds_file_without_the_path_has_none(tmp_path):
 
 def test_cli_names_on_the_path_to_the_floor_and_says_so(tmp_path):
     """With a gate nothing can pass and a path anything tested can, the shipped blind case's effect is named on the
-    path: discovery.yaml says which rule named it and the verdict explains the path in words."""
+    path: discovery.yaml says which rule named it and why the gate refused it, the verdict explains the path in
+    words, and of two candidates on the path the larger held-out drop wins."""
     cfg = tmp_path / "cfg.yaml"
     cfg.write_text("discover:\n  heldout_gain_min_sigma: 99\n  to_floor_drop_min_sigma: 0.0\n"
-                   "  to_floor_ratio_max: 100\n  max_effects: 1\n")
+                   "  to_floor_ratio_max: 100\n  max_effects: 1\n  candidates: [pressure_lag, angle_offset]\n")
     case = THRESHOLDS_PATH.parents[2] / "datasets" / "discovery" / "case_01"
     out = tmp_path / "out"
     r = CliRunner().invoke(app, ["--quiet", "discover", *[str(p) for p in sorted(case.glob("train_*.csv"))],
@@ -170,5 +171,10 @@ def test_cli_names_on_the_path_to_the_floor_and_says_so(tmp_path):
     assert "named on the path to the floor, the gate having refused it because held-out error drop" in \
         d["steps"][0]["explanation"]
     assert "removes at least 0 noise floors" in d["gate"]
+    # both candidates pass the path: the larger held-out drop wins, and the competition says so in its own terms
+    assert "passed the gate on the path to the noise floor" in d["steps"][0]["competition"]
+    assert "won on the larger confirmed held-out drop" in d["steps"][0]["competition"]
     rejected = [c for c in d["rounds"][0]["confirmed"] if not c["accepted"]]
+    assert rejected and rejected[0]["reasons_rejected"][0].startswith("passed, but pressure_lag explains the held-out "
+                                                                         "logs better (held-out drop ")
     assert all(c["named_by"] is None and c["refused_by_the_gate_because"] is None for c in rejected)
