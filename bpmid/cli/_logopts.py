@@ -39,7 +39,7 @@ def _options() -> dict[str, inspect.Parameter]:
                                   help="absolute or gauge, for logs that do not say it (no '# pressure_reference:' "
                                   "line). Config: io.pressure_reference."), Optional[str]),
         "pressure_unit": opt("pressure_unit", typer.Option(None, "--pressure-unit", help="Unit of a pressure column "
-                             "whose name states none: Pa, kPa, bar, mbar, psi (psig/psia/bar(a) carry the reference). "
+                             "whose name states none: Pa, hPa, kPa, MPa, bar, mbar, psi (psig/psia/bar(a) carry the reference). "
                              "Config: io.units.pressure."), Optional[str]),
         "angle_unit": opt("angle_unit", typer.Option(None, "--angle-unit", help="Unit of an angle column whose name "
                           "states none: deg or rad. Config: io.units.angle."), Optional[str]),
