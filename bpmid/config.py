@@ -173,11 +173,15 @@ def build_dataclass(cls: type, data: Any, where: str = "", path=None):
         raise InputError(f"expected a mapping, found {type(data).__name__}", path=path, key=where or None)
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls)}
+    aliases = getattr(cls, "UNIT_KEYS", None) or {}
+    if aliases:
+        data = _unit_keys(data, aliases, where, path)
     unknown = [k for k in data if k not in fields]
     if unknown:
         k = unknown[0]
         full = f"{where}.{k}" if where else str(k)
-        raise InputError(f"unknown config key (known here: {', '.join(sorted(fields))})", path=path, key=full)
+        raise InputError(f"unknown config key (known here: {', '.join(sorted([*fields, *aliases]))})", path=path,
+                         key=full)
     kwargs = {}
     for k, v in data.items():
         full = f"{where}.{k}" if where else str(k)
@@ -193,6 +197,26 @@ def build_dataclass(cls: type, data: Any, where: str = "", path=None):
     if callable(check):
         check(where, path)
     return obj
+
+
+def _unit_keys(data: dict, aliases: dict, where: str, path) -> dict:
+    """``data`` with keys that state their unit (a class's ``UNIT_KEYS``: ``th_mm`` -> ``th`` times 1e-3) turned
+    into the field in SI; a field given twice (``th`` and ``th_mm``) or a non-number is refused, naming the key."""
+    out, given = {}, {}
+    for k, v in data.items():
+        if k not in aliases:
+            out[k] = v
+            continue
+        field, factor = aliases[k]
+        full = f"{where}.{k}" if where else str(k)
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise InputError(f"expected a number, found {v!r}", path=path, key=full)
+        if field in data or field in given:
+            other = given.get(field, field)
+            raise InputError(f"{field} is given twice ({other} and {k}): keep one", path=path, key=full)
+        given[field] = k
+        out[field] = float(v) * factor
+    return out
 
 
 def parse_config(data: Any, path: Path | None = None, sha256: str | None = None) -> Config:

@@ -33,6 +33,33 @@ def test_config_types_checked(tmp_path):
     assert c.io.pressure_reference == "gauge" and c.io.atmosphere_pa == 100000.0
 
 
+def test_muscle_geometry_in_datasheet_units_or_si(tmp_path):
+    """A muscle's geometry may state its units in the key (mm, deg) or be given in SI; the two give the same
+    muscle, a field given both ways is refused naming the key, and SI values that look like mm say how to state mm."""
+    import math
+
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("model:\n  geometry: {th_mm: 2.5, alpha0_deg: 28, R0_mm: 12, l0_mm: 150, n: 6}\n")
+    g = load_config(cfg).model.geometry
+    cfg.write_text("model:\n  geometry: {th: 0.0025, alpha0: %r, R0: 0.012, l0: 0.15, n: 6}\n" % math.radians(28))
+    assert np.allclose(load_config(cfg).model.geometry.vector(), g.vector(), rtol=1e-12)
+    cfg.write_text("model:\n  geometry: {th: 0.002, th_mm: 2.0}\n")
+    with pytest.raises(InputError, match="th is given twice") as e:
+        load_config(cfg)
+    assert e.value.key == "model.geometry.th_mm"
+    cfg.write_text("model:\n  geometry: {R0_mm: twelve}\n")
+    with pytest.raises(InputError, match="expected a number") as e:
+        load_config(cfg)
+    assert e.value.key == "model.geometry.R0_mm"
+    cfg.write_text("model:\n  geometry: {th: 2.0, R0: 16.7, l0: 196}\n")
+    with pytest.raises(InputError, match="th_mm, R0_mm, l0_mm"):
+        load_config(cfg)
+    cfg.write_text("model:\n  geometry: {thickness_mm: 2}\n")
+    with pytest.raises(InputError, match="th_mm") as e:    # the unknown-key message lists the unit keys too
+        load_config(cfg)
+    assert e.value.key == "model.geometry.thickness_mm"
+
+
 @pytest.mark.parametrize("header,expected", [
     ("Time (s)", ("time", "s")), ("Load [N]", ("load", "n")), ("pressure_kpa", ("pressure", "kpa")),
     ("angle_deg", ("angle", "deg")), ("stress_mpa", ("stress", "mpa")), ("t", ("time", None)),

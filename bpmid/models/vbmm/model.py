@@ -53,6 +53,12 @@ class Geometry:
     l0: float = 195.9e-3
     n: float = 7.43
 
+    #: config keys that state their unit, as a datasheet gives them (``th_mm: 2.0``, ``alpha0_deg: 30``): key ->
+    #: (field, factor to SI). A field given both ways is refused.
+    UNIT_KEYS = {"th_mm": ("th", 1e-3), "th_m": ("th", 1.0), "alpha0_deg": ("alpha0", math.pi / 180.0),
+                 "alpha0_rad": ("alpha0", 1.0), "R0_mm": ("R0", 1e-3), "R0_m": ("R0", 1.0),
+                 "l0_mm": ("l0", 1e-3), "l0_m": ("l0", 1.0)}
+
     def validate(self, where="geometry", path=None):
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
@@ -62,8 +68,8 @@ class Geometry:
             raise InputError(f"alpha0 is in rad and must be below pi/2, found {self.alpha0:g}", path=path,
                              key=f"{where}.alpha0")
         if self.th > 0.05 or self.R0 > 0.5 or self.l0 > 5.0:
-            raise InputError("geometry is in metres (th, R0, l0); the values look like millimetres",
-                             path=path, key=where)
+            raise InputError("geometry is in metres (th, R0, l0); the values look like millimetres: give them as "
+                             "th_mm, R0_mm, l0_mm (and alpha0_deg) to state mm and deg", path=path, key=where)
 
     def vector(self) -> np.ndarray:
         return np.array([self.th, self.alpha0, self.R0, self.l0, self.n], float)
