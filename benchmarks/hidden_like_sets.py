@@ -32,26 +32,27 @@ import yaml
 
 REPO = Path(__file__).resolve().parents[1]
 
-_COMMON = {"size_ratio": [1.5, 4.0], "duration_scale": 0.5, "n_cases": 60}
+_COMMON = {"size_ratio": [1.5, 4.0], "duration_scale": 0.5, "n_cases": 60, "noise_deg": [0.15, 0.25]}
+_SINGLES = ({"single": 1.0, "null": 0.0, "pair": 0.0, "out_of_catalogue": 0.0}, {"single": 8})
+_MIXED = ({"single": 0.6, "null": 0.15, "pair": 0.1, "out_of_catalogue": 0.15},
+          {"single": 8, "pair": 1, "out_of_catalogue": 1, "null": 1})
+
+
+def _shape(geometry, hz, unit, reference, time_unit, header, rho, variation, kinds) -> dict:
+    """Generator settings of one set: its muscle, rate, units, header style, noise colour and variation."""
+    return {"geometries": [geometry], "sampling_hz": [hz], "pressure_units": [unit],
+            "pressure_references": [reference], "time_units": [time_unit], "header_styles": [header],
+            "noise_rho": list(rho), "white_share": 1.0 if max(rho) == 0 else 0.0, "variation": list(variation),
+            "mix": kinds[0]}
+
+
 #: (name, seed, generator settings, how many cases of each kind)
 SETS = (
-    ("set1", 101, {"geometries": ["paper"], "sampling_hz": [10], "pressure_units": ["bar"],
-                   "pressure_references": ["absolute"], "time_units": ["s"], "header_styles": ["bpmid"],
-                   "noise_deg": [0.15, 0.25], "noise_rho": [0.0, 0.0], "white_share": 1.0, "variation": [0.0, 0.0],
-                   "mix": {"single": 1.0, "null": 0.0, "pair": 0.0, "out_of_catalogue": 0.0}},
-     {"single": 8}),
-    ("set2", 202, {"geometries": ["slim"], "sampling_hz": [20], "pressure_units": ["kpa"],
-                   "pressure_references": ["gauge"], "time_units": ["s"], "header_styles": ["bpmid"],
-                   "noise_deg": [0.15, 0.25], "noise_rho": [0.0, 0.0], "white_share": 1.0,
-                   "variation": [0.015, 0.04],
-                   "mix": {"single": 0.6, "null": 0.15, "pair": 0.1, "out_of_catalogue": 0.15}},
-     {"single": 8, "pair": 1, "out_of_catalogue": 1, "null": 1}),
-    ("set3", 303, {"geometries": ["wide"], "sampling_hz": [50], "pressure_units": ["psi"],
-                   "pressure_references": ["gauge"], "time_units": ["ms"], "header_styles": ["instrument"],
-                   "noise_deg": [0.15, 0.25], "noise_rho": [0.5, 0.8], "white_share": 0.0,
-                   "variation": [0.02, 0.02],
-                   "mix": {"single": 0.6, "null": 0.15, "pair": 0.1, "out_of_catalogue": 0.15}},
-     {"single": 8, "pair": 1, "out_of_catalogue": 1, "null": 1}),
+    ("set1", 101, _shape("paper", 10, "bar", "absolute", "s", "bpmid", (0.0, 0.0), (0.0, 0.0), _SINGLES),
+     _SINGLES[1]),
+    ("set2", 202, _shape("slim", 20, "kpa", "gauge", "s", "bpmid", (0.0, 0.0), (0.015, 0.04), _MIXED), _MIXED[1]),
+    ("set3", 303, _shape("wide", 50, "psi", "gauge", "ms", "instrument", (0.5, 0.8), (0.02, 0.02), _MIXED),
+     _MIXED[1]),
 )
 
 
