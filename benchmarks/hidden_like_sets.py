@@ -69,7 +69,8 @@ def write_set(name: str, seed: int, settings: dict, want: dict, out: Path) -> di
         ids = tuple(c.truth["catalogue_ids"])
         if c.kind == "single" and ids in effects and len(effects) < 7:
             continue  # one of each catalogue effect first
-        effects.add(ids) if c.kind == "single" else None
+        if c.kind == "single":
+            effects.add(ids)
         seen[c.kind] = seen.get(c.kind, 0) + 1
         write_case(realize(c), out / name)
         truth[c.id] = {"kind": c.kind, "effects": list(ids),

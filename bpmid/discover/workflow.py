@@ -569,8 +569,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 if not why:
                     c.accepted, c.passed_by = True, "floor"
                     c.gate_reasons, c.reasons = list(c.reasons), []
-                elif c.tested and c.identifiable and (c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p) \
-                        < thr["family_alpha"]:
+                elif _open_to_floor(c, thr):
                     c.reasons.append("nor does it take the held-out error to the noise floor: " + "; ".join(why))
             passing = [c for c in confs if c.accepted]
         by_floor = bool(passing) and passing[0].passed_by == "floor"
@@ -671,8 +670,7 @@ def judge_to_floor(c: Confirmation, thr: dict, floor: float) -> list[str]:
     if not math.isfinite(d):
         return ["no path to the floor in this gate"]
     q = float(thr.get("to_floor_ratio_max", 1.0))
-    p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
-    if not (c.tested and c.identifiable and p < thr["family_alpha"]):
+    if not _open_to_floor(c, thr):
         return ["not tested, not identifiable or not significant (above)"]
     why = []
     if not (math.isfinite(c.drop_sigma) and c.drop_sigma >= d):
@@ -684,6 +682,12 @@ def judge_to_floor(c: Confirmation, thr: dict, floor: float) -> list[str]:
         why.append(f"held-out RMSE left {x} noise floors ({c.heldout_rmse_after:.3f} deg against a floor of "
                    f"{floor:.3f} deg) > {lim}")
     return why
+
+
+def _open_to_floor(c: Confirmation, thr: dict) -> bool:
+    """The conditions the path to the floor shares with the gate: tested, identifiable, significant."""
+    p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
+    return bool(c.tested and c.identifiable and p < thr["family_alpha"])
 
 
 def _apart(x: float, limit: float, digits: int = 3) -> tuple[str, str]:
