@@ -1,7 +1,7 @@
 """Calibrate the discovery gate from the calibration halves of one or more finished sweeps and write the thresholds.
 
     python benchmarks/recalibrate.py out/sweep-full/records.jsonl out/sweep-draw13/records.jsonl \\
-        --configs configs/sweeps/full.yaml configs/sweeps/draw13.yaml [--write]
+        [--rerun out/pair-trials/records.jsonl] --configs configs/sweeps/full.yaml configs/sweeps/draw13.yaml [--write]
 
 Reads every record run with the permissive calibration settings (``bpmid calibrate ... --split calibration``, or
 ``--split pool`` for both halves of a draw whose held-out half was already looked at and so can no longer score a
@@ -29,28 +29,46 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("records", nargs="+", type=Path, help="records.jsonl of finished sweeps")
     ap.add_argument("--configs", nargs="+", required=True, help="the sweep configs the records were made with")
+    ap.add_argument("--rerun", nargs="*", type=Path, default=[],
+                    help="records.jsonl of cases rerun with more recorded (benchmarks/record_pair_trials.py): each "
+                         "replaces the same case's record; cases not among RECORDS are ignored")
     ap.add_argument("--write", action="store_true", help="write bpmid/discover/thresholds.yaml")
     a = ap.parse_args(argv)
 
-    from bpmid.discover.calibrate import _case_outcome, case_records, thresholds_from_records, write_thresholds
+    from bpmid.discover.calibrate import (_case_outcome, case_records, pair_records, thresholds_from_records,
+                                          write_thresholds)
     from bpmid.validation.sweep import GENERATOR, load_sweep
 
-    missing = [str(p) for p in a.records if not p.is_file()]
+    missing = [str(p) for p in [*a.records, *a.rerun] if not p.is_file()]
     if missing:
         ap.error(f"records file not found: {', '.join(missing)} (a finished sweep's OUT/records.jsonl)")
     cfgs = [load_sweep(c) for c in a.configs]
-    recs = [r for path in a.records for r in (json.loads(line) for line in open(path) if line.strip())
-            if r.get("phase", r.get("split")) == "calibration"]
+    by_id = {}
+    for path in a.records:
+        for r in (json.loads(line) for line in open(path) if line.strip()):
+            if r.get("phase", r.get("split")) == "calibration":
+                by_id[r["id"]] = r
+    replaced = 0
+    for path in a.rerun:   # a case rerun (e.g. with its pair trials recorded) replaces its record; others ignored
+        for r in (json.loads(line) for line in open(path) if line.strip()):
+            if r.get("phase", r.get("split")) == "calibration" and r["id"] in by_id:
+                by_id[r["id"]] = r
+                replaced += 1
+    recs = list(by_id.values())
+    if a.rerun:
+        print(f"{replaced} of {len(recs)} cases taken from the reruns")
     R = [x for rec in recs for x in case_records(rec)]
-    values = thresholds_from_records(R)
+    P = [q for rec in recs for q in pair_records(rec)]
+    values = thresholds_from_records(R, P)
     gate = dict(g=values["heldout_gain_min_sigma"], share=values["gap_share_min"], alpha=values["family_alpha"],
                 fit_share=values["fit_share_min"], waive=values["fit_share_waived_above_sigma"],
-                g_later=values["heldout_gain_min_sigma_later"], to_floor=values["to_floor_drop_min_sigma"])
+                g_later=values["heldout_gain_min_sigma_later"], to_floor=values["to_floor_drop_min_sigma"],
+                pair_share=values["pair_share_min"], pair_gain=values["pair_gain_min_sigma"])
     tally = Counter()
     for rec in recs:
         rs = case_records(rec)
         if rs:
-            right, wrong = _case_outcome(rs, **gate)
+            right, wrong = _case_outcome(rs, **gate, pairs=pair_records(rec))
             tally[(rec["kind"], "cases")] += 1
             tally[(rec["kind"], "right")] += right
             tally[(rec["kind"], "wrong")] += wrong
@@ -60,11 +78,15 @@ def main(argv=None) -> int:
               f"names counted against {tally[(kind, 'wrong')]}")
     if a.write:
         meta = {"produced_by": "python benchmarks/recalibrate.py " + " ".join(str(p) for p in a.records)
+                + (" --rerun " + " ".join(str(p) for p in a.rerun) if a.rerun else "")
                 + " --configs " + " ".join(a.configs) + " --write",
                 "data": f"{len(recs)} out-of-family cases ({GENERATOR}), run with the permissive calibration "
                         "settings: " + ", ".join(
                             f"{c.sweep.name} (seed {c.sweep.seed}, " + _halves(recs, c.sweep.name) + ")" for c in cfgs)
-                        + "; pairs included; the draw that scores the gate is not among them",
+                        + "; pairs included; the draw that scores the gate is not among them"
+                        + (f"; {replaced} of them rerun with their first round's pair trials recorded (the cases "
+                           "where the path for two effects at once can act: benchmarks/record_pair_trials.py)"
+                           if a.rerun else ""),
                 "method": "gaps above the noise in quadrature (sqrt(RMSE^2 - floor^2)); per-log nuisance factors on "
                           "K_inf, branch moduli and time constants (held-out logs' mean within 2.5 standard "
                           "errors of the fitting logs' spread, at most 10 %); friction with a pressure-proportional "
@@ -73,7 +95,9 @@ def main(argv=None) -> int:
                         "of a 20 % rate; then the most right decisions minus twice the wrong names minus the "
                         "out-of-catalogue names; ties to the stricter gate; then the gain asked of a further effect "
                         "(at most the first round's) by the same score; then the drop asked on the path to the noise "
-                        "floor (a round where nothing passes) by the same score, within the same bounds",
+                        "floor (a round where nothing passes) by the same score, within the same bounds; then the "
+                        "joint share and the gain of each beside the other asked on the path for two effects at once "
+                        "(a first round where nothing passes either path), by the same score within the same bounds",
                 "generator": cfgs[0].effective_generator.to_yaml()}
         print("wrote", write_thresholds(values, meta))
     return 0

@@ -33,12 +33,12 @@ from bpmid.params import ParamSet
 THRESHOLDS_PATH = Path(__file__).with_name("thresholds.yaml")
 THRESHOLD_KEYS = ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min",
                   "fit_share_waived_above_sigma", "heldout_gain_min_sigma_later", "to_floor_drop_min_sigma",
-                  "to_floor_ratio_max")
+                  "to_floor_ratio_max", "pair_share_min", "pair_gain_min_sigma")
 #: thresholds a file written before they existed may lack, with the value that leaves the gate as it was (None:
 #: the held-out gain asked of a further effect is the one asked of the first)
 OPTIONAL_THRESHOLDS = {"fit_share_min": 0.0, "fit_share_waived_above_sigma": math.inf,
                        "heldout_gain_min_sigma_later": None, "to_floor_drop_min_sigma": math.inf,
-                       "to_floor_ratio_max": 1.0}
+                       "to_floor_ratio_max": 1.0, "pair_share_min": math.inf, "pair_gain_min_sigma": math.inf}
 #: the held-out RMSE an effect named on the path to the floor may leave, in noise floors: at the floor, by the
 #: path's meaning (the effect explains what the base model left); not calibrated
 TO_FLOOR_RATIO = 1.0
@@ -46,7 +46,7 @@ TO_FLOOR_RATIO = 1.0
 #: held-out gain is added each round (so later rounds are recorded too)
 PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
               "fit_share_waived_above_sigma": 0.0, "heldout_gain_min_sigma_later": -1e9,
-              "to_floor_drop_min_sigma": 0.0, "to_floor_ratio_max": 1e9, "max_effects": 2}
+              "to_floor_drop_min_sigma": 0.0, "to_floor_ratio_max": 1e9, "max_effects": 2, "record_pair_trials": True}
 SCHEMA = "bpmid.discover-thresholds/1"
 
 
@@ -207,6 +207,38 @@ class Record:
             setattr(self, f, float("nan") if v is None else float(v))
 
 
+@dataclasses.dataclass
+class PairRecord:
+    """Two first-round candidates refitted together in a calibration run (:class:`bpmid.discover.confirm.PairTrial`)."""
+
+    case: str
+    truth: str
+    kind: str
+    first: str
+    second: str
+    gain_sigma: float           # the pair's held-out gain above the noise, in noise floors
+    gap_share: float            # share of the held-out gap the pair removes
+    min_gain_given_other: float  # the weaker one's held-out gain beside the other, in noise floors
+    p_corrected: float          # the larger conditional likelihood-ratio p, Bonferroni over the pairs tried
+    tested: bool = True
+    identifiable: bool = True
+
+    def __post_init__(self):
+        for f in ("gain_sigma", "gap_share", "min_gain_given_other", "p_corrected"):
+            v = getattr(self, f)
+            setattr(self, f, float("nan") if v is None else float(v))
+
+
+def pair_records_from_result(truth: str, result, case: str | None = None, kind: str = "") -> list[PairRecord]:
+    """The first round's pair trials of a discovery result (recorded when ``record_pair_trials`` is set)."""
+    case = case or f"{truth}|{result.heldout_raw_before:.12g}|{result.noise_floor_deg:.12g}"
+    if not result.rounds:
+        return []
+    return [PairRecord(case, truth, kind, pt.first.effect_id, pt.second.effect_id, float(pt.gain_sigma),
+                       float(pt.gap_share), float(pt.min_gain_given_other), float(pt.p_corrected), bool(pt.tested),
+                       bool(pt.identifiable)) for pt in result.rounds[0].pair_trials]
+
+
 def records_from_result(truth: str, result, case: str | None = None, kind: str = "") -> list[Record]:
     """The confirmed candidates of a discovery result, labelled with the injected ``truth`` (a catalogue id,
     ``none``, or two ids joined by ``+`` for a pair) and the case's ``kind``."""
@@ -216,6 +248,9 @@ def records_from_result(truth: str, result, case: str | None = None, kind: str =
     out = []
     named_before: list[str] = []
     for k, rnd in enumerate(result.rounds, start=1):
+        if rnd.joint_with:   # the second of two named together: not a round of its own
+            named_before.append(rnd.accepted)
+            continue
         for c in rnd.confirmations:
             out.append(Record(truth, k, c.effect_id, float(c.heldout_gain_sigma), float(c.delta_bic),
                               bool(truths & set(named_before)), float(c.gap_share), float(c.lr_p),
@@ -247,6 +282,11 @@ def case_records(rec: Mapping) -> list[Record]:
     for r in out:
         r.drop_sigma, r.after_over_floor = seen.get((r.round, r.candidate), (float("nan"), float("nan")))
     return out
+
+
+def pair_records(rec: Mapping) -> list[PairRecord]:
+    """The pair trials of one sweep record (``calibration_pairs``; none in records written before they existed)."""
+    return [PairRecord(**x) for x in (rec.get("calibration_pairs") or [])]
 
 
 def _passes(r: Record, g: float, share: float, alpha: float, fit_share: float = 0.0,
@@ -287,6 +327,35 @@ def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
     return None
 
 
+def _pair_named(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, alpha: float, pair_share: float,
+                pair_gain: float) -> tuple[str, str] | None:
+    """The two effects the path for two at once names in a first round where nothing passes alone
+    (:func:`bpmid.discover.workflow.judge_pair`), or None."""
+    if not pairs or not math.isfinite(pair_share):
+        return None
+    p1 = {r.candidate: r.lr_p_holm for r in recs if r.round == 1}
+    ok = [q for q in pairs if q.tested and q.identifiable and p1.get(q.first, 1.0) < alpha
+          and p1.get(q.second, 1.0) < alpha and q.p_corrected < alpha
+          and math.isfinite(q.gain_sigma) and q.gain_sigma >= g
+          and math.isfinite(q.gap_share) and q.gap_share >= pair_share
+          and math.isfinite(q.min_gain_given_other) and q.min_gain_given_other >= pair_gain]
+    if not ok:
+        return None
+    q = max(ok, key=lambda q: q.gain_sigma)
+    return q.first, q.second
+
+
+def _pair_path_outcome(truth: str, named: tuple[str, str]) -> tuple[int, int]:
+    """(right, wrong names) of two effects named together: a pair case is right when they are its two; a single
+    case when the first is its effect (the second is a wrong name either way); a case with nothing in the
+    catalogue counts one false positive."""
+    if truth == "none":
+        return 0, 1
+    if "+" in truth:
+        return (1, 0) if set(named) == set(truth.split("+")) else (0, 1)
+    return int(named[0] == truth), 1
+
+
 def _pair_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
                   fit_share: float = 0.0, waive: float = math.inf, g_later: float | None = None,
                   share_later: float | None = None, to_floor: float = math.inf) -> tuple[int, int]:
@@ -311,13 +380,21 @@ def _pair_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
 
 def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
                   fit_share: float = 0.0, waive: float = math.inf, g_later: float | None = None,
-                  share_later: float | None = None, to_floor: float = math.inf) -> tuple[int, int]:
+                  share_later: float | None = None, to_floor: float = math.inf,
+                  pairs: Sequence[PairRecord] = (), pair_share: float = math.inf,
+                  pair_gain: float = math.inf) -> tuple[int, int]:
     """(right decisions, false positives) the gate (g, share, alpha) makes on one case's records: round 1 must
     name the truth (nothing, on a case with no catalogue truth); the round after the truth was added must name
     nothing (judged with the held-out gain ``g_later`` and share ``share_later``, None: ``g``, ``share``); on a
     pair, both effects must be named (:func:`_pair_outcome`). ``to_floor``: the drop asked on the path to the noise
-    floor (inf: no such path)."""
+    floor (inf: no such path). ``pairs``, ``pair_share``, ``pair_gain``: the path for two effects at once, asked
+    when round 1 names nothing (:func:`_pair_named`; inf: no such path)."""
     truth = recs[0].truth
+    if math.isfinite(pair_share) and pairs and _first_passing([r for r in recs if r.round == 1], g, share, alpha,
+                                                                fit_share, waive, to_floor) is None:
+        named = _pair_named(recs, pairs, g, alpha, pair_share, pair_gain)
+        if named is not None:
+            return _pair_path_outcome(truth, named)
     if "+" in truth:
         return _pair_outcome(recs, g, share, alpha, fit_share, waive, g_later, share_later, to_floor)
     g2 = g if g_later is None else g_later
@@ -362,12 +439,15 @@ def ooc_names_allowed(n_cases: int, target: float = OOC_NAMED_TARGET, confidence
 
 
 def _tally(cases: Sequence[Sequence[Record]], g: float, sh: float, a: float, fs: float, waive: float,
-           g_later: float | None = None, to_floor: float = math.inf) -> dict:
+           g_later: float | None = None, to_floor: float = math.inf, pairs: Mapping | None = None,
+           pair_share: float = math.inf, pair_gain: float = math.inf) -> dict:
     """Outcomes of one gate over the calibration cases: right decisions, wrong names (on cases with a catalogue
-    truth), names on nulls, names on out-of-catalogue cases."""
+    truth), names on nulls, names on out-of-catalogue cases. ``pairs``: case -> its pair trials."""
     t = {"right": 0, "wrong": 0, "null_named": 0, "ooc_named": 0, "ooc": 0}
+    pairs = pairs or {}
     for recs in cases:
-        rr, ff = _case_outcome(recs, g, sh, a, fs, waive, g_later, to_floor=to_floor)
+        rr, ff = _case_outcome(recs, g, sh, a, fs, waive, g_later, to_floor=to_floor,
+                               pairs=pairs.get(recs[0].case, ()), pair_share=pair_share, pair_gain=pair_gain)
         t["right"] += rr
         kind = recs[0].kind
         if recs[0].truth == "none" and kind == "out_of_catalogue":
@@ -448,7 +528,32 @@ def _to_floor_from(cases, gate: tuple, t: dict, allowed: int) -> tuple[float, di
     return best, best_t
 
 
-def thresholds_from_records(records: Sequence[Record]) -> dict:
+#: joint shares of the held-out gap and gains of each beside the other (noise floors) the calibration considers
+#: for the path for two effects at once
+PAIR_SHARES = tuple(np.round(np.arange(0.3, 0.951, 0.05), 2))
+PAIR_GAINS = tuple(np.round(np.arange(0.0, 0.401, 0.02), 2))
+
+
+def _pair_path_from(cases, pairs: Mapping, gate: tuple, to_floor: float, t: dict, allowed: int
+                    ) -> tuple[float, float, dict]:
+    """The joint share and the gain of each beside the other asked on the path for two effects at once, with the
+    gate and the path to the floor fixed: among :data:`PAIR_SHARES` x :data:`PAIR_GAINS` the pair that names
+    nothing on a null case, keeps the out-of-catalogue names within ``allowed`` and has the best score (right
+    decisions minus twice the wrong names minus the out-of-catalogue names), if it beats the gate without the path
+    (``t``); ties to the stricter. (inf, inf) (no path) otherwise, and always without any pair trial recorded."""
+    score = lambda x: x["right"] - 2 * x["wrong"] - x["ooc_named"] - 2 * x["null_named"]  # noqa: E731
+    best, best_t = (math.inf, math.inf), t
+    if not any(pairs.values()):
+        return math.inf, math.inf, t
+    for sh in sorted(PAIR_SHARES, reverse=True):
+        for pg in sorted(PAIR_GAINS, reverse=True):
+            t2 = _tally(cases, *gate, to_floor=to_floor, pairs=pairs, pair_share=float(sh), pair_gain=float(pg))
+            if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and score(t2) > score(best_t):
+                best, best_t = (float(sh), float(pg)), t2
+    return best[0], best[1], best_t
+
+
+def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecord] = ()) -> dict:
     """The gate's thresholds from calibration records (see module docstring): a grid over the held-out gain
     (0 .. 1 noise floor in steps of 0.01, then to 6 in steps of 0.25), the held-out gap share (0 .. 0.9), the
     fitting-gap share (:data:`FIT_SHARES`) and the family-wise alpha (:data:`ALPHAS`).
@@ -459,7 +564,8 @@ def thresholds_from_records(records: Sequence[Record]) -> dict:
     or a further one after the truth) minus the names on out-of-catalogue cases wins; ties go to the stricter gate.
     Records without a case kind (written before pairs were recorded) count every case with nothing to find as a
     null. Then, with that gate fixed, the gain asked of a further effect, and the drop asked on the path to the
-    noise floor (:func:`_to_floor_from`)."""
+    noise floor (:func:`_to_floor_from`), and those of the path for two effects at once (:func:`_pair_path_from`,
+    from ``pairs``: the first rounds' pair trials)."""
     by_case: dict[str, list[Record]] = {}
     for r in records:
         by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
@@ -495,11 +601,18 @@ def thresholds_from_records(records: Sequence[Record]) -> dict:
         if key[0] > best_later[0]:
             best_later, g_later, t = key, float(g2), t2
     to_floor, t = _to_floor_from(cases, (g, sh, a, fs, waive, g_later), t, allowed)
+    by_case_pairs: dict[str, list[PairRecord]] = {}
+    for q in pairs:
+        by_case_pairs.setdefault(q.case, []).append(q)
+    pair_share, pair_gain, t = _pair_path_from(cases, by_case_pairs, (g, sh, a, fs, waive, g_later), to_floor, t,
+                                               allowed)
     pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate in r.truth.split("+")]
     neg = [r for r in records if r.truth == "none" or (r.truth_in_model and "+" not in r.truth)]
     return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
             "fit_share_waived_above_sigma": waive, "heldout_gain_min_sigma_later": g_later,
             "to_floor_drop_min_sigma": to_floor, "to_floor_ratio_max": TO_FLOOR_RATIO,
+            "pair_share_min": pair_share, "pair_gain_min_sigma": pair_gain,
+            "n_pair_trials": len(pairs),
             "n_cases": len(cases), "right_decisions": int(t["right"]),
             "false_positives": int(t["wrong"] + t["null_named"] + t["ooc_named"]),
             "wrong_names": int(t["wrong"]), "null_cases_named": int(t["null_named"]),

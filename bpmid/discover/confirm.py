@@ -73,9 +73,10 @@ class Confirmation:
     #: held-out drop in quadrature, sqrt(before^2 - after^2), in noise floors (:func:`heldout_drop_sigma`)
     drop_sigma: float = float("nan")
     accepted: bool = False
-    #: which rule of the gate named it: "gap" (the gap above the noise) or "floor" (down to the noise floor)
+    #: which rule of the gate named it: "gap" (the gap above the noise), "floor" (down to the noise floor) or
+    #: "pair" (two effects named together)
     passed_by: str = ""
-    #: named on the path to the floor: why the gate itself had refused it
+    #: named on the path to the floor or as a pair: why the gate itself had refused it
     gate_reasons: list = dataclasses.field(default_factory=list)
     reasons: list = dataclasses.field(default_factory=list)
 
@@ -86,7 +87,7 @@ class Confirmation:
             "tested": bool(self.tested),
             "not_tested_reason": self.not_tested_reason or None,
             "reasons_rejected": list(self.reasons),
-            "refused_by_the_gate_because": list(self.gate_reasons) if self.passed_by == "floor" else None,
+            "refused_by_the_gate_because": list(self.gate_reasons) if self.passed_by in ("floor", "pair") else None,
             "heldout_rmse_before_deg": round(self.heldout_rmse_before, 4),
             "heldout_rmse_after_deg": round(self.heldout_rmse_after, 4),
             "heldout_gain_in_noise_floors": round(self.heldout_gain_sigma, 3),
@@ -396,3 +397,93 @@ def gap_share(before_deg: float, after_deg: float, noise_floor_deg: float) -> fl
     if not gb > 0:
         return float("nan")
     return (gb - excess_deg(after_deg, noise_floor_deg)) / gb
+
+
+@dataclasses.dataclass
+class PairTrial:
+    """Two candidates refitted together (all angles in deg, gains in noise floors).
+
+    ``first`` is the candidate with the larger held-out gain alone; ``joint`` is the confirmation of ``second``
+    refitted on top of ``first``'s refit (every constant free), so its state holds both effects.
+    """
+
+    first: Confirmation
+    second: Confirmation
+    joint: Confirmation
+    heldout_rmse_before: float
+    heldout_rmse_after: float
+    gain_sigma: float          # the pair's held-out gain above the noise (as a single candidate's)
+    gap_share: float           # share of the held-out gap above the floor the pair removes
+    gain_first_given_second: float   # held-out gain of adding ``first`` to ``second`` alone
+    gain_second_given_first: float   # held-out gain of adding ``second`` to ``first`` alone
+    p_first_given_second: float      # likelihood-ratio p of ``first`` beside ``second`` (fitting logs)
+    p_second_given_first: float
+    n_pairs: int = 1           # pairs tried in the round (the conditional p-values are Bonferroni-corrected by it)
+    accepted: bool = False
+    reasons: list = dataclasses.field(default_factory=list)
+
+    @property
+    def ids(self) -> tuple[str, str]:
+        return self.first.effect_id, self.second.effect_id
+
+    @property
+    def tested(self) -> bool:
+        return bool(self.first.tested and self.second.tested and self.joint.tested)
+
+    @property
+    def identifiable(self) -> bool:
+        return bool(self.first.identifiable and self.second.identifiable and self.joint.identifiable)
+
+    @property
+    def min_gain_given_other(self) -> float:
+        return min(self.gain_first_given_second, self.gain_second_given_first)
+
+    @property
+    def p_corrected(self) -> float:
+        """The larger conditional p-value, Bonferroni-corrected over the pairs tried in the round."""
+        return min(1.0, max(self.p_first_given_second, self.p_second_given_first) * max(self.n_pairs, 1))
+
+    def to_yaml(self) -> dict:
+        def r(x, d=3):
+            return round(float(x), d) if math.isfinite(x) else None
+        return {"effects": list(self.ids), "accepted": bool(self.accepted),
+                "reasons_rejected": list(self.reasons),
+                "heldout_rmse_before_deg": r(self.heldout_rmse_before, 4),
+                "heldout_rmse_after_deg": r(self.heldout_rmse_after, 4),
+                "heldout_gain_in_noise_floors": r(self.gain_sigma),
+                "share_of_heldout_gap_removed": r(self.gap_share),
+                "heldout_gain_of_each_beside_the_other": {self.first.effect_id: r(self.gain_first_given_second),
+                                                          self.second.effect_id: r(self.gain_second_given_first)},
+                "likelihood_ratio_p_of_each_beside_the_other": {
+                    self.first.effect_id: float(f"{self.p_first_given_second:.3g}"),
+                    self.second.effect_id: float(f"{self.p_second_given_first:.3g}")},
+                "pairs_tried": int(self.n_pairs),
+                "likelihood_ratio_p_bonferroni": float(f"{self.p_corrected:.3g}"),
+                "tested": self.tested, "identifiable": self.identifiable,
+                "parameters": {**self.joint.effect_params}}
+
+
+def pair_trial(first: Confirmation, second: Confirmation, effect_second: Effect, fit_logs: Sequence[MotionLog],
+               holdout_logs: Sequence[MotionLog], *, noise_floor_deg: float, heldout_before: float,
+               max_nfev: int | None = None, per_log_gain=False, n_pairs: int = 1) -> PairTrial:
+    """Refit ``effect_second`` on top of ``first``'s refit (:func:`confirm`, every constant free) and measure
+    what each of the two adds beside the other: on the held-out logs (gain above the noise, in noise floors)
+    and on the fitting logs (likelihood ratio with the effective sample size, boundary-corrected)."""
+    floor = noise_floor_deg
+    joint = confirm(first.state, effect_second, fit_logs, holdout_logs, noise_floor_deg=floor,
+                    base_fit_residual=first.fit.residual, heldout_before=first.heldout_rmse_after,
+                    max_nfev=max_nfev, per_log_gain=per_log_gain)
+    after = joint.heldout_rmse_after
+    ex = lambda x: excess_deg(x, floor)  # noqa: E731
+    # the first beside the second: the joint fit against the second's own refit
+    r_b, r_ab = np.asarray(second.fit.residual, float), np.asarray(joint.fit.residual, float)
+    sse_b, sse_ab = float(r_b @ r_b), max(float(r_ab @ r_ab), 1e-300)
+    n_eff = effective_sample_size(r_b, [lg.n for lg in fit_logs])
+    p_first = boundary_lr_p(n_eff * math.log(max(sse_b, 1e-300) / sse_ab), max(first.dp, 1))
+    return PairTrial(
+        first=first, second=second, joint=joint, heldout_rmse_before=heldout_before, heldout_rmse_after=after,
+        gain_sigma=(ex(heldout_before) - ex(after)) / max(floor, 1e-9),
+        gap_share=gap_share(heldout_before, after, floor),
+        gain_first_given_second=(ex(second.heldout_rmse_after) - ex(after)) / max(floor, 1e-9),
+        gain_second_given_first=(ex(first.heldout_rmse_after) - ex(after)) / max(floor, 1e-9),
+        p_first_given_second=p_first, p_second_given_first=joint.lr_p if joint.tested else 1.0, n_pairs=n_pairs)

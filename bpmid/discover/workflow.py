@@ -43,7 +43,7 @@ from typing import Optional, Sequence
 import numpy as np
 
 from bpmid.discover.calibrate import THRESHOLD_KEYS as GATE_KEYS, later_gain_follows, load_thresholds
-from bpmid.discover.confirm import Confirmation, confirm, holm_adjusted
+from bpmid.discover.confirm import Confirmation, PairTrial, confirm, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, residuals, rmse_deg,
                                   scored_rmse, sensitivities, simulate, stacked)
@@ -88,6 +88,12 @@ class DiscoverConfig:
         the held-out error (in quadrature) a candidate must remove, in noise floors (None: calibrated; inf: no
         such path) ...
     to_floor_ratio_max : ... leaving a held-out RMSE of at most this many noise floors (None: calibrated, 1)
+    pair_share_min : two effects at once, for a first round where no candidate passes either path: the share of
+        the held-out gap two candidates refitted together must remove (None: calibrated; inf: no such path) ...
+    pair_gain_min_sigma : ... with each adding at least this held-out gain (noise floors) beside the other
+        (None: calibrated)
+    record_pair_trials : refit the leading pairs of the first round together even when a candidate passes (the
+        calibration runs record them; they never change what is named)
     per_log_gain : score with one stiffness-like gain per log (log-to-log variation is not an effect)
     per_log_constants : give every log its own small factors on K_inf, the branch moduli and the time
         constants instead of the gain (first order, :class:`~bpmid.discover.model.LogNuisance`): log-to-log
@@ -114,6 +120,9 @@ class DiscoverConfig:
     heldout_gain_min_sigma_later: Optional[float] = None
     to_floor_drop_min_sigma: Optional[float] = None
     to_floor_ratio_max: Optional[float] = None
+    pair_share_min: Optional[float] = None
+    pair_gain_min_sigma: Optional[float] = None
+    record_pair_trials: bool = False
     per_log_gain: bool = True
     per_log_constants: bool = True
     unexplained_gap_sigma: float = 0.5
@@ -148,6 +157,14 @@ class DiscoverConfig:
         if q is not None and not (q > 0 and math.isfinite(q)):
             raise InputError(f"must be a finite number of noise floors above 0, found {q}", path=path,
                              key=f"{where}.to_floor_ratio_max")
+        ps = self.pair_share_min
+        if ps is not None and not (0 <= ps < 1 or ps == math.inf):
+            raise InputError(f"must be in [0, 1) (.inf: no path for two effects at once), found {ps}", path=path,
+                             key=f"{where}.pair_share_min")
+        pg = self.pair_gain_min_sigma
+        if pg is not None and not pg >= 0:
+            raise InputError(f"must be 0 or more noise floors, found {pg}", path=path,
+                             key=f"{where}.pair_gain_min_sigma")
 
     def thresholds(self) -> dict:
         return self.overrides(load_thresholds())
@@ -180,7 +197,21 @@ def gate_in_words(thr: dict) -> str:
             f", (3) its likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) "
             f"passes at family-wise level {thr['family_alpha']:.2g} after a Holm correction over every candidate "
             f"screened in the round, and (4) at least one of its parameters is identifiable; of several that pass, "
-            f"the largest held-out gain wins" + _to_floor_words(thr) + ". BIC is reported, never a gate")
+            f"the largest held-out gain wins" + _to_floor_words(thr) + _pair_path_words(thr)
+            + ". BIC is reported, never a gate")
+
+
+def _pair_path_words(thr: dict) -> str:
+    sh = float(thr.get("pair_share_min", math.inf))
+    if not math.isfinite(sh):
+        return ""
+    return (f". When no candidate passes alone in the first round, the {PAIR_LEADERS} largest held-out gains among "
+            f"those tested and identifiable are refitted two at a time; two that both meet (3) alone are named "
+            f"together when their joint refit removes at least {sh:.0%} of the held-out gap with a gain of at least "
+            f"{thr['heldout_gain_min_sigma']:.2f} noise floors, each adds at least "
+            f"{float(thr.get('pair_gain_min_sigma', math.inf)):.2f} noise floors of held-out gain beside the other, "
+            f"and each passes the likelihood-ratio test beside the other at the same level (Bonferroni over the "
+            f"pairs tried): two effects sharing a residual each remove too small a share of it alone")
 
 
 def _to_floor_words(thr: dict) -> str:
@@ -205,6 +236,10 @@ class Round:
     accepted: Optional[str]
     family_size: int = 1
     competition: str = ""
+    #: the first round's leading candidates refitted two at a time (the path for two effects at once)
+    pair_trials: list = dataclasses.field(default_factory=list)
+    #: a round that only records the second of two effects named together in the round before
+    joint_with: str = ""
 
 
 @dataclasses.dataclass
@@ -289,7 +324,9 @@ class DiscoveryResult:
             "rounds": [{"diagnostics": rnd.diagnostics, "screening": [s.to_yaml() for s in rnd.ranking],
                         "candidates_in_family": rnd.family_size,
                         "confirmed": [c.to_yaml() for c in rnd.confirmations], "accepted": rnd.accepted,
-                        "competition": rnd.competition or None}
+                        "competition": rnd.competition or None,
+                        "pairs_refitted_together": [pt.to_yaml() for pt in rnd.pair_trials] or None,
+                        "named_together_with": rnd.joint_with or None}
                        for rnd in self.rounds],
             "base_model": {p.name: p.to_yaml() for p in self.base_state.params},
             "final_model": {p.name: p.to_yaml() for p in self.final_state.params},
@@ -322,13 +359,17 @@ def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
         how = (f"{c.heldout_rmse_after:.3f} deg against a noise floor of {floor:.3f} deg, removing "
                f"{c.drop_sigma:.3f} noise floors of held-out error (sqrt(before^2 - after^2)); named on the path to "
                f"the floor, the gate having refused it because " + "; ".join(c.gate_reasons) + " (")
+    elif c.passed_by == "pair":
+        how = (f"{c.heldout_rmse_after:.3f} deg (noise floor {floor:.3f} deg); named as one of two effects that share "
+               f"the residual, the gate having refused it alone because " + "; ".join(c.gate_reasons) + " (")
     else:
         how = (f"{c.heldout_rmse_after:.2f} deg (its part above the noise by {c.heldout_gain_sigma:.2f} noise floors "
                f"of {floor:.2f} deg; ")
     return (f"{e.describe(c.state.params)}: {e.meaning}. Where it shows: {e.where_it_shows}. Here the residual "
             f"{residual_feature(rnd.diagnostics)}, and the effect's signature explains {s.explained:.0%} of what the "
             f"model left; adding it cut the held-out error from "
-            + (f"{c.heldout_rmse_before:.3f}" if c.passed_by == "floor" else f"{c.heldout_rmse_before:.2f}") + " to "
+            + (f"{c.heldout_rmse_before:.3f}" if c.passed_by in ("floor", "pair") else f"{c.heldout_rmse_before:.2f}")
+            + " to "
             + how +
             f"likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected {c.lr_p_holm:.2g})")
 
@@ -533,11 +574,12 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     raw_before = rmse_deg(residuals(state, ho_logs))
     rounds: list[Round] = []
     named: list[str] = []
-    for k in range(cfg.max_effects):
+    while len(named) < cfg.max_effects:
+        k = len(rounds)   # two effects named together take two rounds of the record
         remaining = [e for e in effects if e.id not in named]
         if not remaining:
             break
-        if k > 0:
+        if named:
             gain = nuisance_for(state)   # the per-log factors' directions of the model as it now stands
         sim = simulate(state, fit_logs)
         parts = gained_residuals(sim, fit_logs, per_log_gain=gain)
@@ -559,7 +601,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         for c, ph in zip(confs, holm_adjusted([c.lr_p if c.tested else 1.0 for c in confs], family)):
             c.lr_p_holm = ph
         for c in confs:
-            c.reasons = judge(c, thr, floor, later=k > 0)
+            c.reasons = judge(c, thr, floor, later=bool(named))
             c.accepted = not c.reasons
             c.passed_by = "gap" if c.accepted else ""
         passing = [c for c in confs if c.accepted]
@@ -572,6 +614,40 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 elif _open_to_floor(c, thr):
                     c.reasons.append("nor does it take the held-out error to the noise floor: " + "; ".join(why))
             passing = [c for c in confs if c.accepted]
+        trials: list[PairTrial] = []
+        pair_open = math.isfinite(float(thr.get("pair_share_min", math.inf)))
+        if not named and len(remaining) >= 2 and cfg.max_effects >= 2 and (
+                cfg.record_pair_trials or (pair_open and not passing)):
+            trials = try_pairs(confs, remaining, fit_logs, ho_logs, floor=floor, heldout_before=ho_now,
+                               max_nfev=cfg.confirm_max_nfev, per_log_gain=gain,
+                               alpha=None if cfg.record_pair_trials else thr["family_alpha"])
+            for pt in trials:
+                pt.reasons = (judge_pair(pt, thr) if pair_open and not passing else
+                              ["not asked: " + ("a candidate passed alone" if passing else "no path for two effects "
+                                                "at once in this gate")])
+                pt.accepted = not pt.reasons
+        won = [pt for pt in trials if pt.accepted]
+        if won:
+            pt = max(won, key=lambda x: x.gain_sigma)
+            for x in won:
+                if x is not pt:
+                    x.accepted = False
+                    x.reasons = [f"passed, but {'+'.join(pt.ids)} explains the held-out logs better (held-out gain "
+                                 f"{pt.gain_sigma:.2f} vs {x.gain_sigma:.2f} noise floors)"]
+            a, b = pt.first, pt.joint
+            for c, other in ((a, b.effect_id), (b, a.effect_id)):
+                c.gate_reasons = list(c.reasons) if c is a else list(pt.second.reasons)
+                c.accepted, c.passed_by, c.reasons = True, "pair", []
+            words = pair_words(pt, floor)
+            rounds.append(Round(diag, ranking, confs, a.effect_id, family, words, trials))
+            rounds.append(Round(diag, ranking, [b], b.effect_id, family,
+                                f"named together with {a.effect_id} (round {k + 1}), refitted on top of it",
+                                [], joint_with=a.effect_id))
+            named += [a.effect_id, b.effect_id]
+            state = b.state
+            note(f"discover: added {a.effect_id} and {b.effect_id} together (held-out {pt.heldout_rmse_before:.3f} "
+                 f"-> {pt.heldout_rmse_after:.3f} deg)")
+            continue
         by_floor = bool(passing) and passing[0].passed_by == "floor"
         score = (lambda c: c.drop_sigma) if by_floor else (lambda c: c.heldout_gain_sigma)
         what = "held-out drop" if by_floor else "held-out gain"
@@ -592,7 +668,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 c.accepted, c.passed_by = False, ""
                 c.reasons = [f"passed, but {best.effect_id} explains the held-out logs better "
                              f"({what_vs}{score(best):.2f} vs {score(c):.2f} noise floors)"]
-        rounds.append(Round(diag, ranking, confs, best.effect_id if best else None, family, competition))
+        rounds.append(Round(diag, ranking, confs, best.effect_id if best else None, family, competition, trials))
         if best is None:
             break
         named.append(best.effect_id)
@@ -698,3 +774,89 @@ def _apart(x: float, limit: float, digits: int = 3) -> tuple[str, str]:
         if a != b:
             return a, b
     return repr(x), repr(limit)
+
+
+#: leading candidates of a first round refitted two at a time on the path for two effects at once
+PAIR_LEADERS = 3
+
+
+def pair_leaders(confs: Sequence[Confirmation]) -> list[Confirmation]:
+    """The candidates the path for two effects at once pairs up: the :data:`PAIR_LEADERS` largest held-out gains
+    among those tested, identifiable and with a positive gain (their significance is judged with the pair)."""
+    ok = [c for c in confs if c.tested and c.identifiable and math.isfinite(c.heldout_gain_sigma)
+          and c.heldout_gain_sigma > 0]
+    return sorted(ok, key=lambda c: -c.heldout_gain_sigma)[:PAIR_LEADERS]
+
+
+def try_pairs(confs: Sequence[Confirmation], effects: Sequence[Effect], fit_logs, ho_logs, *, floor: float,
+              heldout_before: float, max_nfev: int, per_log_gain, alpha: float | None = None) -> list[PairTrial]:
+    """The pairs of :func:`pair_leaders` refitted together (the one with the larger gain alone first). With
+    ``alpha``, only pairs whose two members pass the round's Holm-corrected test alone are refitted (no other can
+    be named); the Bonferroni count is every pair of the leaders either way."""
+    lead = pair_leaders(confs)
+    pairs = [(a, b) for i, a in enumerate(lead) for b in lead[i + 1:]]
+    n_pairs = len(pairs)
+
+    def significant(c):
+        p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
+        return p < alpha
+
+    if alpha is not None:
+        pairs = [(a, b) for a, b in pairs if significant(a) and significant(b)]
+    out = []
+    if not pairs:
+        return out
+    with Progress(len(pairs), "round 1: refitting pairs together") as pr:
+        for a, b in pairs:
+            e = next(x for x in effects if x.id == b.effect_id)
+            out.append(pair_trial(a, b, e, fit_logs, ho_logs, noise_floor_deg=floor, heldout_before=heldout_before,
+                                  max_nfev=max_nfev, per_log_gain=per_log_gain, n_pairs=n_pairs))
+            pr.advance(detail=f"{a.effect_id}+{b.effect_id}")
+    return out
+
+
+def judge_pair(pt: PairTrial, thr: dict) -> list[str]:
+    """Reasons two candidates refitted together are not named together (empty: both are). Asked only in a first
+    round where no candidate passes alone by either path: an effect that shares the gap with another one removes
+    too small a share of it alone, although together they close it."""
+    why = []
+    if not pt.tested:
+        why.append("not tested: " + "; ".join(c.not_tested_reason for c in (pt.first, pt.second, pt.joint)
+                                                 if not c.tested))
+    if not pt.identifiable:
+        why.append("not identifiable: " + ", ".join(c.effect_id for c in (pt.first, pt.second, pt.joint)
+                                                    if not c.identifiable))
+    alpha = thr["family_alpha"]
+    for c in (pt.first, pt.second):
+        p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
+        if not p < alpha:
+            why.append(f"{c.effect_id} alone: Holm-corrected likelihood-ratio p = {p:.2g} >= {alpha:.2g}")
+    if not pt.p_corrected < alpha:
+        why.append(f"each beside the other: likelihood-ratio p = {pt.p_corrected:.2g} (the larger, Bonferroni over "
+                   f"{pt.n_pairs} pair(s)) >= {alpha:.2g}")
+    g = thr["heldout_gain_min_sigma"]
+    if not (math.isfinite(pt.gain_sigma) and pt.gain_sigma >= g):
+        x, lim = _apart(pt.gain_sigma, g, 2)
+        why.append(f"together: held-out gain {x} < {lim} noise floors")
+    sh = float(thr.get("pair_share_min", math.inf))
+    if not (math.isfinite(pt.gap_share) and pt.gap_share >= sh):
+        share = f"{pt.gap_share:.0%}" if math.isfinite(pt.gap_share) else "none"
+        why.append(f"together: share of the held-out gap removed {share} < {sh:.0%}")
+    gm = float(thr.get("pair_gain_min_sigma", math.inf))
+    if not (math.isfinite(pt.min_gain_given_other) and pt.min_gain_given_other >= gm):
+        x, lim = _apart(pt.min_gain_given_other, gm, 2)
+        why.append(f"the weaker of the two adds a held-out gain of {x} < {lim} noise floors beside the other")
+    return why
+
+
+def pair_words(pt: PairTrial, floor: float) -> str:
+    """Why two effects were named together, in words."""
+    a, b = pt.ids
+    return (f"no candidate passed alone; {a} and {b} refitted together cut the held-out error from "
+            f"{pt.heldout_rmse_before:.3f} to {pt.heldout_rmse_after:.3f} deg (noise floor {floor:.3f} deg), "
+            f"removing {pt.gap_share:.0%} of the gap above the floor (gain {pt.gain_sigma:.2f} noise floors); beside "
+            f"the other, {a} adds {pt.gain_first_given_second:.2f} and {b} {pt.gain_second_given_first:.2f} noise "
+            f"floors of held-out gain (likelihood-ratio p = {pt.p_first_given_second:.2g} and "
+            f"{pt.p_second_given_first:.2g}, the larger Bonferroni-corrected over {pt.n_pairs} pair(s) to "
+            f"{pt.p_corrected:.2g}): the two share the residual, so neither removes enough of it alone, and both are "
+            f"named")

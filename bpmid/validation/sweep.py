@@ -236,7 +236,7 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
     """Simulate, write, read back and discover one case; a record (plain JSON types). Never raises for a case
     discovery cannot judge: the record says ``error``."""
     from bpmid.config import load_config
-    from bpmid.discover.calibrate import records_from_result
+    from bpmid.discover.calibrate import pair_records_from_result, records_from_result
     from bpmid.discover.workflow import discover
     from bpmid.io.motion_logs import read_motion_logs
     from bpmid.progress import set_quiet
@@ -276,8 +276,10 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
             rec.update(_plain_result(res))
             truth = calibration_truth(case.kind, rec["truth_ids"])
             recs = records_from_result(truth, res, kind=case.kind) if truth is not None else []
+            pairs = pair_records_from_result(truth, res, kind=case.kind) if truth is not None else []
             rec["calibration_truth"] = truth
             rec["calibration_records"] = [_record_dict(r) for r in recs]
+            rec["calibration_pairs"] = [_record_dict(r) for r in pairs]
             rec["error"] = None
             rec["error_kind"] = None
     finally:
@@ -571,9 +573,9 @@ def _thresholds_for_heldout(out: Path, given, calibrated, load_thresholds, keys)
 
 
 def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_records, write_thresholds) -> dict:
-    from bpmid.discover.calibrate import case_records
+    from bpmid.discover.calibrate import case_records, pair_records
     records = [r for rec in recs for r in case_records(rec)]
-    values = thresholds_from_records(records)
+    values = thresholds_from_records(records, [q for rec in recs for q in pair_records(rec)])
     n_err = sum(1 for r in recs if r.get("error"))
     meta = {"produced_by": f"bpmid calibrate {cfg.path or 'SWEEP.yaml'} (sweep {cfg.sweep.name}, "
                            f"seed {cfg.sweep.seed})",

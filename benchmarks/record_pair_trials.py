@@ -1,0 +1,107 @@
+"""Record the first round's pair trials on finished calibration sweeps, rerunning only the cases where the path for
+two effects at once can act.
+
+    python benchmarks/record_pair_trials.py out/pool-draw12/records.jsonl ... \\
+        --configs configs/sweeps/full.yaml ... --out out/pair-trials [--workers 2]
+
+Calibration records written before the path existed lack its numbers (``calibration_pairs``). The path is asked
+only in a first round where no candidate passes alone (the gate and the path to the noise floor of
+``bpmid/discover/thresholds.yaml``), and it names two candidates only if both are among the three leaders (tested,
+identifiable, positive held-out gain) and pass the round's Holm-corrected test. Every other case's outcome cannot
+change, so only the cases meeting both conditions are rerun, with the calibration half's permissive settings (which
+record the pair trials), on Dask; a rerun is bit-for-bit the same run, so its single-candidate records equal the
+old ones (checked: a case whose records differ is reported). Then
+
+    python benchmarks/recalibrate.py <the same records files> out/pair-trials/records.jsonl --configs ... --write
+
+calibrates the path with the rest of the gate (a later file's record of a case replaces the earlier one).
+Synthetic data: :mod:`bpmid.validation`, from the sweep configs and seeds given.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+
+def selected(rec: dict, thr: dict) -> bool:
+    """Whether the path for two effects at once can act on this case (see the module docstring)."""
+    from bpmid.discover.calibrate import _first_passing, case_records
+
+    r1 = [r for r in case_records(rec) if r.round == 1]
+    if not r1 or _first_passing(r1, thr["heldout_gain_min_sigma"], thr["gap_share_min"], thr["family_alpha"],
+                                thr["fit_share_min"], thr["fit_share_waived_above_sigma"],
+                                thr["to_floor_drop_min_sigma"]) is not None:
+        return False
+    lead = sorted([r for r in r1 if r.tested and r.identifiable and math.isfinite(r.gain_sigma) and r.gain_sigma > 0],
+                  key=lambda r: -r.gain_sigma)[:3]
+    return sum(r.lr_p_holm < thr["family_alpha"] for r in lead) >= 2
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("records", nargs="+", type=Path, help="records.jsonl of finished calibration sweeps")
+    ap.add_argument("--configs", nargs="+", required=True, help="the sweep configs the records were made with")
+    ap.add_argument("--out", type=Path, required=True, help="folder for the rerun cases' records.jsonl")
+    ap.add_argument("--workers", type=int, default=2)
+    a = ap.parse_args(argv)
+
+    from bpmid.discover.calibrate import load_thresholds
+    from bpmid.validation.sweep import RecordWriter, _client, load_sweep, make_cases, read_records, run_cases
+
+    thr = load_thresholds()
+    cases = {}
+    for c in a.configs:
+        cfg = load_sweep(c)
+        for case in make_cases(cfg.effective_generator, cfg.sweep.seed, prefix=cfg.sweep.name):
+            cases[case.id] = (cfg, case)
+    old = {}
+    for path in a.records:
+        for rec in read_records(path):
+            if rec.get("phase", rec.get("split")) == "calibration":
+                old[rec["id"]] = rec
+    missing = sorted(i for i in old if i not in cases)
+    if missing:
+        ap.error(f"{len(missing)} record(s) from no given config, e.g. {missing[0]}: give its sweep config")
+    a.out.mkdir(parents=True, exist_ok=True)
+    done = {r["id"] for r in read_records(a.out / "records.jsonl")}
+    todo = [i for i in sorted(old) if selected(old[i], thr) and i not in done]
+    kinds = {}
+    for i in todo:
+        kinds[old[i]["kind"]] = kinds.get(old[i]["kind"], 0) + 1
+    print(f"{len(old)} calibration cases; {len(todo)} to rerun ({kinds}), {len(done)} already done", flush=True)
+    if not todo:
+        return 0
+    client, cluster = _client(None, a.workers, True)
+    writer = RecordWriter(a.out / "records.jsonl")
+    n, t0, differ = [0], time.perf_counter(), []
+
+    def on(rec):
+        n[0] += 1
+        was = [(x["candidate"], x["round"], x["gain_sigma"]) for x in old[rec["id"]]["calibration_records"]]
+        now = [(x["candidate"], x["round"], x["gain_sigma"]) for x in rec["calibration_records"]]
+        if was != now:
+            differ.append(rec["id"])
+        print(f"[{n[0]}/{len(todo)}] {rec['id']} ({rec['kind']}): {len(rec.get('calibration_pairs') or [])} pair "
+              f"trial(s), {rec['elapsed_s']:.1f} s{'; records differ from the old run' if was != now else ''}",
+              flush=True)
+    try:
+        by_cfg = {}
+        for i in todo:
+            cfg, case = cases[i]
+            by_cfg.setdefault(id(cfg), (cfg, []))[1].append(case)
+        for cfg, cs in by_cfg.values():
+            run_cases(cs, "calibration", cfg.discover_config("calibration"), writer, client, on_record=on)
+    finally:
+        writer.close()
+        client.close()
+        cluster.close()
+    print(f"done in {time.perf_counter() - t0:.0f} s; {len(differ)} case(s) whose single-candidate records differ "
+          f"from the old run{': ' + ', '.join(differ) if differ else ''}")
+    return 1 if differ else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
