@@ -159,3 +159,29 @@ def test_cli_names_two_effects_together_and_says_why(tmp_path):
     assert "refitted two at a time" in d["gate"]
     # the gap is computed from the model with both effects: it ends near the floor
     assert d["gap"]["after_rmse_deg"] < 0.32
+
+
+def test_a_plainly_needed_effect_is_named_even_when_its_constants_trade_off():
+    """Condition (4) is not asked above the calibrated waiver (the largest held-out gain any wrong candidate reached
+    on the calibration cases with nothing to find): a softening linear in time determines only amount / T, so
+    neither is identifiable alone, yet it removed 1.8 noise floors of held-out gap."""
+    from bpmid.discover.workflow import judge
+    gate = {**GATE, "fit_share_min": 0.0, "identifiable_waived_above_sigma": 0.8}
+    ridge = {"thermal_softening.amount": "the fit ran onto a bound",
+             "thermal_softening.T": "relative standard error 162% > 50%"}
+    strong = _conf("thermal_softening", 1.8, gap_share=0.95, identifiable=False, not_identifiable=ridge)
+    weak = _conf("thermal_softening", 0.5, gap_share=0.95, identifiable=False, not_identifiable=ridge)
+    assert judge(strong, gate) == []
+    assert judge(weak, gate) == ["none of its parameters is identifiable: thermal_softening.amount: the fit ran onto "
+                                 "a bound; thermal_softening.T: relative standard error 162% > 50%"]
+    assert judge(strong, {**gate, "identifiable_waived_above_sigma": math.inf})      # old files: always asked
+    assert "not asked above 0.80 noise floors of held-out gain" in gate_in_words(gate)
+    assert load_thresholds()["identifiable_waived_above_sigma"] == load_thresholds()["fit_share_waived_above_sigma"]
+    with pytest.raises(InputError) as e:
+        DiscoverConfig(identifiable_waived_above_sigma=-1.0).validate("discover", "cfg.yaml")
+    assert e.value.key == "discover.identifiable_waived_above_sigma"
+    # the calibration replays the same rule: a non-identifiable record passes above the waiver only
+    r = _rec("c", "single", "thermal_softening", "thermal_softening", 1.8, 0.95)
+    r.identifiable = False
+    assert _case_outcome([r], 0.2, 0.35, 1e-9, 0.0, 0.8) == (1, 0)
+    assert _case_outcome([r], 0.2, 0.35, 1e-9, 0.0, 2.0) == (0, 0)

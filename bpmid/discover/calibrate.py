@@ -33,12 +33,13 @@ from bpmid.params import ParamSet
 THRESHOLDS_PATH = Path(__file__).with_name("thresholds.yaml")
 THRESHOLD_KEYS = ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min",
                   "fit_share_waived_above_sigma", "heldout_gain_min_sigma_later", "to_floor_drop_min_sigma",
-                  "to_floor_ratio_max", "pair_share_min", "pair_gain_min_sigma")
+                  "to_floor_ratio_max", "pair_share_min", "pair_gain_min_sigma", "identifiable_waived_above_sigma")
 #: thresholds a file written before they existed may lack, with the value that leaves the gate as it was (None:
 #: the held-out gain asked of a further effect is the one asked of the first)
 OPTIONAL_THRESHOLDS = {"fit_share_min": 0.0, "fit_share_waived_above_sigma": math.inf,
                        "heldout_gain_min_sigma_later": None, "to_floor_drop_min_sigma": math.inf,
-                       "to_floor_ratio_max": 1.0, "pair_share_min": math.inf, "pair_gain_min_sigma": math.inf}
+                       "to_floor_ratio_max": 1.0, "pair_share_min": math.inf, "pair_gain_min_sigma": math.inf,
+                       "identifiable_waived_above_sigma": math.inf}
 #: the held-out RMSE an effect named on the path to the floor may leave, in noise floors: at the floor, by the
 #: path's meaning (the effect explains what the base model left); not calibrated
 TO_FLOOR_RATIO = 1.0
@@ -46,7 +47,8 @@ TO_FLOOR_RATIO = 1.0
 #: held-out gain is added each round (so later rounds are recorded too)
 PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
               "fit_share_waived_above_sigma": 0.0, "heldout_gain_min_sigma_later": -1e9,
-              "to_floor_drop_min_sigma": 0.0, "to_floor_ratio_max": 1e9, "max_effects": 2, "record_pair_trials": True}
+              "to_floor_drop_min_sigma": 0.0, "to_floor_ratio_max": 1e9, "max_effects": 2, "record_pair_trials": True,
+              "identifiable_waived_above_sigma": math.inf}
 SCHEMA = "bpmid.discover-thresholds/1"
 
 
@@ -291,7 +293,7 @@ def pair_records(rec: Mapping) -> list[PairRecord]:
 
 def _passes(r: Record, g: float, share: float, alpha: float, fit_share: float = 0.0,
             waive: float = math.inf) -> bool:
-    return (r.tested and r.identifiable and math.isfinite(r.gain_sigma) and r.gain_sigma >= g
+    return (r.tested and (r.identifiable or r.gain_sigma > waive) and math.isfinite(r.gain_sigma) and r.gain_sigma >= g
             and math.isfinite(r.gap_share) and r.gap_share >= share and r.lr_p_holm < alpha
             and (fit_share <= 0 or r.gain_sigma > waive
                  or (math.isfinite(r.fit_share) and r.fit_share >= fit_share)))
@@ -301,7 +303,10 @@ def fit_share_waiver(records: Sequence[Record]) -> float:
     """Held-out gain (noise floors) above which (strictly) the fitting-gap share is not asked: any candidate
     reached in round 1 on a calibration case with nothing in the catalogue to find (nulls, effects outside the
     catalogue), rounded up to 0.01. A candidate that strong is no imitation of an absent effect, and asking it to
-    explain most of the fitting gap alone would refuse the first of two effects present at once."""
+    explain most of the fitting gap alone would refuse the first of two effects present at once. Above the same gain
+    an identifiable parameter is not asked either (``identifiable_waived_above_sigma``): two parameters that trade
+    off (a softening linear in time: only the amount over the time constant is determined) leave none identifiable
+    alone, although the effect is plainly needed; its constants are then reported as not determined separately."""
     neg = [r.gain_sigma for r in records if r.truth == "none" and r.round == 1 and math.isfinite(r.gain_sigma)]
     return math.ceil(max(neg) * 100.0 - 1e-9) / 100.0 if neg else math.inf
 
@@ -611,7 +616,7 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
     return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
             "fit_share_waived_above_sigma": waive, "heldout_gain_min_sigma_later": g_later,
             "to_floor_drop_min_sigma": to_floor, "to_floor_ratio_max": TO_FLOOR_RATIO,
-            "pair_share_min": pair_share, "pair_gain_min_sigma": pair_gain,
+            "pair_share_min": pair_share, "pair_gain_min_sigma": pair_gain, "identifiable_waived_above_sigma": waive,
             "n_pair_trials": len(pairs),
             "n_cases": len(cases), "right_decisions": int(t["right"]),
             "false_positives": int(t["wrong"] + t["null_named"] + t["ooc_named"]),

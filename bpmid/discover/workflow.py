@@ -88,6 +88,8 @@ class DiscoverConfig:
         the held-out error (in quadrature) a candidate must remove, in noise floors (None: calibrated; inf: no
         such path) ...
     to_floor_ratio_max : ... leaving a held-out RMSE of at most this many noise floors (None: calibrated, 1)
+    identifiable_waived_above_sigma : condition (4), a parameter identifiable, is not asked of a held-out gain above
+        this many noise floors (None: calibrated, the fitting-share waiver's value; inf: always asked)
     pair_share_min : two effects at once, for a first round where no candidate passes either path: the share of
         the held-out gap two candidates refitted together must remove (None: calibrated; inf: no such path) ...
     pair_gain_min_sigma : ... with each adding at least this held-out gain (noise floors) beside the other
@@ -120,6 +122,7 @@ class DiscoverConfig:
     heldout_gain_min_sigma_later: Optional[float] = None
     to_floor_drop_min_sigma: Optional[float] = None
     to_floor_ratio_max: Optional[float] = None
+    identifiable_waived_above_sigma: Optional[float] = None
     pair_share_min: Optional[float] = None
     pair_gain_min_sigma: Optional[float] = None
     record_pair_trials: bool = False
@@ -157,6 +160,10 @@ class DiscoverConfig:
         if q is not None and not (q > 0 and math.isfinite(q)):
             raise InputError(f"must be a finite number of noise floors above 0, found {q}", path=path,
                              key=f"{where}.to_floor_ratio_max")
+        iw = self.identifiable_waived_above_sigma
+        if iw is not None and not (iw >= 0):
+            raise InputError(f"must be 0 or more noise floors (.inf: always asked), found {iw}", path=path,
+                             key=f"{where}.identifiable_waived_above_sigma")
         ps = self.pair_share_min
         if ps is not None and not (0 <= ps < 1 or ps == math.inf):
             raise InputError(f"must be in [0, 1) (.inf: no path for two effects at once), found {ps}", path=path,
@@ -196,7 +203,12 @@ def gate_in_words(thr: dict) -> str:
                if float(thr.get("fit_share_min", 0.0)) > 0 else "") +
             f", (3) its likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) "
             f"passes at family-wise level {thr['family_alpha']:.2g} after a Holm correction over every candidate "
-            f"screened in the round, and (4) at least one of its parameters is identifiable; of several that pass, "
+            f"screened in the round, and (4) at least one of its parameters is identifiable"
+            + (f" (not asked above {thr.get('identifiable_waived_above_sigma', math.inf):.2f} noise floors of "
+               f"held-out gain, more than any wrong candidate's on the calibration cases with nothing to find: the "
+               f"effect is then named with its constants reported as not determined separately)"
+               if math.isfinite(float(thr.get("identifiable_waived_above_sigma", math.inf))) else "")
+            + "; of several that pass, "
             f"the largest held-out gain wins" + _to_floor_words(thr) + _pair_path_words(thr)
             + ". BIC is reported, never a gate")
 
@@ -371,7 +383,11 @@ def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
             + (f"{c.heldout_rmse_before:.3f}" if c.passed_by in ("floor", "pair") else f"{c.heldout_rmse_before:.2f}")
             + " to "
             + how +
-            f"likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected {c.lr_p_holm:.2g})")
+            f"likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected {c.lr_p_holm:.2g})"
+            + ("" if c.identifiable else
+               f"; named for its held-out gain although none of its constants is determined separately by these logs "
+               f"(" + "; ".join(f"{k}: {v}" for k, v in c.not_identifiable.items()) + "): its values are one point of "
+               f"a ridge, not estimates"))
 
 
 def make_verdict(named: list[str], rounds: list[Round], before: float, after: float, floor: float,
@@ -714,7 +730,8 @@ def judge(c: Confirmation, thr: dict, floor: float | None = None, later: bool = 
     if not c.tested:
         return [f"not tested: {c.not_tested_reason}"]
     why = []
-    if not c.identifiable:
+    waive_id = float(thr.get("identifiable_waived_above_sigma", math.inf))
+    if not c.identifiable and not (math.isfinite(c.heldout_gain_sigma) and c.heldout_gain_sigma > waive_id):
         why.append("none of its parameters is identifiable: " + "; ".join(f"{k}: {v}" for k, v in c.not_identifiable.items()))
     g_min = thr["heldout_gain_min_sigma"]
     if later:

@@ -76,7 +76,10 @@ def ranking_figure(result):
                                                    else "0.65") for i in ids]
         ax.barh(ids, expl, color=colors)
         ax.set_xlabel("residual explained (%)")
-        ax.set_title(f"round {k + 1}: " + (f"added {rnd.accepted}" if rnd.accepted else "none passed"))
+        together = getattr(rnd, "joint_with", "")
+        ax.set_title(f"round {k + 1}: " + (f"added {rnd.accepted} together with {together} (ranking of round {k})"
+                                           if together else f"added {rnd.accepted}" if rnd.accepted
+                                           else "none passed"))
         ax.grid(axis="y", visible=False)
     import matplotlib.patches as mpatches
 
