@@ -147,8 +147,17 @@ def test_cli_names_two_effects_together_and_says_why(tmp_path):
     assert d["named_effects"] == ["pressure_lag", "braid_friction"]
     first, second = d["steps"]
     assert first["evidence"]["named_by"] == second["evidence"]["named_by"] == "pair"
+    assert first["evidence"]["refused_by_the_gate_because"][0].startswith("alone: ")
     assert "share of the held-out gap removed 92% < 95%" in first["evidence"]["refused_by_the_gate_because"][0]
-    assert "named as one of two effects that share the residual" in first["explanation"]
+    assert "Named as one of two effects that share the residual" in first["explanation"]
+    assert "Beside pressure_lag it cut the held-out error" in second["explanation"]
+    assert "Bonferroni-corrected" in second["explanation"] and "nan" not in second["explanation"]
+    assert second["evidence"]["likelihood_ratio_p_holm"] is not None
+    # the constants named are the joint refit's, as in the final model
+    tau = d["final_model"]["pressure_lag.tau"]["value"]
+    assert f"{tau:.4g}" in first["explanation"]
+    assert d["rounds"][1]["candidates_in_family"] == 3
+    assert "pressure_lag" not in [s["effect"] for s in d["rounds"][1]["screening"]]
     assert first["competition"].startswith("no candidate passed alone; pressure_lag and braid_friction refitted "
                                            "together cut the held-out error")
     assert d["rounds"][1]["named_together_with"] == "pressure_lag"

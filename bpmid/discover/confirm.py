@@ -79,6 +79,8 @@ class Confirmation:
     #: named on the path to the floor or as a pair: why the gate itself had refused it
     gate_reasons: list = dataclasses.field(default_factory=list)
     reasons: list = dataclasses.field(default_factory=list)
+    #: named together with another effect: the joint refit whose constants are the ones named
+    named_with: Optional[ModelState] = None
 
     def to_yaml(self) -> dict:
         return {
@@ -87,7 +89,9 @@ class Confirmation:
             "tested": bool(self.tested),
             "not_tested_reason": self.not_tested_reason or None,
             "reasons_rejected": list(self.reasons),
-            "refused_by_the_gate_because": list(self.gate_reasons) if self.passed_by in ("floor", "pair") else None,
+            "refused_by_the_gate_because": (list(self.gate_reasons) if self.passed_by == "floor" else
+                                            [f"alone: {r}" for r in self.gate_reasons] if self.passed_by == "pair"
+                                            else None),
             "heldout_rmse_before_deg": round(self.heldout_rmse_before, 4),
             "heldout_rmse_after_deg": round(self.heldout_rmse_after, 4),
             "heldout_gain_in_noise_floors": round(self.heldout_gain_sigma, 3),
@@ -460,7 +464,8 @@ class PairTrial:
                 "pairs_tried": int(self.n_pairs),
                 "likelihood_ratio_p_bonferroni": float(f"{self.p_corrected:.3g}"),
                 "tested": self.tested, "identifiable": self.identifiable,
-                "parameters": {**self.joint.effect_params}}
+                "parameters": {p.name: p.to_yaml() for p in self.joint.state.params
+                               if p.name.split(".", 1)[0] in self.ids}}
 
 
 def pair_trial(first: Confirmation, second: Confirmation, effect_second: Effect, fit_logs: Sequence[MotionLog],

@@ -218,8 +218,8 @@ def _pair_path_words(thr: dict) -> str:
     if not math.isfinite(sh):
         return ""
     return (f". When no candidate passes alone in the first round, the {PAIR_LEADERS} largest held-out gains among "
-            f"those tested and identifiable are refitted two at a time; two that both meet (3) alone are named "
-            f"together when their joint refit removes at least {sh:.0%} of the held-out gap with a gain of at least "
+            f"those tested and identifiable are refitted two at a time; two that both meet (1), (3) and (4) alone "
+            f"are named together when their joint refit removes at least {sh:.0%} of the held-out gap with a gain of at least "
             f"{thr['heldout_gain_min_sigma']:.2f} noise floors, each adds at least "
             f"{float(thr.get('pair_gain_min_sigma', math.inf)):.2f} noise floors of held-out gain beside the other, "
             f"and each passes the likelihood-ratio test beside the other at the same level (Bonferroni over the "
@@ -367,20 +367,19 @@ def residual_feature(diag: dict) -> str:
 def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
     s = next(s for s in rnd.ranking if s.effect_id == c.effect_id)
     e = c.state.effects[-1]
+    if c.passed_by == "pair":
+        return _pair_member_explanation(c, rnd, floor, s, e)
     if c.passed_by == "floor":
         how = (f"{c.heldout_rmse_after:.3f} deg against a noise floor of {floor:.3f} deg, removing "
                f"{c.drop_sigma:.3f} noise floors of held-out error (sqrt(before^2 - after^2)); named on the path to "
                f"the floor, the gate having refused it because " + "; ".join(c.gate_reasons) + " (")
-    elif c.passed_by == "pair":
-        how = (f"{c.heldout_rmse_after:.3f} deg (noise floor {floor:.3f} deg); named as one of two effects that share "
-               f"the residual, the gate having refused it alone because " + "; ".join(c.gate_reasons) + " (")
     else:
         how = (f"{c.heldout_rmse_after:.2f} deg (its part above the noise by {c.heldout_gain_sigma:.2f} noise floors "
                f"of {floor:.2f} deg; ")
     return (f"{e.describe(c.state.params)}: {e.meaning}. Where it shows: {e.where_it_shows}. Here the residual "
             f"{residual_feature(rnd.diagnostics)}, and the effect's signature explains {s.explained:.0%} of what the "
             f"model left; adding it cut the held-out error from "
-            + (f"{c.heldout_rmse_before:.3f}" if c.passed_by in ("floor", "pair") else f"{c.heldout_rmse_before:.2f}")
+            + (f"{c.heldout_rmse_before:.3f}" if c.passed_by == "floor" else f"{c.heldout_rmse_before:.2f}")
             + " to "
             + how +
             f"likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected {c.lr_p_holm:.2g})"
@@ -388,6 +387,24 @@ def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
                f"; named for its held-out gain although none of its constants is determined separately by these logs "
                f"(" + "; ".join(f"{k}: {v}" for k, v in c.not_identifiable.items()) + "): its values are one point of "
                f"a ridge, not estimates"))
+
+
+def _pair_member_explanation(c: Confirmation, rnd: Round, floor: float, s, e) -> str:
+    """One of two effects named together: its constants from the joint refit, its numbers alone (why the gate
+    refused it) kept apart from its numbers beside the other."""
+    params = c.named_with.params if c.named_with is not None else c.state.params
+    head = (f"{e.describe(params)}: {e.meaning}. Where it shows: {e.where_it_shows}. Named as one of two effects that "
+            f"share the residual (constants from their joint refit). ")
+    if rnd.joint_with:
+        body = (f"Beside {rnd.joint_with} it cut the held-out error from {c.heldout_rmse_before:.3f} to "
+                f"{c.heldout_rmse_after:.3f} deg (noise floor {floor:.3f} deg; likelihood-ratio p = {c.lr_p:.2g}, "
+                f"{c.lr_p_holm:.2g} Bonferroni-corrected over the pairs tried)")
+    else:
+        body = (f"Alone it cut the held-out error from {c.heldout_rmse_before:.3f} to {c.heldout_rmse_after:.3f} deg "
+                f"(noise floor {floor:.3f} deg; its signature explained {s.explained:.0%} of what the base model left "
+                f"after the base constants' own compensation; likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected "
+                f"{c.lr_p_holm:.2g})")
+    return head + body + "; alone the gate refused it because " + "; ".join(c.gate_reasons)
 
 
 def make_verdict(named: list[str], rounds: list[Round], before: float, after: float, floor: float,
@@ -651,13 +668,19 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                     x.reasons = [f"passed, but {'+'.join(pt.ids)} explains the held-out logs better (held-out gain "
                                  f"{pt.gain_sigma:.2f} vs {x.gain_sigma:.2f} noise floors)"]
             a, b = pt.first, pt.joint
-            for c, other in ((a, b.effect_id), (b, a.effect_id)):
-                c.gate_reasons = list(c.reasons) if c is a else list(pt.second.reasons)
+            for c in (a, b):
+                c.gate_reasons = list(a.reasons if c is a else pt.second.reasons)
                 c.accepted, c.passed_by, c.reasons = True, "pair", []
+                c.named_with = b.state    # the constants named are the joint refit's
+            b.lr_p_holm = pt.p_corrected  # its test beside the first, Bonferroni over the pairs tried
             words = pair_words(pt, floor)
             rounds.append(Round(diag, ranking, confs, a.effect_id, family, words, trials))
-            rounds.append(Round(diag, ranking, [b], b.effect_id, family,
-                                f"named together with {a.effect_id} (round {k + 1}), refitted on top of it",
+            # the second's record: its evidence beside the first, on the residual the first left
+            parts_a = gained_residuals(simulate(a.state, fit_logs), fit_logs, per_log_gain=gain)
+            rounds.append(Round(diagnose(fit_logs, parts_a), [x for x in ranking if x.effect_id != a.effect_id],
+                                [b], b.effect_id, pt.n_pairs,
+                                f"named together with {a.effect_id} (round {k + 1}): the two were refitted together, "
+                                f"and these are {b.effect_id}'s numbers beside {a.effect_id}",
                                 [], joint_with=a.effect_id))
             named += [a.effect_id, b.effect_id]
             state = b.state

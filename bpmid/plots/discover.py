@@ -77,9 +77,8 @@ def ranking_figure(result):
         ax.barh(ids, expl, color=colors)
         ax.set_xlabel("residual explained (%)")
         together = getattr(rnd, "joint_with", "")
-        ax.set_title(f"round {k + 1}: " + (f"added {rnd.accepted} together with {together} (ranking of round {k})"
-                                           if together else f"added {rnd.accepted}" if rnd.accepted
-                                           else "none passed"))
+        ax.set_title(f"round {k + 1}: " + (f"added {rnd.accepted} (with {together})" if together
+                                           else f"added {rnd.accepted}" if rnd.accepted else "none passed"))
         ax.grid(axis="y", visible=False)
     import matplotlib.patches as mpatches
 
