@@ -129,3 +129,4 @@ def pytest_xdist_make_scheduler(config, log):
             return self._groups.get(nodeid, nodeid)
 
     return SharedFixtureScheduling(config, log)
+

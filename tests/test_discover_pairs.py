@@ -8,10 +8,8 @@ from __future__ import annotations
 import math
 
 import pytest
-import yaml
-from typer.testing import CliRunner
 
-from bpmid.cli import app
+from _discover_cases import discover_case_01
 from bpmid.discover.calibrate import (THRESHOLDS_PATH, PairRecord, Record, _case_outcome, load_thresholds,
                                       pair_records, thresholds_from_records)
 from bpmid.discover.confirm import Confirmation, PairTrial
@@ -134,16 +132,9 @@ def test_cli_names_two_effects_together_and_says_why(tmp_path):
     path to the floor, the lag alone is refused (it removes 92 %); refitted with braid friction it removes 94 %,
     the friction adding a little beside it. With the pair path opened at 93 % the two are named together, the
     output says why, and the joint refit's second step records it was named with the first."""
-    cfg = tmp_path / "cfg.yaml"
-    cfg.write_text("discover:\n  gap_share_min: 0.95\n  to_floor_drop_min_sigma: .inf\n  pair_share_min: 0.93\n"
-                   "  pair_gain_min_sigma: 0.03\n  family_alpha: 1.0e-3\n  max_effects: 2\n")
-    case = THRESHOLDS_PATH.parents[2] / "datasets" / "discovery" / "case_01"
-    out = tmp_path / "out"
-    r = CliRunner().invoke(app, ["--quiet", "discover", *[str(p) for p in sorted(case.glob("train_*.csv"))],
-                                 "--holdout", str(case / "holdout_mixed.csv"), "--config", str(cfg),
-                                 "--out", str(out)])
-    assert r.exit_code == 0, r.output
-    d = yaml.safe_load((out / "discovery.yaml").read_text())
+    d = discover_case_01(tmp_path, "discover:\n  gap_share_min: 0.95\n  to_floor_drop_min_sigma: .inf\n"
+                                   "  pair_share_min: 0.93\n  pair_gain_min_sigma: 0.03\n  family_alpha: 1.0e-3\n"
+                                   "  max_effects: 2\n")
     assert d["named_effects"] == ["pressure_lag", "braid_friction"]
     first, second = d["steps"]
     assert first["evidence"]["named_by"] == second["evidence"]["named_by"] == "pair"

@@ -8,10 +8,8 @@ from __future__ import annotations
 import math
 
 import pytest
-import yaml
-from typer.testing import CliRunner
 
-from bpmid.cli import app
+from _discover_cases import discover_case_01
 from bpmid.discover.calibrate import (THRESHOLDS_PATH, Record, _case_outcome, _first_passing, case_records,
                                       load_thresholds, thresholds_from_records)
 from bpmid.discover.confirm import Confirmation, heldout_drop_sigma
@@ -154,16 +152,9 @@ def test_cli_names_on_the_path_to_the_floor_and_says_so(tmp_path):
     """With a gate nothing can pass and a path anything tested can, the shipped blind case's effect is named on the
     path: discovery.yaml says which rule named it and why the gate refused it, the verdict explains the path in
     words, and of two candidates on the path the larger held-out drop wins."""
-    cfg = tmp_path / "cfg.yaml"
-    cfg.write_text("discover:\n  heldout_gain_min_sigma: 99\n  to_floor_drop_min_sigma: 0.0\n"
-                   "  to_floor_ratio_max: 100\n  max_effects: 1\n  candidates: [pressure_lag, angle_offset]\n")
-    case = THRESHOLDS_PATH.parents[2] / "datasets" / "discovery" / "case_01"
-    out = tmp_path / "out"
-    r = CliRunner().invoke(app, ["--quiet", "discover", *[str(p) for p in sorted(case.glob("train_*.csv"))],
-                                 "--holdout", str(case / "holdout_mixed.csv"), "--config", str(cfg),
-                                 "--out", str(out)])
-    assert r.exit_code == 0, r.output
-    d = yaml.safe_load((out / "discovery.yaml").read_text())
+    d = discover_case_01(tmp_path, "discover:\n  heldout_gain_min_sigma: 99\n  to_floor_drop_min_sigma: 0.0\n"
+                                   "  to_floor_ratio_max: 100\n  max_effects: 1\n"
+                                   "  candidates: [pressure_lag, angle_offset]\n")
     assert len(d["named_effects"]) == 1
     ev = d["steps"][0]["evidence"]
     assert ev["named_by"] == "floor" and ev["heldout_drop_in_noise_floors"] > 0

@@ -152,26 +152,17 @@ class DiscoverConfig:
         if self.gap_share_min is not None and not 0 <= self.gap_share_min < 1:
             raise InputError(f"must be in [0, 1), found {self.gap_share_min}", path=path,
                              key=f"{where}.gap_share_min")
-        d = self.to_floor_drop_min_sigma
-        if d is not None and not d >= 0:
-            raise InputError(f"must be 0 or more noise floors (.inf: no path to the floor), found {d}", path=path,
-                             key=f"{where}.to_floor_drop_min_sigma")
-        q = self.to_floor_ratio_max
-        if q is not None and not (q > 0 and math.isfinite(q)):
-            raise InputError(f"must be a finite number of noise floors above 0, found {q}", path=path,
-                             key=f"{where}.to_floor_ratio_max")
-        iw = self.identifiable_waived_above_sigma
-        if iw is not None and not (iw >= 0):
-            raise InputError(f"must be 0 or more noise floors (.inf: always asked), found {iw}", path=path,
-                             key=f"{where}.identifiable_waived_above_sigma")
-        ps = self.pair_share_min
-        if ps is not None and not (0 <= ps < 1 or ps == math.inf):
-            raise InputError(f"must be in [0, 1) (.inf: no path for two effects at once), found {ps}", path=path,
-                             key=f"{where}.pair_share_min")
-        pg = self.pair_gain_min_sigma
-        if pg is not None and not pg >= 0:
-            raise InputError(f"must be 0 or more noise floors, found {pg}", path=path,
-                             key=f"{where}.pair_gain_min_sigma")
+        inf_ok = lambda x: x == math.inf  # noqa: E731
+        for name, ok, what in (
+                ("to_floor_drop_min_sigma", lambda x: x >= 0, "0 or more noise floors (.inf: no path to the floor)"),
+                ("to_floor_ratio_max", lambda x: x > 0 and math.isfinite(x), "a finite number of noise floors above 0"),
+                ("identifiable_waived_above_sigma", lambda x: x >= 0, "0 or more noise floors (.inf: always asked)"),
+                ("pair_share_min", lambda x: 0 <= x < 1 or inf_ok(x),
+                 "in [0, 1) (.inf: no path for two effects at once)"),
+                ("pair_gain_min_sigma", lambda x: x >= 0, "0 or more noise floors")):
+            v = getattr(self, name)
+            if v is not None and not ok(v):
+                raise InputError(f"must be {what}, found {v}", path=path, key=f"{where}.{name}")
 
     def thresholds(self) -> dict:
         return self.overrides(load_thresholds())
@@ -219,8 +210,8 @@ def _pair_path_words(thr: dict) -> str:
         return ""
     return (f". When no candidate passes alone in the first round, the {PAIR_LEADERS} largest held-out gains among "
             f"those tested and identifiable are refitted two at a time; two that both meet (1), (3) and (4) alone "
-            f"are named together when their joint refit removes at least {sh:.0%} of the held-out gap with a gain of at least "
-            f"{thr['heldout_gain_min_sigma']:.2f} noise floors, each adds at least "
+            f"are named together when their joint refit removes at least {sh:.0%} of the held-out gap with a gain "
+            f"of at least {thr['heldout_gain_min_sigma']:.2f} noise floors, each adds at least "
             f"{float(thr.get('pair_gain_min_sigma', math.inf)):.2f} noise floors of held-out gain beside the other, "
             f"and each passes the likelihood-ratio test beside the other at the same level (Bonferroni over the "
             f"pairs tried): two effects sharing a residual each remove too small a share of it alone")

@@ -1,0 +1,23 @@
+"""Shared by the discovery tests: ``bpmid discover`` on the shipped blind case 1 with a given config."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import yaml
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+
+
+def discover_case_01(tmp_path, config_text: str) -> dict:
+    """``bpmid discover`` on the shipped blind case 1 with ``config_text`` as its --config, through the CLI;
+    the discovery.yaml it writes, read back (the command must exit 0)."""
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text(config_text)
+    case = Path(__file__).resolve().parents[1] / "datasets" / "discovery" / "case_01"
+    out = tmp_path / "out"
+    r = CliRunner().invoke(app, ["--quiet", "discover", *[str(p) for p in sorted(case.glob("train_*.csv"))],
+                                 "--holdout", str(case / "holdout_mixed.csv"), "--config", str(cfg),
+                                 "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    return yaml.safe_load((out / "discovery.yaml").read_text())
