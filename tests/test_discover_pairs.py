@@ -185,3 +185,26 @@ def test_a_plainly_needed_effect_is_named_even_when_its_constants_trade_off():
     r.identifiable = False
     assert _case_outcome([r], 0.2, 0.35, 1e-9, 0.0, 0.8) == (1, 0)
     assert _case_outcome([r], 0.2, 0.35, 1e-9, 0.0, 2.0) == (0, 0)
+
+
+def test_the_rerun_selection_takes_exactly_the_cases_the_pair_path_can_decide():
+    """benchmarks/record_pair_trials.py reruns a calibration case only when round 1 names nothing under the shipped
+    gate and at least two of its three leaders pass the Holm-corrected test: no other case's outcome can change."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("rpt", THRESHOLDS_PATH.parents[2] / "benchmarks" /
+                                                  "record_pair_trials.py")
+    rpt = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rpt)
+    thr = load_thresholds()
+
+    def rec(*cands):
+        return {"calibration_records": [{"truth": "a+b", "round": 1, "candidate": c, "gain_sigma": g,
+                                         "delta_bic": 0.0, "truth_in_model": False, "gap_share": sh,
+                                         "lr_p": p, "lr_p_holm": p, "case": "c", "kind": "pair"}
+                                        for c, g, sh, p in cands]}
+    shared = rec(("a", 0.5, 0.25, 1e-20), ("b", 0.4, 0.2, 1e-20), ("c", 0.1, 0.05, 0.5))
+    assert rpt.selected(shared, thr)
+    assert not rpt.selected(rec(("a", 2.0, 0.9, 1e-40), ("b", 0.4, 0.2, 1e-20)), thr)     # the gate names a
+    assert not rpt.selected(rec(("a", 0.5, 0.25, 1e-20), ("b", 0.4, 0.2, 1e-3)), thr)     # one significant leader
+    assert not rpt.selected({"calibration_records": []}, thr)

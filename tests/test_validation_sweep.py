@@ -35,6 +35,11 @@ def test_uninterrupted_sweep_writes_records_thresholds_tables_answers(full_run):
     # the calibration half's candidates were recorded with their truth
     cal = [r for r in recs if r["split"] == "calibration"]
     assert sum(len(r["calibration_records"]) for r in cal) >= 2
+    # ... and the first round's pair trials (a list per case, empty when fewer than two leaders were tested)
+    assert all(isinstance(r["calibration_pairs"], list) for r in cal)
+    assert all(set(q) >= {"first", "second", "gap_share", "min_gain_given_other", "p_corrected"}
+               for r in cal for q in r["calibration_pairs"])
+    assert {"pair_share_min", "pair_gain_min_sigma", "identifiable_waived_above_sigma"} <= set(thr)
     # tables: every held-out case counted once, rows by hidden truth
     csv = (out / "confusion.csv").read_text().splitlines()
     assert csv[0].startswith("hidden_truth,named_first_second_relaxation")
@@ -212,6 +217,8 @@ def test_calibration_section_fills_every_gate_key_it_does_not_set_permissively(t
     assert cfg.heldout_gain_min_sigma_later == PERMISSIVE["heldout_gain_min_sigma_later"]
     assert cfg.family_alpha == PERMISSIVE["family_alpha"]
     assert cfg.max_effects == 1                       # what the section sets wins
+    # the permissive run records the pair trials and asks condition (4) as the old records did
+    assert cfg.record_pair_trials is True and cfg.identifiable_waived_above_sigma == float("inf")
     # the held-out half is not touched: the calibrated gate applies there
     ev = load_sweep(p).discover_config("heldout", {"fit_share_min": 0.3})
     assert ev.fit_share_min == 0.3
