@@ -202,11 +202,15 @@ class Record:
     after_over_floor: float = float("nan")  # held-out RMSE with the candidate, in noise floors
 
     def __post_init__(self):
-        # records read back from JSON carry None where a value was not a number
-        for f in ("gain_sigma", "delta_bic", "gap_share", "lr_p", "lr_p_holm", "fit_share", "drop_sigma",
-                  "after_over_floor"):
-            v = getattr(self, f)
-            setattr(self, f, float("nan") if v is None else float(v))
+        _floats(self, ("gain_sigma", "delta_bic", "gap_share", "lr_p", "lr_p_holm", "fit_share", "drop_sigma",
+                       "after_over_floor"))
+
+
+def _floats(rec, names: Sequence[str]) -> None:
+    """Records read back from JSON carry None where a value was not a number: NaN again."""
+    for f in names:
+        v = getattr(rec, f)
+        setattr(rec, f, float("nan") if v is None else float(v))
 
 
 @dataclasses.dataclass
@@ -226,14 +230,18 @@ class PairRecord:
     identifiable: bool = True
 
     def __post_init__(self):
-        for f in ("gain_sigma", "gap_share", "min_gain_given_other", "p_corrected"):
-            v = getattr(self, f)
-            setattr(self, f, float("nan") if v is None else float(v))
+        _floats(self, ("gain_sigma", "gap_share", "min_gain_given_other", "p_corrected"))
+
+
+def _case_key(truth: str, result) -> str:
+    """Which data set records belong to (a resumed sweep must reproduce it): the data set's own numbers, never a
+    time."""
+    return f"{truth}|{result.heldout_raw_before:.12g}|{result.noise_floor_deg:.12g}"
 
 
 def pair_records_from_result(truth: str, result, case: str | None = None, kind: str = "") -> list[PairRecord]:
     """The first round's pair trials of a discovery result (recorded when ``record_pair_trials`` is set)."""
-    case = case or f"{truth}|{result.heldout_raw_before:.12g}|{result.noise_floor_deg:.12g}"
+    case = case or _case_key(truth, result)
     if not result.rounds:
         return []
     return [PairRecord(case, truth, kind, pt.first.effect_id, pt.second.effect_id, float(pt.gain_sigma),
@@ -244,8 +252,7 @@ def pair_records_from_result(truth: str, result, case: str | None = None, kind: 
 def records_from_result(truth: str, result, case: str | None = None, kind: str = "") -> list[Record]:
     """The confirmed candidates of a discovery result, labelled with the injected ``truth`` (a catalogue id,
     ``none``, or two ids joined by ``+`` for a pair) and the case's ``kind``."""
-    # deterministic (a resumed sweep must reproduce it): the data set's own numbers, never a time
-    case = case or f"{truth}|{result.heldout_raw_before:.12g}|{result.noise_floor_deg:.12g}"
+    case = case or _case_key(truth, result)
     truths = set(truth.split("+"))
     out = []
     named_before: list[str] = []
@@ -293,7 +300,8 @@ def pair_records(rec: Mapping) -> list[PairRecord]:
 
 def _passes(r: Record, g: float, share: float, alpha: float, fit_share: float = 0.0,
             waive: float = math.inf) -> bool:
-    return (r.tested and (r.identifiable or r.gain_sigma > waive) and math.isfinite(r.gain_sigma) and r.gain_sigma >= g
+    return (r.tested and (r.identifiable or r.gain_sigma > waive) and math.isfinite(r.gain_sigma)
+            and r.gain_sigma >= g
             and math.isfinite(r.gap_share) and r.gap_share >= share and r.lr_p_holm < alpha
             and (fit_share <= 0 or r.gain_sigma > waive
                  or (math.isfinite(r.fit_share) and r.fit_share >= fit_share)))
@@ -513,6 +521,12 @@ def _tally_gains(cases: Sequence[Sequence[Record]], gains: np.ndarray, sh: float
     return t
 
 
+def _score(t: Mapping) -> int:
+    """What the calibration maximises: right decisions minus twice the wrong names minus the names on
+    out-of-catalogue cases minus twice the names on nulls."""
+    return t["right"] - 2 * t["wrong"] - t["ooc_named"] - 2 * t["null_named"]
+
+
 #: held-out drops (noise floors) the calibration considers for the path to the noise floor
 TO_FLOOR_DROPS = tuple(np.round(np.arange(0.05, 1.0001, 0.025), 3))
 
@@ -524,11 +538,10 @@ def _to_floor_from(cases, gate: tuple, t: dict, allowed: int) -> tuple[float, di
     out-of-catalogue names beat the gate without the path (``t``); ties to the larger drop. inf (no path) when none
     does. The path only decides rounds where no candidate passes the gate, so it cannot undo a decision the gate
     makes."""
-    score = lambda x: x["right"] - 2 * x["wrong"] - x["ooc_named"] - 2 * x["null_named"]  # noqa: E731
     best, best_t = math.inf, t
     for d in sorted(TO_FLOOR_DROPS, reverse=True):
         t2 = _tally(cases, *gate, to_floor=float(d))
-        if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and score(t2) > score(best_t):
+        if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
             best, best_t = float(d), t2
     return best, best_t
 
@@ -546,14 +559,13 @@ def _pair_path_from(cases, pairs: Mapping, gate: tuple, to_floor: float, t: dict
     nothing on a null case, keeps the out-of-catalogue names within ``allowed`` and has the best score (right
     decisions minus twice the wrong names minus the out-of-catalogue names), if it beats the gate without the path
     (``t``); ties to the stricter. (inf, inf) (no path) otherwise, and always without any pair trial recorded."""
-    score = lambda x: x["right"] - 2 * x["wrong"] - x["ooc_named"] - 2 * x["null_named"]  # noqa: E731
     best, best_t = (math.inf, math.inf), t
     if not any(pairs.values()):
         return math.inf, math.inf, t
     for sh in sorted(PAIR_SHARES, reverse=True):
         for pg in sorted(PAIR_GAINS, reverse=True):
             t2 = _tally(cases, *gate, to_floor=to_floor, pairs=pairs, pair_share=float(sh), pair_gain=float(pg))
-            if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and score(t2) > score(best_t):
+            if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
                 best, best_t = (float(sh), float(pg)), t2
     return best[0], best[1], best_t
 
@@ -588,7 +600,7 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
                 for i, g in enumerate(gains):
                     t = {k: (v if k == "ooc" else int(v[i])) for k, v in tg.items()}
                     feasible = t["null_named"] == 0 and t["ooc_named"] <= allowed
-                    score = t["right"] - 2 * t["wrong"] - t["ooc_named"] - 2 * t["null_named"]
+                    score = _score(t)
                     key = (feasible, score, g, sh, fs, -a)       # ties: the stricter gate
                     if best_key is None or key > best_key:
                         best_key, best = key, (float(g), float(sh), float(a), float(fs), t)

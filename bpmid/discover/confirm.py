@@ -82,6 +82,11 @@ class Confirmation:
     #: named together with another effect: the joint refit whose constants are the ones named
     named_with: Optional[ModelState] = None
 
+    @property
+    def family_p(self) -> float:
+        """The p-value judged against the round's family-wise level: Holm-corrected once the round set it."""
+        return self.lr_p_holm if math.isfinite(self.lr_p_holm) else self.lr_p
+
     def to_yaml(self) -> dict:
         return {
             "effect": self.effect_id,

@@ -763,7 +763,7 @@ def judge(c: Confirmation, thr: dict, floor: float | None = None, later: bool = 
         share = f"{c.fit_share:.0%}" if math.isfinite(c.fit_share) else "none (no fitting gap above the floor)"
         why.append(f"share of the fitting logs' gap removed {share} < {fs:.0%}: it leaves most of what the model "
                    "misses unexplained")
-    p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
+    p = c.family_p
     if not p < thr["family_alpha"]:
         why.append(f"Holm-corrected likelihood-ratio p = {p:.2g} >= family-wise {thr['family_alpha']:.2g}")
     return why
@@ -793,8 +793,7 @@ def judge_to_floor(c: Confirmation, thr: dict, floor: float) -> list[str]:
 
 def _open_to_floor(c: Confirmation, thr: dict) -> bool:
     """The conditions the path to the floor shares with the gate: tested, identifiable, significant."""
-    p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
-    return bool(c.tested and c.identifiable and p < thr["family_alpha"])
+    return bool(c.tested and c.identifiable and c.family_p < thr["family_alpha"])
 
 
 def _apart(x: float, limit: float, digits: int = 3) -> tuple[str, str]:
@@ -827,13 +826,8 @@ def try_pairs(confs: Sequence[Confirmation], effects: Sequence[Effect], fit_logs
     lead = pair_leaders(confs)
     pairs = [(a, b) for i, a in enumerate(lead) for b in lead[i + 1:]]
     n_pairs = len(pairs)
-
-    def significant(c):
-        p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
-        return p < alpha
-
     if alpha is not None:
-        pairs = [(a, b) for a, b in pairs if significant(a) and significant(b)]
+        pairs = [(a, b) for a, b in pairs if a.family_p < alpha and b.family_p < alpha]
     out = []
     if not pairs:
         return out
@@ -859,9 +853,8 @@ def judge_pair(pt: PairTrial, thr: dict) -> list[str]:
                                                     if not c.identifiable))
     alpha = thr["family_alpha"]
     for c in (pt.first, pt.second):
-        p = c.lr_p_holm if math.isfinite(c.lr_p_holm) else c.lr_p
-        if not p < alpha:
-            why.append(f"{c.effect_id} alone: Holm-corrected likelihood-ratio p = {p:.2g} >= {alpha:.2g}")
+        if not c.family_p < alpha:
+            why.append(f"{c.effect_id} alone: Holm-corrected likelihood-ratio p = {c.family_p:.2g} >= {alpha:.2g}")
     if not pt.p_corrected < alpha:
         why.append(f"each beside the other: likelihood-ratio p = {pt.p_corrected:.2g} (the larger, Bonferroni over "
                    f"{pt.n_pairs} pair(s)) >= {alpha:.2g}")
