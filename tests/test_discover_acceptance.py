@@ -29,6 +29,10 @@ def test_hidden_effect_is_named_first_and_the_gap_halves(effect_id, seed):
     assert res.heldout_before >= 1.8 * floor          # moderate size: at least about twice the floor
     assert res.named_effects and res.named_effects[0] == effect_id, res.verdict
     assert res.heldout_after - floor <= 0.5 * (res.heldout_before - floor)
+    # the gap is scored as the round was, before and after alike: its numbers are the named candidate's own
+    won = next(c for c in res.rounds[0].confirmations if c.effect_id == effect_id)
+    assert res.heldout_before == pytest.approx(won.heldout_rmse_before, rel=1e-12)
+    assert res.heldout_after == pytest.approx(won.heldout_rmse_after, rel=1e-9)
     assert effect_id in res.verdict and "held-out error from" in res.verdict
 
 

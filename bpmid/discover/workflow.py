@@ -292,7 +292,8 @@ class DiscoveryResult:
         """How the held-out RMSEs (``gap.*``) were scored, in words."""
         if isinstance(self.per_log_gain, LogNuisance):
             return ("held-out RMSE with each held-out log's own nuisance factors fitted on that log for every model "
-                    "alike: " + self.per_log_gain.describe() + " (log-to-log variation of the constants is not "
+                    "alike (before and after with the base model's directions and bounds, as in the first round): "
+                    + self.per_log_gain.describe() + " (log-to-log variation of the constants is not "
                     "scored as an effect); raw_*: without them")
         if self.per_log_gain:
             return ("held-out RMSE with one stiffness-like gain per held-out log fitted on that log for every model "
@@ -594,7 +595,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         noise = dict(noise, sigma_deg=float(res.rmse), capped_by_base_fit=True,
                      method=noise.get("method", "") + "; capped by the base fit's RMSE on the fitting logs")
         floor = noise["sigma_deg"]
-    before = scored_rmse(state, ho_logs, per_log_gain=gain)
+    base_gain = gain
+    before = scored_rmse(state, ho_logs, per_log_gain=base_gain)
     raw_before = rmse_deg(residuals(state, ho_logs))
     rounds: list[Round] = []
     named: list[str] = []
@@ -705,16 +707,17 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         state = best.state
         note(f"discover: added {best.effect_id} (held-out {best.heldout_rmse_before:.3f} -> "
              f"{best.heldout_rmse_after:.3f} deg)")
-    if named:
-        gain = nuisance_for(state)
-    after = scored_rmse(state, ho_logs, per_log_gain=gain)
+    # before and after scored alike: with the base model's nuisance (the one every first-round number used). A
+    # nuisance re-derived for the final model bounds the held-out factors by its own, smaller, fitting-log spread,
+    # and held against the base model's looser scoring it would understate what the named effects removed.
+    after = scored_rmse(state, ho_logs, per_log_gain=base_gain)
     raw_after = rmse_deg(residuals(state, ho_logs))
     unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor)
     variation = log_to_log_variation(state, ho_logs, raw_after, floor, cfg) if unexplained else None
     verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after)
     return DiscoveryResult(named, rounds, noise, base_state, state, list(fit_logs), list(ho_logs), before, after,
                            thr, unexplained, verdict, how, time.perf_counter() - t0, variation, base_report,
-                           raw_before, raw_after, gain)
+                           raw_before, raw_after, base_gain)
 
 
 def log_to_log_variation(state: ModelState, ho_logs: Sequence[MotionLog], after: float, floor: float,
