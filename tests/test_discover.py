@@ -195,3 +195,37 @@ def test_cli_rejects_bad_gate_settings_naming_the_key(tmp_path, text, key):
                             "--out", str(tmp_path / "out")])
     assert r.exit_code == 2 and key in r.output, r.output
     assert not (tmp_path / "out").exists()
+
+
+def _sine_log(name, hz, period_s, rng, noise=0.2):
+    from bpmid.io.motion_logs import from_arrays
+    t = np.arange(0.0, 40.0, 1.0 / hz)
+    p = 1e5 * (0.3 + 0.25 * np.sin(2 * np.pi * t / period_s))
+    y = 40 + 25 * np.sin(2 * np.pi * t / period_s - 0.3) + noise * rng.standard_normal(t.size)
+    return from_arrays(name, t, p, y)
+
+
+def _step_log(name, hz, rng, noise=0.2):
+    from bpmid.io.motion_logs import from_arrays
+    t = np.arange(0.0, 40.0, 1.0 / hz)
+    p = 1e5 * np.where((t % 10) < 5, 0.5, 0.1)
+    return from_arrays(name, t, p, 80.0 * p / 1e5 + noise * rng.standard_normal(t.size))
+
+
+def test_noise_floor_leaves_out_a_log_too_fast_for_its_sampling_and_says_when_the_floor_itself_is_doubtful():
+    """A 0.5 Hz sine logged at 10 Hz leaks its signal into the differences: that log reads several times its noise.
+    Beside three step logs it is named and left out, and the floor is the sensor's (with it, the floor doubled).
+    Logs that are all such sines leave nothing to rest on: the caution says the reading is doubtful. Clean logs
+    and slow sines get no caution and lose no log."""
+    rng = np.random.default_rng(11)
+    sine = _sine_log("sine_10hz", 10, 2.0, rng)
+    steps = [_step_log(f"steps_{k}", 10, rng) for k in range(3)]
+    nf = noise_floor([sine, *steps])
+    assert nf["per_log"]["sine_10hz"] > 5 * 0.2
+    assert nf["left_out"] == ["sine_10hz"] and abs(nf["sigma_deg"] - 0.2) < 0.03
+    assert len(nf["caution"]) == 1 and nf["caution"][0].startswith("sine_10hz:") and "left out" in nf["caution"][0]
+    only = noise_floor([_sine_log(f"sine_{k}", 10, 2.0, rng) for k in range(3)])
+    assert only["left_out"] == [] and only["sigma_deg"] > 2 * 0.2 and any("bound" in c for c in only["caution"])
+    slow = noise_floor([_sine_log("slow", 10, 8.0, rng), *steps])
+    assert slow["caution"] == [] and slow["left_out"] == [] and abs(slow["sigma_deg"] - 0.2) < 0.03
+    assert noise_floor(steps)["caution"] == []

@@ -27,11 +27,16 @@ _NOISE_ORDER = 5
 _NOISE_SPACINGS = (1, 2, 3, 4)
 #: largest lag-1 correlation of the sensor noise the estimator considers (slower than this is drift)
 _RHO_MAX = 0.95
+#: a log whose own reading exceeds the other logs' floor by more than this factor, with its correlation at the
+#: bound, is reading its signal (one sensor logs every run of a rig, so its noise cannot differ that much)
+_SIGNAL_READING_OVER = 3.0
 NOISE_METHOD = ("AR(1)-aware difference estimator: robust (median absolute deviation) variances of the 5th-order "
                 "differences of the measured angle at spacings h = 1..4 samples, windows spanning a corner of the "
                 "logged pressure left out, fitted with the AR(1) noise model Var_h = sigma^2 sum_ij w_i w_j "
                 "rho^|i-j|h: sigma is the noise's marginal standard deviation (the RMSE a perfect model reaches), "
-                "rho its lag-1 correlation (0 = white)")
+                "rho its lag-1 correlation (0 = white); a log whose own fit puts rho at its bound and reads over "
+                f"{_SIGNAL_READING_OVER:g} times the other logs' floor is reading its signal (too fast for its "
+                "sampling) and is left out")
 
 
 def _diff_weights(order: int) -> np.ndarray:
@@ -117,11 +122,12 @@ def noise_floor(logs: Sequence[MotionLog]) -> dict:
     Returns
     -------
     dict with ``sigma_deg`` (the floor), ``rho`` (lag-1 correlation of the noise), ``white_noise_sigma_deg``
-    (the second-difference white-noise reading, for comparison), ``per_log`` (name -> deg) and ``method``
+    (the second-difference white-noise reading, for comparison), ``per_log`` (name -> deg), ``method`` and
+    ``caution`` (sentences: logs whose own reading is signal, not noise; a pooled reading at the correlation bound)
     """
     w = _diff_weights(_NOISE_ORDER)
     pooled: list[list[np.ndarray]] = [[] for _ in _NOISE_SPACINGS]
-    per_log, d2_all = {}, []
+    per_log, d2_all, pinned = {}, [], []
     for lg in logs:
         y = np.asarray(lg.angle_deg, float)
         if y.size < 8:
@@ -133,18 +139,55 @@ def noise_floor(logs: Sequence[MotionLog]) -> dict:
             d = _spaced_differences(lg, _NOISE_ORDER, h, w)
             pooled[i].append(d)
             v.append(_robust_var(d) if d.size >= 20 else float("nan"))
-        per_log[lg.name] = float(_fit_ar1(np.array(v), _NOISE_SPACINGS, w)[0])
+        sig_log, rho_log = _fit_ar1(np.array(v), _NOISE_SPACINGS, w)
+        per_log[lg.name] = float(sig_log)
+        if np.isfinite(rho_log) and rho_log >= _RHO_MAX - 1e-9:
+            pinned.append(lg.name)
     if not d2_all:
         return {"sigma_deg": float("nan"), "rho": float("nan"), "white_noise_sigma_deg": float("nan"),
-                "per_log": per_log, "method": NOISE_METHOD}
-    white = math.sqrt(_robust_var(np.concatenate(d2_all)) / 6.0)
-    v = np.array([_robust_var(np.concatenate(p)) if sum(x.size for x in p) >= 20 else float("nan")
-                  for p in pooled])
-    sigma, rho = _fit_ar1(v, _NOISE_SPACINGS, w)
+                "per_log": per_log, "method": NOISE_METHOD, "left_out": [], "caution": []}
+    names = list(per_log)
+
+    def pooled_fit(keep):
+        v = np.array([_robust_var(np.concatenate([x for n, x in zip(names, p) if n in keep]))
+                      if sum(x.size for n, x in zip(names, p) if n in keep) >= 20 else float("nan") for p in pooled])
+        return _fit_ar1(v, _NOISE_SPACINGS, w)
+
+    # a log whose own fit puts the correlation at its bound and reads more than twice the other logs' floor is
+    # measuring its signal, not the sensor's noise (one sensor logs every run): it is left out of the pooled floor
+    signal = []
+    if pinned and len(pinned) < len(names):
+        rest, _ = pooled_fit(set(names) - set(pinned))
+        signal = [n for n in pinned if np.isfinite(rest) and per_log[n] > _SIGNAL_READING_OVER * rest]
+    white = math.sqrt(_robust_var(np.concatenate([d for n, d in zip(names, d2_all) if n not in signal])) / 6.0)
+    sigma, rho = pooled_fit(set(names) - set(signal))
     if not np.isfinite(sigma):
         sigma, rho = white, 0.0
     return {"sigma_deg": float(sigma), "rho": float(rho), "white_noise_sigma_deg": float(white),
-            "per_log": {k: (v if np.isfinite(v) else white) for k, v in per_log.items()}, "method": NOISE_METHOD}
+            "per_log": {k: (v if np.isfinite(v) else white) for k, v in per_log.items()}, "method": NOISE_METHOD,
+            "left_out": signal, "caution": _noise_caution(pinned, signal, len(per_log), rho)}
+
+
+def _noise_caution(pinned: Sequence[str], signal: Sequence[str], n_logs: int, rho: float) -> list[str]:
+    """What to distrust in a noise reading: the AR(1) fit puts the correlation at its bound when the differences'
+    variance grows with the spacing faster than noise can, which is signal leaking into them (a smooth pressure
+    profile, e.g. a sine, too fast for the sampling: a few tens of samples per period); such a reading is too high."""
+    out = []
+    if signal:
+        out.append(f"{', '.join(signal)}: the log's own reading is its signal, not its noise (the angle changes too "
+                   f"fast for the sampling to tell the two apart in its differences; the reading is over "
+                   f"{_SIGNAL_READING_OVER:g} times the other logs' floor); left out of the floor, which rests on the "
+                   f"other {n_logs - len(signal)} log(s)")
+    others = [n for n in pinned if n not in signal]
+    if others:
+        out.append(f"{', '.join(others)}: the log's own noise model put the correlation at its bound (slow noise, "
+                   f"or some signal in the differences); its reading is kept in the floor")
+    if np.isfinite(rho) and rho >= _RHO_MAX - 1e-9:
+        out.append(f"the pooled reading put the noise's lag-1 correlation at its bound ({_RHO_MAX}): either the "
+                   "noise is that slow (drift) or the signal leaked into the differences, and the floor may be too "
+                   "high; it is capped by the base fit's RMSE on the fitting logs. Log faster than the pressure "
+                   "changes (at least ~50 samples per cycle) or add holds and ramps to the protocol")
+    return out
 
 
 def autocorrelation(r: np.ndarray, max_lag: int) -> np.ndarray:
