@@ -214,7 +214,8 @@ def _step_log(name, hz, rng, noise=0.2):
 
 def test_noise_floor_leaves_out_a_log_too_fast_for_its_sampling_and_says_when_the_floor_itself_is_doubtful():
     """A 0.5 Hz sine logged at 10 Hz leaks its signal into the differences: that log reads several times its noise.
-    Beside three step logs it is named and left out, and the floor is the sensor's (with it, the floor doubled).
+    Beside three step logs it is named and left out, and the floor is the sensor's (with it, the floor doubled); a
+    0.33 Hz sine reads about 5 times: named, kept, and the floor without it given.
     Logs that are all such sines leave nothing to rest on: the caution says the reading is doubtful. Clean logs
     and slow sines get no caution and lose no log."""
     rng = np.random.default_rng(11)
@@ -226,6 +227,10 @@ def test_noise_floor_leaves_out_a_log_too_fast_for_its_sampling_and_says_when_th
     assert len(nf["caution"]) == 1 and nf["caution"][0].startswith("sine_10hz:") and "left out" in nf["caution"][0]
     only = noise_floor([_sine_log(f"sine_{k}", 10, 2.0, rng) for k in range(3)])
     assert only["left_out"] == [] and only["sigma_deg"] > 2 * 0.2 and any("bound" in c for c in only["caution"])
+    near = noise_floor([_sine_log("sine_3s", 10, 3.0, rng), *steps])   # reads ~5 times: named, kept, quantified
+    assert near["left_out"] == [] and near["sigma_deg"] > 1.1 * 0.2
+    assert len(near["caution"]) == 1 and near["caution"][0].startswith("sine_3s:")
+    assert "without it" in near["caution"][0]
     slow = noise_floor([_sine_log("slow", 10, 8.0, rng), *steps])
     assert slow["caution"] == [] and slow["left_out"] == [] and abs(slow["sigma_deg"] - 0.2) < 0.03
     assert noise_floor(steps)["caution"] == []

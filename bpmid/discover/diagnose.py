@@ -27,9 +27,14 @@ _NOISE_ORDER = 5
 _NOISE_SPACINGS = (1, 2, 3, 4)
 #: largest lag-1 correlation of the sensor noise the estimator considers (slower than this is drift)
 _RHO_MAX = 0.95
-#: a log whose own reading exceeds the other logs' floor by more than this factor, with its correlation at the
-#: bound, is reading its signal (one sensor logs every run of a rig, so its noise cannot differ that much)
-_SIGNAL_READING_OVER = 3.0
+#: a log whose own reading exceeds the floor of the logs not at the correlation bound by more than this factor,
+#: with its own correlation at the bound, is reading its signal and is left out (one sensor logs every run of a
+#: rig, so its noise cannot differ tenfold; on 480 out-of-family calibration cases no log read over 7.6 times the
+#: floor: coloured noise alone up to 3.5 times, at 20-100 Hz, and the cyclic logs at 10 Hz 3.5-7.6 times, a leak
+#: that moved their floor by 1-3 %)
+_SIGNAL_READING_OVER = 10.0
+#: such a log reading over this factor is named in the caution but kept
+_PINNED_READING_NOTED = 3.0
 NOISE_METHOD = ("AR(1)-aware difference estimator: robust (median absolute deviation) variances of the 5th-order "
                 "differences of the measured angle at spacings h = 1..4 samples, windows spanning a corner of the "
                 "logged pressure left out, fitted with the AR(1) noise model Var_h = sigma^2 sum_ij w_i w_j "
@@ -153,35 +158,43 @@ def noise_floor(logs: Sequence[MotionLog]) -> dict:
                       if sum(x.size for n, x in zip(names, p) if n in keep) >= 20 else float("nan") for p in pooled])
         return _fit_ar1(v, _NOISE_SPACINGS, w)
 
-    # a log whose own fit puts the correlation at its bound and reads more than twice the other logs' floor is
-    # measuring its signal, not the sensor's noise (one sensor logs every run): it is left out of the pooled floor
-    signal = []
+    # a log whose own fit puts the correlation at its bound and reads far above the other logs' floor is measuring
+    # its signal, not the sensor's noise (one sensor logs every run): left out of the pooled floor
+    signal, high, rest = [], [], float("nan")
     if pinned and len(pinned) < len(names):
-        rest, _ = pooled_fit(set(names) - set(pinned))
-        signal = [n for n in pinned if np.isfinite(rest) and per_log[n] > _SIGNAL_READING_OVER * rest]
+        rest = float(pooled_fit(set(names) - set(pinned))[0])
+        if np.isfinite(rest):
+            high = [n for n in pinned if per_log[n] > _PINNED_READING_NOTED * rest]
+            signal = [n for n in high if per_log[n] > _SIGNAL_READING_OVER * rest]
     white = math.sqrt(_robust_var(np.concatenate([d for n, d in zip(names, d2_all) if n not in signal])) / 6.0)
     sigma, rho = pooled_fit(set(names) - set(signal))
     if not np.isfinite(sigma):
         sigma, rho = white, 0.0
+    kept = [n for n in high if n not in signal]
+    without = float(pooled_fit(set(names) - set(high))[0]) if kept else float("nan")
     return {"sigma_deg": float(sigma), "rho": float(rho), "white_noise_sigma_deg": float(white),
             "per_log": {k: (v if np.isfinite(v) else white) for k, v in per_log.items()}, "method": NOISE_METHOD,
-            "left_out": signal, "caution": _noise_caution(pinned, signal, len(per_log), rho)}
+            "left_out": signal, "caution": _noise_caution(signal, kept, len(names), rest, sigma, without, rho)}
 
 
-def _noise_caution(pinned: Sequence[str], signal: Sequence[str], n_logs: int, rho: float) -> list[str]:
-    """What to distrust in a noise reading: the AR(1) fit puts the correlation at its bound when the differences'
-    variance grows with the spacing faster than noise can, which is signal leaking into them (a smooth pressure
-    profile, e.g. a sine, too fast for the sampling: a few tens of samples per period); such a reading is too high."""
+def _noise_caution(signal: Sequence[str], high: Sequence[str], n_logs: int, rest: float, sigma: float,
+                   without: float, rho: float) -> list[str]:
+    """What to distrust in a noise reading. The AR(1) fit puts the correlation at its bound when the differences'
+    variance grows with the spacing faster than noise can: slow noise, or signal leaking into them (a smooth
+    pressure profile, e.g. a sine, too fast for the sampling: a few tens of samples per period), which reads high.
+    ``signal``: logs left out; ``high``: logs kept though they read well above the others (``rest``: the floor of
+    the logs not at the bound); ``sigma``, ``rho``: the pooled reading; ``without``: the floor without ``high``."""
     out = []
     if signal:
-        out.append(f"{', '.join(signal)}: the log's own reading is its signal, not its noise (the angle changes too "
-                   f"fast for the sampling to tell the two apart in its differences; the reading is over "
-                   f"{_SIGNAL_READING_OVER:g} times the other logs' floor); left out of the floor, which rests on the "
-                   f"other {n_logs - len(signal)} log(s)")
-    others = [n for n in pinned if n not in signal]
-    if others:
-        out.append(f"{', '.join(others)}: the log's own noise model put the correlation at its bound (slow noise, "
-                   f"or some signal in the differences); its reading is kept in the floor")
+        out.append(f"{', '.join(signal)}: the log's own reading is its signal, not its noise (over "
+                   f"{_SIGNAL_READING_OVER:g} times the {rest:.3g} deg the logs whose noise model is not at its bound "
+                   f"read: the angle changes too fast for the sampling to tell the two apart in its differences); "
+                   f"left out of the floor, which rests on the other {n_logs - len(signal)} log(s)")
+    if high:
+        out.append(f"{', '.join(high)}: the log's own reading is over {_PINNED_READING_NOTED:g} times the "
+                   f"{rest:.3g} deg of the logs whose noise model is not at its bound, with its correlation at the "
+                   f"bound (signal in its differences, or slow noise); kept in the floor ({sigma:.3g} deg; "
+                   f"{without:.3g} deg without it)")
     if np.isfinite(rho) and rho >= _RHO_MAX - 1e-9:
         out.append(f"the pooled reading put the noise's lag-1 correlation at its bound ({_RHO_MAX}): either the "
                    "noise is that slow (drift) or the signal leaked into the differences, and the floor may be too "

@@ -1,0 +1,120 @@
+"""Rerun the calibration cases whose noise floor the current estimator reads differently: those with a log it
+leaves out of the pooled floor (its own reading is its signal: ``bpmid.discover.diagnose.noise_floor``), or
+check that there is none.
+
+    python benchmarks/rerun_floor_cases.py out/pool-draw12/records.jsonl ... \\
+        --configs configs/sweeps/full.yaml ... --out out/floor-reruns [--workers 2]
+
+Run it after any change to the floor's rule: it lists the cases whose floor changed (none, for the shipped rule on
+the shipped calibration records). A case with no log left out gets exactly the floor it had (the same differences, pooled in the same order), so its
+discovery, and its calibration records, are unchanged; only the others are rerun, with the calibration half's
+permissive settings (which record the pair trials too), on Dask. Each case's logs are regenerated from its sweep
+config and seed and read back as discovery reads them, to decide. Then
+
+    python benchmarks/recalibrate.py <the same records files> out/pair-trials/records.jsonl \\
+        out/floor-reruns/records.jsonl --configs ... --write
+
+calibrates on the records as the current code makes them (a later file's record of a case replaces the earlier
+one). Synthetic data: :mod:`bpmid.validation`, from the sweep configs and seeds given.
+"""
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import tempfile
+import time
+from pathlib import Path
+
+
+def left_out_logs(cfg_path: str, case_id: str) -> tuple[str, list[str], float]:
+    """(case id, the logs the noise floor leaves out, the floor in deg) of one case, from its logs as written."""
+    import shutil
+
+    from bpmid.config import load_config
+    from bpmid.discover.diagnose import noise_floor
+    from bpmid.io.motion_logs import read_motion_logs
+    from bpmid.validation.sweep import case_paths, load_sweep, make_cases, realize, write_case
+
+    cfg = load_sweep(cfg_path)
+    case = next(c for c in make_cases(cfg.effective_generator, cfg.sweep.seed, prefix=cfg.sweep.name)
+                if c.id == case_id)
+    root = Path(tempfile.mkdtemp(prefix="bpmid-floor-"))
+    try:
+        write_case(realize(case), root)
+        paths = case_paths(root / case.id)
+        io = load_config(paths["config"]).section("io")
+        logs = (read_motion_logs(paths["fit"], io, require_angle=True)
+                + read_motion_logs(paths["holdout"], io, require_angle=True))
+        nf = noise_floor(logs)
+        return case_id, list(nf["left_out"]), float(nf["sigma_deg"])
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("records", nargs="+", type=Path, help="records.jsonl of finished calibration sweeps")
+    ap.add_argument("--configs", nargs="+", required=True, help="the sweep configs the records were made with")
+    ap.add_argument("--out", type=Path, required=True, help="folder for the rerun cases' records.jsonl")
+    ap.add_argument("--workers", type=int, default=2)
+    a = ap.parse_args(argv)
+
+    from bpmid.validation.sweep import RecordWriter, _client, load_sweep, make_cases, read_records, run_cases
+
+    cases, cfg_of = {}, {}
+    for c in a.configs:
+        cfg = load_sweep(c)
+        for case in make_cases(cfg.effective_generator, cfg.sweep.seed, prefix=cfg.sweep.name):
+            cases[case.id] = (cfg, case)
+            cfg_of[case.id] = c
+    old = {}
+    for path in a.records:
+        for rec in read_records(path):
+            if rec.get("phase", rec.get("split")) == "calibration":
+                old[rec["id"]] = rec
+    missing = sorted(i for i in old if i not in cases)
+    if missing:
+        ap.error(f"{len(missing)} record(s) from no given config, e.g. {missing[0]}: give its sweep config")
+    a.out.mkdir(parents=True, exist_ok=True)
+    done = {r["id"] for r in read_records(a.out / "records.jsonl")}
+    t0 = time.perf_counter()
+    todo = []
+    with cf.ProcessPoolExecutor(max_workers=a.workers) as ex:
+        futs = [ex.submit(left_out_logs, cfg_of[i], i) for i in sorted(old) if i not in done]
+        for k, f in enumerate(cf.as_completed(futs), 1):
+            cid, out, floor = f.result()
+            if out:
+                todo.append(cid)
+                was = old[cid].get("noise_floor_deg")
+                print(f"[{k}/{len(futs)}] {cid}: left out {', '.join(out)}; floor {floor:.4f} deg"
+                      + (f" (record: {was:.4f})" if was is not None else ""), flush=True)
+    todo.sort()
+    print(f"{len(old)} calibration cases; {len(todo)} with a log left out of the floor, to rerun; {len(done)} "
+          f"already done ({time.perf_counter() - t0:.0f} s)", flush=True)
+    if not todo:
+        return 0
+    client, cluster = _client(None, a.workers, True)
+    writer = RecordWriter(a.out / "records.jsonl")
+    n = [0]
+
+    def on(rec):
+        n[0] += 1
+        print(f"[{n[0]}/{len(todo)}] {rec['id']} ({rec['kind']}): named {rec.get('named')} (was "
+              f"{old[rec['id']].get('named')}), floor {rec.get('noise_floor_deg')}, {rec['elapsed_s']:.1f} s", flush=True)
+    try:
+        by_cfg = {}
+        for i in todo:
+            cfg, case = cases[i]
+            by_cfg.setdefault(id(cfg), (cfg, []))[1].append(case)
+        for cfg, cs in by_cfg.values():
+            run_cases(cs, "calibration", cfg.discover_config("calibration"), writer, client, on_record=on)
+    finally:
+        writer.close()
+        client.close()
+        cluster.close()
+    print(f"done in {time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
