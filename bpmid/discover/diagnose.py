@@ -40,8 +40,8 @@ NOISE_METHOD = ("AR(1)-aware difference estimator: robust (median absolute devia
                 "logged pressure left out, fitted with the AR(1) noise model Var_h = sigma^2 sum_ij w_i w_j "
                 "rho^|i-j|h: sigma is the noise's marginal standard deviation (the RMSE a perfect model reaches), "
                 "rho its lag-1 correlation (0 = white); a log whose own fit puts rho at its bound and reads over "
-                f"{_SIGNAL_READING_OVER:g} times the other logs' floor is reading its signal (too fast for its "
-                "sampling) and is left out")
+                f"{_SIGNAL_READING_OVER:g} times the floor of the logs whose fit is not at the bound is reading its "
+                "signal (too fast for its sampling) and is left out")
 
 
 def _diff_weights(order: int) -> np.ndarray:
@@ -127,8 +127,9 @@ def noise_floor(logs: Sequence[MotionLog]) -> dict:
     Returns
     -------
     dict with ``sigma_deg`` (the floor), ``rho`` (lag-1 correlation of the noise), ``white_noise_sigma_deg``
-    (the second-difference white-noise reading, for comparison), ``per_log`` (name -> deg), ``method`` and
-    ``caution`` (sentences: logs whose own reading is signal, not noise; a pooled reading at the correlation bound)
+    (the second-difference white-noise reading, for comparison), ``per_log`` (name -> deg), ``method``,
+    ``left_out`` (logs whose own reading is their signal, not in the floor) and ``caution`` (sentences: logs left
+    out, logs kept though they read over 3 times the others, a pooled reading at the correlation bound)
     """
     w = _diff_weights(_NOISE_ORDER)
     pooled: list[list[np.ndarray]] = [[] for _ in _NOISE_SPACINGS]
