@@ -94,7 +94,9 @@ def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
     assert g["after_rmse_deg"] - g["noise_floor_deg"] <= 0.5 * (g["before_rmse_deg"] - g["noise_floor_deg"])
     assert d["unexplained"] is False
     assert d["split"]["heldout_logs"] == ["ho_va_2.0", "ho_vr_0.16", "ho_mixed", "ho_long_2.0"]
-    assert d["noise_floor"]["left_out_logs"] == [] and d["noise_floor"]["caution"] == []   # ramps and holds
+    # the fast cyclic log reads its signal (over 3x the others): named, with the floor without it, and kept
+    assert d["noise_floor"]["left_out_logs"] == []
+    assert [c.split(":")[0] for c in d["noise_floor"]["caution"]] == ["fit_cyclic_1.6"]
     assert "provenance" in d and d["provenance"]["inputs"]
     for f in ("residual_before_after.png", "screening_ranking.png", "heldout_error.png", "verdict.txt"):
         assert (out / f).stat().st_size > 0
