@@ -19,11 +19,9 @@ Synthetic data: :mod:`bpmid.validation`, from the sweep configs and seeds given.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import time
-from pathlib import Path
 
 
 def selected(rec: dict, thr: dict) -> bool:
@@ -41,32 +39,13 @@ def selected(rec: dict, thr: dict) -> bool:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("records", nargs="+", type=Path, help="records.jsonl of finished calibration sweeps")
-    ap.add_argument("--configs", nargs="+", required=True, help="the sweep configs the records were made with")
-    ap.add_argument("--out", type=Path, required=True, help="folder for the rerun cases' records.jsonl")
-    ap.add_argument("--workers", type=int, default=2)
-    a = ap.parse_args(argv)
+    from _reruns import rerun_setup
 
     from bpmid.discover.calibrate import load_thresholds
-    from bpmid.validation.sweep import RecordWriter, _client, load_sweep, make_cases, read_records, run_cases
+    from bpmid.validation.sweep import rerun_calibration
 
+    a, cases, old, done = rerun_setup(__doc__, argv)
     thr = load_thresholds()
-    cases = {}
-    for c in a.configs:
-        cfg = load_sweep(c)
-        for case in make_cases(cfg.effective_generator, cfg.sweep.seed, prefix=cfg.sweep.name):
-            cases[case.id] = (cfg, case)
-    old = {}
-    for path in a.records:
-        for rec in read_records(path):
-            if rec.get("phase", rec.get("split")) == "calibration":
-                old[rec["id"]] = rec
-    missing = sorted(i for i in old if i not in cases)
-    if missing:
-        ap.error(f"{len(missing)} record(s) from no given config, e.g. {missing[0]}: give its sweep config")
-    a.out.mkdir(parents=True, exist_ok=True)
-    done = {r["id"] for r in read_records(a.out / "records.jsonl")}
     todo = [i for i in sorted(old) if selected(old[i], thr) and i not in done]
     kinds = {}
     for i in todo:
@@ -74,8 +53,6 @@ def main(argv=None) -> int:
     print(f"{len(old)} calibration cases; {len(todo)} to rerun ({kinds}), {len(done)} already done", flush=True)
     if not todo:
         return 0
-    client, cluster = _client(None, a.workers, True)
-    writer = RecordWriter(a.out / "records.jsonl")
     n, t0, differ = [0], time.perf_counter(), []
 
     def on(rec):
@@ -87,17 +64,7 @@ def main(argv=None) -> int:
         print(f"[{n[0]}/{len(todo)}] {rec['id']} ({rec['kind']}): {len(rec.get('calibration_pairs') or [])} pair "
               f"trial(s), {rec['elapsed_s']:.1f} s{'; records differ from the old run' if was != now else ''}",
               flush=True)
-    try:
-        by_cfg = {}
-        for i in todo:
-            cfg, case = cases[i]
-            by_cfg.setdefault(id(cfg), (cfg, []))[1].append(case)
-        for cfg, cs in by_cfg.values():
-            run_cases(cs, "calibration", cfg.discover_config("calibration"), writer, client, on_record=on)
-    finally:
-        writer.close()
-        client.close()
-        cluster.close()
+    rerun_calibration([cases[i] for i in todo], a.out, a.workers, on)
     print(f"done in {time.perf_counter() - t0:.0f} s; {len(differ)} case(s) whose single-candidate records differ "
           f"from the old run{': ' + ', '.join(differ) if differ else ''}")
     return 1 if differ else 0

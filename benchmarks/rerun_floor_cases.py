@@ -19,7 +19,6 @@ one). Synthetic data: :mod:`bpmid.validation`, from the sweep configs and seeds 
 """
 from __future__ import annotations
 
-import argparse
 import concurrent.futures as cf
 import tempfile
 import time
@@ -52,35 +51,15 @@ def left_out_logs(cfg_path: str, case_id: str) -> tuple[str, list[str], float]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("records", nargs="+", type=Path, help="records.jsonl of finished calibration sweeps")
-    ap.add_argument("--configs", nargs="+", required=True, help="the sweep configs the records were made with")
-    ap.add_argument("--out", type=Path, required=True, help="folder for the rerun cases' records.jsonl")
-    ap.add_argument("--workers", type=int, default=2)
-    a = ap.parse_args(argv)
+    from _reruns import rerun_setup
 
-    from bpmid.validation.sweep import RecordWriter, _client, load_sweep, make_cases, read_records, run_cases
+    from bpmid.validation.sweep import rerun_calibration
 
-    cases, cfg_of = {}, {}
-    for c in a.configs:
-        cfg = load_sweep(c)
-        for case in make_cases(cfg.effective_generator, cfg.sweep.seed, prefix=cfg.sweep.name):
-            cases[case.id] = (cfg, case)
-            cfg_of[case.id] = c
-    old = {}
-    for path in a.records:
-        for rec in read_records(path):
-            if rec.get("phase", rec.get("split")) == "calibration":
-                old[rec["id"]] = rec
-    missing = sorted(i for i in old if i not in cases)
-    if missing:
-        ap.error(f"{len(missing)} record(s) from no given config, e.g. {missing[0]}: give its sweep config")
-    a.out.mkdir(parents=True, exist_ok=True)
-    done = {r["id"] for r in read_records(a.out / "records.jsonl")}
+    a, cases, old, done = rerun_setup(__doc__, argv)
     t0 = time.perf_counter()
     todo = []
     with cf.ProcessPoolExecutor(max_workers=a.workers) as ex:
-        futs = [ex.submit(left_out_logs, cfg_of[i], i) for i in sorted(old) if i not in done]
+        futs = [ex.submit(left_out_logs, cases[i][0].path, i) for i in sorted(old) if i not in done]
         for k, f in enumerate(cf.as_completed(futs), 1):
             cid, out, floor = f.result()
             if out:
@@ -93,25 +72,14 @@ def main(argv=None) -> int:
           f"already done ({time.perf_counter() - t0:.0f} s)", flush=True)
     if not todo:
         return 0
-    client, cluster = _client(None, a.workers, True)
-    writer = RecordWriter(a.out / "records.jsonl")
     n = [0]
 
     def on(rec):
         n[0] += 1
         print(f"[{n[0]}/{len(todo)}] {rec['id']} ({rec['kind']}): named {rec.get('named')} (was "
-              f"{old[rec['id']].get('named')}), floor {rec.get('noise_floor_deg')}, {rec['elapsed_s']:.1f} s", flush=True)
-    try:
-        by_cfg = {}
-        for i in todo:
-            cfg, case = cases[i]
-            by_cfg.setdefault(id(cfg), (cfg, []))[1].append(case)
-        for cfg, cs in by_cfg.values():
-            run_cases(cs, "calibration", cfg.discover_config("calibration"), writer, client, on_record=on)
-    finally:
-        writer.close()
-        client.close()
-        cluster.close()
+              f"{old[rec['id']].get('named')}), floor {rec.get('noise_floor_deg')}, {rec['elapsed_s']:.1f} s",
+              flush=True)
+    rerun_calibration([cases[i] for i in todo], a.out, a.workers, on)
     print(f"done in {time.perf_counter() - t0:.0f} s")
     return 0
 

@@ -228,3 +228,20 @@ def test_calibration_section_fills_every_gate_key_it_does_not_set_permissively(t
     cfg = load_sweep(p).discover_config("calibration")
     assert cfg.heldout_gain_min_sigma == cfg.heldout_gain_min_sigma_later == 0.1
     assert cfg.fit_share_min == 0.0
+
+
+def test_a_calibration_case_rerun_on_its_own_is_the_same_run(full_run, tmp_path):
+    """What the calibration reruns rest on (benchmarks/record_pair_trials.py, rerun_floor_cases.py): a case found
+    by id in its config and rerun with the calibration settings writes the record the sweep wrote."""
+    from bpmid.validation.sweep import calibration_records, cases_by_id, rerun_calibration
+
+    out_full, _ = full_run
+    old = calibration_records([out_full / RECORDS])
+    cases = cases_by_id([TINY])
+    assert old and set(old) < set(cases)          # the calibration half of the 4 tiny cases
+    cid = sorted(old)[0]
+    seen = []
+    rerun_calibration([cases[cid]], tmp_path, workers=1, on_record=lambda r: seen.append(r["id"]))
+    new = read_records(tmp_path / RECORDS)
+    assert seen == [cid] and len(new) == 1
+    assert comparable(new) == comparable([old[cid]])

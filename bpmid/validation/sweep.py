@@ -459,6 +459,46 @@ def run_cases(cases: Sequence[Case], phase: str, discover_cfg, writer: RecordWri
     return out
 
 
+def cases_by_id(configs: Sequence[str | Path]) -> dict[str, tuple[SweepConfig, Case]]:
+    """Every case of the given sweep configs (both halves), by id, with the config that makes it."""
+    out = {}
+    for c in configs:
+        cfg = load_sweep(c)
+        for case in make_cases(cfg.effective_generator, cfg.sweep.seed, prefix=cfg.sweep.name):
+            out[case.id] = (cfg, case)
+    return out
+
+
+def calibration_records(paths: Sequence[str | Path]) -> dict[str, dict]:
+    """The records run with the permissive calibration settings in the given records files, by case id (a later
+    file's record of a case replaces an earlier one)."""
+    out = {}
+    for path in paths:
+        for rec in read_records(path):
+            if rec.get("phase", rec.get("split")) == "calibration":
+                out[rec["id"]] = rec
+    return out
+
+
+def rerun_calibration(chosen: Sequence[tuple[SweepConfig, Case]], out: str | Path, workers: Optional[int] = None,
+                      on_record: Optional[Callable[[dict], None]] = None) -> None:
+    """Run the chosen cases again with their config's calibration settings (the permissive run, which records
+    the pair trials too) on a local Dask cluster, streaming each record to ``OUT/records.jsonl``."""
+    client, cluster = _client(None, workers, True)
+    writer = RecordWriter(Path(out) / "records.jsonl")
+    try:
+        by_cfg: dict = {}
+        for cfg, case in chosen:
+            by_cfg.setdefault(id(cfg), (cfg, []))[1].append(case)
+        for cfg, cs in by_cfg.values():
+            run_cases(cs, "calibration", cfg.discover_config("calibration"), writer, client, on_record=on_record)
+    finally:
+        writer.close()
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
 @dataclasses.dataclass
 class SweepOutcome:
     """What :func:`run_sweep` did: records per half, thresholds used or written, the summary of the evaluated
