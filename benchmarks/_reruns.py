@@ -8,11 +8,11 @@ from pathlib import Path
 
 def rerun_setup(doc: str, argv=None):
     """(arguments, cases by id, old calibration records by id, ids already rerun into ``--out``)."""
-    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap = argparse.ArgumentParser(description=doc.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("records", nargs="+", type=Path, help="records.jsonl of finished calibration sweeps")
     ap.add_argument("--configs", nargs="+", required=True, help="the sweep configs the records were made with")
     ap.add_argument("--out", type=Path, required=True, help="folder for the rerun cases' records.jsonl")
-    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--workers", type=int, default=2, help="Dask workers (processes) for the reruns (default 2)")
     a = ap.parse_args(argv)
 
     from bpmid.validation.sweep import calibration_records, cases_by_id, read_records

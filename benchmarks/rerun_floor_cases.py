@@ -5,10 +5,11 @@ check that there is none.
     python benchmarks/rerun_floor_cases.py out/pool-draw12/records.jsonl ... \\
         --configs configs/sweeps/full.yaml ... --out out/floor-reruns [--workers 2]
 
-Run it after any change to the floor's rule: it lists the cases whose floor changed (none, for the shipped rule on
-the shipped calibration records). A case with no log left out gets exactly the floor it had (the same differences, pooled in the same order), so its
-discovery, and its calibration records, are unchanged; only the others are rerun, with the calibration half's
-permissive settings (which record the pair trials too), on Dask. Each case's logs are regenerated from its sweep
+It lists the cases with a log left out (none, for the shipped rule on the shipped calibration records): a case
+with no log left out gets exactly the floor the estimator gave before the rule existed (the same differences,
+pooled in the same order), so its discovery, and its calibration records, are unchanged. It does not detect other
+changes to the estimator. Only the listed cases are rerun, with the calibration half's permissive settings (which
+record the pair trials too), on Dask. Each case's logs are regenerated from its sweep
 config and seed and read back as discovery reads them, to decide. Then
 
     python benchmarks/recalibrate.py <the same records files> out/pair-trials/records.jsonl \\

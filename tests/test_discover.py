@@ -96,7 +96,8 @@ def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
     assert d["split"]["heldout_logs"] == ["ho_va_2.0", "ho_vr_0.16", "ho_mixed", "ho_long_2.0"]
     # the fast cyclic log reads its signal (over 3x the others): named, with the floor without it, and kept
     assert d["noise_floor"]["left_out_logs"] == []
-    assert [c.split(":")[0] for c in d["noise_floor"]["caution"]] == ["fit_cyclic_1.6"]
+    assert [c.split(" reads ")[0] for c in d["noise_floor"]["caution"]] == ["fit_cyclic_1.6"]
+    assert "caution on the noise floor: fit_cyclic_1.6 reads" in d["verdict"]
     assert "provenance" in d and d["provenance"]["inputs"]
     for f in ("residual_before_after.png", "screening_ranking.png", "heldout_error.png", "verdict.txt"):
         assert (out / f).stat().st_size > 0
@@ -227,13 +228,17 @@ def test_noise_floor_leaves_out_a_log_too_fast_for_its_sampling_and_says_when_th
     nf = noise_floor([sine, *steps])
     assert nf["per_log"]["sine_10hz"] > 5 * 0.2
     assert nf["left_out"] == ["sine_10hz"] and abs(nf["sigma_deg"] - 0.2) < 0.03
-    assert len(nf["caution"]) == 1 and nf["caution"][0].startswith("sine_10hz:") and "left out" in nf["caution"][0]
+    assert len(nf["caution"]) == 1 and nf["caution"][0].startswith("sine_10hz reads") and "Left out" in nf["caution"][0]
     only = noise_floor([_sine_log(f"sine_{k}", 10, 2.0, rng) for k in range(3)])
     assert only["left_out"] == [] and only["sigma_deg"] > 2 * 0.2 and any("bound" in c for c in only["caution"])
     near = noise_floor([_sine_log("sine_3s", 10, 3.0, rng), *steps])   # reads ~5 times: named, kept, quantified
     assert near["left_out"] == [] and near["sigma_deg"] > 1.1 * 0.2
-    assert len(near["caution"]) == 1 and near["caution"][0].startswith("sine_3s:")
-    assert "without it" in near["caution"][0]
+    assert len(near["caution"]) == 1 and near["caution"][0].startswith("sine_3s reads")
+    assert f"{near['sigma_deg']:.3g} deg with them" in near["caution"][0] and "without them" in near["caution"][0]
     slow = noise_floor([_sine_log("slow", 10, 8.0, rng), *steps])
     assert slow["caution"] == [] and slow["left_out"] == [] and abs(slow["sigma_deg"] - 0.2) < 0.03
     assert noise_floor(steps)["caution"] == []
+    # a fitting and a held-out log may share a file name: told apart, neither dropped, the sine still left out
+    dup = noise_floor([_sine_log("run", 10, 2.0, rng), steps[0], _step_log("run", 10, rng)])
+    assert dup["left_out"] == ["run (log 1)"] and set(dup["per_log"]) == {"run (log 1)", "steps_0", "run (log 3)"}
+    assert abs(dup["sigma_deg"] - 0.2) < 0.03

@@ -13,6 +13,7 @@ Units: degrees for angles and residuals, Pa for pressure, s for time.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -133,7 +134,7 @@ def noise_floor(logs: Sequence[MotionLog]) -> dict:
     """
     w = _diff_weights(_NOISE_ORDER)
     pooled: list[list[np.ndarray]] = [[] for _ in _NOISE_SPACINGS]
-    per_log, d2_all, pinned = {}, [], []
+    names, own, d2_all, pinned, folders = [], [], [], [], []   # by position: two logs may share a name
     for lg in logs:
         y = np.asarray(lg.angle_deg, float)
         if y.size < 8:
@@ -146,61 +147,78 @@ def noise_floor(logs: Sequence[MotionLog]) -> dict:
             pooled[i].append(d)
             v.append(_robust_var(d) if d.size >= 20 else float("nan"))
         sig_log, rho_log = _fit_ar1(np.array(v), _NOISE_SPACINGS, w)
-        per_log[lg.name] = float(sig_log)
         if np.isfinite(rho_log) and rho_log >= _RHO_MAX - 1e-9:
-            pinned.append(lg.name)
+            pinned.append(len(names))
+        names.append(lg.name)
+        own.append(float(sig_log))
+        folders.append(Path(lg.path).parent.name if getattr(lg, "path", None) else "")
     if not d2_all:
         return {"sigma_deg": float("nan"), "rho": float("nan"), "white_noise_sigma_deg": float("nan"),
-                "per_log": per_log, "method": NOISE_METHOD, "left_out": [], "caution": []}
-    names = list(per_log)
+                "per_log": {}, "method": NOISE_METHOD, "left_out": [], "caution": []}
+    every = set(range(len(names)))
 
-    def pooled_fit(keep):
-        v = np.array([_robust_var(np.concatenate([x for n, x in zip(names, p) if n in keep]))
-                      if sum(x.size for n, x in zip(names, p) if n in keep) >= 20 else float("nan") for p in pooled])
+    def pooled_fit(keep: set):
+        v = np.array([_robust_var(np.concatenate([x for k, x in enumerate(p) if k in keep]))
+                      if sum(x.size for k, x in enumerate(p) if k in keep) >= 20 else float("nan") for p in pooled])
         return _fit_ar1(v, _NOISE_SPACINGS, w)
 
     # a log whose own fit puts the correlation at its bound and reads far above the other logs' floor is measuring
     # its signal, not the sensor's noise (one sensor logs every run): left out of the pooled floor
     signal, high, rest = [], [], float("nan")
     if pinned and len(pinned) < len(names):
-        rest = float(pooled_fit(set(names) - set(pinned))[0])
+        rest = float(pooled_fit(every - set(pinned))[0])
         if np.isfinite(rest):
-            high = [n for n in pinned if per_log[n] > _PINNED_READING_NOTED * rest]
-            signal = [n for n in high if per_log[n] > _SIGNAL_READING_OVER * rest]
-    white = math.sqrt(_robust_var(np.concatenate([d for n, d in zip(names, d2_all) if n not in signal])) / 6.0)
-    sigma, rho = pooled_fit(set(names) - set(signal))
+            high = [k for k in pinned if own[k] > _PINNED_READING_NOTED * rest]
+            signal = [k for k in high if own[k] > _SIGNAL_READING_OVER * rest]
+    white = math.sqrt(_robust_var(np.concatenate([d for k, d in enumerate(d2_all) if k not in signal])) / 6.0)
+    sigma, rho = pooled_fit(every - set(signal))
     if not np.isfinite(sigma):
         sigma, rho = white, 0.0
-    kept = [n for n in high if n not in signal]
-    without = float(pooled_fit(set(names) - set(high))[0]) if kept else float("nan")
+    kept = [k for k in high if k not in signal]
+    without = float(pooled_fit(every - set(high))[0]) if kept else float("nan")
+    # logs that share a file name (fit/run1.csv and holdout/run1.csv) are told apart by their folder, or position
+    shared = {n for n in names if names.count(n) > 1}
+    names = [f"{n} ({folders[k] or f'log {k + 1}'})" if n in shared else n for k, n in enumerate(names)]
+    shared = {n for n in names if names.count(n) > 1}
+    names = [f"{n} #{k + 1}" if n in shared else n for k, n in enumerate(names)]
+    per_log = {n: (v if np.isfinite(v) else white) for n, v in zip(names, own)}
+    reading = {"rest": rest, "sigma": float(sigma), "without": without, "rho": float(rho), "n_logs": len(names)}
     return {"sigma_deg": float(sigma), "rho": float(rho), "white_noise_sigma_deg": float(white),
-            "per_log": {k: (v if np.isfinite(v) else white) for k, v in per_log.items()}, "method": NOISE_METHOD,
-            "left_out": signal, "caution": _noise_caution(signal, kept, len(names), rest, sigma, without, rho)}
+            "per_log": per_log, "method": NOISE_METHOD, "left_out": [names[k] for k in signal],
+            "caution": _noise_caution([(names[k], own[k]) for k in signal], [(names[k], own[k]) for k in kept],
+                                      [names[k] for k in pinned], reading)}
 
 
-def _noise_caution(signal: Sequence[str], high: Sequence[str], n_logs: int, rest: float, sigma: float,
-                   without: float, rho: float) -> list[str]:
-    """What to distrust in a noise reading. The AR(1) fit puts the correlation at its bound when the differences'
-    variance grows with the spacing faster than noise can: slow noise, or signal leaking into them (a smooth
-    pressure profile, e.g. a sine, too fast for the sampling: a few tens of samples per period), which reads high.
-    ``signal``: logs left out; ``high``: logs kept though they read well above the others (``rest``: the floor of
-    the logs not at the bound); ``sigma``, ``rho``: the pooled reading; ``without``: the floor without ``high``."""
-    out = []
+def _logs_reading(logs: Sequence[tuple[str, float]], rest: float) -> str:
+    return ", ".join(f"{n} reads {v:.3g} deg ({v / rest:.0f} times)" for n, v in logs)
+
+
+def _noise_caution(signal: Sequence[tuple[str, float]], high: Sequence[tuple[str, float]], pinned: Sequence[str],
+                   r: dict) -> list[str]:
+    """What to distrust in a noise reading, in sentences. The AR(1) fit puts the correlation at its bound when the
+    differences' variance grows with the spacing faster than noise can: slow noise, or signal leaking into them (a
+    smooth pressure profile, e.g. a sine, too fast for the sampling: a few tens of samples per period), which reads
+    high. ``signal``: (name, own reading) of the logs left out; ``high``: of those kept though they read over
+    :data:`_PINNED_READING_NOTED` times the floor of the logs whose correlation is below the bound (``r["rest"]``);
+    ``pinned``: every log at the bound; ``r``: the pooled reading (``sigma``, ``rho``), the floor without ``high``
+    (``without``) and the number of logs."""
+    out, bound = [], f"noise correlation below the {_RHO_MAX} bound"
     if signal:
-        out.append(f"{', '.join(signal)}: the log's own reading is its signal, not its noise (over "
-                   f"{_SIGNAL_READING_OVER:g} times the {rest:.3g} deg the logs whose noise model is not at its bound "
-                   f"read: the angle changes too fast for the sampling to tell the two apart in its differences); "
-                   f"left out of the floor, which rests on the other {n_logs - len(signal)} log(s)")
+        out.append(f"{_logs_reading(signal, r['rest'])} the {r['rest']:.3g} deg floor of the logs with their {bound}: "
+                   f"over {_SIGNAL_READING_OVER:g} times, that is the signal changing too fast for the sampling, not "
+                   f"noise. Left out; the floor ({r['sigma']:.3g} deg) rests on the other "
+                   f"{r['n_logs'] - len(signal)} log(s)")
     if high:
-        out.append(f"{', '.join(high)}: the log's own reading is over {_PINNED_READING_NOTED:g} times the "
-                   f"{rest:.3g} deg of the logs whose noise model is not at its bound, with its correlation at the "
-                   f"bound (signal in its differences, or slow noise); kept in the floor ({sigma:.3g} deg; "
-                   f"{without:.3g} deg without it)")
-    if np.isfinite(rho) and rho >= _RHO_MAX - 1e-9:
-        out.append(f"the pooled reading put the noise's lag-1 correlation at its bound ({_RHO_MAX}): either the "
-                   "noise is that slow (drift) or the signal leaked into the differences, and the floor may be too "
-                   "high; it is capped by the base fit's RMSE on the fitting logs. Log faster than the pressure "
-                   "changes (at least ~50 samples per cycle) or add holds and ramps to the protocol")
+        out.append(f"{_logs_reading(high, r['rest'])} the {r['rest']:.3g} deg floor of the logs with their {bound}, "
+                   f"with their own correlation at the bound: signal in the differences, or slow noise. Kept; the "
+                   f"floor is {r['sigma']:.3g} deg with them and {r['without']:.3g} deg without them")
+    if np.isfinite(r["rho"]) and r["rho"] >= _RHO_MAX - 1e-9:
+        who = (f" (every log's own reading is at the bound too: {', '.join(pinned)})"
+               if pinned and len(pinned) == r["n_logs"] else "")
+        out.append(f"the pooled reading put the noise's lag-1 correlation at its {_RHO_MAX} bound{who}: either the "
+                   "noise is that slow (drift) or the signal leaked into the differences, and the floor may read "
+                   "high (discovery caps it at the base fit's RMSE on the fitting logs when that is lower). Log "
+                   "faster than the pressure changes (at least ~50 samples per cycle) or add holds and ramps")
     return out
 
 

@@ -403,7 +403,8 @@ def _pair_member_explanation(c: Confirmation, rnd: Round, floor: float, s, e) ->
 
 def make_verdict(named: list[str], rounds: list[Round], before: float, after: float, floor: float,
                  unexplained: bool, variation: Optional[dict] = None, thr: Optional[dict] = None,
-                 base_fit: Optional[dict] = None, raw_after: Optional[float] = None) -> str:
+                 base_fit: Optional[dict] = None, raw_after: Optional[float] = None,
+                 noise: Optional[dict] = None) -> str:
     lines = []
     for r in rounds:
         if r.accepted:
@@ -431,6 +432,8 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
                      f"take the reporting margin: nothing left to explain")
     if base_fit is not None and not base_fit.get("converged", True):
         lines.append(f"caution: the base fit did not converge ({base_fit.get('message')})")
+    for c in (noise or {}).get("caution") or []:
+        lines.append(f"caution on the noise floor: {c}")
     if thr is not None:
         lines.append("gate: " + gate_in_words(thr))
     return "\n".join(lines)
@@ -595,7 +598,10 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         # the noise cannot exceed what the fitted base model leaves on the fitting logs: a coloured-noise estimate
         # above it mistook slow signal for noise
         noise = dict(noise, sigma_deg=float(res.rmse), capped_by_base_fit=True,
-                     method=noise.get("method", "") + "; capped by the base fit's RMSE on the fitting logs")
+                     method=noise.get("method", "") + "; capped by the base fit's RMSE on the fitting logs",
+                     caution=list(noise.get("caution") or [])
+                     + [f"the floor used is {res.rmse:.3g} deg, the base fit's RMSE on the fitting logs: the noise "
+                        f"reading above ({noise['sigma_deg']:.3g} deg) cannot exceed what the model leaves"])
         floor = noise["sigma_deg"]
     base_gain = gain
     before = scored_rmse(state, ho_logs, per_log_gain=base_gain)
@@ -716,7 +722,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     raw_after = rmse_deg(residuals(state, ho_logs))
     unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor)
     variation = log_to_log_variation(state, ho_logs, raw_after, floor, cfg) if unexplained else None
-    verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after)
+    verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after,
+                           noise)
     return DiscoveryResult(named, rounds, noise, base_state, state, list(fit_logs), list(ho_logs), before, after,
                            thr, unexplained, verdict, how, time.perf_counter() - t0, variation, base_report,
                            raw_before, raw_after, base_gain)
