@@ -13,7 +13,6 @@ gate (a held-out half) are never read: the draw that scores the shipped gate mus
 from __future__ import annotations
 
 import argparse
-import json
 from collections import Counter
 from pathlib import Path
 
@@ -37,22 +36,18 @@ def main(argv=None) -> int:
 
     from bpmid.discover.calibrate import (_case_outcome, case_records, pair_records, thresholds_from_records,
                                           write_thresholds)
-    from bpmid.validation.sweep import GENERATOR, load_sweep
+    from bpmid.validation.sweep import GENERATOR, calibration_records, load_sweep
 
     missing = [str(p) for p in [*a.records, *a.rerun] if not p.is_file()]
     if missing:
         ap.error(f"records file not found: {', '.join(missing)} (a finished sweep's OUT/records.jsonl)")
     cfgs = [load_sweep(c) for c in a.configs]
-    by_id = {}
-    for path in a.records:
-        for r in (json.loads(line) for line in open(path) if line.strip()):
-            if r.get("phase", r.get("split")) == "calibration":
-                by_id[r["id"]] = r
+    by_id = calibration_records(a.records)
     replaced = 0
     for path in a.rerun:   # a case rerun (e.g. with its pair trials recorded) replaces its record; others ignored
-        for r in (json.loads(line) for line in open(path) if line.strip()):
-            if r.get("phase", r.get("split")) == "calibration" and r["id"] in by_id:
-                by_id[r["id"]] = r
+        for i, r in calibration_records([path]).items():
+            if i in by_id:
+                by_id[i] = r
                 replaced += 1
     recs = list(by_id.values())
     if a.rerun:

@@ -26,27 +26,19 @@ import time
 from pathlib import Path
 
 
-def left_out_logs(cfg_path: str, case_id: str) -> tuple[str, list[str], float]:
+def left_out_logs(case) -> tuple[str, list[str], float]:
     """(case id, the logs the noise floor leaves out, the floor in deg) of one case, from its logs as written."""
     import shutil
 
-    from bpmid.config import load_config
     from bpmid.discover.diagnose import noise_floor
-    from bpmid.io.motion_logs import read_motion_logs
-    from bpmid.validation.sweep import case_paths, load_sweep, make_cases, realize, write_case
+    from bpmid.validation.sweep import read_written_case, realize, write_case
 
-    cfg = load_sweep(cfg_path)
-    case = next(c for c in make_cases(cfg.effective_generator, cfg.sweep.seed, prefix=cfg.sweep.name)
-                if c.id == case_id)
     root = Path(tempfile.mkdtemp(prefix="bpmid-floor-"))
     try:
         write_case(realize(case), root)
-        paths = case_paths(root / case.id)
-        io = load_config(paths["config"]).section("io")
-        logs = (read_motion_logs(paths["fit"], io, require_angle=True)
-                + read_motion_logs(paths["holdout"], io, require_angle=True))
-        nf = noise_floor(logs)
-        return case_id, list(nf["left_out"]), float(nf["sigma_deg"])
+        _, _, fit, ho = read_written_case(root / case.id)
+        nf = noise_floor(fit + ho)
+        return case.id, list(nf["left_out"]), float(nf["sigma_deg"])
     finally:
         shutil.rmtree(root, ignore_errors=True)
 
@@ -60,7 +52,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     todo = []
     with cf.ProcessPoolExecutor(max_workers=a.workers) as ex:
-        futs = [ex.submit(left_out_logs, cases[i][0].path, i) for i in sorted(old) if i not in done]
+        futs = [ex.submit(left_out_logs, cases[i][1]) for i in sorted(old) if i not in done]
         for k, f in enumerate(cf.as_completed(futs), 1):
             cid, out, floor = f.result()
             if out:

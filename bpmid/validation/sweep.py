@@ -235,10 +235,8 @@ def calibration_truth(case_kind: str, truth_ids: Sequence[str]) -> Optional[str]
 def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = None) -> dict:
     """Simulate, write, read back and discover one case; a record (plain JSON types). Never raises for a case
     discovery cannot judge: the record says ``error``."""
-    from bpmid.config import load_config
     from bpmid.discover.calibrate import pair_records_from_result, records_from_result
     from bpmid.discover.workflow import discover
-    from bpmid.io.motion_logs import read_motion_logs
     from bpmid.progress import set_quiet
 
     set_quiet(True)
@@ -257,11 +255,8 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
     try:
         root = Path(keep_dir) if keep_dir else Path(tmp := tempfile.mkdtemp(prefix="bpmid-oof-"))
         write_case(data, root)
-        paths = case_paths(root / case.id)
         try:  # as ``bpmid discover fit/*.csv --holdout holdout/*.csv --init init.yaml --config case.yaml``
-            cfg = load_config(paths["config"])
-            fit = read_motion_logs(paths["fit"], cfg.section("io"), require_angle=True)
-            ho = read_motion_logs(paths["holdout"], cfg.section("io"), require_angle=True)
+            paths, cfg, fit, ho = read_written_case(root / case.id)
             base = _load_base(paths["init"], cfg)
             res = discover(fit, base, holdout=ho, cfg=discover_cfg)
         except InputError as exc:  # includes ConvergenceError: discovery declined to judge
@@ -289,6 +284,19 @@ def run_case(case: Case, phase: str, discover_cfg, keep_dir: Optional[str] = Non
     t2 = time.perf_counter()
     rec.update({"generate_s": round(t1 - t0, 3), "discover_s": round(t2 - t1, 3), "elapsed_s": round(t2 - t0, 3)})
     return json.loads(json.dumps(_fix_nan(rec), default=_json_default))   # as written: NaN -> None
+
+
+def read_written_case(case_dir: str | Path):
+    """(paths, config, fitting logs, held-out logs) of a case written by :func:`write_case`, read as ``bpmid
+    discover fit/*.csv --holdout holdout/*.csv --config case.yaml`` reads them."""
+    from bpmid.config import load_config
+    from bpmid.io.motion_logs import read_motion_logs
+
+    paths = case_paths(Path(case_dir))
+    cfg = load_config(paths["config"])
+    fit = read_motion_logs(paths["fit"], cfg.section("io"), require_angle=True)
+    ho = read_motion_logs(paths["holdout"], cfg.section("io"), require_angle=True)
+    return paths, cfg, fit, ho
 
 
 def discover_settings(discover_cfg) -> dict:
