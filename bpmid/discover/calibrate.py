@@ -25,6 +25,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import yaml
 
+from bpmid.discover.rivals import own_shape
 from bpmid.effects.base import AugmentedVBMM, Effect
 from bpmid.io.motion_logs import ATMOSPHERE_PA, MotionLog, from_arrays
 from bpmid.models.vbmm import VBMM, Material
@@ -48,7 +49,7 @@ TO_FLOOR_RATIO = 1.0
 PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
               "fit_share_waived_above_sigma": 0.0, "heldout_gain_min_sigma_later": -1e9,
               "to_floor_drop_min_sigma": 0.0, "to_floor_ratio_max": 1e9, "max_effects": 2, "record_pair_trials": True,
-              "identifiable_waived_above_sigma": math.inf}
+              "identifiable_waived_above_sigma": math.inf, "withhold_for_rivals": False}
 SCHEMA = "bpmid.discover-thresholds/1"
 
 
@@ -200,6 +201,8 @@ class Record:
     named_before: str = ""  # the effects added before this round, joined by "+" (the permissive run's path)
     drop_sigma: float = float("nan")        # held-out error removed, sqrt(before^2 - after^2), in noise floors
     after_over_floor: float = float("nan")  # held-out RMSE with the candidate, in noise floors
+    rival: bool = False   # the round's rival outside the catalogue (bpmid.discover.rivals), never a candidate
+    own_shape: bool = False  # a rival's fit needed what only it has (rivals.own_shape)
 
     def __post_init__(self):
         _floats(self, ("gain_sigma", "delta_bic", "gap_share", "lr_p", "lr_p_holm", "fit_share", "drop_sigma",
@@ -267,6 +270,14 @@ def records_from_result(truth: str, result, case: str | None = None, kind: str =
                               bool(c.tested), bool(c.identifiable), case, float(c.fit_share), kind,
                               "+".join(named_before), float(c.drop_sigma),
                               float(c.heldout_rmse_after) / result.noise_floor_deg))
+        if rnd.rival is not None:
+            c = rnd.rival
+            out.append(Record(truth, k, c.effect_id, float(c.heldout_gain_sigma), float(c.delta_bic),
+                              bool(truths & set(named_before)), float(c.gap_share), float(c.lr_p), float(c.lr_p),
+                              bool(c.tested), bool(c.identifiable), case, float(c.fit_share), kind,
+                              "+".join(named_before), float(c.drop_sigma),
+                              float(c.heldout_rmse_after) / result.noise_floor_deg, rival=True,
+                              own_shape=bool(own_shape(c))))
         if rnd.accepted:
             named_before.append(rnd.accepted)
     return out
@@ -315,7 +326,8 @@ def fit_share_waiver(records: Sequence[Record]) -> float:
     an identifiable parameter is not asked either (``identifiable_waived_above_sigma``): two parameters that trade
     off (a softening linear in time: only the amount over the time constant is determined) leave none identifiable
     alone, although the effect is plainly needed; its constants are then reported as not determined separately."""
-    neg = [r.gain_sigma for r in records if r.truth == "none" and r.round == 1 and math.isfinite(r.gain_sigma)]
+    neg = [r.gain_sigma for r in records if r.truth == "none" and r.round == 1 and not r.rival
+           and math.isfinite(r.gain_sigma)]
     return math.ceil(max(neg) * 100.0 - 1e-9) / 100.0 if neg else math.inf
 
 
@@ -326,18 +338,30 @@ def _passes_to_floor(r: Record, drop: float, alpha: float, ratio: float = TO_FLO
 
 
 def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
-                   to_floor: float = math.inf, to_floor_ratio: float = TO_FLOOR_RATIO) -> str | None:
+                   to_floor: float = math.inf, to_floor_ratio: float = TO_FLOOR_RATIO,
+                   withhold: bool = True) -> str | None:
     """The candidate a round names: the largest held-out gain among those passing the gate; when none does, the
     largest held-out drop among those leaving the held-out error at most ``to_floor_ratio`` floors with a drop of
-    ``to_floor``."""
-    passing = [r for r in recs if _passes(r, g, share, alpha, fit_share, waive)]
+    ``to_floor``; None also when the round's rival outside the catalogue withholds that candidate
+    (:func:`rival_withholds`; ``withhold=False``: the candidate before that check)."""
+    cands = [r for r in recs if not r.rival]
+    passing = [r for r in cands if _passes(r, g, share, alpha, fit_share, waive)]
     if passing:
-        return max(passing, key=lambda r: r.gain_sigma).candidate
+        best = max(passing, key=lambda r: r.gain_sigma)
+        return None if withhold and rival_withholds(recs, best.after_over_floor, alpha) else best.candidate
     if math.isfinite(to_floor):
-        passing = [r for r in recs if _passes_to_floor(r, to_floor, alpha, to_floor_ratio)]
+        passing = [r for r in cands if _passes_to_floor(r, to_floor, alpha, to_floor_ratio)]
         if passing:
-            return max(passing, key=lambda r: r.drop_sigma).candidate
+            best = max(passing, key=lambda r: r.drop_sigma)
+            return None if withhold and rival_withholds(recs, best.after_over_floor, alpha) else best.candidate
     return None
+
+
+def rival_withholds(recs: Sequence[Record], named_after_over_floor: float, alpha: float) -> bool:
+    """Whether a rival outside the catalogue among one round's records takes the round from an effect leaving
+    ``named_after_over_floor`` (:func:`bpmid.discover.rivals.beats`; records without a rival: never)."""
+    return any(r.rival and r.tested and r.own_shape and math.isfinite(r.lr_p) and r.lr_p < alpha
+               and math.isfinite(r.after_over_floor) and r.after_over_floor < named_after_over_floor for r in recs)
 
 
 def _pair_named(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, alpha: float, pair_share: float,
@@ -355,6 +379,10 @@ def _pair_named(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, a
     if not ok:
         return None
     q = max(ok, key=lambda q: q.gain_sigma)
+    r1 = [r for r in recs if r.round == 1]
+    alone = [r.after_over_floor for r in r1 if not r.rival and r.candidate in (q.first, q.second)]
+    if alone and rival_withholds(r1, min(alone), alpha):
+        return None
     return q.first, q.second
 
 
@@ -404,7 +432,7 @@ def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
     when round 1 names nothing (:func:`_pair_named`; inf: no such path)."""
     truth = recs[0].truth
     if math.isfinite(pair_share) and pairs and _first_passing([r for r in recs if r.round == 1], g, share, alpha,
-                                                                fit_share, waive, to_floor) is None:
+                                                                fit_share, waive, to_floor, withhold=False) is None:
         named = _pair_named(recs, pairs, g, alpha, pair_share, pair_gain)
         if named is not None:
             return _pair_path_outcome(truth, named)
@@ -484,8 +512,9 @@ def _tally_gains(cases: Sequence[Sequence[Record]], gains: np.ndarray, sh: float
     neg_inf = -math.inf
 
     def best(recs):
-        ok = [r for r in recs if _passes(r, neg_inf, sh, a, fs, waive)]
-        return max(ok, key=lambda r: r.gain_sigma) if ok else None
+        ok = [r for r in recs if not r.rival and _passes(r, neg_inf, sh, a, fs, waive)]
+        b = max(ok, key=lambda r: r.gain_sigma) if ok else None
+        return None if b is None or rival_withholds(recs, b.after_over_floor, a) else b
 
     for recs in cases:
         truth, kind = recs[0].truth, recs[0].kind
@@ -624,7 +653,7 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
     pair_share, pair_gain, t = _pair_path_from(cases, by_case_pairs, (g, sh, a, fs, waive, g_later), to_floor, t,
                                                allowed)
     pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate in r.truth.split("+")]
-    neg = [r for r in records if r.truth == "none" or (r.truth_in_model and "+" not in r.truth)]
+    neg = [r for r in records if not r.rival and (r.truth == "none" or (r.truth_in_model and "+" not in r.truth))]
     return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
             "fit_share_waived_above_sigma": waive, "heldout_gain_min_sigma_later": g_later,
             "to_floor_drop_min_sigma": to_floor, "to_floor_ratio_max": TO_FLOOR_RATIO,

@@ -27,6 +27,10 @@ within the floor's own uncertainty, so the gap-based gain and shares say little,
 fitting share to measure; the drop is still measured on logs the effect was not fitted on. Why the gate refused
 the candidate is reported beside it. Its drop is calibrated like the rest of the gate.
 
+Whatever a round would name is held against a rival outside the catalogue (:mod:`bpmid.discover.rivals`: payload
+inertia that rings), refitted and scored the same way; when the rival explains the held-out logs better and needs
+its own shape, nothing is named that round and the remainder is reported unexplained.
+
 Among the candidates that pass, the one with the largest confirmed held-out gain is added (the leading
 ``n_confirm`` screened candidates, by default all, are confirmed, so screening order never decides); when several pass,
 each one's gain is reported with why the winner won. A BIC is reported, never a gate. With ``per_log_gain``
@@ -45,6 +49,7 @@ import numpy as np
 from bpmid.discover.calibrate import THRESHOLD_KEYS as GATE_KEYS, later_gain_follows, load_thresholds
 from bpmid.discover.confirm import Confirmation, PairTrial, confirm, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
+from bpmid.discover.rivals import RIVALS, check_rival, own_shape, rival_constants
 from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, residuals, rmse_deg,
                                   scored_rmse, sensitivities, simulate, stacked)
 from bpmid.discover.screen import ScreenResult, screen
@@ -96,6 +101,9 @@ class DiscoverConfig:
         (None: calibrated)
     record_pair_trials : refit the leading pairs of the first round together even when a candidate passes (the
         calibration runs record them; they never change what is named)
+    withhold_for_rivals : a round names nothing when a rival outside the catalogue (:mod:`bpmid.discover.rivals`:
+        payload inertia that rings) explains the held-out logs better than the effect it would name; False (the
+        calibration runs): every round's rival is refitted and recorded, and decides nothing
     per_log_gain : score with one stiffness-like gain per log (log-to-log variation is not an effect)
     per_log_constants : give every log its own small factors on K_inf, the branch moduli and the time
         constants instead of the gain (first order, :class:`~bpmid.discover.model.LogNuisance`): log-to-log
@@ -126,6 +134,7 @@ class DiscoverConfig:
     pair_share_min: Optional[float] = None
     pair_gain_min_sigma: Optional[float] = None
     record_pair_trials: bool = False
+    withhold_for_rivals: bool = True
     per_log_gain: bool = True
     per_log_constants: bool = True
     unexplained_gap_sigma: float = 0.5
@@ -201,6 +210,11 @@ def gate_in_words(thr: dict) -> str:
                if math.isfinite(float(thr.get("identifiable_waived_above_sigma", math.inf))) else "")
             + "; of several that pass, "
             f"the largest held-out gain wins" + _to_floor_words(thr) + _pair_path_words(thr)
+            + ". Whatever a round would name, a rival outside the catalogue (payload inertia that rings: an "
+              "underdamped response of the angle) is refitted beside it; when the rival passes the likelihood-ratio "
+              f"test at {thr['family_alpha']:.2g} uncorrected, needs its own shape (damping off its bound of "
+              "0.5) and leaves a lower held-out RMSE, nothing is named that round (a catalogue effect would only "
+              "imitate it)"
             + ". BIC is reported, never a gate")
 
 
@@ -243,6 +257,10 @@ class Round:
     pair_trials: list = dataclasses.field(default_factory=list)
     #: a round that only records the second of two effects named together in the round before
     joint_with: str = ""
+    #: the rival outside the catalogue refitted this round (:mod:`bpmid.discover.rivals`), and why it withheld the
+    #: effect the round would have named ("" when it did not)
+    rival: Optional[Confirmation] = None
+    withheld: str = ""
 
 
 @dataclasses.dataclass
@@ -332,7 +350,8 @@ class DiscoveryResult:
                         "confirmed": [c.to_yaml() for c in rnd.confirmations], "accepted": rnd.accepted,
                         "competition": rnd.competition or None,
                         "pairs_refitted_together": [pt.to_yaml() for pt in rnd.pair_trials] or None,
-                        "named_together_with": rnd.joint_with or None}
+                        "named_together_with": rnd.joint_with or None,
+                        "rival_outside_catalogue": rival_yaml(rnd, self.thresholds, floor)}
                        for rnd in self.rounds],
             "base_model": {p.name: p.to_yaml() for p in self.base_state.params},
             "final_model": {p.name: p.to_yaml() for p in self.final_state.params},
@@ -343,6 +362,26 @@ class DiscoveryResult:
 # ---------------------------------------------------------------------------------------------
 # plain-language evidence
 # ---------------------------------------------------------------------------------------------
+def rival_yaml(rnd: Round, thr: dict, floor: float) -> Optional[dict]:
+    """The round's rival outside the catalogue (:mod:`bpmid.discover.rivals`) for ``discovery.yaml``: its
+    evidence, constants, whether its fit needs what only it has, and whether it withheld the round's effect."""
+    c = rnd.rival
+    if c is None:
+        return None
+    return {"effect": c.effect_id, "meaning": type(c.state.effects[-1]).meaning,
+            "constants": {k: round(v, 4) for k, v in rival_constants(c).items()},
+            "needs_its_own_shape": own_shape(c), "withheld_the_round": bool(rnd.withheld),
+            "reason": rnd.withheld or None,
+            "heldout_rmse_after_deg": round(c.heldout_rmse_after, 4),
+            "heldout_rmse_after_in_noise_floors": round(c.heldout_rmse_after / floor, 4),
+            "fit_rmse_after_deg": round(c.fit_rmse_after, 4),
+            "likelihood_ratio_p": float(f"{c.lr_p:.3g}"), "tested": bool(c.tested),
+            "not_tested_reason": c.not_tested_reason or None,
+            "rule": "withholds the round's effect when tested, p < family_alpha "
+                    f"({thr.get('family_alpha', math.nan):.3g}), its own shape needed, and its held-out RMSE below "
+                    "that effect's"}
+
+
 def residual_feature(diag: dict) -> str:
     """The residual's most salient feature, in words, from the conditional summaries."""
     c = diag["conditional"]
@@ -411,11 +450,17 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
             lines.append(rnd_explanation(next(c for c in r.confirmations if c.effect_id == r.accepted), r, floor))
             if r.competition:
                 lines.append(r.competition)
+    for r in rounds:
+        if r.withheld:
+            lines.append(r.withheld.replace("withheld: ", "nothing named: ", 1))
     not_tested = [c for r in rounds for c in r.confirmations if not c.tested]
     if not_tested:
         lines.append("not tested (no evidence either way): " + "; ".join(
             f"{c.effect_id}: {c.not_tested_reason}" for c in not_tested))
-    if not named:
+    if not named and any(r.withheld for r in rounds):
+        lines.append(f"no catalogue effect named: the one that passed imitates an effect outside the catalogue "
+                     f"(held-out error {before:.2f} deg, noise floor {floor:.2f} deg)")
+    elif not named:
         lines.append(f"no missing effect found: no catalogue effect improved the held-out error "
                      f"({before:.2f} deg, noise floor {floor:.2f} deg) enough to pass")
     raw_after = after if raw_after is None else raw_after
@@ -661,6 +706,32 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                                                 "at once in this gate")])
                 pt.accepted = not pt.reasons
         won = [pt for pt in trials if pt.accepted]
+        best_single = max(passing, key=(lambda c: c.drop_sigma) if passing and passing[0].passed_by == "floor"
+                          else (lambda c: c.heldout_gain_sigma)) if passing else None
+        rival, withheld = None, ""
+        if best_single is not None or won or not cfg.withhold_for_rivals:
+            # the rival outside the catalogue, refitted and scored like the candidates
+            rival = confirm(state, RIVALS[0](), fit_logs, ho_logs, noise_floor_deg=floor,
+                            base_fit_residual=stacked(parts), heldout_before=ho_now, max_nfev=cfg.confirm_max_nfev,
+                            nuisance=J, per_log_gain=gain)
+            if won:
+                pt = max(won, key=lambda x: x.gain_sigma)
+                named_id = "+".join(pt.ids)
+                named_after = min(pt.first.heldout_rmse_after, pt.second.heldout_rmse_after)
+            elif best_single is not None:
+                named_id, named_after = best_single.effect_id, best_single.heldout_rmse_after
+            if won or best_single is not None:
+                withheld = check_rival(rival, named_id, named_after, thr["family_alpha"], floor) or ""
+        if withheld and cfg.withhold_for_rivals:
+            for c in passing:
+                c.accepted, c.passed_by = False, ""
+                c.reasons = [withheld]
+            for pt in won:
+                pt.accepted = False
+                pt.reasons = [withheld]
+            rounds.append(Round(diag, ranking, confs, None, family, "", trials, rival=rival, withheld=withheld))
+            note(f"discover: round {k + 1}: nothing named: " + withheld.split(":", 1)[1].split(";")[0].strip())
+            break
         if won:
             pt = max(won, key=lambda x: x.gain_sigma)
             for x in won:
@@ -675,7 +746,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 c.named_with = b.state    # the constants named are the joint refit's
             b.lr_p_holm = pt.p_corrected  # its test beside the first, Bonferroni over the pairs tried
             words = pair_words(pt, floor)
-            rounds.append(Round(diag, ranking, confs, a.effect_id, family, words, trials))
+            rounds.append(Round(diag, ranking, confs, a.effect_id, family, words, trials, rival=rival))
             # the second's record: its evidence beside the first, on the residual the first left
             parts_a = gained_residuals(simulate(a.state, fit_logs), fit_logs, per_log_gain=gain)
             rounds.append(Round(diagnose(fit_logs, parts_a), [x for x in ranking if x.effect_id != a.effect_id],
@@ -708,7 +779,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 c.accepted, c.passed_by = False, ""
                 c.reasons = [f"passed, but {best.effect_id} explains the held-out logs better "
                              f"({what_vs}{score(best):.2f} vs {score(c):.2f} noise floors)"]
-        rounds.append(Round(diag, ranking, confs, best.effect_id if best else None, family, competition, trials))
+        rounds.append(Round(diag, ranking, confs, best.effect_id if best else None, family, competition, trials,
+                            rival=rival))
         if best is None:
             break
         named.append(best.effect_id)

@@ -165,3 +165,42 @@ def lag(t: np.ndarray, x: np.ndarray, tau: float) -> np.ndarray:
 def delay(t: np.ndarray, x: np.ndarray, d: float) -> np.ndarray:
     """Dead time of ``d`` (s) on (N,) ``x`` sampled at (N,) ``t`` (s)."""
     return delay_kernel(np.ascontiguousarray(t, float), np.ascontiguousarray(x, float), float(d))
+
+
+@numba.njit(cache=True)
+def ring_step(y, v, x_prev, x, dt, period, zeta):  # pragma: no cover - compiled
+    """One step of the underdamped second-order filter y'' + 2 zeta w y' + w^2 y = w^2 x (w = 2 pi / period,
+    0 < zeta < 1), exact for an input linear between samples: with x = x_prev + s (t - t_prev) the particular
+    solution is x - 2 zeta s / w, and the rest rings freely. Returns (y, y')."""
+    w = 2.0 * math.pi / period
+    s = (x - x_prev) / dt if dt > 0.0 else 0.0
+    sig = zeta * w
+    wd = w * math.sqrt(1.0 - zeta * zeta)
+    e0 = y - (x_prev - 2.0 * zeta * s / w)
+    e1 = v - s
+    ex = math.exp(-sig * dt)
+    c = math.cos(wd * dt)
+    sn = math.sin(wd * dt)
+    f0 = ex * (e0 * c + (e1 + sig * e0) / wd * sn)
+    f1 = ex * (e1 * c - (w * w * e0 + sig * e1) / wd * sn)
+    return x - 2.0 * zeta * s / w + f0, s + f1
+
+
+@numba.njit(cache=True)
+def ring_kernel(t, x, period, zeta):  # pragma: no cover - compiled
+    """The underdamped second-order filter of :func:`ring_step` over a signal, starting at rest (y_0 = x_0,
+    y'_0 = 0). period <= 0 returns a copy of x."""
+    n = x.size
+    y = x.copy()
+    if period <= 0.0 or n == 0:
+        return y
+    v = 0.0
+    for k in range(1, n):
+        y[k], v = ring_step(y[k - 1], v, x[k - 1], x[k], t[k] - t[k - 1], period, zeta)
+    return y
+
+
+def ring(t: np.ndarray, x: np.ndarray, period: float, zeta: float) -> np.ndarray:
+    """Underdamped second-order response of natural ``period`` (s) and damping ratio ``zeta`` (0 < zeta < 1) to
+    (N,) ``x`` sampled at (N,) ``t`` (s) (see :func:`ring_kernel`)."""
+    return ring_kernel(np.ascontiguousarray(t, float), np.ascontiguousarray(x, float), float(period), float(zeta))

@@ -1,0 +1,72 @@
+"""Record the rival outside the catalogue (bpmid.discover.rivals) on finished calibration sweeps: rerun every
+calibration case with the calibration half's permissive settings, which refit and record each round's rival.
+
+    python benchmarks/record_rivals.py out/pool-draw12/records.jsonl ... [--rerun out/pair-trials/records.jsonl] \\
+        --configs configs/sweeps/full.yaml ... --out out/rival-records [--workers 2]
+
+Calibration records written before the rival existed lack it, and the rival can withhold a name in any round, so
+every case is rerun (on Dask, resumable: cases already in ``OUT/records.jsonl`` are skipped). The rival is refitted
+after the candidates and changes nothing they record, so a rerun's candidate records must equal the old ones (and
+its pair trials the old reruns' where there were any): a case whose records differ is reported, and the script
+then exits 1. Then
+
+    python benchmarks/recalibrate.py <the same records files> --rerun out/pair-trials/records.jsonl \\
+        out/rival-records/records.jsonl --configs ... --write
+
+calibrates the gate with the rival's rule in force (a later file's record of a case replaces the earlier one).
+Synthetic data: :mod:`bpmid.validation`, from the sweep configs and seeds given.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+
+def _candidates(rec: dict) -> list:
+    """The candidate records of a case (the rival's left out), as comparable tuples."""
+    return [(x["candidate"], x["round"], x["gain_sigma"], x["lr_p"], x.get("drop_sigma"))
+            for x in rec.get("calibration_records") or [] if not x.get("rival")]
+
+
+def main(argv=None) -> int:
+    import sys
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    rerun = []
+    if "--rerun" in argv:   # old reruns (pair trials) replace the old records they rerun, for the comparison
+        i = argv.index("--rerun")
+        j = i + 1
+        while j < len(argv) and not argv[j].startswith("--"):
+            rerun.append(Path(argv[j]))
+            j += 1
+        del argv[i:j]
+    from _reruns import rerun_setup
+
+    from bpmid.validation.sweep import calibration_records, rerun_calibration
+
+    a, cases, old, done = rerun_setup(__doc__, argv)
+    for i, r in calibration_records(rerun).items():
+        if i in old:
+            old[i] = r
+    todo = [i for i in sorted(old) if old[i].get("calibration_records") and i not in done]
+    print(f"{len(old)} calibration cases; {len(todo)} to rerun, {len(done)} already done", flush=True)
+    if not todo:
+        return 0
+    n, t0, differ = [0], time.perf_counter(), []
+
+    def on(rec):
+        n[0] += 1
+        same = _candidates(old[rec["id"]]) == _candidates(rec)
+        if not same:
+            differ.append(rec["id"])
+        rv = [x for x in rec.get("calibration_records") or [] if x.get("rival")]
+        print(f"[{n[0]}/{len(todo)}] {rec['id']} ({rec['kind']}): {len(rv)} rival record(s), "
+              f"{rec['elapsed_s']:.1f} s{'' if same else '; candidate records differ from the old run'}", flush=True)
+    rerun_calibration([cases[i] for i in todo], a.out, a.workers, on)
+    print(f"done in {time.perf_counter() - t0:.0f} s; {len(differ)} case(s) whose candidate records differ from the "
+          f"old run{': ' + ', '.join(differ) if differ else ''}")
+    return 1 if differ else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,122 @@
+"""Rivals: explanations outside the catalogue that discovery tests against the effect it is about to name.
+
+An effect the catalogue cannot represent still leaves a residual, and some catalogue entry usually takes part of
+it up: a payload on the tip that rings after every change of the pressure rate adds delay, and a pressure lag
+(one or two first-order lags: it cannot overshoot) removes much of that delay. Judged only against the other
+catalogue entries, the lag would be named. A rival is a model term for such an outside effect, refitted and scored
+exactly like a candidate (:func:`bpmid.discover.confirm.confirm`: the same starts, nuisance and held-out logs);
+when it explains the held-out logs better than the effect the round would name, and it needs what only it has,
+nothing is named that round and the remainder is reported unexplained, with the rival's constants as a clue.
+
+Rivals are never named: they stand for physics the catalogue lacks, so naming them would claim more than the test
+shows (that the residual rings, not that it is a payload). The rule has no calibrated number:
+
+1. the rival was tested (its refit moved) and passes the round's likelihood-ratio test on the fitting logs
+   (uncorrected p below the family-wise level, stricter than the candidates' Holm-corrected one);
+2. it fits what only it can do: :class:`PayloadInertia`'s damping ratio stays inside its range, not on the upper
+   bound 0.5 (at the bound the data asked for a response that does not overshoot, which a lag represents);
+3. its held-out RMSE is below the named candidate's (for two effects named together, below the better of the two
+   alone).
+"""
+from __future__ import annotations
+
+import math
+from typing import ClassVar, Optional
+
+import numpy as np
+
+from bpmid.discover.confirm import Confirmation
+from bpmid.effects import _kernels
+from bpmid.effects.base import Effect
+from bpmid.io.motion_logs import MotionLog
+from bpmid.params import Param, ParamSet
+
+
+class PayloadInertia(Effect):
+    """A payload on the tip whose inertia makes the measured angle ring: the sensor sees the muscle's angle through
+    an underdamped second-order response ``y'' + 2 zeta w y' + w^2 y = w^2 beta`` (``w = 2 pi / period``), exact
+    for an angle linear between samples (:func:`bpmid.effects._kernels.ring`). Outside the catalogue: a rival only
+    (:mod:`bpmid.discover.rivals`)."""
+
+    id = "payload_inertia"
+    signal_order = 95
+    meaning = "a payload whose inertia makes the angle ring after each change of the pressure rate (outside the catalogue)"
+    where_it_shows = "an overshoot and a decaying oscillation after the corners of the pressure profile"
+    SETTINGS: ClassVar[tuple[str, ...]] = ()
+    #: the damping ratio's upper bound: a response that overshoots by at least 16 % (exp(-pi zeta / sqrt(1 -
+    #: zeta^2))); a fit on this bound asked for less ringing than that, which a lag represents
+    ZETA_MAX = 0.5
+    #: starting values a refit tries: natural periods from a few samples at 100 Hz to 2 s, light to strong damping
+    START_VALUES: ClassVar[dict] = {"period": (0.05, 0.15, 0.4, 1.0, 2.0), "zeta": (0.05, 0.15, 0.3)}
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([
+            Param(f"{self.id}.period", 0.4, "s", 0.0, 5.0, note="natural period of the ringing"),
+            Param(f"{self.id}.zeta", 0.15, "1", 0.01, self.ZETA_MAX, note="damping ratio"),
+        ])
+
+    def null_values(self):
+        return {f"{self.id}.period": 0.0}
+
+    def transform_angle(self, t, beta_deg, params):
+        period = params.value(f"{self.id}.period")
+        return beta_deg if period <= 0.0 else _kernels.ring(t, beta_deg, period, params.value(f"{self.id}.zeta"))
+
+    def causal_angle(self, params):
+        return None   # not an affine sensor term: the closed loop refuses it (it is never named anyway)
+
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        # y ~ beta - (2 zeta / w) beta' - (1 - 4 zeta^2) / w^2 beta''
+        d1 = np.gradient(base_angle_deg, log.time_s) if log.n > 1 else np.zeros(log.n)
+        d2 = np.gradient(d1, log.time_s) if log.n > 1 else np.zeros(log.n)
+        return np.column_stack([-d1, -d2])
+
+
+#: the rivals every round that names something is checked against
+RIVALS: tuple[type[Effect], ...] = (PayloadInertia,)
+RIVAL_IDS = tuple(r.id for r in RIVALS)
+
+#: how close to the damping ratio's upper bound counts as on it (relative)
+_BOUND_TOL = 0.02
+
+
+def own_shape(c: Confirmation) -> bool:
+    """Condition 2: the rival's fit needs what only it has (for :class:`PayloadInertia`: damping inside its range,
+    off the upper bound)."""
+    if c.effect_id == PayloadInertia.id:
+        z = c.state.params.value(f"{PayloadInertia.id}.zeta")
+        period = c.state.params.value(f"{PayloadInertia.id}.period")
+        return bool(period > 0.0 and z < PayloadInertia.ZETA_MAX * (1.0 - _BOUND_TOL))
+    return True
+
+
+def beats(c: Confirmation, named_after_deg: float, alpha: float) -> bool:
+    """Whether the rival ``c`` takes the round from an effect that leaves ``named_after_deg`` of held-out RMSE (the
+    three conditions of the module docstring)."""
+    return bool(c.tested and math.isfinite(c.lr_p) and c.lr_p < alpha and own_shape(c)
+                and math.isfinite(c.heldout_rmse_after) and c.heldout_rmse_after < named_after_deg)
+
+
+def rival_constants(c: Confirmation) -> dict:
+    """The rival's fitted constants by short name (for the report)."""
+    return {n.split(".", 1)[1]: float(c.state.params.value(n)) for n in c.effect_params}
+
+
+def rival_words(c: Confirmation, named: str, named_after_deg: float, floor: float) -> str:
+    """Why nothing was named: the rival and its numbers beside the candidate it beat."""
+    k = rival_constants(c)
+    what = (f"a response that rings with a natural period of {k.get('period', math.nan):.3g} s and a damping ratio "
+            f"of {k.get('zeta', math.nan):.2f}" if c.effect_id == PayloadInertia.id else c.effect_id)
+    return (f"withheld: the residual is explained better by {what} ({c.effect_id}, an effect outside the catalogue, "
+            f"e.g. payload inertia): held-out RMSE {c.heldout_rmse_after:.4g} deg against {named_after_deg:.4g} deg "
+            f"with {named} ({c.heldout_rmse_after / floor:.3f} vs {named_after_deg / floor:.3f} noise floors), "
+            f"likelihood-ratio p = {c.lr_p:.2g}; no catalogue entry can ring, so {named} would only imitate it and "
+            "nothing is named this round")
+
+
+def check_rival(c: Optional[Confirmation], named: str, named_after_deg: float, alpha: float,
+                floor: float) -> Optional[str]:
+    """The reason to withhold ``named`` (None: the rival does not take the round)."""
+    if c is None or not beats(c, named_after_deg, alpha):
+        return None
+    return rival_words(c, named, named_after_deg, floor)
