@@ -107,8 +107,8 @@ def rival_words(c: Confirmation, named: str, named_after_deg: float, floor: floa
     k = rival_constants(c)
     what = (f"a response that rings with a natural period of {k.get('period', math.nan):.3g} s and a damping ratio "
             f"of {k.get('zeta', math.nan):.2f}" if c.effect_id == PayloadInertia.id else c.effect_id)
-    return (f"withheld: the residual is explained better by {what} ({c.effect_id}, an effect outside the catalogue, "
-            f"e.g. payload inertia): held-out RMSE {c.heldout_rmse_after:.4g} deg against {named_after_deg:.4g} deg "
+    return (f"withheld: the residual is explained better by {what} ({c.effect_id}: outside the catalogue, "
+            f"e.g. a payload's inertia): held-out RMSE {c.heldout_rmse_after:.4g} deg against {named_after_deg:.4g} deg "
             f"with {named} ({c.heldout_rmse_after / floor:.3f} vs {named_after_deg / floor:.3f} noise floors), "
             f"likelihood-ratio p = {c.lr_p:.2g}; no catalogue entry can ring, so {named} would only imitate it and "
             "nothing is named this round")

@@ -464,7 +464,11 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
         lines.append(f"no missing effect found: no catalogue effect improved the held-out error "
                      f"({before:.2f} deg, noise floor {floor:.2f} deg) enough to pass")
     raw_after = after if raw_after is None else raw_after
-    if unexplained:
+    if unexplained and any(r.withheld for r in rounds):
+        lines.append(f"unexplained: the held-out error ({raw_after:.2f} deg, {raw_after - floor:.2f} deg above the "
+                     f"noise floor) holds a residual that an effect outside the catalogue explains better than any "
+                     f"catalogue effect (above)")
+    elif unexplained:
         lines.append(f"unexplained: the held-out error ({raw_after:.2f} deg) stays {raw_after - floor:.2f} deg above "
                      f"the noise floor; no catalogue effect accounts for it")
         if variation is not None and variation["share_of_gap"] >= 0.5:
@@ -792,7 +796,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     # and held against the base model's looser scoring it would understate what the named effects removed.
     after = scored_rmse(state, ho_logs, per_log_gain=base_gain)
     raw_after = rmse_deg(residuals(state, ho_logs))
-    unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor)
+    # a round withheld for a rival outside the catalogue leaves a systematic residual the catalogue cannot explain
+    unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor or any(r.withheld for r in rounds))
     variation = log_to_log_variation(state, ho_logs, raw_after, floor, cfg) if unexplained else None
     verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after,
                            noise)

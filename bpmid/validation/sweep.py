@@ -213,9 +213,14 @@ def _plain_result(res) -> dict:
             keep = {kk: v for kk, v in y.items() if isinstance(v, (int, float, str, bool)) or v is None}
             keep.update({"round": k, "effect": c.effect_id, "accepted": bool(getattr(c, "accepted", False))})
             cands.append(keep)
+    from bpmid.discover.rivals import own_shape, rival_constants
+    rivals = [{"round": k, "effect": rnd.rival.effect_id, "withheld": bool(rnd.withheld),
+               "own_shape": bool(own_shape(rnd.rival)), "constants": rival_constants(rnd.rival),
+               "heldout_rmse_after_deg": float(rnd.rival.heldout_rmse_after), "likelihood_ratio_p": float(rnd.rival.lr_p)}
+              for k, rnd in enumerate(res.rounds, start=1) if rnd.rival is not None]
     return {"named": list(res.named_effects), "unexplained": bool(res.unexplained),
             "heldout_before_deg": float(res.heldout_before), "heldout_after_deg": float(res.heldout_after),
-            "noise_floor_deg": float(res.noise_floor_deg), "candidates": cands,
+            "noise_floor_deg": float(res.noise_floor_deg), "candidates": cands, "rivals": rivals,
             "screening_round1": [s.effect_id for s in res.rounds[0].ranking] if res.rounds else []}
 
 
