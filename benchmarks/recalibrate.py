@@ -43,15 +43,16 @@ def main(argv=None) -> int:
         ap.error(f"records file not found: {', '.join(missing)} (a finished sweep's OUT/records.jsonl)")
     cfgs = [load_sweep(c) for c in a.configs]
     by_id = calibration_records(a.records)
-    replaced = 0
-    for path in a.rerun:   # a case rerun (e.g. with its pair trials recorded) replaces its record; others ignored
+    replaced: dict[str, int] = {}
+    for path in a.rerun:   # a case rerun (e.g. with more recorded) replaces its record; others ignored
         for i, r in calibration_records([path]).items():
             if i in by_id:
                 by_id[i] = r
-                replaced += 1
+                replaced[str(path)] = replaced.get(str(path), 0) + 1
     recs = list(by_id.values())
     if a.rerun:
-        print(f"{replaced} of {len(recs)} cases taken from the reruns")
+        print("cases taken from the reruns (a later file's record of a case replaces an earlier one): "
+              + ", ".join(f"{n} from {p}" for p, n in replaced.items()) + f", of {len(recs)}")
     R = [x for rec in recs for x in case_records(rec)]
     P = [q for rec in recs for q in pair_records(rec)]
     values = thresholds_from_records(R, P)
@@ -79,20 +80,23 @@ def main(argv=None) -> int:
                         "settings: " + ", ".join(
                             f"{c.sweep.name} (seed {c.sweep.seed}, " + _halves(recs, c.sweep.name) + ")" for c in cfgs)
                         + "; pairs included; the draw that scores the gate is not among them"
-                        + (f"; {replaced} of them rerun with their first round's pair trials recorded (the cases "
-                           "where the path for two effects at once can act: benchmarks/record_pair_trials.py)"
-                           if a.rerun else ""),
+                        + ("; rerun with more recorded (a later file's record of a case replaces an earlier one): "
+                           + ", ".join(f"{n} from {p}" for p, n in replaced.items())
+                           + " (benchmarks/record_pair_trials.py: the first round's pair trials, where the path for "
+                             "two effects at once can act; benchmarks/record_rivals.py: every case, with each "
+                             "round's rival outside the catalogue)" if a.rerun else ""),
                 "method": "gaps above the noise in quadrature (sqrt(RMSE^2 - floor^2)); per-log nuisance factors on "
                           "K_inf, branch moduli and time constants (held-out logs' mean within 2.5 standard "
                           "errors of the fitting logs' spread, at most 10 %); friction with a pressure-proportional "
                           "band and an elastic stick; pairs scored (round 1 names one, round 2 the other)",
                 "rule": "thresholds_from_records: no null named; out-of-catalogue names within the 90 % upper bound "
-                        "of a 20 % rate; then the most right decisions minus twice the wrong names minus the "
-                        "out-of-catalogue names; ties to the stricter gate; then the gain asked of a further effect "
-                        "(at most the first round's) by the same score; then the drop asked on the path to the noise "
-                        "floor (a round where nothing passes) by the same score, within the same bounds; then the "
-                        "joint share and the gain of each beside the other asked on the path for two effects at once "
-                        "(a first round where nothing passes either path), by the same score within the same bounds",
+                        "of a 20 % rate; the most right decisions minus twice the wrong names minus the "
+                        "out-of-catalogue names; ties to the stricter gate; the 10 best first-stage gates each then "
+                        "get the gain asked of a further effect (at most the first round's), the drop asked on the "
+                        "path to the noise floor (a round where nothing passes) and the joint share and the gain of "
+                        "each beside the other asked on the path for two effects at once (a first round where nothing "
+                        "passes either path), each by the same score within the same bounds; the best final score "
+                        "wins; the rival outside the catalogue withholds as in discovery",
                 "generator": cfgs[0].effective_generator.to_yaml()}
         print("wrote", write_thresholds(values, meta))
     return 0

@@ -599,43 +599,14 @@ def _pair_path_from(cases, pairs: Mapping, gate: tuple, to_floor: float, t: dict
     return best[0], best[1], best_t
 
 
-def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecord] = ()) -> dict:
-    """The gate's thresholds from calibration records (see module docstring): a grid over the held-out gain
-    (0 .. 1 noise floor in steps of 0.01, then to 6 in steps of 0.25), the held-out gap share (0 .. 0.9), the
-    fitting-gap share (:data:`FIT_SHARES`) and the family-wise alpha (:data:`ALPHAS`).
+#: first-stage gates (held-out gain, gap share, alpha, fitting share) taken to the later stages, best first
+FINALISTS = 10
 
-    Among the gates that name nothing on any null case and something on at most :func:`ooc_names_allowed` of the
-    out-of-catalogue cases, the one with the most right decisions (a single effect named first, both effects of a
-    pair named, nothing named where nothing in the catalogue is true) minus twice the wrong names (another effect,
-    or a further one after the truth) minus the names on out-of-catalogue cases wins; ties go to the stricter gate.
-    Records without a case kind (written before pairs were recorded) count every case with nothing to find as a
-    null. Then, with that gate fixed, the gain asked of a further effect, and the drop asked on the path to the
-    noise floor (:func:`_to_floor_from`), and those of the path for two effects at once (:func:`_pair_path_from`,
-    from ``pairs``: the first rounds' pair trials)."""
-    by_case: dict[str, list[Record]] = {}
-    for r in records:
-        by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
-    cases = list(by_case.values())
-    waive = fit_share_waiver(records)
-    gains = np.unique(np.round(np.concatenate([np.arange(0.0, 1.0, 0.01), np.arange(1.0, 6.01, 0.25)]), 2))
-    shares = np.round(np.arange(0.0, 0.91, 0.05), 2)
-    best, best_key = None, None
-    n_ooc = sum(1 for recs in cases if recs[0].truth == "none" and recs[0].kind == "out_of_catalogue")
-    allowed = ooc_names_allowed(n_ooc)
-    for fs in FIT_SHARES:
-        for sh in shares:
-            for a in ALPHAS:
-                tg = _tally_gains(cases, gains, float(sh), a, fs, waive)
-                for i, g in enumerate(gains):
-                    t = {k: (v if k == "ooc" else int(v[i])) for k, v in tg.items()}
-                    feasible = t["null_named"] == 0 and t["ooc_named"] <= allowed
-                    score = _score(t)
-                    key = (feasible, score, g, sh, fs, -a)       # ties: the stricter gate
-                    if best_key is None or key > best_key:
-                        best_key, best = key, (float(g), float(sh), float(a), float(fs), t)
-    if best is None:
-        best = (1.0, 0.25, 0.01, 0.0, {"right": 0, "wrong": 0, "null_named": 0, "ooc_named": 0, "ooc": 0})
-    g, sh, a, fs, t = best
+
+def _finish(cases, by_case_pairs: Mapping, gains: np.ndarray, g: float, sh: float, a: float, fs: float,
+            waive: float, t: dict, allowed: int) -> tuple:
+    """The later stages for a first-stage gate: (later-round gain, drop on the path to the floor, pair share, pair
+    gain, final outcome)."""
     # a further effect, once one is named: the gap left is smaller, so the same gain in noise floors asks more of
     # it. With the first round's gate fixed, the held-out gain asked in later rounds (never more than g) that makes
     # the most right decisions minus twice the wrong names; ties to the stricter. Nulls and out-of-catalogue cases
@@ -647,11 +618,62 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
         if key[0] > best_later[0]:
             best_later, g_later, t = key, float(g2), t2
     to_floor, t = _to_floor_from(cases, (g, sh, a, fs, waive, g_later), t, allowed)
+    pair_share, pair_gain, t = _pair_path_from(cases, by_case_pairs, (g, sh, a, fs, waive, g_later), to_floor, t,
+                                               allowed)
+    return g_later, to_floor, pair_share, pair_gain, t
+
+
+def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecord] = ()) -> dict:
+    """The gate's thresholds from calibration records (see module docstring): a grid over the held-out gain
+    (0 .. 1 noise floor in steps of 0.01, then to 6 in steps of 0.25), the held-out gap share (0 .. 0.9), the
+    fitting-gap share (:data:`FIT_SHARES`) and the family-wise alpha (:data:`ALPHAS`).
+
+    Among the gates that name nothing on any null case and something on at most :func:`ooc_names_allowed` of the
+    out-of-catalogue cases, the one with the most right decisions (a single effect named first, both effects of a
+    pair named, nothing named where nothing in the catalogue is true) minus twice the wrong names (another effect,
+    or a further one after the truth) minus the names on out-of-catalogue cases wins; ties go to the stricter gate.
+    Records without a case kind (written before pairs were recorded) count every case with nothing to find as a
+    null. Then, for each of the :data:`FINALISTS` best such gates, the gain asked of a further effect, the drop
+    asked on the path to the noise floor (:func:`_to_floor_from`), and those of the path for two effects at once
+    (:func:`_pair_path_from`, from ``pairs``: the first rounds' pair trials); the finalist with the best final
+    score wins (the same score and bounds; ties: the better first stage)."""
+    by_case: dict[str, list[Record]] = {}
+    for r in records:
+        by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
+    cases = list(by_case.values())
+    waive = fit_share_waiver(records)
+    gains = np.unique(np.round(np.concatenate([np.arange(0.0, 1.0, 0.01), np.arange(1.0, 6.01, 0.25)]), 2))
+    shares = np.round(np.arange(0.0, 0.91, 0.05), 2)
+    n_ooc = sum(1 for recs in cases if recs[0].truth == "none" and recs[0].kind == "out_of_catalogue")
+    allowed = ooc_names_allowed(n_ooc)
+    stage1 = []
+    for fs in FIT_SHARES:
+        for sh in shares:
+            for a in ALPHAS:
+                tg = _tally_gains(cases, gains, float(sh), a, fs, waive)
+                for i, g in enumerate(gains):
+                    t = {k: (v if k == "ooc" else int(v[i])) for k, v in tg.items()}
+                    feasible = t["null_named"] == 0 and t["ooc_named"] <= allowed
+                    key = (feasible, _score(t), g, sh, fs, -a)       # ties: the stricter gate
+                    stage1.append((key, (float(g), float(sh), float(a), float(fs), t)))
     by_case_pairs: dict[str, list[PairRecord]] = {}
     for q in pairs:
         by_case_pairs.setdefault(q.case, []).append(q)
-    pair_share, pair_gain, t = _pair_path_from(cases, by_case_pairs, (g, sh, a, fs, waive, g_later), to_floor, t,
-                                               allowed)
+    # the gate is chosen on its whole outcome: the leading first-stage gates each get their later-round gain, path
+    # to the floor and path for two effects, and the best final score wins (ties: the better first stage). Chosen
+    # in stages alone, a looser first stage could crowd out the paths and end with a lower score.
+    stage1.sort(key=lambda x: x[0], reverse=True)
+    best, best_key = None, None
+    for key1, (g, sh, a, fs, t) in stage1[:FINALISTS]:
+        out = _finish(cases, by_case_pairs, gains, g, sh, a, fs, waive, t, allowed)
+        tf = out[-1]
+        key = (tf["null_named"] == 0 and tf["ooc_named"] <= allowed, _score(tf), key1)
+        if best_key is None or key > best_key:
+            best_key, best = key, (g, sh, a, fs) + out
+    if best is None:
+        z = {"right": 0, "wrong": 0, "null_named": 0, "ooc_named": 0, "ooc": 0}
+        best = (1.0, 0.25, 0.01, 0.0, 1.0, math.inf, math.inf, math.inf, z)
+    g, sh, a, fs, g_later, to_floor, pair_share, pair_gain, t = best
     pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate in r.truth.split("+")]
     neg = [r for r in records if not r.rival and (r.truth == "none" or (r.truth_in_model and "+" not in r.truth))]
     return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
