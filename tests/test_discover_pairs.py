@@ -208,3 +208,41 @@ def test_the_rerun_selection_takes_exactly_the_cases_the_pair_path_can_decide():
     assert not rpt.selected(rec(("a", 2.0, 0.9, 1e-40), ("b", 0.4, 0.2, 1e-20)), thr)     # the gate names a
     assert not rpt.selected(rec(("a", 0.5, 0.25, 1e-20), ("b", 0.4, 0.2, 1e-3)), thr)     # one significant leader
     assert not rpt.selected({"calibration_records": []}, thr)
+
+
+def test_the_gate_is_chosen_on_its_whole_outcome_not_its_first_stage():
+    """Three singles whose effect takes a quarter of the gap favour a first stage asking 25 %; but that gate names a
+    pair member alone (gain 0.6, a quarter of the gap) and so shuts the path for two effects at once on ten pairs.
+    Its first stage wins (41 right against 38), its whole outcome loses (41 against 48): the calibration takes the
+    stricter gate, which opens the path."""
+    from bpmid.discover.calibrate import _tally
+
+    recs, pairs = [], []
+    for k in range(10):
+        c = f"p{k}"
+        recs += [_rec(c, "pair", "braid_friction+thermal_softening", "braid_friction", 0.6, 0.25),
+                 _rec(c, "pair", "braid_friction+thermal_softening", "thermal_softening", 0.45, 0.22)]
+        pairs.append(_pair(c, "pair", "braid_friction+thermal_softening", "braid_friction", "thermal_softening",
+                           0.9, 0.25))
+    for k in range(21):
+        recs.append(_rec(f"o{k}", "out_of_catalogue", "none", "pressure_lag", 0.3, 0.2))
+    for k in range(5):
+        recs.append(_rec(f"n{k}", "null", "none", "angle_offset", 0.01, 0.01, p=0.5))
+    for k in range(12):
+        recs.append(_rec(f"s{k}", "single", "pressure_lag", "pressure_lag", 0.55, 0.9))
+    for k in range(3):   # right only for a gate asking at most a quarter of the gap
+        recs.append(_rec(f"q{k}", "single", "angle_offset", "angle_offset", 0.55, 0.25))
+    thr = thresholds_from_records(recs, pairs)
+    assert thr["right_decisions"] == 10 + 21 + 5 + 12 and thr["gap_share_min"] > 0.25, thr
+    cases = {}
+    for r in recs:
+        cases.setdefault(r.case, []).append(r)
+    by_case_pairs = {q.case: [q] for q in pairs}
+
+    def right(share, with_paths):
+        return _tally(list(cases.values()), 0.55, share, 1e-9, 0.0, math.inf,
+                      pairs=by_case_pairs if with_paths else None, pair_share=thr["pair_share_min"],
+                      pair_gain=thr["pair_gain_min_sigma"])["right"]
+
+    assert right(0.25, False) == 41 > right(0.3, False) == 38      # the first stage alone prefers the looser gate
+    assert right(0.25, True) == 41 < right(0.3, True) == 48        # the whole outcome does not

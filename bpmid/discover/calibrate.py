@@ -599,7 +599,8 @@ def _pair_path_from(cases, pairs: Mapping, gate: tuple, to_floor: float, t: dict
     return best[0], best[1], best_t
 
 
-#: first-stage gates (held-out gain, gap share, alpha, fitting share) taken to the later stages, best first
+#: first-stage gates (held-out gain, gap share, alpha, fitting share) taken to the later stages, best first (with
+#: the best of every gap share besides)
 FINALISTS = 10
 
 
@@ -663,8 +664,14 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
     # to the floor and path for two effects, and the best final score wins (ties: the better first stage). Chosen
     # in stages alone, a looser first stage could crowd out the paths and end with a lower score.
     stage1.sort(key=lambda x: x[0], reverse=True)
+    finalists, seen_shares = list(stage1[:FINALISTS]), set()
+    for x in stage1:   # and the best first stage of every gap share: ties at the top must not crowd out the rest
+        if x[1][1] not in seen_shares:
+            seen_shares.add(x[1][1])
+            if x not in finalists:
+                finalists.append(x)
     best, best_key = None, None
-    for key1, (g, sh, a, fs, t) in stage1[:FINALISTS]:
+    for key1, (g, sh, a, fs, t) in finalists:
         out = _finish(cases, by_case_pairs, gains, g, sh, a, fs, waive, t, allowed)
         tf = out[-1]
         key = (tf["null_named"] == 0 and tf["ooc_named"] <= allowed, _score(tf), key1)
