@@ -501,6 +501,11 @@ def _tally(cases: Sequence[Sequence[Record]], g: float, sh: float, a: float, fs:
     return t
 
 
+def _sum_tallies(a: Mapping, b: Mapping) -> dict:
+    """Two :func:`_tally` outcomes of disjoint sets of cases, added."""
+    return {k: a[k] + b[k] for k in a}
+
+
 def _tally_gains(cases: Sequence[Sequence[Record]], gains: np.ndarray, sh: float, a: float, fs: float,
                  waive: float) -> dict:
     """:func:`_tally` for every held-out gain threshold in ``gains`` at once (arrays over ``gains``; the same
@@ -568,8 +573,14 @@ def _to_floor_from(cases, gate: tuple, t: dict, allowed: int) -> tuple[float, di
     does. The path only decides rounds where no candidate passes the gate, so it cannot undo a decision the gate
     makes."""
     best, best_t = math.inf, t
+    # only a case with a record that could take the path at the smallest drop tried can change its outcome
+    alpha, d_min = gate[2], min(TO_FLOOR_DROPS)
+    able = [recs for recs in cases if any(not r.rival and _passes_to_floor(r, d_min, alpha) for r in recs)]
+    if not able:
+        return best, best_t
+    rest = _tally([recs for recs in cases if not any(recs is x for x in able)], *gate)
     for d in sorted(TO_FLOOR_DROPS, reverse=True):
-        t2 = _tally(cases, *gate, to_floor=float(d))
+        t2 = _sum_tallies(rest, _tally(able, *gate, to_floor=float(d)))
         if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
             best, best_t = float(d), t2
     return best, best_t
@@ -591,9 +602,13 @@ def _pair_path_from(cases, pairs: Mapping, gate: tuple, to_floor: float, t: dict
     best, best_t = (math.inf, math.inf), t
     if not any(pairs.values()):
         return math.inf, math.inf, t
+    # only a case with pair trials can change its outcome
+    able = [recs for recs in cases if pairs.get(recs[0].case)]
+    rest = _tally([recs for recs in cases if not pairs.get(recs[0].case)], *gate, to_floor=to_floor)
     for sh in sorted(PAIR_SHARES, reverse=True):
         for pg in sorted(PAIR_GAINS, reverse=True):
-            t2 = _tally(cases, *gate, to_floor=to_floor, pairs=pairs, pair_share=float(sh), pair_gain=float(pg))
+            t2 = _sum_tallies(rest, _tally(able, *gate, to_floor=to_floor, pairs=pairs, pair_share=float(sh),
+                                           pair_gain=float(pg)))
             if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
                 best, best_t = (float(sh), float(pg)), t2
     return best[0], best[1], best_t
@@ -613,7 +628,8 @@ def _finish(cases, by_case_pairs: Mapping, gains: np.ndarray, g: float, sh: floa
     # the most right decisions minus twice the wrong names; ties to the stricter. Nulls and out-of-catalogue cases
     # are judged on round 1 only, so the feasibility above holds for every value tried.
     g_later, best_later = g, (t["right"] - 2 * t["wrong"], g)
-    for g2 in gains[gains < g][::-1]:
+    later_rounds = any(r.round > 1 for recs in cases for r in recs)
+    for g2 in (gains[gains < g][::-1] if later_rounds else ()):   # no later round recorded: nothing to judge
         t2 = _tally(cases, g, sh, a, fs, waive, float(g2))
         key = (t2["right"] - 2 * t2["wrong"], float(g2))
         if key[0] > best_later[0]:
