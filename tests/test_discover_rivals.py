@@ -14,7 +14,7 @@ from bpmid.discover.confirm import Confirmation
 from bpmid.discover.model import ModelState
 from bpmid.discover.rivals import PayloadInertia, beats, check_rival, own_shape
 from bpmid.discover.workflow import DiscoverConfig, discover, gate_in_words
-from bpmid.discover.calibrate import load_thresholds, paper_sized_set, start_model
+from bpmid.discover.calibrate import PROTOCOLS, load_thresholds, paper_sized_set, start_model
 from bpmid.effects import get_effect
 from bpmid.effects._kernels import ring
 
@@ -97,6 +97,8 @@ def test_calibration_applies_the_same_rule_to_the_records():
 
 
 # ------------------------------------------------------------------------------------------------ end to end
+#: the paper-sized protocols without the two long runs (the test's cost)
+SHORT = {k: v for k, v in PROTOCOLS.items() if not k.startswith(("long", "ho_long"))}
 LOOSE = {"heldout_gain_min_sigma": 0.0, "gap_share_min": 0.0, "family_alpha": 1e-6, "fit_share_min": 0.0,
          "to_floor_drop_min_sigma": math.inf, "pair_share_min": math.inf}
 
@@ -106,7 +108,7 @@ def test_a_ringing_payload_gets_nothing_named_and_a_lag_is_still_named():
     (zeta 0.15, a period of 0.4 s) is withheld with the rival's constants near the truth; a pressure lag is named
     with the rival on its damping bound."""
     cfg = DiscoverConfig(candidates=("pressure_lag",), max_effects=1, **LOOSE)
-    fit, ho = paper_sized_set(PayloadInertia(), size=1.0, seed=11, noise_deg=0.1)
+    fit, ho = paper_sized_set(PayloadInertia(), size=1.0, seed=11, noise_deg=0.1, protocols=SHORT)
     res = discover(fit, start_model(), holdout=ho, cfg=cfg)
     assert res.named_effects == [] and res.rounds[0].withheld.startswith("withheld:")
     k = res.rounds[0].rival.state.params
@@ -117,7 +119,7 @@ def test_a_ringing_payload_gets_nothing_named_and_a_lag_is_still_named():
     assert "nothing named: the residual is explained better by a response that rings" in res.verdict
     assert res.unexplained and y["unexplained"] is True        # what the catalogue cannot explain is said so
 
-    fit, ho = paper_sized_set(get_effect("pressure_lag"), size=1.0, seed=12, noise_deg=0.1)
+    fit, ho = paper_sized_set(get_effect("pressure_lag"), size=1.0, seed=12, noise_deg=0.1, protocols=SHORT)
     res = discover(fit, start_model(), holdout=ho, cfg=cfg)
     assert res.named_effects == ["pressure_lag"] and not res.rounds[0].withheld
     assert not own_shape(res.rounds[0].rival)
