@@ -25,3 +25,26 @@ def rerun_setup(doc: str, argv=None):
     a.out.mkdir(parents=True, exist_ok=True)
     done = {r["id"] for r in read_records(a.out / "records.jsonl")}
     return a, cases, old, done
+
+
+def rerun_and_compare(a, cases, todo, same, what) -> int:
+    """Rerun the cases ``todo`` (ids) with their config's calibration settings into ``a.out``, printing each as it
+    finishes with ``what(record)``; ``same(record)`` says whether it reproduced the old run. Exit code: 1 when any
+    case did not."""
+    import time
+
+    from bpmid.validation.sweep import rerun_calibration
+
+    n, t0, differ = [0], time.perf_counter(), []
+
+    def on(rec):
+        n[0] += 1
+        ok = same(rec)
+        if not ok:
+            differ.append(rec["id"])
+        print(f"[{n[0]}/{len(todo)}] {rec['id']} ({rec['kind']}): {what(rec)}, {rec['elapsed_s']:.1f} s"
+              f"{'' if ok else '; records differ from the old run'}", flush=True)
+    rerun_calibration([cases[i] for i in todo], a.out, a.workers, on)
+    print(f"done in {time.perf_counter() - t0:.0f} s; {len(differ)} case(s) whose records differ from the old run"
+          f"{': ' + ', '.join(differ) if differ else ''}")
+    return 1 if differ else 0

@@ -19,9 +19,7 @@ Synthetic data: :mod:`bpmid.validation`, from the sweep configs and seeds given.
 """
 from __future__ import annotations
 
-import json
 import math
-import time
 
 
 def selected(rec: dict, thr: dict) -> bool:
@@ -39,10 +37,9 @@ def selected(rec: dict, thr: dict) -> bool:
 
 
 def main(argv=None) -> int:
-    from _reruns import rerun_setup
+    from _reruns import rerun_and_compare, rerun_setup
 
     from bpmid.discover.calibrate import load_thresholds
-    from bpmid.validation.sweep import rerun_calibration
 
     a, cases, old, done = rerun_setup(__doc__, argv)
     thr = load_thresholds()
@@ -53,22 +50,10 @@ def main(argv=None) -> int:
     print(f"{len(old)} calibration cases; {len(todo)} to rerun ({kinds}), {len(done)} already done", flush=True)
     if not todo:
         return 0
-    n, t0, differ = [0], time.perf_counter(), []
-
-    def on(rec):
-        n[0] += 1
-        was = [(x["candidate"], x["round"], x["gain_sigma"]) for x in old[rec["id"]]["calibration_records"]]
-        now = [(x["candidate"], x["round"], x["gain_sigma"]) for x in rec["calibration_records"]]
-        if was != now:
-            differ.append(rec["id"])
-        print(f"[{n[0]}/{len(todo)}] {rec['id']} ({rec['kind']}): {len(rec.get('calibration_pairs') or [])} pair "
-              f"trial(s), {rec['elapsed_s']:.1f} s{'; records differ from the old run' if was != now else ''}",
-              flush=True)
-    rerun_calibration([cases[i] for i in todo], a.out, a.workers, on)
-    print(f"done in {time.perf_counter() - t0:.0f} s; {len(differ)} case(s) whose single-candidate records differ "
-          f"from the old run{': ' + ', '.join(differ) if differ else ''}")
-    return 1 if differ else 0
-
+    def key(rec):
+        return [(x["candidate"], x["round"], x["gain_sigma"]) for x in rec["calibration_records"]]
+    return rerun_and_compare(a, cases, todo, lambda rec: key(old[rec["id"]]) == key(rec),
+                             lambda rec: f"{len(rec.get('calibration_pairs') or [])} pair trial(s)")
 
 if __name__ == "__main__":
     raise SystemExit(main())

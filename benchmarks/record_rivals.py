@@ -18,7 +18,6 @@ Synthetic data: :mod:`bpmid.validation`, from the sweep configs and seeds given.
 """
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 
@@ -49,9 +48,9 @@ def main(argv=None) -> int:
             rerun.append(Path(argv[j]))
             j += 1
         del argv[i:j]
-    from _reruns import rerun_setup
+    from _reruns import rerun_and_compare, rerun_setup
 
-    from bpmid.validation.sweep import calibration_records, rerun_calibration
+    from bpmid.validation.sweep import calibration_records
 
     a, cases, old, done = rerun_setup(__doc__, argv)
     for i, r in calibration_records(rerun).items():
@@ -61,21 +60,9 @@ def main(argv=None) -> int:
     print(f"{len(old)} calibration cases; {len(todo)} to rerun, {len(done)} already done", flush=True)
     if not todo:
         return 0
-    n, t0, differ = [0], time.perf_counter(), []
-
-    def on(rec):
-        n[0] += 1
-        same = same_candidates(old[rec["id"]], rec)
-        if not same:
-            differ.append(rec["id"])
-        rv = [x for x in rec.get("calibration_records") or [] if x.get("rival")]
-        print(f"[{n[0]}/{len(todo)}] {rec['id']} ({rec['kind']}): {len(rv)} rival record(s), "
-              f"{rec['elapsed_s']:.1f} s{'' if same else '; candidate records differ from the old run'}", flush=True)
-    rerun_calibration([cases[i] for i in todo], a.out, a.workers, on)
-    print(f"done in {time.perf_counter() - t0:.0f} s; {len(differ)} case(s) whose candidate records differ from the "
-          f"old run{': ' + ', '.join(differ) if differ else ''}")
-    return 1 if differ else 0
-
+    return rerun_and_compare(
+        a, cases, todo, lambda rec: same_candidates(old[rec["id"]], rec),
+        lambda rec: f"{sum(1 for x in rec.get('calibration_records') or [] if x.get('rival'))} rival record(s)")
 
 if __name__ == "__main__":
     raise SystemExit(main())

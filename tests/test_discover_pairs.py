@@ -73,18 +73,25 @@ def _pair(case, kind, truth, first, second, share, g_other):
                       p_corrected=1e-25)
 
 
+def _ten_pairs(gain_first: float):
+    """Ten pair cases whose two effects each take about a quarter of the gap alone (the first with held-out gain
+    ``gain_first``), their joint refit 90 % of it with each adding 0.25 noise floors beside the other."""
+    recs, pairs = [], []
+    for k in range(10):
+        c = f"p{k}"
+        recs += [_rec(c, "pair", "braid_friction+thermal_softening", "braid_friction", gain_first, 0.25),
+                 _rec(c, "pair", "braid_friction+thermal_softening", "thermal_softening", 0.45, 0.22)]
+        pairs.append(_pair(c, "pair", "braid_friction+thermal_softening", "braid_friction", "thermal_softening",
+                           0.9, 0.25))
+    return recs, pairs
+
+
 def test_calibration_opens_the_pair_path_only_as_far_as_the_bounds_allow():
     """Pairs whose two effects each take a quarter of the gap are named by no single-effect gate; their joint refit
     closes 90 % of it with each adding 0.25 noise floors. Out-of-catalogue cases have pairs closing 60 % (one with
     a weak member at 0.92): the calibration keeps the gate and opens the path above 0.6 and at most 0.9, asking
     more than 0.05 of the weaker member."""
-    recs, pairs = [], []
-    for k in range(10):
-        c = f"p{k}"
-        recs += [_rec(c, "pair", "braid_friction+thermal_softening", "braid_friction", 0.5, 0.25),
-                 _rec(c, "pair", "braid_friction+thermal_softening", "thermal_softening", 0.45, 0.22)]
-        pairs.append(_pair(c, "pair", "braid_friction+thermal_softening", "braid_friction", "thermal_softening",
-                           0.9, 0.25))
+    recs, pairs = _ten_pairs(0.5)
     for k in range(21):
         c = f"o{k}"
         recs += [_rec(c, "out_of_catalogue", "none", "pressure_lag", 0.3, 0.2),
@@ -217,13 +224,7 @@ def test_the_gate_is_chosen_on_its_whole_outcome_not_its_first_stage():
     stricter gate, which opens the path."""
     from bpmid.discover.calibrate import _tally
 
-    recs, pairs = [], []
-    for k in range(10):
-        c = f"p{k}"
-        recs += [_rec(c, "pair", "braid_friction+thermal_softening", "braid_friction", 0.6, 0.25),
-                 _rec(c, "pair", "braid_friction+thermal_softening", "thermal_softening", 0.45, 0.22)]
-        pairs.append(_pair(c, "pair", "braid_friction+thermal_softening", "braid_friction", "thermal_softening",
-                           0.9, 0.25))
+    recs, pairs = _ten_pairs(0.6)
     for k in range(21):
         recs.append(_rec(f"o{k}", "out_of_catalogue", "none", "pressure_lag", 0.3, 0.2))
     for k in range(5):
