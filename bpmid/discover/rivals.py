@@ -12,7 +12,8 @@ Rivals are never named: they stand for physics the catalogue lacks, so naming th
 shows (that the residual rings, not that it is a payload). The rule has no calibrated number:
 
 1. the rival was tested (its refit moved) and passes the round's likelihood-ratio test on the fitting logs
-   (uncorrected p below the family-wise level, stricter than the candidates' Holm-corrected one);
+   (its p below the family-wise level, uncorrected: it is one test beside the candidates, and passing it only ever
+   withholds a name);
 2. it fits what only it can do: :class:`PayloadInertia`'s damping ratio stays inside its range, not on the upper
    bound 0.5 (at the bound the data asked for a response that does not overshoot, which a lag represents);
 3. its held-out RMSE is below the named candidate's (for two effects named together, below the better of the two
