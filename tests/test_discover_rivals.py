@@ -115,7 +115,8 @@ def test_a_ringing_payload_gets_nothing_named_and_a_lag_is_still_named():
     assert k.value("payload_inertia.period") == pytest.approx(0.4, rel=0.1)
     assert k.value("payload_inertia.zeta") == pytest.approx(0.15, abs=0.05)
     y = res.to_yaml()
-    assert y["rounds"][0]["rival_outside_catalogue"]["withheld_the_round"] is True
+    rv = y["rounds"][0]["rival_outside_catalogue"]
+    assert rv["withheld_the_round"] is True and set(rv["constants"]) == {"period_s", "damping_ratio"}
     assert "nothing named: the residual is explained better by a response that rings" in res.verdict
     assert res.unexplained and y["unexplained"] is True        # what the catalogue cannot explain is said so
 

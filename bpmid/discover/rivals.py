@@ -111,7 +111,7 @@ def rival_words(c: Confirmation, named: str, named_after_deg: float, floor: floa
     return (f"withheld: the residual is explained better by {what} ({c.effect_id}: outside the catalogue, "
             f"e.g. a payload's inertia): held-out RMSE {c.heldout_rmse_after:.4g} deg against {named_after_deg:.4g} deg "
             f"with {named} ({c.heldout_rmse_after / floor:.3f} vs {named_after_deg / floor:.3f} noise floors), "
-            f"likelihood-ratio p = {c.lr_p:.2g}; no catalogue entry can ring, so {named} would only imitate it and "
+            f"likelihood-ratio p {'< 1e-300' if c.lr_p == 0.0 else f'= {c.lr_p:.2g}'}; no catalogue entry can ring, so {named} would only imitate it and "
             "nothing is named this round")
 
 

@@ -344,7 +344,7 @@ class DiscoveryResult:
             "base_fit": self.base_fit,
             "split": {"how": self.split, "fitting_logs": [lg.name for lg in self.fit_logs],
                       "heldout_logs": [lg.name for lg in self.holdout_logs]},
-            "thresholds": {k: (round(v, 6) if isinstance(v, float) else v) for k, v in self.thresholds.items()},
+            "thresholds": {k: (float(f"{v:.6g}") if isinstance(v, float) else v) for k, v in self.thresholds.items()},
             "rounds": [{"diagnostics": rnd.diagnostics, "screening": [s.to_yaml() for s in rnd.ranking],
                         "candidates_in_family": rnd.family_size,
                         "confirmed": [c.to_yaml() for c in rnd.confirmations], "accepted": rnd.accepted,
@@ -369,13 +369,16 @@ def rival_yaml(rnd: Round, thr: dict, floor: float) -> Optional[dict]:
     if c is None:
         return None
     return {"effect": c.effect_id, "meaning": type(c.state.effects[-1]).meaning,
-            "constants": {k: round(v, 4) for k, v in rival_constants(c).items()},
+            "constants": {(f"{k}_s" if k == "period" else "damping_ratio" if k == "zeta" else k): round(v, 4)
+                          for k, v in rival_constants(c).items()},
             "needs_its_own_shape": own_shape(c), "withheld_the_round": bool(rnd.withheld),
             "reason": rnd.withheld or None,
             "heldout_rmse_after_deg": round(c.heldout_rmse_after, 4),
             "heldout_rmse_after_in_noise_floors": round(c.heldout_rmse_after / floor, 4),
             "fit_rmse_after_deg": round(c.fit_rmse_after, 4),
-            "likelihood_ratio_p": float(f"{c.lr_p:.3g}"), "tested": bool(c.tested),
+            "likelihood_ratio_p": float(f"{c.lr_p:.3g}"),
+            "likelihood_ratio_p_note": "below 1e-300 (underflow)" if c.tested and c.lr_p == 0.0 else None,
+            "tested": bool(c.tested),
             "not_tested_reason": c.not_tested_reason or None,
             "rule": "withholds the round's effect when tested, p < family_alpha "
                     f"({thr.get('family_alpha', math.nan):.3g}), its own shape needed, and its held-out RMSE below "
@@ -443,7 +446,7 @@ def _pair_member_explanation(c: Confirmation, rnd: Round, floor: float, s, e) ->
 def make_verdict(named: list[str], rounds: list[Round], before: float, after: float, floor: float,
                  unexplained: bool, variation: Optional[dict] = None, thr: Optional[dict] = None,
                  base_fit: Optional[dict] = None, raw_after: Optional[float] = None,
-                 noise: Optional[dict] = None) -> str:
+                 noise: Optional[dict] = None, unexplained_margin: float = 0.5) -> str:
     lines = []
     for r in rounds:
         if r.accepted:
@@ -458,8 +461,8 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
         lines.append("not tested (no evidence either way): " + "; ".join(
             f"{c.effect_id}: {c.not_tested_reason}" for c in not_tested))
     if not named and any(r.withheld for r in rounds):
-        lines.append(f"no catalogue effect named: the one that passed imitates an effect outside the catalogue "
-                     f"(held-out error {before:.2f} deg, noise floor {floor:.2f} deg)")
+        lines.append(f"no catalogue effect named: what the round would have named imitates an effect outside the "
+                     f"catalogue (held-out error {before:.2f} deg, noise floor {floor:.2f} deg)")
     elif not named:
         lines.append(f"no missing effect found: no catalogue effect improved the held-out error "
                      f"({before:.2f} deg, noise floor {floor:.2f} deg) enough to pass")
@@ -478,7 +481,7 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
                          f"an in-sample check, so it bounds what specimen or replicate variation can explain)")
     else:
         lines.append(f"the held-out error ({raw_after:.2f} deg) is within the noise floor ({floor:.2f} deg) give or "
-                     f"take the reporting margin: nothing left to explain")
+                     f"take the reporting margin ({unexplained_margin:g} noise floors): nothing left to explain")
     if base_fit is not None and not base_fit.get("converged", True):
         lines.append(f"caution: the base fit did not converge ({base_fit.get('message')})")
     for c in (noise or {}).get("caution") or []:
@@ -729,7 +732,9 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         if withheld and cfg.withhold_for_rivals:
             for c in passing:
                 c.accepted, c.passed_by = False, ""
-                c.reasons = [withheld]
+                c.reasons = [withheld if c is best_single else
+                             f"passed, but the round was withheld: {named_id} explained the held-out logs better, "
+                             "and the rival outside the catalogue better still (see its reason)"]
             for pt in won:
                 pt.accepted = False
                 pt.reasons = [withheld]
@@ -800,7 +805,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor or any(r.withheld for r in rounds))
     variation = log_to_log_variation(state, ho_logs, raw_after, floor, cfg) if unexplained else None
     verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after,
-                           noise)
+                           noise, cfg.unexplained_gap_sigma)
     return DiscoveryResult(named, rounds, noise, base_state, state, list(fit_logs), list(ho_logs), before, after,
                            thr, unexplained, verdict, how, time.perf_counter() - t0, variation, base_report,
                            raw_before, raw_after, base_gain)

@@ -214,6 +214,8 @@ class DiscoveryInfo:
     verdict: str
     steps: list[dict]
     provenance: dict
+    #: a round withheld its effect for a rival outside the catalogue (discovery.yaml rounds[].rival_outside_catalogue)
+    withheld: bool = False
 
 
 @dataclasses.dataclass
@@ -413,7 +415,9 @@ def load_discovery(rd: _Reader) -> DiscoveryInfo | None:
     return DiscoveryInfo(ddir, [str(x) for x in _list(d.get("named_effects"))], _num(gap.get("before_rmse_deg")),
                          _num(gap.get("after_rmse_deg")), _num(gap.get("noise_floor_deg")), bool(d.get("unexplained")),
                          str(d.get("verdict") or "").strip(), [s for s in _list(d.get("steps")) if isinstance(s, dict)],
-                         _dict(d.get("provenance")))
+                         _dict(d.get("provenance")),
+                         any(_dict(_dict(r).get("rival_outside_catalogue")).get("withheld_the_round")
+                             for r in _list(d.get("rounds"))))
 
 
 def load_control(rd: _Reader) -> ControlInfo | None:

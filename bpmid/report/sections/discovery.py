@@ -27,6 +27,9 @@ def build(doc, st, figs) -> None:
     stale_note(doc, st, "discover")
     if d.named:
         doc.p(f"Named effects, in the order added: {', '.join(d.named)}.", css="verdict")
+    elif d.withheld:
+        doc.p("No catalogue effect named: what passed the confirmation tests only imitates an effect outside the "
+              "catalogue, which explains the held-out logs better (below).", css="verdict")
     else:
         doc.p("No missing effect found: no catalogue entry passed the confirmation tests.", css="good")
     for line in (d.verdict or "").splitlines():  # one paragraph per statement of the verdict

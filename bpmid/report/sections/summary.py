@@ -57,7 +57,9 @@ def build(doc, st, figs) -> None:
                      f"{order}.")
     if st.discovery is not None:
         d = st.discovery
-        what = (f"named {', '.join(d.named)}" if d.named else "no missing effect found")
+        what = (f"named {', '.join(d.named)}" if d.named else
+                "no catalogue effect named (an effect outside the catalogue explains the residual better)"
+                if d.withheld else "no missing effect found")
         items.append(f"Discovery{_stale(st, 'discover')}: {what}; held-out RMSE {fmt(d.before_deg)}° before, "
                      f"{fmt(d.after_deg)}° after, sensor-noise floor {fmt(d.floor_deg)}°"
                      + ("; an unexplained remainder is left." if d.unexplained else "."))
