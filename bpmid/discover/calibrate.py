@@ -25,7 +25,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import yaml
 
-from bpmid.discover.rivals import own_shape
+from bpmid.discover.rivals import own_shape, takes_the_round
 from bpmid.effects.base import AugmentedVBMM, Effect
 from bpmid.io.motion_logs import ATMOSPHERE_PA, MotionLog, from_arrays
 from bpmid.models.vbmm import VBMM, Material
@@ -263,21 +263,18 @@ def records_from_result(truth: str, result, case: str | None = None, kind: str =
         if rnd.joint_with:   # the second of two named together: not a round of its own
             named_before.append(rnd.accepted)
             continue
-        for c in rnd.confirmations:
-            out.append(Record(truth, k, c.effect_id, float(c.heldout_gain_sigma), float(c.delta_bic),
-                              bool(truths & set(named_before)), float(c.gap_share), float(c.lr_p),
-                              float(c.lr_p_holm) if math.isfinite(c.lr_p_holm) else float(c.lr_p),
-                              bool(c.tested), bool(c.identifiable), case, float(c.fit_share), kind,
-                              "+".join(named_before), float(c.drop_sigma),
-                              float(c.heldout_rmse_after) / result.noise_floor_deg))
+        def record(c, rival=False):
+            # a rival's p is its own, uncorrected (it is no candidate of the round's Holm family)
+            p_holm = c.lr_p_holm if math.isfinite(c.lr_p_holm) and not rival else c.lr_p
+            return Record(truth, k, c.effect_id, float(c.heldout_gain_sigma), float(c.delta_bic),
+                          bool(truths & set(named_before)), float(c.gap_share), float(c.lr_p), float(p_holm),
+                          bool(c.tested), bool(c.identifiable), case, float(c.fit_share), kind,
+                          "+".join(named_before), float(c.drop_sigma),
+                          float(c.heldout_rmse_after) / result.noise_floor_deg, rival=rival,
+                          own_shape=bool(rival and own_shape(c)))
+        out += [record(c) for c in rnd.confirmations]
         if rnd.rival is not None:
-            c = rnd.rival
-            out.append(Record(truth, k, c.effect_id, float(c.heldout_gain_sigma), float(c.delta_bic),
-                              bool(truths & set(named_before)), float(c.gap_share), float(c.lr_p), float(c.lr_p),
-                              bool(c.tested), bool(c.identifiable), case, float(c.fit_share), kind,
-                              "+".join(named_before), float(c.drop_sigma),
-                              float(c.heldout_rmse_after) / result.noise_floor_deg, rival=True,
-                              own_shape=bool(own_shape(c))))
+            out.append(record(rnd.rival, rival=True))
         if rnd.accepted:
             named_before.append(rnd.accepted)
     return out
@@ -360,8 +357,8 @@ def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
 def rival_withholds(recs: Sequence[Record], named_after_over_floor: float, alpha: float) -> bool:
     """Whether a rival outside the catalogue among one round's records takes the round from an effect leaving
     ``named_after_over_floor`` (:func:`bpmid.discover.rivals.beats`; records without a rival: never)."""
-    return any(r.rival and r.tested and r.own_shape and math.isfinite(r.lr_p) and r.lr_p < alpha
-               and math.isfinite(r.after_over_floor) and r.after_over_floor < named_after_over_floor for r in recs)
+    return any(r.rival and takes_the_round(r.tested, r.own_shape, r.lr_p, r.after_over_floor, named_after_over_floor,
+                                           alpha) for r in recs)
 
 
 def _pair_named(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, alpha: float, pair_share: float,
@@ -578,7 +575,8 @@ def _to_floor_from(cases, gate: tuple, t: dict, allowed: int) -> tuple[float, di
     able = [recs for recs in cases if any(not r.rival and _passes_to_floor(r, d_min, alpha) for r in recs)]
     if not able:
         return best, best_t
-    rest = _tally([recs for recs in cases if not any(recs is x for x in able)], *gate)
+    ids = {id(recs) for recs in able}
+    rest = _tally([recs for recs in cases if id(recs) not in ids], *gate)
     for d in sorted(TO_FLOOR_DROPS, reverse=True):
         t2 = _sum_tallies(rest, _tally(able, *gate, to_floor=float(d)))
         if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):

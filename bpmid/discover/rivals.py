@@ -73,9 +73,8 @@ class PayloadInertia(Effect):
         return np.column_stack([-d1, -d2])
 
 
-#: the rivals every round that names something is checked against
-RIVALS: tuple[type[Effect], ...] = (PayloadInertia,)
-RIVAL_IDS = tuple(r.id for r in RIVALS)
+#: the rival every round that names something is checked against
+RIVAL: type[Effect] = PayloadInertia
 
 #: how close to the damping ratio's upper bound counts as on it (relative)
 _BOUND_TOL = 0.02
@@ -91,11 +90,19 @@ def own_shape(c: Confirmation) -> bool:
     return True
 
 
+def takes_the_round(tested: bool, needs_own_shape: bool, lr_p: float, after: float, named_after: float,
+                    alpha: float) -> bool:
+    """The rule (the three conditions of the module docstring) on a rival's numbers: tested, its likelihood-ratio
+    p below ``alpha``, its own shape needed, and its held-out RMSE ``after`` below the named effect's
+    ``named_after`` (the same unit). Discovery applies it to a refit (:func:`beats`), the calibration to the
+    recorded numbers (:func:`bpmid.discover.calibrate.rival_withholds`)."""
+    return bool(tested and math.isfinite(lr_p) and lr_p < alpha and needs_own_shape
+                and math.isfinite(after) and after < named_after)
+
+
 def beats(c: Confirmation, named_after_deg: float, alpha: float) -> bool:
-    """Whether the rival ``c`` takes the round from an effect that leaves ``named_after_deg`` of held-out RMSE (the
-    three conditions of the module docstring)."""
-    return bool(c.tested and math.isfinite(c.lr_p) and c.lr_p < alpha and own_shape(c)
-                and math.isfinite(c.heldout_rmse_after) and c.heldout_rmse_after < named_after_deg)
+    """Whether the rival ``c`` takes the round from an effect that leaves ``named_after_deg`` of held-out RMSE."""
+    return takes_the_round(c.tested, own_shape(c), c.lr_p, c.heldout_rmse_after, named_after_deg, alpha)
 
 
 def rival_constants(c: Confirmation) -> dict:

@@ -49,7 +49,7 @@ import numpy as np
 from bpmid.discover.calibrate import THRESHOLD_KEYS as GATE_KEYS, later_gain_follows, load_thresholds
 from bpmid.discover.confirm import Confirmation, PairTrial, confirm, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
-from bpmid.discover.rivals import RIVALS, check_rival, own_shape, rival_constants
+from bpmid.discover.rivals import RIVAL, check_rival, own_shape, rival_constants
 from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, residuals, rmse_deg,
                                   scored_rmse, sensitivities, simulate, stacked)
 from bpmid.discover.screen import ScreenResult, screen
@@ -713,36 +713,38 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                                                 "at once in this gate")])
                 pt.accepted = not pt.reasons
         won = [pt for pt in trials if pt.accepted]
-        best_single = max(passing, key=(lambda c: c.drop_sigma) if passing and passing[0].passed_by == "floor"
-                          else (lambda c: c.heldout_gain_sigma)) if passing else None
+        # what the round would name: two effects together, or the best of those passing (by the held-out drop on
+        # the path to the floor, else by the held-out gain)
+        pt = max(won, key=lambda x: x.gain_sigma) if won else None
+        by_floor = bool(passing) and passing[0].passed_by == "floor"
+        score = (lambda c: c.drop_sigma) if by_floor else (lambda c: c.heldout_gain_sigma)
+        best = max(passing, key=score) if passing else None
         rival, withheld = None, ""
-        if best_single is not None or won or not cfg.withhold_for_rivals:
+        if pt is not None or best is not None or not cfg.withhold_for_rivals:
             # the rival outside the catalogue, refitted and scored like the candidates
-            rival = confirm(state, RIVALS[0](), fit_logs, ho_logs, noise_floor_deg=floor,
+            rival = confirm(state, RIVAL(), fit_logs, ho_logs, noise_floor_deg=floor,
                             base_fit_residual=stacked(parts), heldout_before=ho_now, max_nfev=cfg.confirm_max_nfev,
                             nuisance=J, per_log_gain=gain)
-            if won:
-                pt = max(won, key=lambda x: x.gain_sigma)
+            if pt is not None:
                 named_id = "+".join(pt.ids)
-                named_after = min(pt.first.heldout_rmse_after, pt.second.heldout_rmse_after)
-            elif best_single is not None:
-                named_id, named_after = best_single.effect_id, best_single.heldout_rmse_after
-            if won or best_single is not None:
-                withheld = check_rival(rival, named_id, named_after, thr["family_alpha"], floor) or ""
+                withheld = check_rival(rival, named_id, min(pt.first.heldout_rmse_after, pt.second.heldout_rmse_after),
+                                       thr["family_alpha"], floor) or ""
+            elif best is not None:
+                named_id = best.effect_id
+                withheld = check_rival(rival, named_id, best.heldout_rmse_after, thr["family_alpha"], floor) or ""
         if withheld and cfg.withhold_for_rivals:
             for c in passing:
                 c.accepted, c.passed_by = False, ""
-                c.reasons = [withheld if c is best_single else
+                c.reasons = [withheld if c is best else
                              f"passed, but the round was withheld: {named_id} explained the held-out logs better, "
                              "and the rival outside the catalogue better still (see its reason)"]
-            for pt in won:
-                pt.accepted = False
-                pt.reasons = [withheld]
+            for x in won:
+                x.accepted = False
+                x.reasons = [withheld]
             rounds.append(Round(diag, ranking, confs, None, family, "", trials, rival=rival, withheld=withheld))
             note(f"discover: round {k + 1}: nothing named: " + withheld.split(":", 1)[1].split(";")[0].strip())
             break
-        if won:
-            pt = max(won, key=lambda x: x.gain_sigma)
+        if pt is not None:
             for x in won:
                 if x is not pt:
                     x.accepted = False
@@ -768,11 +770,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
             note(f"discover: added {a.effect_id} and {b.effect_id} together (held-out {pt.heldout_rmse_before:.3f} "
                  f"-> {pt.heldout_rmse_after:.3f} deg)")
             continue
-        by_floor = bool(passing) and passing[0].passed_by == "floor"
-        score = (lambda c: c.drop_sigma) if by_floor else (lambda c: c.heldout_gain_sigma)
         what = "held-out drop" if by_floor else "held-out gain"
         what_vs = "held-out drop " if by_floor else ""
-        best = max(passing, key=score) if passing else None
         competition = ""
         if best is not None and len(passing) > 1:
             others = [c for c in passing if c is not best]
