@@ -59,7 +59,8 @@ def main(argv=None) -> int:
     gate = dict(g=values["heldout_gain_min_sigma"], share=values["gap_share_min"], alpha=values["family_alpha"],
                 fit_share=values["fit_share_min"], waive=values["fit_share_waived_above_sigma"],
                 g_later=values["heldout_gain_min_sigma_later"], to_floor=values["to_floor_drop_min_sigma"],
-                pair_share=values["pair_share_min"], pair_gain=values["pair_gain_min_sigma"])
+                pair_share=values["pair_share_min"], pair_gain=values["pair_gain_min_sigma"],
+                pair_over=values["pair_over_single_min_sigma"], pair_over_gain=values["pair_over_gain_min_sigma"])
     tally = Counter()
     for rec in recs:
         rs = case_records(rec)
@@ -95,8 +96,10 @@ def main(argv=None) -> int:
                         "get the gain asked of a further effect (at most the first round's), the drop asked on the "
                         "path to the noise floor (a round where nothing passes) and the joint share and the gain of "
                         "each beside the other asked on the path for two effects at once (a first round where nothing "
-                        "passes either path), each by the same score within the same bounds; the best final score "
-                        "wins; the rival outside the catalogue withholds as in discovery",
+                        "passes either path), and the margin over the single effect and the gain of each beside the "
+                        "other asked of two effects named at once over the one a first round would name, each by the "
+                        "same score within the same bounds; the best final score wins; the rival outside the "
+                        "catalogue withholds as in discovery",
                 "generator": cfgs[0].effective_generator.to_yaml()}
         print("wrote", write_thresholds(values, meta))
     return 0

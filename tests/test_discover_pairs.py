@@ -13,7 +13,7 @@ from _discover_cases import discover_case_01
 from bpmid.discover.calibrate import (THRESHOLDS_PATH, PairRecord, Record, _case_outcome, load_thresholds,
                                       pair_records, thresholds_from_records)
 from bpmid.discover.confirm import Confirmation, PairTrial
-from bpmid.discover.workflow import DiscoverConfig, gate_in_words, judge_pair, pair_leaders
+from bpmid.discover.workflow import DiscoverConfig, gate_in_words, judge_pair, judge_pair_over, pair_leaders
 from bpmid.errors import InputError
 
 GATE = {"heldout_gain_min_sigma": 0.2, "gap_share_min": 0.35, "family_alpha": 1e-9,
@@ -54,6 +54,61 @@ def test_two_effects_sharing_the_gap_pass_together_and_each_must_pull_its_weight
     untested = _trial(joint=_conf("thermal_softening", 0.2, tested=False, not_tested_reason="did not move"))
     assert judge_pair(untested, GATE)[0] == "not tested: did not move"
     assert judge_pair(_trial(), {**GATE, "pair_share_min": math.inf})   # no path: never passes
+
+
+def test_two_effects_are_named_over_the_single_one_only_by_the_margin_and_each_pulling_its_weight():
+    """A first round that would name one effect alone (a slow branch imitating a softening with time, when a
+    stiffening is there too) names two refitted together instead when their joint held-out gain beats its gain by
+    the margin and each adds the gain asked beside the other; the pair's tests apply alike."""
+    single = _conf("second_relaxation", 0.5)
+    thr = {**GATE, "pair_share_min": math.inf, "pair_over_single_min_sigma": 0.15, "pair_over_gain_min_sigma": 0.28}
+    assert judge_pair_over(_trial(gain=0.7, g_first=0.4, g_second=0.3), thr, single) == []
+    assert judge_pair_over(_trial(gain=0.6, g_first=0.4, g_second=0.3), thr, single) == [
+        "together: held-out gain 0.60 < 0.65 noise floors (second_relaxation alone 0.50, plus the margin 0.15)"]
+    assert judge_pair_over(_trial(gain=0.7, g_first=0.4, g_second=0.2), thr, single) == [
+        "the weaker of the two adds a held-out gain of 0.20 < 0.28 noise floors beside the other"]
+    assert judge_pair_over(_trial(gain=0.7, g_first=0.4, g_second=0.3, p=4e-10), thr, single) == [
+        "each beside the other: likelihood-ratio p = 1.2e-09 (the larger, Bonferroni over 3 pair(s)) >= 1e-09"]
+    # the gate's own gain is asked of the pair too, whatever the single's
+    assert judge_pair_over(_trial(gain=0.15, g_first=0.4, g_second=0.3), thr, _conf("angle_offset", -0.5)) == [
+        "together: held-out gain 0.15 < 0.20 noise floors (angle_offset alone -0.50, plus the margin 0.15)"]
+    assert "instead when their joint held-out gain exceeds the passing candidate's by at least 0.15" in \
+        gate_in_words({**load_thresholds(), **thr})
+
+
+def test_calibration_opens_the_pair_over_a_single_effect_only_where_it_is_right():
+    """Four pair cases whose first round names a third effect alone (gain 0.6, 90 % of the gap: any gate naming
+    the singles names it) while their true two, refitted together, gain 0.9 with each adding 0.4 beside the other;
+    ten singles named right alone (gain 0.55) where a pair with the true effect gains 0.8 but its partner adds
+    only 0.12 beside it. The calibration opens the path over a single effect, with a margin of at most 0.3 and a
+    gain beside the other above 0.12."""
+    recs, pairs = [], []
+    truth = "strain_stiffening+thermal_softening"
+    for k in range(4):
+        c = f"p{k}"
+        recs += [_rec(c, "pair", truth, "second_relaxation", 0.6, 0.9),
+                 _rec(c, "pair", truth, "thermal_softening", 0.45, 0.25),
+                 _rec(c, "pair", truth, "strain_stiffening", 0.3, 0.2)]
+        pairs.append(PairRecord(c, truth, "pair", "thermal_softening", "strain_stiffening", gain_sigma=0.9,
+                                gap_share=0.9, min_gain_given_other=0.4, p_corrected=1e-25))
+    for k in range(10):
+        c = f"s{k}"
+        recs += [_rec(c, "single", "pressure_lag", "pressure_lag", 0.55, 0.9),
+                 _rec(c, "single", "pressure_lag", "angle_offset", 0.2, 0.1)]
+        pairs.append(PairRecord(c, "pressure_lag", "single", "pressure_lag", "angle_offset", gain_sigma=0.8,
+                                gap_share=0.95, min_gain_given_other=0.12, p_corrected=1e-25))
+    for k in range(10):
+        recs.append(_rec(f"o{k}", "out_of_catalogue", "none", "pressure_lag", 0.1, 0.2))
+    for k in range(5):
+        recs.append(_rec(f"n{k}", "null", "none", "angle_offset", 0.01, 0.01, p=0.5))
+    thr = thresholds_from_records(recs, pairs)
+    assert 0 < thr["pair_over_single_min_sigma"] <= 0.3 and 0.12 < thr["pair_over_gain_min_sigma"] <= 0.4, thr
+    assert thr["right_decisions"] == 4 + 10 + 10 + 5 and thr["wrong_names"] == 0, thr
+    one = [r for r in recs if r.case == "p0"]
+    gate = (thr["heldout_gain_min_sigma"], thr["gap_share_min"], thr["family_alpha"])
+    assert _case_outcome(one, *gate) == (0, 1)                                    # the third, alone: wrong
+    assert _case_outcome(one, *gate, pairs=[pairs[0]], pair_over=thr["pair_over_single_min_sigma"],
+                         pair_over_gain=thr["pair_over_gain_min_sigma"]) == (1, 0)
 
 
 def test_the_leaders_are_the_largest_tested_identifiable_gains():
@@ -113,8 +168,9 @@ def test_calibration_opens_the_pair_path_only_as_far_as_the_bounds_allow():
     wrong = _pair("p0", "pair", "braid_friction+thermal_softening", "braid_friction", "angle_offset", 0.9, 0.25)
     one += [_rec("p0", "pair", "braid_friction+thermal_softening", "angle_offset", 0.3, 0.1)]
     assert _case_outcome(one, 0.2, 0.35, 1e-9, pairs=[wrong], pair_share=0.8, pair_gain=0.1) == (0, 1)
-    # without pair trials in the records there is no path
-    assert thresholds_from_records(recs)["pair_share_min"] == math.inf
+    # without pair trials in the records there is no path for two effects at once, nor one over a single effect
+    no_pairs = thresholds_from_records(recs)
+    assert no_pairs["pair_share_min"] == no_pairs["pair_over_single_min_sigma"] == math.inf
 
 
 def test_records_and_thresholds_files_without_pairs_have_no_pair_path(tmp_path):
@@ -123,7 +179,7 @@ def test_records_and_thresholds_files_without_pairs_have_no_pair_path(tmp_path):
                    if not line.startswith("pair_"))
     (tmp_path / "old.yaml").write_text(text)
     old = load_thresholds(tmp_path / "old.yaml")
-    assert old["pair_share_min"] == math.inf
+    assert old["pair_share_min"] == old["pair_over_single_min_sigma"] == math.inf
     assert "refitted two at a time" not in gate_in_words(old)
     assert "refitted two at a time" in gate_in_words({**old, **{"pair_share_min": 0.7, "pair_gain_min_sigma": 0.1}})
     with pytest.raises(InputError) as e:
@@ -132,6 +188,9 @@ def test_records_and_thresholds_files_without_pairs_have_no_pair_path(tmp_path):
     with pytest.raises(InputError) as e:
         DiscoverConfig(pair_gain_min_sigma=-0.1).validate("discover", "cfg.yaml")
     assert e.value.key == "discover.pair_gain_min_sigma"
+    with pytest.raises(InputError) as e:
+        DiscoverConfig(pair_over_single_min_sigma=0.0).validate("discover", "cfg.yaml")
+    assert e.value.key == "discover.pair_over_single_min_sigma"
 
 
 def test_cli_names_two_effects_together_and_says_why(tmp_path):

@@ -34,13 +34,15 @@ from bpmid.params import ParamSet
 THRESHOLDS_PATH = Path(__file__).with_name("thresholds.yaml")
 THRESHOLD_KEYS = ("heldout_gain_min_sigma", "gap_share_min", "family_alpha", "fit_share_min",
                   "fit_share_waived_above_sigma", "heldout_gain_min_sigma_later", "to_floor_drop_min_sigma",
-                  "to_floor_ratio_max", "pair_share_min", "pair_gain_min_sigma", "identifiable_waived_above_sigma")
+                  "to_floor_ratio_max", "pair_share_min", "pair_gain_min_sigma", "identifiable_waived_above_sigma",
+                  "pair_over_single_min_sigma", "pair_over_gain_min_sigma")
 #: thresholds a file written before they existed may lack, with the value that leaves the gate as it was (None:
 #: the held-out gain asked of a further effect is the one asked of the first)
 OPTIONAL_THRESHOLDS = {"fit_share_min": 0.0, "fit_share_waived_above_sigma": math.inf,
                        "heldout_gain_min_sigma_later": None, "to_floor_drop_min_sigma": math.inf,
                        "to_floor_ratio_max": 1.0, "pair_share_min": math.inf, "pair_gain_min_sigma": math.inf,
-                       "identifiable_waived_above_sigma": math.inf}
+                       "identifiable_waived_above_sigma": math.inf, "pair_over_single_min_sigma": math.inf,
+                       "pair_over_gain_min_sigma": math.inf}
 #: the held-out RMSE an effect named on the path to the floor may leave, in noise floors: at the floor, by the
 #: path's meaning (the effect explains what the base model left); not calibrated
 TO_FLOOR_RATIO = 1.0
@@ -49,7 +51,8 @@ TO_FLOOR_RATIO = 1.0
 PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
               "fit_share_waived_above_sigma": 0.0, "heldout_gain_min_sigma_later": -1e9,
               "to_floor_drop_min_sigma": 0.0, "to_floor_ratio_max": 1e9, "max_effects": 2, "record_pair_trials": True,
-              "identifiable_waived_above_sigma": math.inf, "withhold_for_rivals": False}
+              "identifiable_waived_above_sigma": math.inf, "withhold_for_rivals": False,
+              "pair_over_single_min_sigma": math.inf}
 SCHEMA = "bpmid.discover-thresholds/1"
 
 
@@ -361,24 +364,35 @@ def rival_withholds(recs: Sequence[Record], named_after_over_floor: float, alpha
                                            alpha) for r in recs)
 
 
+def _pair_best(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, alpha: float, pair_share: float,
+               pair_gain: float, above: float = -math.inf) -> PairRecord | None:
+    """The pair trial the path for two effects at once would take (the largest joint held-out gain among those
+    meeting its conditions, and above ``above``), before the rival's check; None when none does."""
+    if not pairs or not math.isfinite(pair_share):
+        return None
+    p1 = {r.candidate: r.lr_p_holm for r in recs if r.round == 1 and not r.rival}
+    ok = [q for q in pairs if q.tested and q.identifiable and p1.get(q.first, 1.0) < alpha
+          and p1.get(q.second, 1.0) < alpha and q.p_corrected < alpha
+          and math.isfinite(q.gain_sigma) and q.gain_sigma >= g and q.gain_sigma >= above
+          and math.isfinite(q.gap_share) and q.gap_share >= pair_share
+          and math.isfinite(q.min_gain_given_other) and q.min_gain_given_other >= pair_gain]
+    return max(ok, key=lambda q: q.gain_sigma) if ok else None
+
+
+def _pair_withheld(recs: Sequence[Record], q: PairRecord, alpha: float) -> bool:
+    """Whether the round's rival outside the catalogue withholds the pair ``q`` (judged against the better of its
+    two members alone, as in discovery)."""
+    r1 = [r for r in recs if r.round == 1]
+    alone = [r.after_over_floor for r in r1 if not r.rival and r.candidate in (q.first, q.second)]
+    return bool(alone) and rival_withholds(r1, min(alone), alpha)
+
+
 def _pair_named(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, alpha: float, pair_share: float,
                 pair_gain: float) -> tuple[str, str] | None:
     """The two effects the path for two at once names in a first round where nothing passes alone
     (:func:`bpmid.discover.workflow.judge_pair`), or None."""
-    if not pairs or not math.isfinite(pair_share):
-        return None
-    p1 = {r.candidate: r.lr_p_holm for r in recs if r.round == 1}
-    ok = [q for q in pairs if q.tested and q.identifiable and p1.get(q.first, 1.0) < alpha
-          and p1.get(q.second, 1.0) < alpha and q.p_corrected < alpha
-          and math.isfinite(q.gain_sigma) and q.gain_sigma >= g
-          and math.isfinite(q.gap_share) and q.gap_share >= pair_share
-          and math.isfinite(q.min_gain_given_other) and q.min_gain_given_other >= pair_gain]
-    if not ok:
-        return None
-    q = max(ok, key=lambda q: q.gain_sigma)
-    r1 = [r for r in recs if r.round == 1]
-    alone = [r.after_over_floor for r in r1 if not r.rival and r.candidate in (q.first, q.second)]
-    if alone and rival_withholds(r1, min(alone), alpha):
+    q = _pair_best(recs, pairs, g, alpha, pair_share, pair_gain)
+    if q is None or _pair_withheld(recs, q, alpha):
         return None
     return q.first, q.second
 
@@ -420,24 +434,35 @@ def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
                   fit_share: float = 0.0, waive: float = math.inf, g_later: float | None = None,
                   share_later: float | None = None, to_floor: float = math.inf,
                   pairs: Sequence[PairRecord] = (), pair_share: float = math.inf,
-                  pair_gain: float = math.inf) -> tuple[int, int]:
+                  pair_gain: float = math.inf, pair_over: float = math.inf,
+                  pair_over_gain: float = math.inf) -> tuple[int, int]:
     """(right decisions, false positives) the gate (g, share, alpha) makes on one case's records: round 1 must
     name the truth (nothing, on a case with no catalogue truth); the round after the truth was added must name
     nothing (judged with the held-out gain ``g_later`` and share ``share_later``, None: ``g``, ``share``); on a
     pair, both effects must be named (:func:`_pair_outcome`). ``to_floor``: the drop asked on the path to the noise
     floor (inf: no such path). ``pairs``, ``pair_share``, ``pair_gain``: the path for two effects at once, asked
-    when round 1 names nothing (:func:`_pair_named`; inf: no such path)."""
+    when round 1 names nothing (:func:`_pair_named`; inf: no such path). ``pair_over``, ``pair_over_gain``: two
+    effects at once over the one round 1 would name, when their joint held-out gain exceeds its gain by
+    ``pair_over`` noise floors and each adds ``pair_over_gain`` beside the other (inf: no such path)."""
     truth = recs[0].truth
-    if math.isfinite(pair_share) and pairs and _first_passing([r for r in recs if r.round == 1], g, share, alpha,
-                                                                fit_share, waive, to_floor, withhold=False) is None:
-        named = _pair_named(recs, pairs, g, alpha, pair_share, pair_gain)
-        if named is not None:
-            return _pair_path_outcome(truth, named)
+    r1 = [r for r in recs if r.round == 1]
+    if pairs and (math.isfinite(pair_share) or math.isfinite(pair_over)):
+        first = _first_passing(r1, g, share, alpha, fit_share, waive, to_floor, withhold=False)
+        q = None
+        if first is None:
+            q = _pair_best(recs, pairs, g, alpha, pair_share, pair_gain)
+        elif math.isfinite(pair_over):
+            alone = max(r.gain_sigma for r in r1 if r.candidate == first and not r.rival)
+            q = _pair_best(recs, pairs, g, alpha, 0.0, pair_over_gain, above=alone + pair_over)
+        if q is not None:
+            if not _pair_withheld(recs, q, alpha):
+                return _pair_path_outcome(truth, (q.first, q.second))
+            if first is not None:   # the round is withheld: nothing named
+                return (1, 0) if truth == "none" else (0, 0)
     if "+" in truth:
         return _pair_outcome(recs, g, share, alpha, fit_share, waive, g_later, share_later, to_floor)
     g2 = g if g_later is None else g_later
     sh2 = share if share_later is None else share_later
-    r1 = [r for r in recs if r.round == 1]
     first = _first_passing(r1, g, share, alpha, fit_share, waive, to_floor)
     if truth == "none":
         return (1, 0) if first is None else (0, 1)
@@ -478,24 +503,29 @@ def ooc_names_allowed(n_cases: int, target: float = OOC_NAMED_TARGET, confidence
 
 def _tally(cases: Sequence[Sequence[Record]], g: float, sh: float, a: float, fs: float, waive: float,
            g_later: float | None = None, to_floor: float = math.inf, pairs: Mapping | None = None,
-           pair_share: float = math.inf, pair_gain: float = math.inf) -> dict:
+           pair_share: float = math.inf, pair_gain: float = math.inf, pair_over: float = math.inf,
+           pair_over_gain: float = math.inf) -> dict:
     """Outcomes of one gate over the calibration cases: right decisions, wrong names (on cases with a catalogue
     truth), names on nulls, names on out-of-catalogue cases. ``pairs``: case -> its pair trials."""
     t = {"right": 0, "wrong": 0, "null_named": 0, "ooc_named": 0, "ooc": 0}
     pairs = pairs or {}
     for recs in cases:
-        rr, ff = _case_outcome(recs, g, sh, a, fs, waive, g_later, to_floor=to_floor,
-                               pairs=pairs.get(recs[0].case, ()), pair_share=pair_share, pair_gain=pair_gain)
-        t["right"] += rr
-        kind = recs[0].kind
-        if recs[0].truth == "none" and kind == "out_of_catalogue":
-            t["ooc"] += 1
-            t["ooc_named"] += ff
-        elif recs[0].truth == "none":
-            t["null_named"] += ff
-        else:
-            t["wrong"] += ff
+        _add_outcome(t, recs, *_case_outcome(recs, g, sh, a, fs, waive, g_later, to_floor=to_floor,
+                                             pairs=pairs.get(recs[0].case, ()), pair_share=pair_share,
+                                             pair_gain=pair_gain, pair_over=pair_over, pair_over_gain=pair_over_gain))
     return t
+
+
+def _add_outcome(t: dict, recs: Sequence[Record], right: int, named_wrong: int) -> None:
+    """Add one case's (right decisions, names counted against) to a :func:`_tally` outcome."""
+    t["right"] += right
+    if recs[0].truth == "none" and recs[0].kind == "out_of_catalogue":
+        t["ooc"] += 1
+        t["ooc_named"] += named_wrong
+    elif recs[0].truth == "none":
+        t["null_named"] += named_wrong
+    else:
+        t["wrong"] += named_wrong
 
 
 def _sum_tallies(a: Mapping, b: Mapping) -> dict:
@@ -612,6 +642,56 @@ def _pair_path_from(cases, pairs: Mapping, gate: tuple, to_floor: float, t: dict
     return best[0], best[1], best_t
 
 
+#: margins of the joint held-out gain over the single effect's (noise floors) the calibration considers for two
+#: effects named at once over the one a first round would name (a pair must explain more than its better member)
+PAIR_MARGINS = tuple(np.round(np.arange(0.05, 1.0001, 0.05), 2))
+
+
+def _pair_over_from(cases, pairs: Mapping, gate: tuple, to_floor: float, pair_share: float, pair_gain: float,
+                    t: dict, allowed: int) -> tuple[float, float, dict]:
+    """The margin and the gain of each beside the other asked of two effects named at once over the single effect
+    a first round would name, with everything before fixed: among :data:`PAIR_MARGINS` x :data:`PAIR_GAINS` the
+    pair that names nothing on a null case, keeps the out-of-catalogue names within ``allowed`` and has the best
+    score, if it beats the gate without this path (``t``); ties to the stricter. (inf, inf) otherwise.
+    (:func:`_case_outcome` with ``pair_over``, evaluated once per case and pair trial instead of once per value.)"""
+    g, sh, a, fs, waive = gate[:5]
+    kw = dict(to_floor=to_floor, pairs=pairs, pair_share=pair_share, pair_gain=pair_gain)
+    # per case that the loosest margin could change: its outcome without the path, the single effect's gain and
+    # the outcome of each pair trial that could be taken over it, largest joint gain first
+    able, ids = [], set()
+    for recs in cases:
+        trials = pairs.get(recs[0].case)
+        r1 = [r for r in recs if r.round == 1]
+        first = _first_passing(r1, g, sh, a, fs, waive, to_floor, withhold=False) if trials else None
+        if first is None:
+            continue
+        alone = max(r.gain_sigma for r in r1 if r.candidate == first and not r.rival)
+        over = []
+        while True:   # _pair_best at a given margin and gain is the first of these meeting both
+            q = _pair_best(recs, [x for x in trials if all(x is not y for y, *_ in over)], g, a, 0.0, 0.0,
+                           above=alone + min(PAIR_MARGINS))
+            if q is None:
+                break
+            out = (_pair_path_outcome(recs[0].truth, (q.first, q.second)) if not _pair_withheld(recs, q, a)
+                   else ((1, 0) if recs[0].truth == "none" else (0, 0)))
+            over.append((q, q.gain_sigma, q.min_gain_given_other, out))
+        if over:
+            ids.add(id(recs))
+            able.append((recs, alone, _case_outcome(recs, *gate, **kw), over))
+    if not able:
+        return math.inf, math.inf, t
+    rest = _tally([recs for recs in cases if id(recs) not in ids], *gate, **kw)
+    best, best_t = (math.inf, math.inf), t
+    for m in sorted(PAIR_MARGINS, reverse=True):
+        for pg in sorted(PAIR_GAINS, reverse=True):
+            t2 = dict(rest)
+            for recs, alone, base, over in able:
+                _add_outcome(t2, recs, *next((out for _, gq, mg, out in over if gq >= alone + m and mg >= pg), base))
+            if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
+                best, best_t = (float(m), float(pg)), t2
+    return best[0], best[1], best_t
+
+
 #: first-stage gates (held-out gain, gap share, alpha, fitting share) taken to the later stages, best first (with
 #: the best of every gap share besides)
 FINALISTS = 10
@@ -620,7 +700,7 @@ FINALISTS = 10
 def _finish(cases, by_case_pairs: Mapping, gains: np.ndarray, g: float, sh: float, a: float, fs: float,
             waive: float, t: dict, allowed: int) -> tuple:
     """The later stages for a first-stage gate: (later-round gain, drop on the path to the floor, pair share, pair
-    gain, final outcome)."""
+    gain, margin and gain of a pair over a single effect, final outcome)."""
     # a further effect, once one is named: the gap left is smaller, so the same gain in noise floors asks more of
     # it. With the first round's gate fixed, the held-out gain asked in later rounds (never more than g) that makes
     # the most right decisions minus twice the wrong names; ties to the stricter. Nulls and out-of-catalogue cases
@@ -635,7 +715,9 @@ def _finish(cases, by_case_pairs: Mapping, gains: np.ndarray, g: float, sh: floa
     to_floor, t = _to_floor_from(cases, (g, sh, a, fs, waive, g_later), t, allowed)
     pair_share, pair_gain, t = _pair_path_from(cases, by_case_pairs, (g, sh, a, fs, waive, g_later), to_floor, t,
                                                allowed)
-    return g_later, to_floor, pair_share, pair_gain, t
+    pair_over, pair_over_gain, t = _pair_over_from(cases, by_case_pairs, (g, sh, a, fs, waive, g_later), to_floor,
+                                                   pair_share, pair_gain, t, allowed)
+    return g_later, to_floor, pair_share, pair_gain, pair_over, pair_over_gain, t
 
 
 def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecord] = ()) -> dict:
@@ -693,14 +775,15 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
             best_key, best = key, (g, sh, a, fs) + out
     if best is None:
         z = {"right": 0, "wrong": 0, "null_named": 0, "ooc_named": 0, "ooc": 0}
-        best = (1.0, 0.25, 0.01, 0.0, 1.0, math.inf, math.inf, math.inf, z)
-    g, sh, a, fs, g_later, to_floor, pair_share, pair_gain, t = best
+        best = (1.0, 0.25, 0.01, 0.0, 1.0, math.inf, math.inf, math.inf, math.inf, math.inf, z)
+    g, sh, a, fs, g_later, to_floor, pair_share, pair_gain, pair_over, pair_over_gain, t = best
     pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate in r.truth.split("+")]
     neg = [r for r in records if not r.rival and (r.truth == "none" or (r.truth_in_model and "+" not in r.truth))]
     return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
             "fit_share_waived_above_sigma": waive, "heldout_gain_min_sigma_later": g_later,
             "to_floor_drop_min_sigma": to_floor, "to_floor_ratio_max": TO_FLOOR_RATIO,
             "pair_share_min": pair_share, "pair_gain_min_sigma": pair_gain, "identifiable_waived_above_sigma": waive,
+            "pair_over_single_min_sigma": pair_over, "pair_over_gain_min_sigma": pair_over_gain,
             "n_pair_trials": len(pairs),
             "n_cases": len(cases), "right_decisions": int(t["right"]),
             "false_positives": int(t["wrong"] + t["null_named"] + t["ooc_named"]),

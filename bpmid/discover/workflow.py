@@ -99,8 +99,13 @@ class DiscoverConfig:
         the held-out gap two candidates refitted together must remove (None: calibrated; inf: no such path) ...
     pair_gain_min_sigma : ... with each adding at least this held-out gain (noise floors) beside the other
         (None: calibrated)
-    record_pair_trials : refit the leading pairs of the first round together even when a candidate passes (the
-        calibration runs record them; they never change what is named)
+    pair_over_single_min_sigma : two effects at once over the single effect a first round would name: their joint
+        refit's held-out gain must exceed that effect's by this many noise floors (None: calibrated; inf: no such
+        path) ...
+    pair_over_gain_min_sigma : ... with each adding at least this held-out gain (noise floors) beside the other
+        (None: calibrated)
+    record_pair_trials : refit the leading pairs of the first round together even when a candidate passes and no
+        path asks for them (the calibration runs record them; they never change what is named)
     withhold_for_rivals : a round names nothing when a rival outside the catalogue (:mod:`bpmid.discover.rivals`:
         payload inertia that rings) explains the held-out logs better than the effect it would name; False (the
         calibration runs): every round's rival is refitted and recorded, and decides nothing
@@ -133,6 +138,8 @@ class DiscoverConfig:
     identifiable_waived_above_sigma: Optional[float] = None
     pair_share_min: Optional[float] = None
     pair_gain_min_sigma: Optional[float] = None
+    pair_over_single_min_sigma: Optional[float] = None
+    pair_over_gain_min_sigma: Optional[float] = None
     record_pair_trials: bool = False
     withhold_for_rivals: bool = True
     per_log_gain: bool = True
@@ -168,7 +175,10 @@ class DiscoverConfig:
                 ("identifiable_waived_above_sigma", lambda x: x >= 0, "0 or more noise floors (.inf: always asked)"),
                 ("pair_share_min", lambda x: 0 <= x < 1 or inf_ok(x),
                  "in [0, 1) (.inf: no path for two effects at once)"),
-                ("pair_gain_min_sigma", lambda x: x >= 0, "0 or more noise floors")):
+                ("pair_gain_min_sigma", lambda x: x >= 0, "0 or more noise floors"),
+                ("pair_over_single_min_sigma", lambda x: x > 0,
+                 "above 0 noise floors (.inf: no pair over a single effect)"),
+                ("pair_over_gain_min_sigma", lambda x: x >= 0, "0 or more noise floors")):
             v = getattr(self, name)
             if v is not None and not ok(v):
                 raise InputError(f"must be {what}, found {v}", path=path, key=f"{where}.{name}")
@@ -209,7 +219,7 @@ def gate_in_words(thr: dict) -> str:
                f"effect is then named with its constants reported as not determined separately)"
                if math.isfinite(float(thr.get("identifiable_waived_above_sigma", math.inf))) else "")
             + "; of several that pass, "
-            f"the largest held-out gain wins" + _to_floor_words(thr) + _pair_path_words(thr)
+            f"the largest held-out gain wins" + _to_floor_words(thr) + _pair_path_words(thr) + _pair_over_words(thr)
             + ". Whatever a round would name, a rival outside the catalogue (payload inertia that rings: an "
               "underdamped response of the angle) is refitted beside it; when the rival passes the likelihood-ratio "
               f"test at {thr['family_alpha']:.2g} uncorrected, needs its own shape (damping off its bound of "
@@ -229,6 +239,18 @@ def _pair_path_words(thr: dict) -> str:
             f"{float(thr.get('pair_gain_min_sigma', math.inf)):.2f} noise floors of held-out gain beside the other, "
             f"and each passes the likelihood-ratio test beside the other at the same level (Bonferroni over the "
             f"pairs tried): two effects sharing a residual each remove too small a share of it alone")
+
+
+def _pair_over_words(thr: dict) -> str:
+    m = float(thr.get("pair_over_single_min_sigma", math.inf))
+    if not math.isfinite(m):
+        return ""
+    return (f". When a first-round candidate passes, the {PAIR_LEADERS} leading candidates are also refitted two at a "
+            f"time; two that both pass (3) alone, each beside the other (Bonferroni over the pairs tried), and are "
+            f"tested and identifiable are named together instead when their joint held-out gain exceeds the "
+            f"passing candidate's by at least {m:.2f} noise floors and each adds at least "
+            f"{float(thr.get('pair_over_gain_min_sigma', math.inf)):.2f} noise floors beside the other: two effects at "
+            f"once can make a third the best alone")
 
 
 def _to_floor_words(thr: dict) -> str:
@@ -440,7 +462,9 @@ def _pair_member_explanation(c: Confirmation, rnd: Round, floor: float, s, e) ->
                 f"(noise floor {floor:.3f} deg; its signature explained {s.explained:.0%} of what the base model left "
                 f"after the base constants' own compensation; likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected "
                 f"{c.lr_p_holm:.2g})")
-    return head + body + "; alone the gate refused it because " + "; ".join(c.gate_reasons)
+    return head + body + ("; alone the gate refused it because " + "; ".join(c.gate_reasons) if c.gate_reasons else
+                          "; it passed the gate alone, but the two refitted together explain the held-out logs "
+                          "better by more than the margin asked")
 
 
 def make_verdict(named: list[str], rounds: list[Round], before: float, after: float, floor: float,
@@ -700,25 +724,29 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 elif _open_to_floor(c, thr):
                     c.reasons.append("nor does it take the held-out error to the noise floor: " + "; ".join(why))
             passing = [c for c in confs if c.accepted]
+        # the best of those passing alone (by the held-out drop on the path to the floor, else by the held-out gain)
+        by_floor = bool(passing) and passing[0].passed_by == "floor"
+        score = (lambda c: c.drop_sigma) if by_floor else (lambda c: c.heldout_gain_sigma)
+        best = max(passing, key=score) if passing else None
         trials: list[PairTrial] = []
         pair_open = math.isfinite(float(thr.get("pair_share_min", math.inf)))
+        over_open = math.isfinite(float(thr.get("pair_over_single_min_sigma", math.inf)))
         if not named and len(remaining) >= 2 and cfg.max_effects >= 2 and (
-                cfg.record_pair_trials or (pair_open and not passing)):
+                cfg.record_pair_trials or (pair_open and not passing) or (over_open and passing)):
             trials = try_pairs(confs, remaining, fit_logs, ho_logs, floor=floor, heldout_before=ho_now,
                                max_nfev=cfg.confirm_max_nfev, per_log_gain=gain,
                                alpha=None if cfg.record_pair_trials else thr["family_alpha"])
             for pt in trials:
-                pt.reasons = (judge_pair(pt, thr) if pair_open and not passing else
-                              ["not asked: " + ("a candidate passed alone" if passing else "no path for two effects "
-                                                "at once in this gate")])
+                if not passing:
+                    pt.reasons = judge_pair(pt, thr) if pair_open else [
+                        "not asked: no path for two effects at once in this gate"]
+                else:
+                    pt.reasons = judge_pair_over(pt, thr, best) if over_open else [
+                        "not asked: a candidate passed alone"]
                 pt.accepted = not pt.reasons
         won = [pt for pt in trials if pt.accepted]
-        # what the round would name: two effects together, or the best of those passing (by the held-out drop on
-        # the path to the floor, else by the held-out gain)
+        # what the round would name: two effects together, or the best of those passing alone
         pt = max(won, key=lambda x: x.gain_sigma) if won else None
-        by_floor = bool(passing) and passing[0].passed_by == "floor"
-        score = (lambda c: c.drop_sigma) if by_floor else (lambda c: c.heldout_gain_sigma)
-        best = max(passing, key=score) if passing else None
         rival, withheld = None, ""
         if pt is not None or best is not None or not cfg.withhold_for_rivals:
             # the rival outside the catalogue, refitted and scored like the candidates
@@ -750,13 +778,18 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                     x.accepted = False
                     x.reasons = [f"passed, but {'+'.join(pt.ids)} explains the held-out logs better (held-out gain "
                                  f"{pt.gain_sigma:.2f} vs {x.gain_sigma:.2f} noise floors)"]
+            for c in passing:   # a pair over the single effect the round would have named
+                c.gate_reasons = []
+                c.accepted, c.passed_by = False, ""
+                c.reasons = [f"passed, but {'+'.join(pt.ids)} refitted together explain the held-out logs better "
+                             f"(held-out gain {pt.gain_sigma:.2f} vs {c.heldout_gain_sigma:.2f} noise floors)"]
             a, b = pt.first, pt.joint
             for c in (a, b):
                 c.gate_reasons = list(a.reasons if c is a else pt.second.reasons)
                 c.accepted, c.passed_by, c.reasons = True, "pair", []
                 c.named_with = b.state    # the constants named are the joint refit's
             b.lr_p_holm = pt.p_corrected  # its test beside the first, Bonferroni over the pairs tried
-            words = pair_words(pt, floor)
+            words = pair_words(pt, floor, over=best)
             rounds.append(Round(diag, ranking, confs, a.effect_id, family, words, trials, rival=rival))
             # the second's record: its evidence beside the first, on the residual the first left
             parts_a = gained_residuals(simulate(a.state, fit_logs), fit_logs, per_log_gain=gain)
@@ -933,10 +966,9 @@ def try_pairs(confs: Sequence[Confirmation], effects: Sequence[Effect], fit_logs
     return out
 
 
-def judge_pair(pt: PairTrial, thr: dict) -> list[str]:
-    """Reasons two candidates refitted together are not named together (empty: both are). Asked only in a first
-    round where no candidate passes alone by either path: an effect that shares the gap with another one removes
-    too small a share of it alone, although together they close it."""
+def _pair_tested(pt: PairTrial, thr: dict) -> list[str]:
+    """Reasons two candidates refitted together cannot be named together on any path: not tested, not
+    identifiable, or a likelihood-ratio test failed (alone, Holm; beside the other, Bonferroni over the pairs)."""
     why = []
     if not pt.tested:
         why.append("not tested: " + "; ".join(c.not_tested_reason for c in (pt.first, pt.second, pt.joint)
@@ -951,6 +983,14 @@ def judge_pair(pt: PairTrial, thr: dict) -> list[str]:
     if not pt.p_corrected < alpha:
         why.append(f"each beside the other: likelihood-ratio p = {pt.p_corrected:.2g} (the larger, Bonferroni over "
                    f"{pt.n_pairs} pair(s)) >= {alpha:.2g}")
+    return why
+
+
+def judge_pair(pt: PairTrial, thr: dict) -> list[str]:
+    """Reasons two candidates refitted together are not named together (empty: both are). Asked only in a first
+    round where no candidate passes alone by either path: an effect that shares the gap with another one removes
+    too small a share of it alone, although together they close it."""
+    why = _pair_tested(pt, thr)
     g = thr["heldout_gain_min_sigma"]
     if not (math.isfinite(pt.gain_sigma) and pt.gain_sigma >= g):
         x, lim = _apart(pt.gain_sigma, g, 2)
@@ -966,14 +1006,38 @@ def judge_pair(pt: PairTrial, thr: dict) -> list[str]:
     return why
 
 
-def pair_words(pt: PairTrial, floor: float) -> str:
-    """Why two effects were named together, in words."""
+def judge_pair_over(pt: PairTrial, thr: dict, single: Confirmation) -> list[str]:
+    """Reasons two candidates refitted together are not named instead of ``single``, the effect a first round
+    would name alone (empty: they are): their joint held-out gain must exceed its gain by
+    ``pair_over_single_min_sigma`` noise floors, and each must add ``pair_over_gain_min_sigma`` beside the other.
+    Two effects present at once can make a third candidate the best alone (a slow branch imitating a softening
+    with time when a stiffening is there too); refitted together, the true two explain more than it."""
+    why = _pair_tested(pt, thr)
+    g = thr["heldout_gain_min_sigma"]
+    need = max(g, single.heldout_gain_sigma + float(thr["pair_over_single_min_sigma"]))
+    if not (math.isfinite(pt.gain_sigma) and math.isfinite(pt.gap_share) and pt.gain_sigma >= need):
+        x, lim = _apart(pt.gain_sigma, need, 2)
+        why.append(f"together: held-out gain {x} < {lim} noise floors ({single.effect_id} alone "
+                   f"{single.heldout_gain_sigma:.2f}, plus the margin {float(thr['pair_over_single_min_sigma']):.2f})")
+    gm = float(thr.get("pair_over_gain_min_sigma", math.inf))
+    if not (math.isfinite(pt.min_gain_given_other) and pt.min_gain_given_other >= gm):
+        x, lim = _apart(pt.min_gain_given_other, gm, 2)
+        why.append(f"the weaker of the two adds a held-out gain of {x} < {lim} noise floors beside the other")
+    return why
+
+
+def pair_words(pt: PairTrial, floor: float, over: Optional[Confirmation] = None) -> str:
+    """Why two effects were named together, in words (``over``: the single effect the round would have named)."""
     a, b = pt.ids
-    return (f"no candidate passed alone; {a} and {b} refitted together cut the held-out error from "
+    lead = ("no candidate passed alone" if over is None else
+            f"{over.effect_id} passed alone (held-out gain {over.heldout_gain_sigma:.2f} noise floors), but two "
+            f"effects refitted together explained more")
+    return (f"{lead}; {a} and {b} refitted together cut the held-out error from "
             f"{pt.heldout_rmse_before:.3f} to {pt.heldout_rmse_after:.3f} deg (noise floor {floor:.3f} deg), "
             f"removing {pt.gap_share:.0%} of the gap above the floor (gain {pt.gain_sigma:.2f} noise floors); beside "
             f"the other, {a} adds {pt.gain_first_given_second:.2f} and {b} {pt.gain_second_given_first:.2f} noise "
             f"floors of held-out gain (likelihood-ratio p = {pt.p_first_given_second:.2g} and "
             f"{pt.p_second_given_first:.2g}, the larger Bonferroni-corrected over {pt.n_pairs} pair(s) to "
-            f"{pt.p_corrected:.2g}): the two share the residual, so neither removes enough of it alone, and both are "
-            f"named")
+            f"{pt.p_corrected:.2g}): "
+            + ("the two share the residual, so neither removes enough of it alone, and both are named" if over is None
+               else "each is needed beside the other, and both are named in its place"))
