@@ -778,14 +778,19 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                     x.accepted = False
                     x.reasons = [f"passed, but {'+'.join(pt.ids)} explains the held-out logs better (held-out gain "
                                  f"{pt.gain_sigma:.2f} vs {x.gain_sigma:.2f} noise floors)"]
-            for c in passing:   # a pair over the single effect the round would have named
-                c.gate_reasons = []
+            # each member's verdict alone (empty: it passed alone, and the pair was named over a single effect)
+            alone = {id(x): list(x.reasons) for x in (pt.first, pt.second)}
+            for c in passing:   # a pair named over the single effect the round would have named
+                if c is pt.first:
+                    continue
                 c.accepted, c.passed_by = False, ""
-                c.reasons = [f"passed, but {'+'.join(pt.ids)} refitted together explain the held-out logs better "
-                             f"(held-out gain {pt.gain_sigma:.2f} vs {c.heldout_gain_sigma:.2f} noise floors)"]
+                c.reasons = ([f"named together with {pt.first.effect_id}: its numbers beside it are the next "
+                              f"round's"] if c is pt.second else
+                             [f"passed, but {'+'.join(pt.ids)} refitted together explain the held-out logs better "
+                              f"(held-out gain {pt.gain_sigma:.2f} vs {c.heldout_gain_sigma:.2f} noise floors)"])
             a, b = pt.first, pt.joint
             for c in (a, b):
-                c.gate_reasons = list(a.reasons if c is a else pt.second.reasons)
+                c.gate_reasons = alone[id(pt.first) if c is a else id(pt.second)]
                 c.accepted, c.passed_by, c.reasons = True, "pair", []
                 c.named_with = b.state    # the constants named are the joint refit's
             b.lr_p_holm = pt.p_corrected  # its test beside the first, Bonferroni over the pairs tried
