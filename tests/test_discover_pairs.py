@@ -249,6 +249,9 @@ def test_cli_names_two_effects_over_the_single_one_that_passed_and_says_why(tmp_
         "reasons_rejected"][-1]
     assert "instead when their joint held-out gain exceeds the passing candidate's by at least 0.01" in d["gate"]
     assert "refitted two at a time; two that both meet" not in d["gate"]   # the other pair path is shut
+    # the verdict gives the final model's constants besides each round's
+    final = next(x for x in d["verdict"].splitlines() if x.startswith("constants of the final model"))
+    assert f"tau = {d['final_model']['pressure_lag.tau']['value']:.4g} s" in final and "braid_friction (r = " in final
 
 
 def test_a_plainly_needed_effect_is_named_even_when_its_constants_trade_off():

@@ -470,13 +470,17 @@ def _pair_member_explanation(c: Confirmation, rnd: Round, floor: float, s, e) ->
 def make_verdict(named: list[str], rounds: list[Round], before: float, after: float, floor: float,
                  unexplained: bool, variation: Optional[dict] = None, thr: Optional[dict] = None,
                  base_fit: Optional[dict] = None, raw_after: Optional[float] = None,
-                 noise: Optional[dict] = None, unexplained_margin: float = 0.5) -> str:
+                 noise: Optional[dict] = None, unexplained_margin: float = 0.5, final=None) -> str:
     lines = []
     for r in rounds:
         if r.accepted:
             lines.append(rnd_explanation(next(c for c in r.confirmations if c.effect_id == r.accepted), r, floor))
             if r.competition:
                 lines.append(r.competition)
+    if final is not None and len(named) >= 2:
+        # each round prints its effect's constants as named; a later round refits them all
+        lines.append("constants of the final model (every named effect refitted beside the others; each round above "
+                     "gives them as named): " + "; ".join(e.describe(final.params) for e in final.effects))
     for r in rounds:
         if r.withheld:
             lines.append(r.withheld.replace("withheld: ", "nothing named: ", 1))
@@ -842,7 +846,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor or any(r.withheld for r in rounds))
     variation = log_to_log_variation(state, ho_logs, raw_after, floor, cfg) if unexplained else None
     verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after,
-                           noise, cfg.unexplained_gap_sigma)
+                           noise, cfg.unexplained_gap_sigma, final=state)
     return DiscoveryResult(named, rounds, noise, base_state, state, list(fit_logs), list(ho_logs), before, after,
                            thr, unexplained, verdict, how, time.perf_counter() - t0, variation, base_report,
                            raw_before, raw_after, base_gain)
@@ -885,14 +889,16 @@ def judge(c: Confirmation, thr: dict, floor: float | None = None, later: bool = 
         why.append(f"held-out error drop above the noise {c.heldout_gain_sigma:.2f} noise floors < {g_min:.2f}"
                    + (" (asked of a further effect)" if later else ""))
     if not (math.isfinite(c.gap_share) and c.gap_share >= thr["gap_share_min"]):
-        share = f"{c.gap_share:.0%}" if math.isfinite(c.gap_share) else "none (no held-out gap above the floor)"
-        why.append(f"share of the held-out gap removed {share} < {thr['gap_share_min']:.0%}")
+        share, lim = _share_apart(c.gap_share, thr["gap_share_min"])
+        share = share if math.isfinite(c.gap_share) else "none (no held-out gap above the floor)"
+        why.append(f"share of the held-out gap removed {share} < {lim}")
     fs = float(thr.get("fit_share_min", 0.0))
     waive = float(thr.get("fit_share_waived_above_sigma", math.inf))
     if fs > 0 and not (math.isfinite(c.heldout_gain_sigma) and c.heldout_gain_sigma > waive) and not (
             math.isfinite(c.fit_share) and c.fit_share >= fs):
-        share = f"{c.fit_share:.0%}" if math.isfinite(c.fit_share) else "none (no fitting gap above the floor)"
-        why.append(f"share of the fitting logs' gap removed {share} < {fs:.0%}: it leaves most of what the model "
+        share, lim = _share_apart(c.fit_share, fs)
+        share = share if math.isfinite(c.fit_share) else "none (no fitting gap above the floor)"
+        why.append(f"share of the fitting logs' gap removed {share} < {lim}: it leaves most of what the model "
                    "misses unexplained")
     p = c.family_p
     if not p < thr["family_alpha"]:
@@ -925,6 +931,18 @@ def judge_to_floor(c: Confirmation, thr: dict, floor: float) -> list[str]:
 def _open_to_floor(c: Confirmation, thr: dict) -> bool:
     """The conditions the path to the floor shares with the gate: tested, identifiable, significant."""
     return bool(c.tested and c.identifiable and c.family_p < thr["family_alpha"])
+
+
+def _share_apart(x: float, limit: float) -> tuple[str, str]:
+    """Two shares as percentages with the fewest decimals that tell them apart ("29.7% < 30.0%", never
+    "30% < 30%"); a share that is not a number reads ``none``."""
+    if not math.isfinite(x):
+        return "none", f"{limit:.0%}"
+    for n in range(0, 8):
+        a, b = f"{100 * x:.{n}f}%", f"{100 * limit:.{n}f}%"
+        if a != b:
+            return a, b
+    return f"{x:.6%}", f"{limit:.6%}"
 
 
 def _apart(x: float, limit: float, digits: int = 3) -> tuple[str, str]:
@@ -1002,8 +1020,8 @@ def judge_pair(pt: PairTrial, thr: dict) -> list[str]:
         why.append(f"together: held-out gain {x} < {lim} noise floors")
     sh = float(thr.get("pair_share_min", math.inf))
     if not (math.isfinite(pt.gap_share) and pt.gap_share >= sh):
-        share = f"{pt.gap_share:.0%}" if math.isfinite(pt.gap_share) else "none"
-        why.append(f"together: share of the held-out gap removed {share} < {sh:.0%}")
+        share, lim = _share_apart(pt.gap_share, sh)
+        why.append(f"together: share of the held-out gap removed {share} < {lim}")
     gm = float(thr.get("pair_gain_min_sigma", math.inf))
     if not (math.isfinite(pt.min_gain_given_other) and pt.min_gain_given_other >= gm):
         x, lim = _apart(pt.min_gain_given_other, gm, 2)
