@@ -34,8 +34,8 @@ def main(argv=None) -> int:
     ap.add_argument("--write", action="store_true", help="write bpmid/discover/thresholds.yaml")
     a = ap.parse_args(argv)
 
-    from bpmid.discover.calibrate import (_case_outcome, case_records, pair_records, thresholds_from_records,
-                                          write_thresholds)
+    from bpmid.discover.calibrate import (BY_EFFECT_KEY, Drops, _case_outcome, case_records, pair_records,
+                                          thresholds_from_records, write_thresholds)
     from bpmid.validation.sweep import GENERATOR, calibration_records, load_sweep
 
     missing = [str(p) for p in [*a.records, *a.rerun] if not p.is_file()]
@@ -58,7 +58,8 @@ def main(argv=None) -> int:
     values = thresholds_from_records(R, P)
     gate = dict(g=values["heldout_gain_min_sigma"], share=values["gap_share_min"], alpha=values["family_alpha"],
                 fit_share=values["fit_share_min"], waive=values["fit_share_waived_above_sigma"],
-                g_later=values["heldout_gain_min_sigma_later"], to_floor=values["to_floor_drop_min_sigma"],
+                g_later=values["heldout_gain_min_sigma_later"],
+                to_floor=Drops(values["to_floor_drop_min_sigma"], values[BY_EFFECT_KEY]),
                 pair_share=values["pair_share_min"], pair_gain=values["pair_gain_min_sigma"],
                 pair_over=values["pair_over_single_min_sigma"], pair_over_gain=values["pair_over_gain_min_sigma"])
     tally = Counter()
@@ -94,7 +95,8 @@ def main(argv=None) -> int:
                         "of a 20 % rate; the most right decisions minus twice the wrong names minus the "
                         "out-of-catalogue names; ties to the stricter gate; the 10 best first-stage gates each then "
                         "get the gain asked of a further effect (at most the first round's), the drop asked on the "
-                        "path to the noise floor (a round where nothing passes) and the joint share and the gain of "
+                        "path to the noise floor (a round where nothing passes), then each effect's own drop there "
+                        "(kept at the common drop unless its own scores better), the joint share and the gain of "
                         "each beside the other asked on the path for two effects at once (a first round where nothing "
                         "passes either path), and the margin over the single effect and the gain of each beside the "
                         "other asked of two effects named at once over the one a first round would name, each by the "

@@ -111,6 +111,36 @@ def test_calibration_picks_the_drop_that_names_absorbed_effects_within_the_bound
     assert thresholds_from_records(left_above)["to_floor_drop_min_sigma"] == math.inf
 
 
+def test_an_effect_gets_its_own_drop_only_where_the_common_one_costs_right_decisions():
+    """Twelve absorbed lags (drop 0.15: a lag shows only while the pressure moves) and twelve absorbed offsets (drop
+    0.45); outside the catalogue, three offsets reach a drop of 0.2 (one name allowed) and lags 0.05. No common
+    drop names both the lags and nothing outside the catalogue; the lag's own drop of 0.15 does, the others keep
+    the common 0.45 (ties to the larger). The workflow asks each candidate its own drop and says so."""
+    recs = []
+    for k in range(12):
+        recs.append(_rec(f"l{k}", "single", "pressure_lag", "pressure_lag", 0.0, 0.15, 0.99, share=float("nan")))
+        recs.append(_rec(f"a{k}", "single", "angle_offset", "angle_offset", 0.0, 0.45, 0.995, share=float("nan")))
+    for k in range(21):
+        recs += [_rec(f"o{k}", "out_of_catalogue", "none", "angle_offset", 0.0, 0.2 if k < 3 else 0.0, 0.99),
+                 _rec(f"o{k}", "out_of_catalogue", "none", "pressure_lag", 0.0, 0.05, 0.99)]
+    for k in range(5):
+        recs.append(_rec(f"n{k}", "null", "none", "angle_offset", 0.01, 0.0, 1.0))
+    thr = thresholds_from_records(recs)
+    assert thr["to_floor_drop_min_sigma"] == 0.45 and thr["to_floor_drop_by_effect"] == {"pressure_lag": 0.15}, thr
+    assert thr["right_decisions"] == 12 + 12 + 21 + 5 and thr["false_positives"] == 0, thr
+    lag = _absorbed()                                          # a lag's drop of 0.141
+    own = {**GATE, "to_floor_drop_by_effect": {"pressure_lag": 0.125}}
+    assert judge_to_floor(lag, GATE, FLOOR) == ["held-out drop 0.141 < 0.225 noise floors"]
+    assert judge_to_floor(lag, own, FLOOR) == []
+    assert judge_to_floor(_absorbed(effect_id="angle_offset"), own, FLOOR) == [
+        "held-out drop 0.141 < 0.225 noise floors"]
+    assert "removes at least 0.225 noise floors (pressure_lag: 0.125: their own" in gate_in_words(own)
+    with pytest.raises(InputError) as e:
+        DiscoverConfig(to_floor_drop_by_effect={"pressure_lag": -1.0}).validate("discover", "cfg.yaml")
+    assert e.value.key == "discover.to_floor_drop_by_effect.pressure_lag"
+    assert DiscoverConfig(to_floor_drop_by_effect={}).thresholds()["to_floor_drop_by_effect"] == {}
+
+
 def dataclass_replace(r, **kw):
     import dataclasses
     return dataclasses.replace(r, **kw)
@@ -132,11 +162,17 @@ def test_records_written_before_the_path_take_its_numbers_from_their_candidates(
 
 
 def test_a_thresholds_file_without_the_path_has_none(tmp_path):
-    text = "".join(line for line in THRESHOLDS_PATH.read_text().splitlines(keepends=True)
-                   if not line.startswith("to_floor_"))
-    (tmp_path / "old.yaml").write_text(text)
+    import yaml
+
+    data = yaml.safe_load(THRESHOLDS_PATH.read_text())
+    (tmp_path / "old.yaml").write_text(yaml.safe_dump({k: v for k, v in data.items()
+                                                       if not k.startswith("to_floor_")}))
     old = load_thresholds(tmp_path / "old.yaml")
     assert old["to_floor_drop_min_sigma"] == math.inf and old["to_floor_ratio_max"] == 1.0
+    assert old["to_floor_drop_by_effect"] == {}
+    (tmp_path / "bad.yaml").write_text(yaml.safe_dump({**data, "to_floor_drop_by_effect": {"leak": 0.1}}))
+    with pytest.raises(RuntimeError, match="to_floor_drop_by_effect: leak"):
+        load_thresholds(tmp_path / "bad.yaml")
     shipped = load_thresholds()
     assert 0 < shipped["to_floor_drop_min_sigma"] < 1 and shipped["to_floor_ratio_max"] == 1.0
     assert DiscoverConfig(to_floor_drop_min_sigma=math.inf).thresholds()["to_floor_drop_min_sigma"] == math.inf

@@ -43,6 +43,39 @@ OPTIONAL_THRESHOLDS = {"fit_share_min": 0.0, "fit_share_waived_above_sigma": mat
                        "to_floor_ratio_max": 1.0, "pair_share_min": math.inf, "pair_gain_min_sigma": math.inf,
                        "identifiable_waived_above_sigma": math.inf, "pair_over_single_min_sigma": math.inf,
                        "pair_over_gain_min_sigma": math.inf}
+#: the drop asked on the path to the noise floor of the effects that have their own (catalogue id -> noise floors):
+#: an effect whose signature is confined to short stretches of a log (a lag shows only while the pressure moves)
+#: removes less of a whole log's error than one seen everywhere; those not listed are asked
+#: ``to_floor_drop_min_sigma``
+BY_EFFECT_KEY = "to_floor_drop_by_effect"
+
+
+class Drops(float):
+    """The drop asked on the path to the noise floor: the common value (the float itself) and the effects with
+    their own (``by_effect``). Everywhere a single drop is used, it reads as the common value."""
+
+    def __new__(cls, common: float, by_effect: Mapping[str, float] | None = None):
+        obj = super().__new__(cls, common)
+        obj.by_effect = {str(k): float(v) for k, v in (by_effect or {}).items()}
+        return obj
+
+    def of(self, effect_id: str) -> float:
+        return self.by_effect.get(effect_id, float(self))
+
+
+def drop_for(drop: float, effect_id: str) -> float:
+    """The drop asked of ``effect_id`` on the path to the floor (``drop``: a number, or :class:`Drops`)."""
+    return drop.of(effect_id) if isinstance(drop, Drops) else float(drop)
+
+
+def gate_values(values: Mapping) -> dict:
+    """The gate's thresholds out of a calibration's values or a thresholds file: the numbers of
+    :data:`THRESHOLD_KEYS` as floats, and the effects with their own drop on the path to the floor."""
+    out = {k: float(values[k]) for k in THRESHOLD_KEYS}
+    out[BY_EFFECT_KEY] = {str(k): float(v) for k, v in (values.get(BY_EFFECT_KEY) or {}).items()}
+    return out
+
+
 #: the held-out RMSE an effect named on the path to the floor may leave, in noise floors: at the floor, by the
 #: path's meaning (the effect explains what the base model left); not calibrated
 TO_FLOOR_RATIO = 1.0
@@ -69,7 +102,14 @@ def load_thresholds(path: str | Path | None = None) -> dict:
     if missing:
         raise RuntimeError(f"{path}: missing {', '.join(missing)} (an old thresholds file? recalibrate)")
     data = later_gain_follows(data)
-    return {k: float(data[k]) for k in THRESHOLD_KEYS}
+    by = data.get(BY_EFFECT_KEY) or {}
+    from bpmid.effects import CATALOGUE
+    bad = [k for k, v in by.items() if k not in CATALOGUE or not isinstance(v, (int, float)) or not v >= 0] \
+        if isinstance(by, dict) else [str(by)]
+    if bad:
+        raise RuntimeError(f"{path}: {BY_EFFECT_KEY}: {', '.join(map(str, bad))}: each entry must be a catalogue "
+                           f"effect id with a drop of 0 or more noise floors")
+    return gate_values(data)
 
 
 def later_gain_follows(thr: Mapping, given: Mapping | None = None) -> dict:
@@ -334,7 +374,8 @@ def fit_share_waiver(records: Sequence[Record]) -> float:
 def _passes_to_floor(r: Record, drop: float, alpha: float, ratio: float = TO_FLOOR_RATIO) -> bool:
     """The path down to the noise floor (:func:`bpmid.discover.workflow.judge_to_floor`)."""
     return (r.tested and r.identifiable and r.lr_p_holm < alpha and math.isfinite(r.drop_sigma)
-            and r.drop_sigma >= drop and math.isfinite(r.after_over_floor) and r.after_over_floor <= ratio)
+            and r.drop_sigma >= drop_for(drop, r.candidate) and math.isfinite(r.after_over_floor)
+            and r.after_over_floor <= ratio)
 
 
 def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
@@ -614,6 +655,36 @@ def _to_floor_from(cases, gate: tuple, t: dict, allowed: int) -> tuple[float, di
     return best, best_t
 
 
+def _to_floor_by_effect(cases, gate: tuple, to_floor: float, t: dict, allowed: int) -> tuple[float, dict]:
+    """Each effect's own drop on the path to the noise floor, with the gate and the common drop fixed: effect by
+    effect (twice over the catalogue), the drop in :data:`TO_FLOOR_DROPS` that improves the score (the same bounds:
+    nothing named on a null case, the out-of-catalogue names within ``allowed``), ties to the larger; an effect
+    keeps the common drop unless its own does better. Returns (:class:`Drops`, outcome)."""
+    if not math.isfinite(to_floor):
+        return to_floor, t
+    alpha, d_min = gate[2], min(TO_FLOOR_DROPS)
+    by: dict[str, float] = {}
+    best_t = t
+    effects = sorted({r.candidate for recs in cases for r in recs if not r.rival})
+    # only a case with a record of that effect that could take the path at the smallest drop can change
+    able = {e: [recs for recs in cases if any(not r.rival and r.candidate == e and _passes_to_floor(r, d_min, alpha)
+                                              for r in recs)] for e in effects}
+    for _ in range(2):
+        for e in effects:
+            if not able[e]:
+                continue
+            ids = {id(recs) for recs in able[e]}
+            rest = _tally([recs for recs in cases if id(recs) not in ids], *gate, to_floor=Drops(to_floor, by))
+            for d in sorted(TO_FLOOR_DROPS, reverse=True):
+                if float(d) == by.get(e, float(to_floor)):
+                    continue
+                trial = Drops(to_floor, {**by, e: float(d)})
+                t2 = _sum_tallies(rest, _tally(able[e], *gate, to_floor=trial))
+                if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
+                    by, best_t = trial.by_effect, t2
+    return Drops(to_floor, by), best_t
+
+
 #: joint shares of the held-out gap and gains of each beside the other (noise floors) the calibration considers
 #: for the path for two effects at once
 PAIR_SHARES = tuple(np.round(np.arange(0.3, 0.951, 0.05), 2))
@@ -699,8 +770,9 @@ FINALISTS = 10
 
 def _finish(cases, by_case_pairs: Mapping, gains: np.ndarray, g: float, sh: float, a: float, fs: float,
             waive: float, t: dict, allowed: int) -> tuple:
-    """The later stages for a first-stage gate: (later-round gain, drop on the path to the floor, pair share, pair
-    gain, margin and gain of a pair over a single effect, final outcome)."""
+    """The later stages for a first-stage gate: (later-round gain, drop on the path to the floor (:class:`Drops`:
+    with each effect's own), pair share, pair gain, margin and gain of a pair over a single effect, final
+    outcome)."""
     # a further effect, once one is named: the gap left is smaller, so the same gain in noise floors asks more of
     # it. With the first round's gate fixed, the held-out gain asked in later rounds (never more than g) that makes
     # the most right decisions minus twice the wrong names; ties to the stricter. Nulls and out-of-catalogue cases
@@ -713,6 +785,7 @@ def _finish(cases, by_case_pairs: Mapping, gains: np.ndarray, g: float, sh: floa
         if key[0] > best_later[0]:
             best_later, g_later, t = key, float(g2), t2
     to_floor, t = _to_floor_from(cases, (g, sh, a, fs, waive, g_later), t, allowed)
+    to_floor, t = _to_floor_by_effect(cases, (g, sh, a, fs, waive, g_later), to_floor, t, allowed)
     pair_share, pair_gain, t = _pair_path_from(cases, by_case_pairs, (g, sh, a, fs, waive, g_later), to_floor, t,
                                                allowed)
     pair_over, pair_over_gain, t = _pair_over_from(cases, by_case_pairs, (g, sh, a, fs, waive, g_later), to_floor,
@@ -781,7 +854,8 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
     neg = [r for r in records if not r.rival and (r.truth == "none" or (r.truth_in_model and "+" not in r.truth))]
     return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
             "fit_share_waived_above_sigma": waive, "heldout_gain_min_sigma_later": g_later,
-            "to_floor_drop_min_sigma": to_floor, "to_floor_ratio_max": TO_FLOOR_RATIO,
+            "to_floor_drop_min_sigma": float(to_floor), BY_EFFECT_KEY: dict(getattr(to_floor, "by_effect", {})),
+            "to_floor_ratio_max": TO_FLOOR_RATIO,
             "pair_share_min": pair_share, "pair_gain_min_sigma": pair_gain, "identifiable_waived_above_sigma": waive,
             "pair_over_single_min_sigma": pair_over, "pair_over_gain_min_sigma": pair_over_gain,
             "n_pair_trials": len(pairs),
@@ -800,7 +874,8 @@ def write_thresholds(values: dict, meta: dict, path: str | Path | None = None) -
     path = Path(path) if path else THRESHOLDS_PATH
     body = {"schema": SCHEMA}
     body.update({k: float(f"{float(values[k]):.4g}") for k in THRESHOLD_KEYS})
+    body[BY_EFFECT_KEY] = {k: float(f"{float(v):.4g}") for k, v in sorted((values.get(BY_EFFECT_KEY) or {}).items())}
     body["calibration"] = {k: (round(v, 4) if isinstance(v, float) else v) for k, v in values.items()
-                           if k not in THRESHOLD_KEYS}
+                           if k not in THRESHOLD_KEYS and k != BY_EFFECT_KEY}
     body["calibration"].update(meta)
     return write_text(path, yaml.safe_dump(body, sort_keys=False))

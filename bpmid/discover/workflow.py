@@ -42,11 +42,12 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from typing import Optional, Sequence
+from typing import Mapping, Optional, Sequence
 
 import numpy as np
 
-from bpmid.discover.calibrate import THRESHOLD_KEYS as GATE_KEYS, later_gain_follows, load_thresholds
+from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, later_gain_follows,
+                                      load_thresholds)
 from bpmid.discover.confirm import Confirmation, PairTrial, confirm, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import RIVAL, check_rival, own_shape, rival_constants
@@ -93,6 +94,8 @@ class DiscoverConfig:
         the held-out error (in quadrature) a candidate must remove, in noise floors (None: calibrated; inf: no
         such path) ...
     to_floor_ratio_max : ... leaving a held-out RMSE of at most this many noise floors (None: calibrated, 1)
+    to_floor_drop_by_effect : the effects asked their own drop on that path, catalogue id -> noise floors (None:
+        calibrated; ``{}``: every effect asked ``to_floor_drop_min_sigma``)
     identifiable_waived_above_sigma : condition (4), a parameter identifiable, is not asked of a held-out gain above
         this many noise floors (None: calibrated, the fitting-share waiver's value; inf: always asked)
     pair_share_min : two effects at once, for a first round where no candidate passes either path: the share of
@@ -135,6 +138,7 @@ class DiscoverConfig:
     heldout_gain_min_sigma_later: Optional[float] = None
     to_floor_drop_min_sigma: Optional[float] = None
     to_floor_ratio_max: Optional[float] = None
+    to_floor_drop_by_effect: Optional[Mapping[str, float]] = None
     identifiable_waived_above_sigma: Optional[float] = None
     pair_share_min: Optional[float] = None
     pair_gain_min_sigma: Optional[float] = None
@@ -145,6 +149,11 @@ class DiscoverConfig:
     per_log_gain: bool = True
     per_log_constants: bool = True
     unexplained_gap_sigma: float = 0.5
+
+    def __post_init__(self):
+        # a plain dict (a config file's mapping arrives read-only, and a sweep ships the config to its workers)
+        if isinstance(self.to_floor_drop_by_effect, Mapping):
+            object.__setattr__(self, "to_floor_drop_by_effect", dict(self.to_floor_drop_by_effect))
 
     def validate(self, where, path):
         for c in self.candidates:
@@ -182,6 +191,18 @@ class DiscoverConfig:
             v = getattr(self, name)
             if v is not None and not ok(v):
                 raise InputError(f"must be {what}, found {v}", path=path, key=f"{where}.{name}")
+        by = self.to_floor_drop_by_effect
+        if by is not None:
+            if not isinstance(by, Mapping):
+                raise InputError(f"must be a mapping of effect id to a drop in noise floors, found {by!r}", path=path,
+                                 key=f"{where}.to_floor_drop_by_effect")
+            for k, v in by.items():
+                if k not in CATALOGUE:
+                    raise InputError(f"unknown effect id {k!r} (known: {', '.join(CATALOGUE)})", path=path,
+                                     key=f"{where}.to_floor_drop_by_effect.{k}")
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+                    raise InputError(f"must be 0 or more noise floors, found {v!r}", path=path,
+                                     key=f"{where}.to_floor_drop_by_effect.{k}")
 
     def thresholds(self) -> dict:
         return self.overrides(load_thresholds())
@@ -190,7 +211,10 @@ class DiscoverConfig:
         """``thr`` with this config's threshold overrides; a ``heldout_gain_min_sigma`` set here without
         ``heldout_gain_min_sigma_later`` sets both."""
         given = {k: float(getattr(self, k)) for k in GATE_KEYS if getattr(self, k) is not None}
-        return later_gain_follows({**thr, **given}, given)
+        out = later_gain_follows({**thr, **given}, given)
+        if self.to_floor_drop_by_effect is not None:
+            out[BY_EFFECT_KEY] = {str(k): float(v) for k, v in self.to_floor_drop_by_effect.items()}
+        return out
 
 
 def _later_words(thr: dict) -> str:
@@ -259,8 +283,11 @@ def _to_floor_words(thr: dict) -> str:
         return ""
     q = float(thr.get("to_floor_ratio_max", 1.0))
     where = "at or below the noise floor" if q == 1.0 else f"at most {q:.3g} noise floors"
+    by = thr.get(BY_EFFECT_KEY) or {}
+    own = (" (" + ", ".join(f"{e}: {float(x):.3g}" for e, x in sorted(by.items())) + ": their own, calibrated "
+           "alike; a lag shows only while the pressure moves, so it removes less of a whole log's error)") if by else ""
     return (f". When no candidate passes (1)-(4), one meeting (1), (3) and (4) whose refit leaves the held-out RMSE "
-            f"{where} and removes at least {d:.3g} noise floors of held-out error (sqrt(before^2 - after^2)) is "
+            f"{where} and removes at least {d:.3g} noise floors{own} of held-out error (sqrt(before^2 - after^2)) is "
             f"named, with the gate's reasons for refusing it (an effect the refitted base model mostly absorbed "
             f"leaves too little gap above the floor for (2); of several, the largest such drop wins)")
 
@@ -913,6 +940,7 @@ def judge_to_floor(c: Confirmation, thr: dict, floor: float) -> list[str]:
     d = float(thr.get("to_floor_drop_min_sigma", math.inf))
     if not math.isfinite(d):
         return ["no path to the floor in this gate"]
+    d = float((thr.get(BY_EFFECT_KEY) or {}).get(c.effect_id, d))
     q = float(thr.get("to_floor_ratio_max", 1.0))
     if not _open_to_floor(c, thr):
         return ["not tested, not identifiable or not significant (above)"]

@@ -158,7 +158,7 @@ class SweepConfig:
         fields = {f.name for f in dataclasses.fields(DiscoverConfig)}
         for k, v in (thresholds or {}).items():
             if k in fields and k not in over:
-                over[k] = float(v)
+                over[k] = dict(v) if isinstance(v, Mapping) else float(v)
         return build_dataclass(DiscoverConfig, over, f"{phase}.discover", self.path)
 
     def to_yaml(self) -> dict:
@@ -604,7 +604,8 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     recs = [done[c.id] for c in halves[evaluated]]
     summary = summarize(recs, evaluated)
     # 4 significant digits (rounding to 4 decimals wrote a family alpha of 1e-9 as 0)
-    summary["thresholds"] = ({k: float(f"{float(v):.4g}") for k, v in thresholds.items()} if thresholds and
+    summary["thresholds"] = ({k: ({e: float(f"{x:.4g}") for e, x in v.items()} if isinstance(v, Mapping)
+                                  else float(f"{float(v):.4g}")) for k, v in thresholds.items()} if thresholds and
                              evaluated == "heldout" else "permissive (calibration half)" if split != "pool"
                              else "permissive (both halves run as calibration)")
     files.update(write_tables(out, summary, recs))
@@ -637,8 +638,8 @@ def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_re
                        else "calibration half") + f"; {n_err} not judged",
             "generator": cfg.effective_generator.to_yaml()}
     write_thresholds(values, meta, out / "thresholds.yaml")
-    from bpmid.discover.calibrate import THRESHOLD_KEYS
-    return {k: float(values[k]) for k in THRESHOLD_KEYS}
+    from bpmid.discover.calibrate import gate_values
+    return gate_values(values)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -731,8 +732,9 @@ def confusion_markdown(summary: dict) -> str:
               f"| internal failures (see records.jsonl) | {s.get('internal_failures', 0)} |"]
     if s.get("thresholds") is not None:
         thr = s["thresholds"]
-        lines += ["", "Thresholds: " + (", ".join(f"{k} = {v:g}" for k, v in thr.items()) if isinstance(thr, dict)
-                                        else str(thr))]
+        lines += ["", "Thresholds: " + (", ".join(f"{k} = {v:g}" if not isinstance(v, dict) else
+                                                  f"{k} = {{" + ", ".join(f"{e}: {x:g}" for e, x in v.items()) + "}"
+                                                  for k, v in thr.items()) if isinstance(thr, dict) else str(thr))]
     return "\n".join(lines) + "\n"
 
 
