@@ -21,7 +21,7 @@ import json
 import math
 import sys
 
-from bpmid.discover.calibrate import _case_outcome, _first_passing, case_records, load_thresholds
+from bpmid.discover.calibrate import _case_outcome, _first_passing, case_records, floor_drops, load_thresholds
 from bpmid.discover.confirm import excess_deg, gap_share
 
 
@@ -60,7 +60,7 @@ def first_named_shipped(rec, thr):
     recs = case_records(rec)
     return _first_passing([r for r in recs if r.round == 1], thr["heldout_gain_min_sigma"], thr["gap_share_min"],
                           thr["family_alpha"], thr["fit_share_min"], thr["fit_share_waived_above_sigma"],
-                          thr["to_floor_drop_min_sigma"], thr["to_floor_ratio_max"])
+                          floor_drops(thr), thr["to_floor_ratio_max"])
 
 
 def round1_table(recs, namer):
@@ -84,7 +84,7 @@ def later_table(recs, thr, share_later):
     """Singles: right first and nothing further; pairs: both named (the recorded round 2 after the gate's first)."""
     g, sh, a = thr["heldout_gain_min_sigma"], thr["gap_share_min"], thr["family_alpha"]
     fs, w, gl = thr["fit_share_min"], thr["fit_share_waived_above_sigma"], thr["heldout_gain_min_sigma_later"]
-    d, q = thr["to_floor_drop_min_sigma"], thr["to_floor_ratio_max"]
+    d, q = floor_drops(thr), thr["to_floor_ratio_max"]
     t = collections.Counter()
     for rec in recs:
         rs = case_records(rec)
@@ -113,7 +113,7 @@ def later_score(recs, thr, share_later):
             right, wrong = _case_outcome(rs, thr["heldout_gain_min_sigma"], thr["gap_share_min"],
                                          thr["family_alpha"], thr["fit_share_min"],
                                          thr["fit_share_waived_above_sigma"], thr["heldout_gain_min_sigma_later"],
-                                         share_later, thr["to_floor_drop_min_sigma"])
+                                         share_later, floor_drops(thr))
             score += right - 2 * wrong
     return score
 

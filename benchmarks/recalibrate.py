@@ -34,7 +34,7 @@ def main(argv=None) -> int:
     ap.add_argument("--write", action="store_true", help="write bpmid/discover/thresholds.yaml")
     a = ap.parse_args(argv)
 
-    from bpmid.discover.calibrate import (BY_EFFECT_KEY, Drops, _case_outcome, case_records, pair_records,
+    from bpmid.discover.calibrate import (_case_outcome, case_records, floor_drops, pair_records,
                                           thresholds_from_records, write_thresholds)
     from bpmid.validation.sweep import GENERATOR, calibration_records, load_sweep
 
@@ -59,7 +59,7 @@ def main(argv=None) -> int:
     gate = dict(g=values["heldout_gain_min_sigma"], share=values["gap_share_min"], alpha=values["family_alpha"],
                 fit_share=values["fit_share_min"], waive=values["fit_share_waived_above_sigma"],
                 g_later=values["heldout_gain_min_sigma_later"],
-                to_floor=Drops(values["to_floor_drop_min_sigma"], values[BY_EFFECT_KEY]),
+                to_floor=floor_drops(values),
                 pair_share=values["pair_share_min"], pair_gain=values["pair_gain_min_sigma"],
                 pair_over=values["pair_over_single_min_sigma"], pair_over_gain=values["pair_over_gain_min_sigma"])
     tally = Counter()

@@ -24,12 +24,12 @@ import math
 
 def selected(rec: dict, thr: dict) -> bool:
     """Whether the path for two effects at once can act on this case (see the module docstring)."""
-    from bpmid.discover.calibrate import _first_passing, case_records
+    from bpmid.discover.calibrate import _first_passing, case_records, floor_drops
 
     r1 = [r for r in case_records(rec) if r.round == 1]
     if not r1 or _first_passing(r1, thr["heldout_gain_min_sigma"], thr["gap_share_min"], thr["family_alpha"],
                                 thr["fit_share_min"], thr["fit_share_waived_above_sigma"],
-                                thr["to_floor_drop_min_sigma"]) is not None:
+                                floor_drops(thr)) is not None:
         return False
     lead = sorted([r for r in r1 if r.tested and r.identifiable and math.isfinite(r.gain_sigma) and r.gain_sigma > 0],
                   key=lambda r: -r.gain_sigma)[:3]

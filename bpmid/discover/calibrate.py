@@ -68,6 +68,11 @@ def drop_for(drop: float, effect_id: str) -> float:
     return drop.of(effect_id) if isinstance(drop, Drops) else float(drop)
 
 
+def floor_drops(thr: Mapping) -> Drops:
+    """The drops asked on the path to the noise floor by a gate's thresholds (common and each effect's own)."""
+    return Drops(float(thr["to_floor_drop_min_sigma"]), thr.get(BY_EFFECT_KEY))
+
+
 def gate_values(values: Mapping) -> dict:
     """The gate's thresholds out of a calibration's values or a thresholds file: the numbers of
     :data:`THRESHOLD_KEYS` as floats, and the effects with their own drop on the path to the floor."""
