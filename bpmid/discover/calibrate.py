@@ -410,18 +410,25 @@ def rival_withholds(recs: Sequence[Record], named_after_over_floor: float, alpha
                                            alpha) for r in recs)
 
 
+def _pair_eligible(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, alpha: float) -> list[PairRecord]:
+    """The pair trials that meet the conditions of the paths for two effects at once that no calibrated share or
+    gain sets: tested, identifiable, both members significant alone (Holm) and beside the other (Bonferroni), a
+    joint held-out gain of at least ``g``, and numbers to judge."""
+    p1 = {r.candidate: r.lr_p_holm for r in recs if r.round == 1 and not r.rival}
+    return [q for q in pairs if q.tested and q.identifiable and p1.get(q.first, 1.0) < alpha
+            and p1.get(q.second, 1.0) < alpha and q.p_corrected < alpha
+            and math.isfinite(q.gain_sigma) and q.gain_sigma >= g and math.isfinite(q.gap_share)
+            and math.isfinite(q.min_gain_given_other)]
+
+
 def _pair_best(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, alpha: float, pair_share: float,
                pair_gain: float, above: float = -math.inf) -> PairRecord | None:
     """The pair trial the path for two effects at once would take (the largest joint held-out gain among those
     meeting its conditions, and above ``above``), before the rival's check; None when none does."""
     if not pairs or not math.isfinite(pair_share):
         return None
-    p1 = {r.candidate: r.lr_p_holm for r in recs if r.round == 1 and not r.rival}
-    ok = [q for q in pairs if q.tested and q.identifiable and p1.get(q.first, 1.0) < alpha
-          and p1.get(q.second, 1.0) < alpha and q.p_corrected < alpha
-          and math.isfinite(q.gain_sigma) and q.gain_sigma >= g and q.gain_sigma >= above
-          and math.isfinite(q.gap_share) and q.gap_share >= pair_share
-          and math.isfinite(q.min_gain_given_other) and q.min_gain_given_other >= pair_gain]
+    ok = [q for q in _pair_eligible(recs, pairs, g, alpha) if q.gain_sigma >= above and q.gap_share >= pair_share
+          and q.min_gain_given_other >= pair_gain]
     return max(ok, key=lambda q: q.gain_sigma) if ok else None
 
 
@@ -696,26 +703,61 @@ PAIR_SHARES = tuple(np.round(np.arange(0.3, 0.951, 0.05), 2))
 PAIR_GAINS = tuple(np.round(np.arange(0.0, 0.401, 0.02), 2))
 
 
+def _search_pair_grid(rest: dict, able: list, grid_a: Sequence[float], grid_b: Sequence[float], takes, t: dict,
+                      allowed: int) -> tuple[float, float, dict]:
+    """Two thresholds of a path for two effects at once, by the calibration's score within its bounds (ties to the
+    stricter, both taken from the top of their grids; (inf, inf) when no value beats ``t``). ``rest``: the outcome
+    of the cases the path cannot change; ``able``: per other case (records, outcome without the path, its pair
+    trials ranked by joint held-out gain with the outcome each would give); ``takes(q, a, b, recs)``: whether the
+    path takes trial ``q`` at values ``a``, ``b`` (the first that does is the one :func:`_pair_best` picks)."""
+    best, best_t = (math.inf, math.inf), t
+    for a in sorted(grid_a, reverse=True):
+        for b in sorted(grid_b, reverse=True):
+            t2 = dict(rest)
+            for recs, base, ranked in able:
+                _add_outcome(t2, recs, *next((out for q, out in ranked if takes(q, a, b, recs)), base))
+            if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
+                best, best_t = (float(a), float(b)), t2
+    return best[0], best[1], best_t
+
+
+def _ranked_trials(recs: Sequence[Record], trials: Sequence[PairRecord], g: float, alpha: float,
+                   withheld_outcome: tuple[int, int]) -> list:
+    """The eligible pair trials of a case, largest joint held-out gain first, each with the outcome its naming
+    gives (``withheld_outcome`` when the round's rival withholds it)."""
+    ranked = sorted(_pair_eligible(recs, trials, g, alpha), key=lambda q: -q.gain_sigma)
+    return [(q, _pair_path_outcome(recs[0].truth, (q.first, q.second)) if not _pair_withheld(recs, q, alpha)
+             else withheld_outcome) for q in ranked]
+
+
 def _pair_path_from(cases, pairs: Mapping, gate: tuple, to_floor: float, t: dict, allowed: int
                     ) -> tuple[float, float, dict]:
     """The joint share and the gain of each beside the other asked on the path for two effects at once, with the
     gate and the path to the floor fixed: among :data:`PAIR_SHARES` x :data:`PAIR_GAINS` the pair that names
     nothing on a null case, keeps the out-of-catalogue names within ``allowed`` and has the best score (right
     decisions minus twice the wrong names minus the out-of-catalogue names), if it beats the gate without the path
-    (``t``); ties to the stricter. (inf, inf) (no path) otherwise, and always without any pair trial recorded."""
-    best, best_t = (math.inf, math.inf), t
+    (``t``); ties to the stricter. (inf, inf) (no path) otherwise, and always without any pair trial recorded.
+    (:func:`_case_outcome` with ``pair_share``, evaluated once per case and pair trial instead of once per value.)"""
     if not any(pairs.values()):
         return math.inf, math.inf, t
-    # only a case with pair trials can change its outcome
-    able = [recs for recs in cases if pairs.get(recs[0].case)]
-    rest = _tally([recs for recs in cases if not pairs.get(recs[0].case)], *gate, to_floor=to_floor)
-    for sh in sorted(PAIR_SHARES, reverse=True):
-        for pg in sorted(PAIR_GAINS, reverse=True):
-            t2 = _sum_tallies(rest, _tally(able, *gate, to_floor=to_floor, pairs=pairs, pair_share=float(sh),
-                                           pair_gain=float(pg)))
-            if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
-                best, best_t = (float(sh), float(pg)), t2
-    return best[0], best[1], best_t
+    g, sh, a, fs, waive = gate[:5]
+    able, ids = [], set()
+    for recs in cases:   # only a case with pair trials whose first round names nothing can change its outcome
+        trials = pairs.get(recs[0].case)
+        if not trials or _first_passing([r for r in recs if r.round == 1], g, sh, a, fs, waive, to_floor,
+                                        withhold=False) is not None:
+            continue
+        base = _case_outcome(recs, *gate, to_floor=to_floor)
+        ranked = _ranked_trials(recs, trials, g, a, base)   # withheld: as if the path had not acted
+        if ranked:
+            ids.add(id(recs))
+            able.append((recs, base, ranked))
+    rest = _tally([recs for recs in cases if id(recs) not in ids], *gate, to_floor=to_floor)
+    if not able:
+        return math.inf, math.inf, t
+    return _search_pair_grid(rest, able, PAIR_SHARES, PAIR_GAINS,
+                             lambda q, share, gain, recs: q.gap_share >= share and q.min_gain_given_other >= gain,
+                             t, allowed)
 
 
 #: margins of the joint held-out gain over the single effect's (noise floors) the calibration considers for two
@@ -732,40 +774,27 @@ def _pair_over_from(cases, pairs: Mapping, gate: tuple, to_floor: float, pair_sh
     (:func:`_case_outcome` with ``pair_over``, evaluated once per case and pair trial instead of once per value.)"""
     g, sh, a, fs, waive = gate[:5]
     kw = dict(to_floor=to_floor, pairs=pairs, pair_share=pair_share, pair_gain=pair_gain)
-    # per case that the loosest margin could change: its outcome without the path, the single effect's gain and
-    # the outcome of each pair trial that could be taken over it, largest joint gain first
-    able, ids = [], set()
-    for recs in cases:
+    able, ids, alone = [], set(), {}
+    for recs in cases:   # only a case whose first round names one effect, with pair trials, can change
         trials = pairs.get(recs[0].case)
         r1 = [r for r in recs if r.round == 1]
         first = _first_passing(r1, g, sh, a, fs, waive, to_floor, withhold=False) if trials else None
         if first is None:
             continue
-        alone = max(r.gain_sigma for r in r1 if r.candidate == first and not r.rival)
-        over = []
-        while True:   # _pair_best at a given margin and gain is the first of these meeting both
-            q = _pair_best(recs, [x for x in trials if all(x is not y for y, *_ in over)], g, a, 0.0, 0.0,
-                           above=alone + min(PAIR_MARGINS))
-            if q is None:
-                break
-            out = (_pair_path_outcome(recs[0].truth, (q.first, q.second)) if not _pair_withheld(recs, q, a)
-                   else ((1, 0) if recs[0].truth == "none" else (0, 0)))
-            over.append((q, q.gain_sigma, q.min_gain_given_other, out))
-        if over:
+        alone[id(recs)] = max(r.gain_sigma for r in r1 if r.candidate == first and not r.rival)
+        nothing = (1, 0) if recs[0].truth == "none" else (0, 0)   # withheld: the round names nothing
+        ranked = [(q, out) for q, out in _ranked_trials(recs, trials, g, a, nothing)
+                  if q.gain_sigma >= alone[id(recs)] + min(PAIR_MARGINS) and q.min_gain_given_other >= 0.0
+                  and q.gap_share >= 0.0]
+        if ranked:
             ids.add(id(recs))
-            able.append((recs, alone, _case_outcome(recs, *gate, **kw), over))
+            able.append((recs, _case_outcome(recs, *gate, **kw), ranked))
     if not able:
         return math.inf, math.inf, t
     rest = _tally([recs for recs in cases if id(recs) not in ids], *gate, **kw)
-    best, best_t = (math.inf, math.inf), t
-    for m in sorted(PAIR_MARGINS, reverse=True):
-        for pg in sorted(PAIR_GAINS, reverse=True):
-            t2 = dict(rest)
-            for recs, alone, base, over in able:
-                _add_outcome(t2, recs, *next((out for _, gq, mg, out in over if gq >= alone + m and mg >= pg), base))
-            if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
-                best, best_t = (float(m), float(pg)), t2
-    return best[0], best[1], best_t
+    return _search_pair_grid(rest, able, PAIR_MARGINS, PAIR_GAINS,
+                             lambda q, margin, gain, recs: (q.gain_sigma >= alone[id(recs)] + margin
+                                                            and q.min_gain_given_other >= gain), t, allowed)
 
 
 #: first-stage gates (held-out gain, gap share, alpha, fitting share) taken to the later stages, best first (with
@@ -826,11 +855,11 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
         for sh in shares:
             for a in ALPHAS:
                 tg = _tally_gains(cases, gains, float(sh), a, fs, waive)
+                feasible = (tg["null_named"] == 0) & (tg["ooc_named"] <= allowed)
+                score = _score(tg)                                     # over every gain at once
                 for i, g in enumerate(gains):
-                    t = {k: (v if k == "ooc" else int(v[i])) for k, v in tg.items()}
-                    feasible = t["null_named"] == 0 and t["ooc_named"] <= allowed
-                    key = (feasible, _score(t), g, sh, fs, -a)       # ties: the stricter gate
-                    stage1.append((key, (float(g), float(sh), float(a), float(fs), t)))
+                    key = (bool(feasible[i]), int(score[i]), g, sh, fs, -a)   # ties: the stricter gate
+                    stage1.append((key, (float(g), float(sh), float(a), float(fs), tg, i)))
     by_case_pairs: dict[str, list[PairRecord]] = {}
     for q in pairs:
         by_case_pairs.setdefault(q.case, []).append(q)
@@ -842,10 +871,11 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
     for x in stage1:   # and the best first stage of every gap share: ties at the top must not crowd out the rest
         if x[1][1] not in seen_shares:
             seen_shares.add(x[1][1])
-            if x not in finalists:
+            if all(x is not y for y in finalists):
                 finalists.append(x)
     best, best_key = None, None
-    for key1, (g, sh, a, fs, t) in finalists:
+    for key1, (g, sh, a, fs, tg, i) in finalists:
+        t = {k: (v if k == "ooc" else int(v[i])) for k, v in tg.items()}
         out = _finish(cases, by_case_pairs, gains, g, sh, a, fs, waive, t, allowed)
         tf = out[-1]
         key = (tf["null_named"] == 0 and tf["ooc_named"] <= allowed, _score(tf), key1)
