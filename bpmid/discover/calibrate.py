@@ -660,11 +660,23 @@ def _to_floor_from(cases, gate: tuple, t: dict, allowed: int) -> tuple[float, di
         return best, best_t
     ids = {id(recs) for recs in able}
     rest = _tally([recs for recs in cases if id(recs) not in ids], *gate)
+    seen = None
     for d in sorted(TO_FLOOR_DROPS, reverse=True):
+        reach = _reaching(able, float(d), alpha)
+        if reach == seen:   # the same records reach the path: the same outcome, and not a better one
+            continue
+        seen = reach
         t2 = _sum_tallies(rest, _tally(able, *gate, to_floor=float(d)))
         if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
             best, best_t = float(d), t2
     return best, best_t
+
+
+def _reaching(cases, drop: float, alpha: float, effect: str | None = None) -> frozenset:
+    """Which records (of ``effect``, or any) meet the path to the floor at ``drop``: the outcome of a drop
+    depends on nothing else."""
+    return frozenset(id(r) for recs in cases for r in recs if not r.rival and (effect is None or r.candidate == effect)
+                     and _passes_to_floor(r, drop, alpha))
 
 
 def _to_floor_by_effect(cases, gate: tuple, to_floor: float, t: dict, allowed: int) -> tuple[float, dict]:
@@ -687,9 +699,12 @@ def _to_floor_by_effect(cases, gate: tuple, to_floor: float, t: dict, allowed: i
                 continue
             ids = {id(recs) for recs in able[e]}
             rest = _tally([recs for recs in cases if id(recs) not in ids], *gate, to_floor=Drops(to_floor, by))
+            seen = {_reaching(able[e], by.get(e, float(to_floor)), alpha, e)}   # the outcome already held
             for d in sorted(TO_FLOOR_DROPS, reverse=True):
-                if float(d) == by.get(e, float(to_floor)):
+                reach = _reaching(able[e], float(d), alpha, e)
+                if reach in seen:   # the same records of the effect reach the path: the same outcome
                     continue
+                seen.add(reach)
                 trial = Drops(to_floor, {**by, e: float(d)})
                 t2 = _sum_tallies(rest, _tally(able[e], *gate, to_floor=trial))
                 if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
