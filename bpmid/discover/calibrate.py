@@ -872,9 +872,11 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
                 tg = _tally_gains(cases, gains, float(sh), a, fs, waive)
                 feasible = (tg["null_named"] == 0) & (tg["ooc_named"] <= allowed)
                 score = _score(tg)                                     # over every gain at once
-                for i, g in enumerate(gains):
-                    key = (bool(feasible[i]), int(score[i]), g, sh, fs, -a)   # ties: the stricter gate
-                    stage1.append((key, (float(g), float(sh), float(a), float(fs), tg, i)))
+                # the block's best gains only (the finalists are among them): feasible, then score, then the
+                # stricter (larger) gain
+                for i in np.lexsort((gains, score, feasible))[::-1][:FINALISTS]:
+                    key = (bool(feasible[i]), int(score[i]), gains[i], sh, fs, -a)   # ties: the stricter gate
+                    stage1.append((key, (float(gains[i]), float(sh), float(a), float(fs), tg, int(i))))
     by_case_pairs: dict[str, list[PairRecord]] = {}
     for q in pairs:
         by_case_pairs.setdefault(q.case, []).append(q)
