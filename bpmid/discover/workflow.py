@@ -284,8 +284,9 @@ def _to_floor_words(thr: dict) -> str:
     q = float(thr.get("to_floor_ratio_max", 1.0))
     where = "at or below the noise floor" if q == 1.0 else f"at most {q:.3g} noise floors"
     by = thr.get(BY_EFFECT_KEY) or {}
-    own = (" (" + ", ".join(f"{e}: {float(x):.3g}" for e, x in sorted(by.items())) + ": their own, calibrated "
-           "alike; a lag shows only while the pressure moves, so it removes less of a whole log's error)") if by else ""
+    own = (" (" + ", ".join(f"{e}: {float(x):.3g}" for e, x in sorted(by.items())) + ": their own, calibrated alike"
+           + ("; a lag shows only while the pressure moves, so it removes less of a whole log's error"
+              if "pressure_lag" in by else "") + ")") if by else ""
     return (f". When no candidate passes (1)-(4), one meeting (1), (3) and (4) whose refit leaves the held-out RMSE "
             f"{where} and removes at least {d:.3g} noise floors{own} of held-out error (sqrt(before^2 - after^2)) is "
             f"named, with the gate's reasons for refusing it (an effect the refitted base model mostly absorbed "
