@@ -193,6 +193,14 @@ def test_records_and_thresholds_files_without_pairs_have_no_pair_path(tmp_path):
     assert e.value.key == "discover.pair_over_single_min_sigma"
 
 
+def _named_together(d: dict) -> tuple[dict, dict]:
+    """The two steps of case 1's lag and friction named together (both ``named_by: pair``)."""
+    assert d["named_effects"] == ["pressure_lag", "braid_friction"]
+    first, second = d["steps"]
+    assert first["evidence"]["named_by"] == second["evidence"]["named_by"] == "pair"
+    return first, second
+
+
 def test_cli_names_two_effects_together_and_says_why(tmp_path):
     """On the shipped blind case 1 (a pressure lag), with a gate that asks 95 % of the gap of one effect and no
     path to the floor, the lag alone is refused (it removes 92 %); refitted with braid friction it removes 94 %,
@@ -201,9 +209,7 @@ def test_cli_names_two_effects_together_and_says_why(tmp_path):
     d = discover_case_01(tmp_path, "discover:\n  gap_share_min: 0.95\n  to_floor_drop_min_sigma: .inf\n"
                                    "  pair_share_min: 0.93\n  pair_gain_min_sigma: 0.03\n  family_alpha: 1.0e-3\n"
                                    "  max_effects: 2\n")
-    assert d["named_effects"] == ["pressure_lag", "braid_friction"]
-    first, second = d["steps"]
-    assert first["evidence"]["named_by"] == second["evidence"]["named_by"] == "pair"
+    first, second = _named_together(d)
     assert first["evidence"]["refused_by_the_gate_because"][0].startswith("alone: ")
     assert "share of the held-out gap removed 92% < 95%" in first["evidence"]["refused_by_the_gate_because"][0]
     assert "Named as one of two effects that share the residual" in first["explanation"]
@@ -234,9 +240,7 @@ def test_cli_names_two_effects_over_the_single_one_that_passed_and_says_why(tmp_
     d = discover_case_01(tmp_path, "discover:\n  gap_share_min: 0.9\n  to_floor_drop_min_sigma: .inf\n"
                                    "  pair_share_min: .inf\n  pair_over_single_min_sigma: 0.01\n"
                                    "  pair_over_gain_min_sigma: 0.0\n  family_alpha: 1.0e-3\n  max_effects: 2\n")
-    assert d["named_effects"] == ["pressure_lag", "braid_friction"]
-    first, second = d["steps"]
-    assert first["evidence"]["named_by"] == second["evidence"]["named_by"] == "pair"
+    first, second = _named_together(d)
     assert first["evidence"]["refused_by_the_gate_because"] == []
     assert "it passed the gate alone, but the two refitted together explain" in first["explanation"]
     assert second["evidence"]["refused_by_the_gate_because"][0].startswith("alone: ")

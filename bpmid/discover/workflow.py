@@ -243,7 +243,7 @@ def gate_in_words(thr: dict) -> str:
                f"effect is then named with its constants reported as not determined separately)"
                if math.isfinite(float(thr.get("identifiable_waived_above_sigma", math.inf))) else "")
             + "; of several that pass, "
-            f"the largest held-out gain wins" + _to_floor_words(thr) + _pair_path_words(thr) + _pair_over_words(thr)
+            f"the largest held-out gain wins" + _to_floor_words(thr) + _pair_paths_words(thr)
             + ". Whatever a round would name, a rival outside the catalogue (payload inertia that rings: an "
               "underdamped response of the angle) is refitted beside it; when the rival passes the likelihood-ratio "
               f"test at {thr['family_alpha']:.2g} uncorrected, needs its own shape (damping off its bound of "
@@ -252,29 +252,27 @@ def gate_in_words(thr: dict) -> str:
             + ". BIC is reported, never a gate")
 
 
-def _pair_path_words(thr: dict) -> str:
+def _pair_paths_words(thr: dict) -> str:
+    """The two paths for two effects at once, in words (each only when the gate has it)."""
     sh = float(thr.get("pair_share_min", math.inf))
-    if not math.isfinite(sh):
-        return ""
-    return (f". When no candidate passes alone in the first round, the {PAIR_LEADERS} largest held-out gains among "
-            f"those tested and identifiable are refitted two at a time; two that both meet (1), (3) and (4) alone "
-            f"are named together when their joint refit removes at least {sh:.0%} of the held-out gap with a gain "
-            f"of at least {thr['heldout_gain_min_sigma']:.2f} noise floors, each adds at least "
-            f"{float(thr.get('pair_gain_min_sigma', math.inf)):.2f} noise floors of held-out gain beside the other, "
-            f"and each passes the likelihood-ratio test beside the other at the same level (Bonferroni over the "
-            f"pairs tried): two effects sharing a residual each remove too small a share of it alone")
-
-
-def _pair_over_words(thr: dict) -> str:
     m = float(thr.get("pair_over_single_min_sigma", math.inf))
-    if not math.isfinite(m):
-        return ""
-    return (f". When a first-round candidate passes, the {PAIR_LEADERS} leading candidates are also refitted two at a "
-            f"time; two that both pass (3) alone, each beside the other (Bonferroni over the pairs tried), and are "
-            f"tested and identifiable are named together instead when their joint held-out gain exceeds the "
-            f"passing candidate's by at least {m:.2f} noise floors and each adds at least "
-            f"{float(thr.get('pair_over_gain_min_sigma', math.inf)):.2f} noise floors beside the other: two effects at "
-            f"once can make a third the best alone")
+    words = ""
+    if math.isfinite(sh):
+        words += (f". When no candidate passes alone in the first round, the {PAIR_LEADERS} largest held-out gains "
+                  f"among those tested and identifiable are refitted two at a time; two that both meet (1), (3) and "
+                  f"(4) alone are named together when their joint refit removes at least {sh:.0%} of the held-out gap "
+                  f"with a gain of at least {thr['heldout_gain_min_sigma']:.2f} noise floors, each adds at least "
+                  f"{float(thr.get('pair_gain_min_sigma', math.inf)):.2f} noise floors of held-out gain beside the "
+                  f"other, and each passes the likelihood-ratio test beside the other at the same level (Bonferroni "
+                  f"over the pairs tried): two effects sharing a residual each remove too small a share of it alone")
+    if math.isfinite(m):
+        words += (f". When a first-round candidate passes, the {PAIR_LEADERS} leading candidates are also refitted two "
+                  f"at a time; two that both pass (3) alone, each beside the other (Bonferroni over the pairs tried), "
+                  f"and are tested and identifiable are named together instead when their joint held-out gain exceeds "
+                  f"the passing candidate's by at least {m:.2f} noise floors and each adds at least "
+                  f"{float(thr.get('pair_over_gain_min_sigma', math.inf)):.2f} noise floors beside the other: two "
+                  f"effects at once can make a third the best alone")
+    return words
 
 
 def _to_floor_words(thr: dict) -> str:
