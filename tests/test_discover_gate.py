@@ -39,7 +39,7 @@ def test_holm_adjusted_p_values():
 
 def test_gate_passes_on_gain_share_and_holm_p_whatever_the_bic():
     assert judge(_conf(delta_bic=+50.0), THR) == []           # a positive delta BIC does not block
-    assert judge(_conf(heldout_gain_sigma=0.5), THR)[0].startswith("held-out error drop above the noise 0.50")
+    assert judge(_conf(heldout_gain_sigma=0.5), THR)[0].startswith("held-out gain above the noise 0.50")
     assert any("share of the held-out gap" in r for r in judge(_conf(gap_share=0.1), THR))
     assert any("Holm-corrected" in r for r in judge(_conf(lr_p_holm=0.02), THR))
     words = gate_in_words(THR)

@@ -246,7 +246,7 @@ def test_cli_names_two_effects_over_the_single_one_that_passed_and_says_why(tmp_
     assert second["evidence"]["refused_by_the_gate_because"][0].startswith("alone: ")
     assert first["competition"].startswith("pressure_lag passed alone (held-out gain 2.86 noise floors), but two "
                                            "effects refitted together explained more; pressure_lag and braid_friction")
-    assert first["competition"].endswith("both are named in its place")
+    assert first["competition"].endswith("both are named instead of pressure_lag alone")
     tried = {tuple(p["effects"]): p for p in d["rounds"][0]["pairs_refitted_together"]}
     assert tried[("pressure_lag", "braid_friction")]["accepted"]
     assert "(pressure_lag alone 2.86, plus the margin 0.01)" in tried[("angle_offset", "braid_friction")][

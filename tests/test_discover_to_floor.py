@@ -134,7 +134,9 @@ def test_an_effect_gets_its_own_drop_only_where_the_common_one_costs_right_decis
     assert judge_to_floor(lag, own, FLOOR) == []
     assert judge_to_floor(_absorbed(effect_id="angle_offset"), own, FLOOR) == [
         "held-out drop 0.141 < 0.225 noise floors"]
-    assert "removes at least 0.225 noise floors (pressure_lag: 0.125: their own" in gate_in_words(own)
+    assert "(sqrt(before^2 - after^2)); these effects are asked their own: pressure_lag 0.125; a lag shows" in \
+        gate_in_words(own)
+    assert "pressure_lag not on this path" in gate_in_words({**GATE, "to_floor_drop_by_effect": {"pressure_lag": math.inf}})
     with pytest.raises(InputError) as e:
         DiscoverConfig(to_floor_drop_by_effect={"pressure_lag": -1.0}).validate("discover", "cfg.yaml")
     assert e.value.key == "discover.to_floor_drop_by_effect.pressure_lag"
@@ -195,7 +197,7 @@ def test_cli_names_on_the_path_to_the_floor_and_says_so(tmp_path):
     ev = d["steps"][0]["evidence"]
     assert ev["named_by"] == "floor" and ev["heldout_drop_in_noise_floors"] > 0
     assert ev["refused_by_the_gate_because"] and "noise floors < 99.00" in ev["refused_by_the_gate_because"][0]
-    assert "named on the path to the floor, the gate having refused it because held-out error drop" in \
+    assert "named on the path to the floor, the gate having refused it because held-out gain above the noise" in \
         d["steps"][0]["explanation"]
     assert "removes at least 0 noise floors" in d["gate"]
     # both candidates pass the path: the larger held-out drop wins, and the competition says so in its own terms

@@ -95,7 +95,9 @@ class DiscoverConfig:
         such path) ...
     to_floor_ratio_max : ... leaving a held-out RMSE of at most this many noise floors (None: calibrated, 1)
     to_floor_drop_by_effect : the effects asked their own drop on that path, catalogue id -> noise floors (None:
-        calibrated; ``{}``: every effect asked ``to_floor_drop_min_sigma``)
+        calibrated; a mapping here replaces the calibrated one whole, so list every effect that should keep its
+        own; ``{}``: every effect asked ``to_floor_drop_min_sigma``; .inf: that effect never takes the path; with
+        ``to_floor_drop_min_sigma: .inf`` there is no path at all)
     identifiable_waived_above_sigma : condition (4), a parameter identifiable, is not asked of a held-out gain above
         this many noise floors (None: calibrated, the fitting-share waiver's value; inf: always asked)
     pair_share_min : two effects at once, for a first round where no candidate passes either path: the share of
@@ -281,12 +283,13 @@ def _to_floor_words(thr: dict) -> str:
         return ""
     q = float(thr.get("to_floor_ratio_max", 1.0))
     where = "at or below the noise floor" if q == 1.0 else f"at most {q:.3g} noise floors"
-    by = thr.get(BY_EFFECT_KEY) or {}
-    own = (" (" + ", ".join(f"{e}: {float(x):.3g}" for e, x in sorted(by.items())) + ": their own, calibrated alike"
-           + ("; a lag shows only while the pressure moves, so it removes less of a whole log's error"
-              if "pressure_lag" in by else "") + ")") if by else ""
+    by = {e: float(x) for e, x in (thr.get(BY_EFFECT_KEY) or {}).items()}
+    own = ("; these effects are asked their own: " + ", ".join(
+        f"{e} {x:.3g}" if math.isfinite(x) else f"{e} not on this path" for e, x in sorted(by.items()))
+        + ("; a lag shows only while the pressure moves, so it removes less of a whole log's error"
+           if by.get("pressure_lag", d) < d else "")) if by else ""
     return (f". When no candidate passes (1)-(4), one meeting (1), (3) and (4) whose refit leaves the held-out RMSE "
-            f"{where} and removes at least {d:.3g} noise floors{own} of held-out error (sqrt(before^2 - after^2)) is "
+            f"{where} and removes at least {d:.3g} noise floors of held-out error (sqrt(before^2 - after^2)){own}; it is "
             f"named, with the gate's reasons for refusing it (an effect the refitted base model mostly absorbed "
             f"leaves too little gap above the floor for (2); of several, the largest such drop wins)")
 
@@ -912,7 +915,8 @@ def judge(c: Confirmation, thr: dict, floor: float | None = None, later: bool = 
     if later:
         g_min = thr.get("heldout_gain_min_sigma_later", g_min)
     if not math.isfinite(c.heldout_gain_sigma) or c.heldout_gain_sigma < g_min:
-        why.append(f"held-out error drop above the noise {c.heldout_gain_sigma:.2f} noise floors < {g_min:.2f}"
+        x, lim = _apart(c.heldout_gain_sigma + 0.0, g_min, 2)   # + 0.0: no "-0.00"
+        why.append(f"held-out gain above the noise {x} noise floors < {lim}"
                    + (" (asked of a further effect)" if later else ""))
     if not (math.isfinite(c.gap_share) and c.gap_share >= thr["gap_share_min"]):
         share, lim = _share_apart(c.gap_share, thr["gap_share_min"])
@@ -1090,4 +1094,4 @@ def pair_words(pt: PairTrial, floor: float, over: Optional[Confirmation] = None)
             f"{pt.p_second_given_first:.2g}, the larger Bonferroni-corrected over {pt.n_pairs} pair(s) to "
             f"{pt.p_corrected:.2g}): "
             + ("the two share the residual, so neither removes enough of it alone, and both are named" if over is None
-               else "each is needed beside the other, and both are named in its place"))
+               else f"each is needed beside the other, and both are named instead of {over.effect_id} alone"))
