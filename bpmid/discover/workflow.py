@@ -48,7 +48,7 @@ import numpy as np
 
 from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, later_gain_follows,
                                       load_thresholds)
-from bpmid.discover.confirm import Confirmation, PairTrial, confirm, holm_adjusted, pair_trial
+from bpmid.discover.confirm import Confirmation, PairTrial, confirm, excess_deg, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import RIVAL, check_rival, own_shape, rival_constants
 from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, residuals, rmse_deg,
@@ -272,8 +272,9 @@ def _pair_paths_words(thr: dict) -> str:
                   f"at a time; two that both pass (3) alone, each beside the other (Bonferroni over the pairs tried), "
                   f"and are tested and identifiable are named together instead when their joint held-out gain exceeds "
                   f"the passing candidate's by at least {m:.2f} noise floors and each adds at least "
-                  f"{float(thr.get('pair_over_gain_min_sigma', math.inf)):.2f} noise floors beside the other: two "
-                  f"effects at once can make a third the best alone")
+                  f"{float(thr.get('pair_over_gain_min_sigma', math.inf)):.2f} noise floors beside the other (no pair is "
+                  f"refitted when the passing candidate leaves less than that margin above the floor: none could "
+                  f"beat it): two effects at once can make a third the best alone")
     return words
 
 
@@ -763,7 +764,11 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         best = max(passing, key=score) if passing else None
         trials: list[PairTrial] = []
         pair_open = math.isfinite(float(thr.get("pair_share_min", math.inf)))
-        over_open = math.isfinite(float(thr.get("pair_over_single_min_sigma", math.inf)))
+        margin = float(thr.get("pair_over_single_min_sigma", math.inf))
+        # a pair's held-out gain is at most the whole gap above the floor, so it can beat the passing candidate by
+        # the margin only when that candidate leaves at least the margin of it: otherwise no pair is refitted
+        over_open = (math.isfinite(margin) and best is not None
+                     and excess_deg(best.heldout_rmse_after, floor) / max(floor, 1e-9) >= margin - 1e-9)
         if not named and len(remaining) >= 2 and cfg.max_effects >= 2 and (
                 cfg.record_pair_trials or (pair_open and not passing) or (over_open and passing)):
             trials = try_pairs(confs, remaining, fit_logs, ho_logs, floor=floor, heldout_before=ho_now,
@@ -774,7 +779,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                     pt.reasons = judge_pair(pt, thr) if pair_open else [
                         "not asked: no path for two effects at once in this gate"]
                 else:
-                    pt.reasons = judge_pair_over(pt, thr, best) if over_open else [
+                    pt.reasons = judge_pair_over(pt, thr, best) if math.isfinite(margin) else [
                         "not asked: a candidate passed alone"]
                 pt.accepted = not pt.reasons
         won = [pt for pt in trials if pt.accepted]
