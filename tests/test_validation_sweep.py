@@ -241,7 +241,7 @@ def test_a_calibration_case_rerun_on_its_own_is_the_same_run(full_run, tmp_path)
     assert old and set(old) < set(cases)          # the calibration half of the 4 tiny cases
     cid = sorted(old)[0]
     seen = []
-    rerun_calibration([cases[cid]], tmp_path, workers=1, on_record=lambda r: seen.append(r["id"]))
+    rerun_calibration([cases[cid]], tmp_path, workers=1, on_record=lambda r: seen.append(r["id"]), processes=False)
     new = read_records(tmp_path / RECORDS)
     assert seen == [cid] and len(new) == 1
     assert comparable(new) == comparable([old[cid]])

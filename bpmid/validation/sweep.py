@@ -494,10 +494,11 @@ def calibration_records(paths: Sequence[str | Path]) -> dict[str, dict]:
 
 
 def rerun_calibration(chosen: Sequence[tuple[SweepConfig, Case]], out: str | Path, workers: Optional[int] = None,
-                      on_record: Optional[Callable[[dict], None]] = None) -> None:
+                      on_record: Optional[Callable[[dict], None]] = None, processes: bool = True) -> None:
     """Run the chosen cases again with their config's calibration settings (the permissive run, which records
-    the pair trials too) on a local Dask cluster, streaming each record to ``OUT/records.jsonl``."""
-    client, cluster = _client(None, workers, True)
+    the pair trials too) on a local Dask cluster, streaming each record to ``OUT/records.jsonl`` (``processes``:
+    worker processes, or threads of this one, as in :func:`run_sweep`)."""
+    client, cluster = _client(None, workers, processes)
     writer = RecordWriter(Path(out) / "records.jsonl")
     try:
         by_cfg: dict = {}
