@@ -173,8 +173,9 @@ def test_a_thresholds_file_without_the_path_has_none(tmp_path):
     assert old["to_floor_drop_min_sigma"] == math.inf and old["to_floor_ratio_max"] == 1.0
     assert old["to_floor_drop_by_effect"] == {}
     (tmp_path / "bad.yaml").write_text(yaml.safe_dump({**data, "to_floor_drop_by_effect": {"leak": 0.1}}))
-    with pytest.raises(RuntimeError, match="to_floor_drop_by_effect: leak"):
+    with pytest.raises(InputError) as e:
         load_thresholds(tmp_path / "bad.yaml")
+    assert e.value.key == "to_floor_drop_by_effect.leak" and "bad.yaml" in str(e.value.path)
     shipped = load_thresholds()
     assert 0 < shipped["to_floor_drop_min_sigma"] < 1 and shipped["to_floor_ratio_max"] == 1.0
     assert DiscoverConfig(to_floor_drop_min_sigma=math.inf).thresholds()["to_floor_drop_min_sigma"] == math.inf

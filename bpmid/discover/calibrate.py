@@ -100,20 +100,25 @@ def load_thresholds(path: str | Path | None = None) -> dict:
     from bpmid.io.yamlsafe import loads
 
     data = loads(path.read_text("utf-8"), path=path)
+    from bpmid.errors import InputError
     if not isinstance(data, dict) or data.get("schema") != SCHEMA:
-        raise RuntimeError(f"{path}: not a {SCHEMA} file")
+        raise InputError(f"not a {SCHEMA} file (a thresholds file written by bpmid calibrate or "
+                         "benchmarks/recalibrate.py)", path=path, key="schema")
     data = {**OPTIONAL_THRESHOLDS, **data}
     missing = [k for k in THRESHOLD_KEYS if k not in data]
     if missing:
-        raise RuntimeError(f"{path}: missing {', '.join(missing)} (an old thresholds file? recalibrate)")
+        raise InputError(f"missing {', '.join(missing)} (an old thresholds file? recalibrate)", path=path,
+                         key=missing[0])
     data = later_gain_follows(data)
     by = data.get(BY_EFFECT_KEY) or {}
     from bpmid.effects import CATALOGUE
-    bad = [k for k, v in by.items() if k not in CATALOGUE or not isinstance(v, (int, float)) or not v >= 0] \
-        if isinstance(by, dict) else [str(by)]
-    if bad:
-        raise RuntimeError(f"{path}: {BY_EFFECT_KEY}: {', '.join(map(str, bad))}: each entry must be a catalogue "
-                           f"effect id with a drop of 0 or more noise floors")
+    if not isinstance(by, dict):
+        raise InputError(f"must be a mapping of effect id to a drop in noise floors, found {by!r}", path=path,
+                         key=BY_EFFECT_KEY)
+    for k, v in by.items():
+        if k not in CATALOGUE or isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+            raise InputError(f"each entry must be a catalogue effect id ({', '.join(CATALOGUE)}) with a drop of 0 "
+                             f"or more noise floors, found {k}: {v!r}", path=path, key=f"{BY_EFFECT_KEY}.{k}")
     return gate_values(data)
 
 

@@ -536,6 +536,8 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
 
     check_split(split)
     out = Path(out)
+    if thresholds_path is not None:   # a bad thresholds file is refused before anything is written
+        load_thresholds(thresholds_path)
     try:  # before anything is written: without Dask the sweep cannot run, so no folder is left behind
         import dask.distributed  # noqa: F401
     except ImportError as exc:  # pragma: no cover - depends on the installation
