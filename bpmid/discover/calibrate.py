@@ -6,7 +6,10 @@ floors), ``gap_share_min`` (the share of that gap the effect must remove), ``fam
 of the Holm-corrected likelihood-ratio tests of a round) and the fitting-share condition; and, for a round where
 no candidate passes those, the path down to the noise floor: ``to_floor_drop_min_sigma`` (the held-out error the
 effect removes, ``sqrt(before^2 - after^2)``, in noise floors) with the held-out RMSE left at most
-``to_floor_ratio_max`` (1: not above the floor).
+``to_floor_ratio_max`` (1: not above the floor), with each effect's own drop where it scores better
+(``to_floor_drop_by_effect``); and the two paths for two effects at once (``pair_share_min`` /
+``pair_gain_min_sigma`` when nothing passes alone, ``pair_over_single_min_sigma`` / ``pair_over_gain_min_sigma``
+over the single effect a first round would name).
 :func:`thresholds_from_records` chooses them from the candidates recorded on a CALIBRATION set run with permissive
 thresholds (:data:`PERMISSIVE`), pairs included: among the gates that name nothing on a null case and something on
 so few out-of-catalogue cases that the naming rate stays under 20 % with 90 % confidence
