@@ -76,6 +76,21 @@ def floor_drops(thr: Mapping) -> Drops:
     return Drops(float(thr["to_floor_drop_min_sigma"]), thr.get(BY_EFFECT_KEY))
 
 
+def check_drops_by_effect(by, path, key: str) -> None:
+    """Refuse (:class:`~bpmid.errors.InputError` naming ``path`` and the key) a mapping of effects' own drops that
+    is not catalogue id -> 0 or more noise floors: in a thresholds file and in a discover config alike."""
+    from bpmid.effects import CATALOGUE
+    from bpmid.errors import InputError
+
+    if not isinstance(by, Mapping):
+        raise InputError(f"must be a mapping of effect id to a drop in noise floors, found {by!r}", path=path, key=key)
+    for k, v in by.items():
+        if k not in CATALOGUE:
+            raise InputError(f"unknown effect id {k!r} (known: {', '.join(CATALOGUE)})", path=path, key=f"{key}.{k}")
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+            raise InputError(f"must be 0 or more noise floors, found {v!r}", path=path, key=f"{key}.{k}")
+
+
 def gate_values(values: Mapping) -> dict:
     """The gate's thresholds out of a calibration's values or a thresholds file: the numbers of
     :data:`THRESHOLD_KEYS` as floats, and the effects with their own drop on the path to the floor."""
@@ -113,15 +128,7 @@ def load_thresholds(path: str | Path | None = None) -> dict:
         raise InputError(f"missing {', '.join(missing)} (an old thresholds file? recalibrate)", path=path,
                          key=missing[0])
     data = later_gain_follows(data)
-    by = data.get(BY_EFFECT_KEY) or {}
-    from bpmid.effects import CATALOGUE
-    if not isinstance(by, dict):
-        raise InputError(f"must be a mapping of effect id to a drop in noise floors, found {by!r}", path=path,
-                         key=BY_EFFECT_KEY)
-    for k, v in by.items():
-        if k not in CATALOGUE or isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
-            raise InputError(f"each entry must be a catalogue effect id ({', '.join(CATALOGUE)}) with a drop of 0 "
-                             f"or more noise floors, found {k}: {v!r}", path=path, key=f"{BY_EFFECT_KEY}.{k}")
+    check_drops_by_effect(data.get(BY_EFFECT_KEY) or {}, path, BY_EFFECT_KEY)
     return gate_values(data)
 
 
@@ -458,6 +465,11 @@ def _pair_named(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, a
     return q.first, q.second
 
 
+def _gain_of(r1: Sequence[Record], candidate: str) -> float:
+    """The held-out gain of the candidate a first round would name (a pair over it must beat it by the margin)."""
+    return max(r.gain_sigma for r in r1 if r.candidate == candidate and not r.rival)
+
+
 def _pair_path_outcome(truth: str, named: tuple[str, str]) -> tuple[int, int]:
     """(right, wrong names) of two effects named together: a pair case is right when they are its two; a single
     case when the first is its effect (the second is a wrong name either way); a case with nothing in the
@@ -513,8 +525,7 @@ def _case_outcome(recs: Sequence[Record], g: float, share: float, alpha: float,
         if first is None:
             q = _pair_best(recs, pairs, g, alpha, pair_share, pair_gain)
         elif math.isfinite(pair_over):
-            alone = max(r.gain_sigma for r in r1 if r.candidate == first and not r.rival)
-            q = _pair_best(recs, pairs, g, alpha, 0.0, pair_over_gain, above=alone + pair_over)
+            q = _pair_best(recs, pairs, g, alpha, 0.0, pair_over_gain, above=_gain_of(r1, first) + pair_over)
         if q is not None:
             if not _pair_withheld(recs, q, alpha):
                 return _pair_path_outcome(truth, (q.first, q.second))
@@ -804,7 +815,7 @@ def _pair_over_from(cases, pairs: Mapping, gate: tuple, to_floor: float, pair_sh
         first = _first_passing(r1, g, sh, a, fs, waive, to_floor, withhold=False) if trials else None
         if first is None:
             continue
-        alone[id(recs)] = max(r.gain_sigma for r in r1 if r.candidate == first and not r.rival)
+        alone[id(recs)] = _gain_of(r1, first)
         nothing = (1, 0) if recs[0].truth == "none" else (0, 0)   # withheld: the round names nothing
         ranked = [(q, out) for q, out in _ranked_trials(recs, trials, g, a, nothing)
                   if q.gain_sigma >= alone[id(recs)] + min(PAIR_MARGINS) and q.min_gain_given_other >= 0.0

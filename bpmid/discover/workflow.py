@@ -46,8 +46,8 @@ from typing import Mapping, Optional, Sequence
 
 import numpy as np
 
-from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, later_gain_follows,
-                                      load_thresholds)
+from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, check_drops_by_effect,
+                                      floor_drops, later_gain_follows, load_thresholds)
 from bpmid.discover.confirm import Confirmation, PairTrial, confirm, excess_deg, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import RIVAL, check_rival, own_shape, rival_constants
@@ -193,18 +193,8 @@ class DiscoverConfig:
             v = getattr(self, name)
             if v is not None and not ok(v):
                 raise InputError(f"must be {what}, found {v}", path=path, key=f"{where}.{name}")
-        by = self.to_floor_drop_by_effect
-        if by is not None:
-            if not isinstance(by, Mapping):
-                raise InputError(f"must be a mapping of effect id to a drop in noise floors, found {by!r}", path=path,
-                                 key=f"{where}.to_floor_drop_by_effect")
-            for k, v in by.items():
-                if k not in CATALOGUE:
-                    raise InputError(f"unknown effect id {k!r} (known: {', '.join(CATALOGUE)})", path=path,
-                                     key=f"{where}.to_floor_drop_by_effect.{k}")
-                if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
-                    raise InputError(f"must be 0 or more noise floors, found {v!r}", path=path,
-                                     key=f"{where}.to_floor_drop_by_effect.{k}")
+        if self.to_floor_drop_by_effect is not None:
+            check_drops_by_effect(self.to_floor_drop_by_effect, path, f"{where}.to_floor_drop_by_effect")
 
     def thresholds(self) -> dict:
         return self.overrides(load_thresholds())
@@ -948,7 +938,7 @@ def judge_to_floor(c: Confirmation, thr: dict, floor: float) -> list[str]:
     d = float(thr.get("to_floor_drop_min_sigma", math.inf))
     if not math.isfinite(d):
         return ["no path to the floor in this gate"]
-    d = float((thr.get(BY_EFFECT_KEY) or {}).get(c.effect_id, d))
+    d = floor_drops(thr).of(c.effect_id)
     q = float(thr.get("to_floor_ratio_max", 1.0))
     if not _open_to_floor(c, thr):
         return ["not tested, not identifiable or not significant (above)"]

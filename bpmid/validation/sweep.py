@@ -532,12 +532,12 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     """Run a sweep into ``out`` (see the module docstring). Resumes: finished case ids in ``out/records.jsonl``
     are skipped. ``stop_after`` stops after that many new records (an interruption, used by the tests);
     ``max_cases`` keeps only the first cases of each half (by id; a quick subset that a full rerun extends)."""
-    from bpmid.discover.calibrate import THRESHOLD_KEYS, load_thresholds, thresholds_from_records, write_thresholds
+    from bpmid.discover.calibrate import load_thresholds, thresholds_from_records, write_thresholds
 
     check_split(split)
     out = Path(out)
-    if thresholds_path is not None:   # a bad thresholds file is refused before anything is written
-        load_thresholds(thresholds_path)
+    # a given thresholds file is read (and a bad one refused) before anything is written
+    given = load_thresholds(thresholds_path) if thresholds_path is not None else None
     try:  # before anything is written: without Dask the sweep cannot run, so no folder is left behind
         import dask.distributed  # noqa: F401
     except ImportError as exc:  # pragma: no cover - depends on the installation
@@ -565,7 +565,7 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     try:
         for phase in phases:
             if phase == "heldout":
-                thresholds = _thresholds_for_heldout(out, thresholds_path, thresholds, load_thresholds, THRESHOLD_KEYS)
+                thresholds = _thresholds_for_heldout(out, given, thresholds, load_thresholds)
             dcfg = cfg.discover_config(phase, thresholds if phase == "heldout" else None)
             now = discover_settings(dcfg)
             todo = [c for c in halves[phase] if c.id not in done or done[c.id].get("discover_settings") != now]
@@ -619,9 +619,9 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     return SweepOutcome(sorted(done.values(), key=lambda r: r["id"]), thresholds, summary, files, True)
 
 
-def _thresholds_for_heldout(out: Path, given, calibrated, load_thresholds, keys) -> dict:
+def _thresholds_for_heldout(out: Path, given, calibrated, load_thresholds) -> dict:
     if given is not None:
-        return load_thresholds(given)
+        return given
     if calibrated is not None:
         return calibrated
     if (out / "thresholds.yaml").exists():
