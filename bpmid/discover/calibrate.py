@@ -266,10 +266,13 @@ class Record:
     after_over_floor: float = float("nan")  # held-out RMSE with the candidate, in noise floors
     rival: bool = False   # the round's rival outside the catalogue (bpmid.discover.rivals), never a candidate
     own_shape: bool = False  # a rival's fit needed what only it has (rivals.own_shape)
+    #: held-out error removed where the candidate acts (confirm.drop_where_it_acts), in noise floors; NaN in
+    #: records written before it existed
+    local_drop_sigma: float = float("nan")
 
     def __post_init__(self):
         _floats(self, ("gain_sigma", "delta_bic", "gap_share", "lr_p", "lr_p_holm", "fit_share", "drop_sigma",
-                       "after_over_floor"))
+                       "after_over_floor", "local_drop_sigma"))
 
 
 def _floats(rec, names: Sequence[str]) -> None:
@@ -334,7 +337,7 @@ def records_from_result(truth: str, result, case: str | None = None, kind: str =
                           bool(c.tested), bool(c.identifiable), case, float(c.fit_share), kind,
                           "+".join(named_before), float(c.drop_sigma),
                           float(c.heldout_rmse_after) / result.noise_floor_deg, rival=rival,
-                          own_shape=bool(rival and own_shape(c)))
+                          own_shape=bool(rival and own_shape(c)), local_drop_sigma=float(c.local_drop_sigma))
         out += [record(c) for c in rnd.confirmations]
         if rnd.rival is not None:
             out.append(record(rnd.rival, rival=True))
