@@ -22,13 +22,13 @@ from pathlib import Path
 
 
 def same_candidates(old: dict, new: dict) -> bool:
-    """Whether every candidate record of the old run is in the new one with the same numbers (the rival's left
-    out). Records written before the path to the noise floor lack its numbers, and before it existed a permissive
-    run could stop after a first round where no candidate had a finite gap share (a null): what they lack is not
-    compared."""
-    now = {(x["candidate"], x["round"]): x for x in new.get("calibration_records") or [] if not x.get("rival")}
+    """Whether every candidate record of the old run is in the new one with the same numbers (and the rival's,
+    where the old run recorded it). Records written before the path to the noise floor lack its numbers, and
+    before it existed a permissive run could stop after a first round where no candidate had a finite gap share (a
+    null): what they lack is not compared."""
+    now = {(x["candidate"], x["round"], bool(x.get("rival"))): x for x in new.get("calibration_records") or []}
     for x in old.get("calibration_records") or []:
-        y = now.get((x["candidate"], x["round"]))
+        y = now.get((x["candidate"], x["round"], bool(x.get("rival"))))
         if y is None or any(x.get(k) is not None and x.get(k) != y.get(k)
                             for k in ("gain_sigma", "lr_p", "lr_p_holm", "gap_share", "fit_share", "drop_sigma",
                                       "after_over_floor", "tested", "identifiable")):
