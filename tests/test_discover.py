@@ -101,6 +101,11 @@ def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
     assert "provenance" in d and d["provenance"]["inputs"]
     for f in ("residual_before_after.png", "screening_ranking.png", "heldout_error.png", "verdict.txt"):
         assert (out / f).stat().st_size > 0
+    # verdict.txt: the same words as discovery.yaml's verdict, wrapped to be read (the gate alone runs to
+    # some 3000 characters)
+    text = (out / "verdict.txt").read_text()
+    assert max(len(line) for line in text.splitlines()) <= 110
+    assert text.split() == d["verdict"].split()
     assert "angle_offset" in r.output and "held-out error from" in r.output
 
 

@@ -2,6 +2,7 @@
 three figures, all or nothing (one staged folder). Used by ``bpmid discover`` and by ``bpmid run``."""
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 from bpmid.io.atomic import staged_dir, write_text
@@ -17,6 +18,18 @@ FIGURES = {"residual_before_after.png": P.residual_figure, "screening_ranking.pn
            "heldout_error.png": P.heldout_figure}
 
 
+#: the width verdict.txt is wrapped to (a statement of the gate runs to some 3000 characters)
+VERDICT_WIDTH = 110
+
+
+def readable(verdict: str) -> str:
+    """The verdict as ``verdict.txt`` gives it: each statement wrapped to :data:`VERDICT_WIDTH` columns, its
+    continuation lines indented, words and numbers never split."""
+    return "\n".join(textwrap.fill(line, VERDICT_WIDTH, subsequent_indent="  ", break_long_words=False,
+                                    break_on_hyphens=False) if line.strip() else line
+                     for line in verdict.split("\n"))
+
+
 def write_discovery(out_dir: str | Path, result, prov: dict, *, base_from: str) -> list[str]:
     """Write ``result`` (a :class:`~bpmid.discover.workflow.DiscoveryResult`) into ``out_dir``.
 
@@ -27,7 +40,7 @@ def write_discovery(out_dir: str | Path, result, prov: dict, *, base_from: str) 
     synthetic = is_synthetic(list(result.fit_logs) + list(result.holdout_logs))
     with staged_dir(out_dir) as tmp:
         write_result(tmp / "discovery.yaml", SCHEMA, body, prov)
-        write_text(tmp / "verdict.txt", result.verdict + "\n")
+        write_text(tmp / "verdict.txt", readable(result.verdict) + "\n")
         for name, make in FIGURES.items():
             fig = make(result)
             if synthetic:
