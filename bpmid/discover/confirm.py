@@ -78,8 +78,8 @@ class Confirmation:
     #: (:func:`drop_where_it_acts`)
     local_drop_sigma: float = float("nan")
     accepted: bool = False
-    #: which rule of the gate named it: "gap" (the gap above the noise), "floor" (down to the noise floor) or
-    #: "pair" (two effects named together)
+    #: which rule of the gate named it: "gap" (the gap above the noise), "floor" (down to the noise floor), "acts"
+    #: (where it acts) or "pair" (two effects named together)
     passed_by: str = ""
     #: named on the path to the floor or as a pair: why the gate itself had refused it
     gate_reasons: list = dataclasses.field(default_factory=list)
@@ -99,7 +99,7 @@ class Confirmation:
             "tested": bool(self.tested),
             "not_tested_reason": self.not_tested_reason or None,
             "reasons_rejected": list(self.reasons),
-            "refused_by_the_gate_because": (list(self.gate_reasons) if self.passed_by == "floor" else
+            "refused_by_the_gate_because": (list(self.gate_reasons) if self.passed_by in ("floor", "acts") else
                                             [f"alone: {r}" for r in self.gate_reasons] if self.passed_by == "pair"
                                             else None),
             "heldout_rmse_before_deg": round(self.heldout_rmse_before, 4),
