@@ -121,12 +121,14 @@ def gate_values(values: Mapping) -> dict:
 #: path's meaning (the effect explains what the base model left); not calibrated
 TO_FLOOR_RATIO = 1.0
 #: discover-config overrides for a calibration run: every candidate's statistics are recorded, the best by
-#: held-out gain is added each round (so later rounds are recorded too)
+#: held-out gain is added each round (so later rounds are recorded too). The path to the floor asks every effect
+#: the same drop of 0 (no effect's own drop from the shipped thresholds may stop a permissive run short of its
+#: second round) and the path where an effect acts is shut (the path to the floor at 0 already takes what it could)
 PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
               "fit_share_waived_above_sigma": 0.0, "heldout_gain_min_sigma_later": -1e9,
               "to_floor_drop_min_sigma": 0.0, "to_floor_ratio_max": 1e9, "max_effects": 2, "record_pair_trials": True,
               "identifiable_waived_above_sigma": math.inf, "withhold_for_rivals": False,
-              "pair_over_single_min_sigma": math.inf}
+              "pair_over_single_min_sigma": math.inf, BY_EFFECT_KEY: {}, ACTS_KEY: {}}
 SCHEMA = "bpmid.discover-thresholds/1"
 
 
