@@ -42,6 +42,31 @@ def test_the_drop_is_in_quadrature_and_does_not_depend_on_where_the_floor_sits()
     assert heldout_drop_sigma(0.201, 0.199, 0.2) * 0.2 == pytest.approx(heldout_drop_sigma(0.201, 0.199, 0.21) * 0.21)
 
 
+def test_the_drop_where_it_acts_is_taken_on_the_samples_the_refit_changes():
+    """Reported beside the held-out drop (no gate uses it): a lag's error confined to 5 % of the samples reads
+    diluted over a whole log and undiluted where the refit acts."""
+    import numpy as np
+
+    from bpmid.discover.confirm import drop_where_it_acts
+
+    rng = np.random.default_rng(3)
+    noise = rng.normal(0.0, 0.2, 10_000)
+    err = np.zeros_like(noise)
+    err[::20] = 0.6
+    before, after = err + noise, noise.copy()
+    whole = heldout_drop_sigma(math.sqrt(np.mean(before**2)), math.sqrt(np.mean(after**2)), 0.2)
+    local = drop_where_it_acts(before, after, 0.2)
+    assert whole == pytest.approx(0.6 / 0.2 * math.sqrt(0.05), rel=0.1)      # diluted by the 95 % it leaves alone
+    assert local == pytest.approx(0.6 / 0.2 * math.sqrt(0.5), rel=0.1)       # half of the tenth it changes is its own
+    shift = before - 0.1                                                      # a change spread evenly: the same
+    assert drop_where_it_acts(before, shift, 0.2) == pytest.approx(
+        math.sqrt(max(np.mean(before**2) - np.mean(shift**2), 0.0)) / 0.2, rel=0.02)
+    assert drop_where_it_acts(before, before, 0.2) == 0.0
+    assert drop_where_it_acts(after, before, 0.2) == 0.0                     # an error it adds is no drop
+    assert math.isnan(drop_where_it_acts(before, after[:-1], 0.2))
+    assert math.isnan(drop_where_it_acts(before, after, 0.0))
+
+
 def test_an_absorbed_effect_passes_the_path_to_the_floor_and_only_that():
     big = _absorbed(heldout_rmse_before=0.2100, heldout_rmse_after=0.1995)   # drop 0.33 noise floors
     assert judge(big, GATE)                                   # gain 0.1 < 0.2: the gate refuses it
@@ -197,6 +222,7 @@ def test_cli_names_on_the_path_to_the_floor_and_says_so(tmp_path):
     assert len(d["named_effects"]) == 1
     ev = d["steps"][0]["evidence"]
     assert ev["named_by"] == "floor" and ev["heldout_drop_in_noise_floors"] > 0
+    assert ev["heldout_drop_where_it_acts_in_noise_floors"] >= ev["heldout_drop_in_noise_floors"] * 0.5
     assert ev["refused_by_the_gate_because"] and "noise floors < 99.00" in ev["refused_by_the_gate_because"][0]
     assert "named on the path to the floor, the gate having refused it because held-out gain above the noise" in \
         d["steps"][0]["explanation"]

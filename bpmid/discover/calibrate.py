@@ -51,34 +51,19 @@ OPTIONAL_THRESHOLDS = {"fit_share_min": 0.0, "fit_share_waived_above_sigma": mat
 #: removes less of a whole log's error than one seen everywhere; those not listed are asked
 #: ``to_floor_drop_min_sigma``
 BY_EFFECT_KEY = "to_floor_drop_by_effect"
-#: the path where an effect acts (catalogue id -> noise floors): for a round where no candidate passes the gate
-#: or the path to the floor, an effect named for the held-out error it removes on the samples where its refit
-#: changes the prediction most (:func:`bpmid.discover.confirm.drop_where_it_acts`), each effect with its own drop
-#: (an effect not listed never takes the path)
-ACTS_KEY = "where_it_acts_drop_by_effect"
 
 
 class Drops(float):
-    """The drops asked below the gate: on the path to the noise floor, the common value (the float itself) and the
-    effects with their own (``by_effect``); on the path where an effect acts, each effect's own (``acts``; an
-    effect not listed never takes it). Everywhere a single drop is used, it reads as the common value."""
+    """The drop asked on the path to the noise floor: the common value (the float itself) and the effects with
+    their own (``by_effect``). Everywhere a single drop is used, it reads as the common value."""
 
-    def __new__(cls, common: float, by_effect: Mapping[str, float] | None = None,
-                acts: Mapping[str, float] | None = None):
+    def __new__(cls, common: float, by_effect: Mapping[str, float] | None = None):
         obj = super().__new__(cls, common)
         obj.by_effect = {str(k): float(v) for k, v in (by_effect or {}).items()}
-        obj.acts = {str(k): float(v) for k, v in (acts or {}).items()}
         return obj
-
-    def __reduce__(self):   # a float subclass with attributes: pickled whole (a sweep ships it to its workers)
-        return (Drops, (float(self), self.by_effect, self.acts))
 
     def of(self, effect_id: str) -> float:
         return self.by_effect.get(effect_id, float(self))
-
-    def acts_of(self, effect_id: str) -> float:
-        """The drop where it acts asked of ``effect_id`` (inf: it never takes that path)."""
-        return self.acts.get(effect_id, math.inf)
 
 
 def drop_for(drop: float, effect_id: str) -> float:
@@ -87,9 +72,8 @@ def drop_for(drop: float, effect_id: str) -> float:
 
 
 def floor_drops(thr: Mapping) -> Drops:
-    """The drops asked below the gate by a gate's thresholds: on the path to the noise floor (common and each
-    effect's own) and where an effect acts."""
-    return Drops(float(thr["to_floor_drop_min_sigma"]), thr.get(BY_EFFECT_KEY), thr.get(ACTS_KEY))
+    """The drops asked on the path to the noise floor by a gate's thresholds (common and each effect's own)."""
+    return Drops(float(thr["to_floor_drop_min_sigma"]), thr.get(BY_EFFECT_KEY))
 
 
 def check_drops_by_effect(by, path, key: str) -> None:
@@ -109,11 +93,9 @@ def check_drops_by_effect(by, path, key: str) -> None:
 
 def gate_values(values: Mapping) -> dict:
     """The gate's thresholds out of a calibration's values or a thresholds file: the numbers of
-    :data:`THRESHOLD_KEYS` as floats, the effects with their own drop on the path to the floor and those with a
-    drop where they act."""
+    :data:`THRESHOLD_KEYS` as floats, and the effects with their own drop on the path to the floor."""
     out = {k: float(values[k]) for k in THRESHOLD_KEYS}
-    for key in (BY_EFFECT_KEY, ACTS_KEY):
-        out[key] = {str(k): float(v) for k, v in (values.get(key) or {}).items()}
+    out[BY_EFFECT_KEY] = {str(k): float(v) for k, v in (values.get(BY_EFFECT_KEY) or {}).items()}
     return out
 
 
@@ -122,13 +104,13 @@ def gate_values(values: Mapping) -> dict:
 TO_FLOOR_RATIO = 1.0
 #: discover-config overrides for a calibration run: every candidate's statistics are recorded, the best by
 #: held-out gain is added each round (so later rounds are recorded too). The path to the floor asks every effect
-#: the same drop of 0 (no effect's own drop from the shipped thresholds may stop a permissive run short of its
-#: second round) and the path where an effect acts is shut (the path to the floor at 0 already takes what it could)
+#: the same drop of 0: no effect's own drop from the shipped thresholds may stop a permissive run short of its
+#: second round
 PERMISSIVE = {"heldout_gain_min_sigma": -1e9, "gap_share_min": 0.0, "family_alpha": 0.999999, "fit_share_min": 0.0,
               "fit_share_waived_above_sigma": 0.0, "heldout_gain_min_sigma_later": -1e9,
               "to_floor_drop_min_sigma": 0.0, "to_floor_ratio_max": 1e9, "max_effects": 2, "record_pair_trials": True,
               "identifiable_waived_above_sigma": math.inf, "withhold_for_rivals": False,
-              "pair_over_single_min_sigma": math.inf, BY_EFFECT_KEY: {}, ACTS_KEY: {}}
+              "pair_over_single_min_sigma": math.inf, BY_EFFECT_KEY: {}}
 SCHEMA = "bpmid.discover-thresholds/1"
 
 
@@ -148,8 +130,7 @@ def load_thresholds(path: str | Path | None = None) -> dict:
         raise InputError(f"missing {', '.join(missing)} (an old thresholds file? recalibrate)", path=path,
                          key=missing[0])
     data = later_gain_follows(data)
-    for key in (BY_EFFECT_KEY, ACTS_KEY):
-        check_drops_by_effect(data.get(key) or {}, path, key)
+    check_drops_by_effect(data.get(BY_EFFECT_KEY) or {}, path, BY_EFFECT_KEY)
     return gate_values(data)
 
 
@@ -427,8 +408,7 @@ def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
                    withhold: bool = True) -> str | None:
     """The candidate a round names: the largest held-out gain among those passing the gate; when none does, the
     largest held-out drop among those leaving the held-out error at most ``to_floor_ratio`` floors with a drop of
-    ``to_floor``; when none does either, the largest drop where it acts among those meeting the path where an
-    effect acts (``to_floor.acts``, :func:`_passes_where_it_acts`); None also when the round's rival outside the catalogue withholds that candidate
+    ``to_floor``; None also when the round's rival outside the catalogue withholds that candidate
     (:func:`rival_withholds`; ``withhold=False``: the candidate before that check)."""
     cands = [r for r in recs if not r.rival]
     passing = [r for r in cands if _passes(r, g, share, alpha, fit_share, waive)]
@@ -440,19 +420,7 @@ def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
         if passing:
             best = max(passing, key=lambda r: r.drop_sigma)
             return None if withhold and rival_withholds(recs, best.after_over_floor, alpha) else best.candidate
-    if isinstance(to_floor, Drops) and to_floor.acts:
-        passing = [r for r in cands if _passes_where_it_acts(r, to_floor, alpha)]
-        if passing:
-            best = max(passing, key=lambda r: r.local_drop_sigma)
-            return None if withhold and rival_withholds(recs, best.after_over_floor, alpha) else best.candidate
     return None
-
-
-def _passes_where_it_acts(r: Record, drops: Drops, alpha: float) -> bool:
-    """The path where an effect acts (:func:`bpmid.discover.workflow.judge_where_it_acts`): tested, identifiable,
-    significant, lowering the held-out RMSE, and removing its own drop of held-out error where it acts."""
-    return (r.tested and r.identifiable and r.lr_p_holm < alpha and math.isfinite(r.drop_sigma) and r.drop_sigma > 0
-            and math.isfinite(r.local_drop_sigma) and r.local_drop_sigma >= drops.acts_of(r.candidate))
 
 
 def rival_withholds(recs: Sequence[Record], named_after_over_floor: float, alpha: float) -> bool:
@@ -768,48 +736,6 @@ def _to_floor_by_effect(cases, gate: tuple, to_floor: float, t: dict, allowed: i
     return Drops(to_floor, by), best_t
 
 
-#: held-out drops where an effect acts (noise floors) the calibration considers for the path where it acts
-ACTS_DROPS = tuple(np.round(np.arange(0.1, 2.0001, 0.05), 2))
-
-
-def _acting(cases, drops: Drops, alpha: float, effect: str) -> frozenset:
-    """Which records of ``effect`` meet the path where it acts at ``drops``: the outcome depends on nothing else."""
-    return frozenset(id(r) for recs in cases for r in recs if not r.rival and r.candidate == effect
-                     and _passes_where_it_acts(r, drops, alpha))
-
-
-def _acts_by_effect(cases, gate: tuple, to_floor: float, t: dict, allowed: int) -> tuple[Drops, dict]:
-    """Each effect's own drop on the path where it acts, with the gate and the path to the floor fixed: effect by
-    effect (twice over the catalogue), the drop in :data:`ACTS_DROPS` that improves the score (nothing named on a
-    null case, the out-of-catalogue names within ``allowed``), ties to the larger; an effect whose own does not
-    improve it never takes the path. Returns (:class:`Drops` with ``acts``, outcome)."""
-    common, by = float(to_floor), dict(getattr(to_floor, "by_effect", {}))
-    alpha = gate[2]
-    acts: dict[str, float] = {}
-    best_t = t
-    effects = sorted({r.candidate for recs in cases for r in recs if not r.rival})
-    lowest = min(ACTS_DROPS)
-    able = {e: [recs for recs in cases if _acting([recs], Drops(common, by, {e: lowest}), alpha, e)]
-            for e in effects}
-    for _ in range(2):
-        for e in effects:
-            if not able[e]:
-                continue
-            ids = {id(recs) for recs in able[e]}
-            rest = _tally([recs for recs in cases if id(recs) not in ids], *gate, to_floor=Drops(common, by, acts))
-            seen = {_acting(able[e], Drops(common, by, acts), alpha, e)}   # the outcome already held
-            for d in sorted(ACTS_DROPS, reverse=True):
-                trial = Drops(common, by, {**acts, e: float(d)})
-                reach = _acting(able[e], trial, alpha, e)
-                if reach in seen:
-                    continue
-                seen.add(reach)
-                t2 = _sum_tallies(rest, _tally(able[e], *gate, to_floor=trial))
-                if t2["null_named"] == 0 and t2["ooc_named"] <= allowed and _score(t2) > _score(best_t):
-                    acts, best_t = trial.acts, t2
-    return Drops(common, by, acts), best_t
-
-
 #: joint shares of the held-out gap and gains of each beside the other (noise floors) the calibration considers
 #: for the path for two effects at once
 PAIR_SHARES = tuple(np.round(np.arange(0.3, 0.951, 0.05), 2))
@@ -917,8 +843,8 @@ FINALISTS = 10
 
 def _finish(cases, by_case_pairs: Mapping, gains: np.ndarray, g: float, sh: float, a: float, fs: float,
             waive: float, t: dict, allowed: int) -> tuple:
-    """The later stages for a first-stage gate: (later-round gain, drops below the gate (:class:`Drops`: on the
-    path to the floor, with each effect's own, and where an effect acts), pair share, pair gain, margin and gain of a pair over a single effect, final
+    """The later stages for a first-stage gate: (later-round gain, drop on the path to the floor (:class:`Drops`:
+    with each effect's own), pair share, pair gain, margin and gain of a pair over a single effect, final
     outcome)."""
     # a further effect, once one is named: the gap left is smaller, so the same gain in noise floors asks more of
     # it. With the first round's gate fixed, the held-out gain asked in later rounds (never more than g) that makes
@@ -933,7 +859,6 @@ def _finish(cases, by_case_pairs: Mapping, gains: np.ndarray, g: float, sh: floa
             best_later, g_later, t = key, float(g2), t2
     to_floor, t = _to_floor_from(cases, (g, sh, a, fs, waive, g_later), t, allowed)
     to_floor, t = _to_floor_by_effect(cases, (g, sh, a, fs, waive, g_later), to_floor, t, allowed)
-    to_floor, t = _acts_by_effect(cases, (g, sh, a, fs, waive, g_later), to_floor, t, allowed)
     pair_share, pair_gain, t = _pair_path_from(cases, by_case_pairs, (g, sh, a, fs, waive, g_later), to_floor, t,
                                                allowed)
     pair_over, pair_over_gain, t = _pair_over_from(cases, by_case_pairs, (g, sh, a, fs, waive, g_later), to_floor,
@@ -1006,7 +931,6 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
     return {"heldout_gain_min_sigma": g, "gap_share_min": sh, "family_alpha": a, "fit_share_min": fs,
             "fit_share_waived_above_sigma": waive, "heldout_gain_min_sigma_later": g_later,
             "to_floor_drop_min_sigma": float(to_floor), BY_EFFECT_KEY: dict(getattr(to_floor, "by_effect", {})),
-            ACTS_KEY: dict(getattr(to_floor, "acts", {})),
             "to_floor_ratio_max": TO_FLOOR_RATIO,
             "pair_share_min": pair_share, "pair_gain_min_sigma": pair_gain, "identifiable_waived_above_sigma": waive,
             "pair_over_single_min_sigma": pair_over, "pair_over_gain_min_sigma": pair_over_gain,
@@ -1026,9 +950,8 @@ def write_thresholds(values: dict, meta: dict, path: str | Path | None = None) -
     path = Path(path) if path else THRESHOLDS_PATH
     body = {"schema": SCHEMA}
     body.update({k: float(f"{float(values[k]):.4g}") for k in THRESHOLD_KEYS})
-    for key in (BY_EFFECT_KEY, ACTS_KEY):
-        body[key] = {k: float(f"{float(v):.4g}") for k, v in sorted((values.get(key) or {}).items())}
+    body[BY_EFFECT_KEY] = {k: float(f"{float(v):.4g}") for k, v in sorted((values.get(BY_EFFECT_KEY) or {}).items())}
     body["calibration"] = {k: (round(v, 4) if isinstance(v, float) else v) for k, v in values.items()
-                           if k not in THRESHOLD_KEYS and k not in (BY_EFFECT_KEY, ACTS_KEY)}
+                           if k not in THRESHOLD_KEYS and k != BY_EFFECT_KEY}
     body["calibration"].update(meta)
     return write_text(path, yaml.safe_dump(body, sort_keys=False))

@@ -75,11 +75,12 @@ class Confirmation:
     #: the same drop on the held-out samples where the refit moves the prediction most (the top
     #: :data:`WHERE_IT_ACTS` of them by the change): an effect seen only in short stretches of a log (a lag, while
     #: the pressure moves) removes little of a whole log's error but most of the error where it acts
-    #: (:func:`drop_where_it_acts`)
+    #: (:func:`drop_where_it_acts`). Reported and recorded for calibration, never a gate: a path naming an effect
+    #: on it was calibrated and cross-validated, and named no more right out of fold (docs/validation.md)
     local_drop_sigma: float = float("nan")
     accepted: bool = False
-    #: which rule of the gate named it: "gap" (the gap above the noise), "floor" (down to the noise floor), "acts"
-    #: (where it acts) or "pair" (two effects named together)
+    #: which rule of the gate named it: "gap" (the gap above the noise), "floor" (down to the noise floor) or
+    #: "pair" (two effects named together)
     passed_by: str = ""
     #: named on the path to the floor or as a pair: why the gate itself had refused it
     gate_reasons: list = dataclasses.field(default_factory=list)
@@ -99,7 +100,7 @@ class Confirmation:
             "tested": bool(self.tested),
             "not_tested_reason": self.not_tested_reason or None,
             "reasons_rejected": list(self.reasons),
-            "refused_by_the_gate_because": (list(self.gate_reasons) if self.passed_by in ("floor", "acts") else
+            "refused_by_the_gate_because": (list(self.gate_reasons) if self.passed_by == "floor" else
                                             [f"alone: {r}" for r in self.gate_reasons] if self.passed_by == "pair"
                                             else None),
             "heldout_rmse_before_deg": round(self.heldout_rmse_before, 4),
@@ -403,8 +404,8 @@ def drop_where_it_acts(before_res: np.ndarray, after_res: np.ndarray, noise_floo
     ``sqrt(mean(before^2) - mean(after^2)) / floor`` over the ``share`` of the held-out samples where the prediction
     changed most (residuals in deg, model minus measurement, the same samples before and after; 0 when it removes
     none there). Noise and the log-to-log variation spread over a whole log; an effect seen only in short
-    stretches of it (a lag acts while the pressure moves) is judged where it acts rather than diluted by the
-    stretches it leaves alone."""
+    stretches of it (a lag acts while the pressure moves) is measured where it acts rather than diluted by the
+    stretches it leaves alone. Reported for every candidate; no gate uses it (see ``local_drop_sigma``)."""
     b = np.asarray(before_res, float)
     a = np.asarray(after_res, float)
     if b.shape != a.shape or b.size == 0 or not noise_floor_deg > 0 or not (np.all(np.isfinite(b))

@@ -27,14 +27,6 @@ within the floor's own uncertainty, so the gap-based gain and shares say little,
 fitting share to measure; the drop is still measured on logs the effect was not fitted on. Why the gate refused
 the candidate is reported beside it. Its drop is calibrated like the rest of the gate.
 
-When no candidate passes either, the path where an effect acts (:func:`judge_where_it_acts`): a candidate meeting
-the same test, identifiability and likelihood-ratio conditions that lowers the held-out RMSE and removes its own
-drop of held-out error where it acts: on the tenth of the held-out samples where its refit changes the prediction
-most (:func:`bpmid.discover.confirm.drop_where_it_acts`). A lag acts only while the pressure moves: the error it
-removes there is large and, spread over a whole log with its holds, small beside the log-to-log variation. Each
-effect's drop is calibrated on its own (``where_it_acts_drop_by_effect``); an effect without one never takes the
-path.
-
 Whatever a round would name is held against a rival outside the catalogue (:mod:`bpmid.discover.rivals`: payload
 inertia that rings), refitted and scored the same way; when the rival explains the held-out logs better and needs
 its own shape, nothing is named that round and the remainder is reported unexplained.
@@ -54,10 +46,9 @@ from typing import Mapping, Optional, Sequence
 
 import numpy as np
 
-from bpmid.discover.calibrate import (ACTS_KEY, BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, check_drops_by_effect,
+from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, check_drops_by_effect,
                                       floor_drops, later_gain_follows, load_thresholds)
-from bpmid.discover.confirm import (WHERE_IT_ACTS, Confirmation, PairTrial, confirm, excess_deg, holm_adjusted,
-                                    pair_trial)
+from bpmid.discover.confirm import Confirmation, PairTrial, confirm, excess_deg, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import RIVAL, check_rival, own_shape, rival_constants
 from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, residuals, rmse_deg,
@@ -107,10 +98,6 @@ class DiscoverConfig:
         calibrated; a mapping here replaces the calibrated one whole, so list every effect that should keep its
         own; ``{}``: every effect asked ``to_floor_drop_min_sigma``; .inf: that effect never takes the path; with
         ``to_floor_drop_min_sigma: .inf`` there is no path at all)
-    where_it_acts_drop_by_effect : the path where an effect acts, for a round where no candidate passes the gate
-        or the path to the floor: catalogue id -> the held-out error (in quadrature, noise floors) the candidate
-        must remove on the tenth of the held-out samples its refit changes most (None: calibrated; a mapping here
-        replaces the calibrated one whole; an effect not listed, or .inf, never takes the path; ``{}``: no path)
     identifiable_waived_above_sigma : condition (4), a parameter identifiable, is not asked of a held-out gain above
         this many noise floors (None: calibrated, the fitting-share waiver's value; inf: always asked)
     pair_share_min : two effects at once, for a first round where no candidate passes either path: the share of
@@ -154,7 +141,6 @@ class DiscoverConfig:
     to_floor_drop_min_sigma: Optional[float] = None
     to_floor_ratio_max: Optional[float] = None
     to_floor_drop_by_effect: Optional[Mapping[str, float]] = None
-    where_it_acts_drop_by_effect: Optional[Mapping[str, float]] = None
     identifiable_waived_above_sigma: Optional[float] = None
     pair_share_min: Optional[float] = None
     pair_gain_min_sigma: Optional[float] = None
@@ -168,9 +154,8 @@ class DiscoverConfig:
 
     def __post_init__(self):
         # a plain dict (a config file's mapping arrives read-only, and a sweep ships the config to its workers)
-        for name in ("to_floor_drop_by_effect", "where_it_acts_drop_by_effect"):
-            if isinstance(getattr(self, name), Mapping):
-                object.__setattr__(self, name, dict(getattr(self, name)))
+        if isinstance(self.to_floor_drop_by_effect, Mapping):
+            object.__setattr__(self, "to_floor_drop_by_effect", dict(self.to_floor_drop_by_effect))
 
     def validate(self, where, path):
         for c in self.candidates:
@@ -208,9 +193,8 @@ class DiscoverConfig:
             v = getattr(self, name)
             if v is not None and not ok(v):
                 raise InputError(f"must be {what}, found {v}", path=path, key=f"{where}.{name}")
-        for name in ("to_floor_drop_by_effect", "where_it_acts_drop_by_effect"):
-            if getattr(self, name) is not None:
-                check_drops_by_effect(getattr(self, name), path, f"{where}.{name}")
+        if self.to_floor_drop_by_effect is not None:
+            check_drops_by_effect(self.to_floor_drop_by_effect, path, f"{where}.to_floor_drop_by_effect")
 
     def thresholds(self) -> dict:
         return self.overrides(load_thresholds())
@@ -220,9 +204,8 @@ class DiscoverConfig:
         ``heldout_gain_min_sigma_later`` sets both."""
         given = {k: float(getattr(self, k)) for k in GATE_KEYS if getattr(self, k) is not None}
         out = later_gain_follows({**thr, **given}, given)
-        for key, name in ((BY_EFFECT_KEY, "to_floor_drop_by_effect"), (ACTS_KEY, "where_it_acts_drop_by_effect")):
-            if getattr(self, name) is not None:
-                out[key] = {str(k): float(v) for k, v in getattr(self, name).items()}
+        if self.to_floor_drop_by_effect is not None:
+            out[BY_EFFECT_KEY] = {str(k): float(v) for k, v in self.to_floor_drop_by_effect.items()}
         return out
 
 
@@ -252,7 +235,7 @@ def gate_in_words(thr: dict) -> str:
                f"effect is then named with its constants reported as not determined separately)"
                if math.isfinite(float(thr.get("identifiable_waived_above_sigma", math.inf))) else "")
             + "; of several that pass, "
-            f"the largest held-out gain wins" + _to_floor_words(thr) + _acts_words(thr) + _pair_paths_words(thr)
+            f"the largest held-out gain wins" + _to_floor_words(thr) + _pair_paths_words(thr)
             + ". Whatever a round would name, a rival outside the catalogue (payload inertia that rings: an "
               "underdamped response of the angle) is refitted beside it; when the rival passes the likelihood-ratio "
               f"test at {thr['family_alpha']:.2g} uncorrected, needs its own shape (damping off its bound of "
@@ -300,18 +283,6 @@ def _to_floor_words(thr: dict) -> str:
             f"{where} and removes at least {d:.3g} noise floors of held-out error (sqrt(before^2 - after^2)){own}; it is "
             f"named, with the gate's reasons for refusing it (an effect the refitted base model mostly absorbed "
             f"leaves too little gap above the floor for (2); of several, the largest such drop wins)")
-
-
-def _acts_words(thr: dict) -> str:
-    acts = {e: float(x) for e, x in (thr.get(ACTS_KEY) or {}).items() if math.isfinite(float(x))}
-    if not acts:
-        return ""
-    return (f". When no candidate passes either, one meeting (1), (3) and (4) that lowers the held-out RMSE is named "
-            f"when it removes at least its own drop of held-out error (sqrt(before^2 - after^2), noise floors) on the "
-            f"{WHERE_IT_ACTS:.0%} of held-out samples where its refit changes the prediction most: "
-            + ", ".join(f"{e} {x:.3g}" for e, x in sorted(acts.items()))
-            + " (no other effect takes this path; an effect seen only in short stretches of a log, as a lag while "
-              "the pressure moves, removes little of a whole log's error; of several, the largest such drop wins)")
 
 
 @dataclasses.dataclass
@@ -480,18 +451,13 @@ def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
         how = (f"{c.heldout_rmse_after:.3f} deg against a noise floor of {floor:.3f} deg, removing "
                f"{c.drop_sigma:.3f} noise floors of held-out error (sqrt(before^2 - after^2)); named on the path to "
                f"the floor, the gate having refused it because " + "; ".join(c.gate_reasons) + " (")
-    elif c.passed_by == "acts":
-        how = (f"{c.heldout_rmse_after:.3f} deg against a noise floor of {floor:.3f} deg, and removing "
-               f"{c.local_drop_sigma:.2f} noise floors of held-out error where it acts (the {WHERE_IT_ACTS:.0%} of "
-               f"held-out samples its refit changes most); named on the path where an effect acts, the gate having "
-               f"refused it because " + "; ".join(c.gate_reasons) + " (")
     else:
         how = (f"{c.heldout_rmse_after:.2f} deg (its part above the noise by {c.heldout_gain_sigma:.2f} noise floors "
                f"of {floor:.2f} deg; ")
     return (f"{e.describe(c.state.params)}: {e.meaning}. Where it shows: {e.where_it_shows}. Here the residual "
             f"{residual_feature(rnd.diagnostics)}, and the effect's signature explains {s.explained:.0%} of what the "
             f"model left; adding it cut the held-out error from "
-            + (f"{c.heldout_rmse_before:.3f}" if c.passed_by in ("floor", "acts") else f"{c.heldout_rmse_before:.2f}")
+            + (f"{c.heldout_rmse_before:.3f}" if c.passed_by == "floor" else f"{c.heldout_rmse_before:.2f}")
             + " to "
             + how +
             f"likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected {c.lr_p_holm:.2g})"
@@ -784,20 +750,9 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 elif _open_to_floor(c, thr):
                     c.reasons.append("nor does it take the held-out error to the noise floor: " + "; ".join(why))
             passing = [c for c in confs if c.accepted]
-        if not passing and floor_drops(thr).acts:
-            for c in confs:
-                why = judge_where_it_acts(c, thr)
-                if not why:
-                    c.accepted, c.passed_by = True, "acts"
-                    c.gate_reasons, c.reasons = list(c.reasons), []
-                elif _open_to_floor(c, thr) and math.isfinite(floor_drops(thr).acts_of(c.effect_id)):
-                    c.reasons.append("nor does it remove enough where it acts: " + "; ".join(why))
-            passing = [c for c in confs if c.accepted]
-        # the best of those passing alone (by the held-out drop on the path to the floor, by the drop where it acts
-        # on that path, else by the held-out gain)
-        by_floor = bool(passing) and passing[0].passed_by in ("floor", "acts")
-        score = ((lambda c: c.local_drop_sigma) if passing and passing[0].passed_by == "acts" else
-                 (lambda c: c.drop_sigma) if by_floor else (lambda c: c.heldout_gain_sigma))
+        # the best of those passing alone (by the held-out drop on the path to the floor, else by the held-out gain)
+        by_floor = bool(passing) and passing[0].passed_by == "floor"
+        score = (lambda c: c.drop_sigma) if by_floor else (lambda c: c.heldout_gain_sigma)
         best = max(passing, key=score) if passing else None
         trials: list[PairTrial] = []
         pair_open = math.isfinite(float(thr.get("pair_share_min", math.inf)))
@@ -883,15 +838,13 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
             note(f"discover: added {a.effect_id} and {b.effect_id} together (held-out {pt.heldout_rmse_before:.3f} "
                  f"-> {pt.heldout_rmse_after:.3f} deg)")
             continue
-        by_acts = bool(passing) and passing[0].passed_by == "acts"
-        what = "held-out drop where it acts" if by_acts else "held-out drop" if by_floor else "held-out gain"
-        what_vs = what + " " if by_floor else ""
+        what = "held-out drop" if by_floor else "held-out gain"
+        what_vs = "held-out drop " if by_floor else ""
         competition = ""
         if best is not None and len(passing) > 1:
             others = [c for c in passing if c is not best]
             competition = (f"{len(passing)} candidates passed the gate"
-                           + (" on the path where each acts" if by_acts else
-                              " on the path to the noise floor" if by_floor else "")
+                           + (" on the path to the noise floor" if by_floor else "")
                            + " this round and may explain the same residual: "
                            + ", ".join(f"{c.effect_id} ({what} {score(c):.2f} noise floors"
                                        + ("" if by_floor else f", {c.gap_share:.0%} of the gap") + ")"
@@ -1000,23 +953,6 @@ def judge_to_floor(c: Confirmation, thr: dict, floor: float) -> list[str]:
         x, lim = _apart(ratio, q)
         why.append(f"held-out RMSE left {x} noise floors ({c.heldout_rmse_after:.3f} deg against a floor of "
                    f"{floor:.3f} deg) > {lim}")
-    return why
-
-
-def judge_where_it_acts(c: Confirmation, thr: dict) -> list[str]:
-    """Reasons a candidate does not pass the path where an effect acts (empty: it passes; asked only in a round
-    where no candidate passes :func:`judge` or :func:`judge_to_floor`). Only this path's own numbers are stated."""
-    d = floor_drops(thr).acts_of(c.effect_id)
-    if not math.isfinite(d):
-        return [f"{c.effect_id} has no drop where it acts in this gate"]
-    if not _open_to_floor(c, thr):
-        return ["not tested, not identifiable or not significant (above)"]
-    why = []
-    if not (math.isfinite(c.drop_sigma) and c.drop_sigma > 0):
-        why.append("it does not lower the held-out RMSE")
-    if not (math.isfinite(c.local_drop_sigma) and c.local_drop_sigma >= d):
-        x, lim = _apart(c.local_drop_sigma, d)
-        why.append(f"held-out drop where it acts {x} < {lim} noise floors")
     return why
 
 
