@@ -264,8 +264,12 @@ def _sse_perp(r: np.ndarray, Q: np.ndarray) -> float:
 def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], holdout_logs: Sequence[MotionLog],
             *, noise_floor_deg: float, base_fit_residual: np.ndarray, heldout_before: float,
             max_nfev: int | None = None, rel_se_max: float = 0.5, corr_max: float = 0.995,
-            nuisance: np.ndarray | None = None, per_log_gain: bool = False, n_fits: int = 2) -> Confirmation:
+            nuisance: np.ndarray | None = None, per_log_gain: bool = False, n_fits: int = 2,
+            heldout_before_res: np.ndarray | None = None) -> Confirmation:
     """Refit ``state`` + ``effect`` from several starts and compute the evidence (see module docstring).
+
+    ``heldout_before_res``: the stacked held-out residual of ``state`` as scored (:func:`heldout_residual`), the
+    same for every candidate of a round; None computes it.
 
     ``nuisance``: (N, k) columns of the current model's sensitivities on the fitting logs (screening's), used to
     score the starts with the base constants' compensation projected out; None computes them.
@@ -370,8 +374,7 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     lr_p = boundary_lr_p(lr, dp)
     f_stat = ((sse0 - sse1) / dp) / (sse1 / max(n_eff - p1, 1.0))
     dbic = -n_eff * gain + dp * math.log(max(n_eff, 2.0))
-    ho_res_after = stacked(gained_residuals(simulate(fitted, holdout_logs), holdout_logs, per_log_gain=per_log_gain,
-                                            normalise=False))
+    ho_res_after = heldout_residual(fitted, holdout_logs, per_log_gain)
     ho_after = rmse_deg([ho_res_after])   # as scored_rmse(fitted, holdout_logs, per_log_gain=per_log_gain)
     c = Confirmation(
         effect_id=effect.id, state=fitted, fit=res,
@@ -386,10 +389,17 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     c.fit_share = gap_share(c.fit_rmse_before, c.fit_rmse_after, noise_floor_deg)
     c.gap_share = gap_share(heldout_before, ho_after, noise_floor_deg)
     c.drop_sigma = heldout_drop_sigma(heldout_before, ho_after, noise_floor_deg)
-    ho_res_before = stacked(gained_residuals(simulate(state, holdout_logs), holdout_logs, per_log_gain=per_log_gain,
-                                             normalise=False))
+    ho_res_before = (heldout_residual(state, holdout_logs, per_log_gain) if heldout_before_res is None
+                     else heldout_before_res)
     c.local_drop_sigma = drop_where_it_acts(ho_res_before, ho_res_after, noise_floor_deg)
     return c
+
+
+def heldout_residual(state: ModelState, holdout_logs: Sequence[MotionLog], per_log_gain) -> np.ndarray:
+    """The stacked held-out residual (deg) as the gate scores it: each held-out log with its own gain or factors
+    (its RMSE is :func:`bpmid.discover.model.scored_rmse`)."""
+    return stacked(gained_residuals(simulate(state, holdout_logs), holdout_logs, per_log_gain=per_log_gain,
+                                    normalise=False))
 
 
 #: the share of the held-out samples on which :func:`drop_where_it_acts` judges an effect: those where its refit

@@ -48,7 +48,8 @@ import numpy as np
 
 from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, check_drops_by_effect,
                                       floor_drops, later_gain_follows, load_thresholds)
-from bpmid.discover.confirm import Confirmation, PairTrial, confirm, excess_deg, holm_adjusted, pair_trial
+from bpmid.discover.confirm import (Confirmation, PairTrial, confirm, excess_deg, heldout_residual, holm_adjusted,
+                                    pair_trial)
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import RIVAL, check_rival, own_shape, rival_constants
 from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, residuals, rmse_deg,
@@ -724,13 +725,15 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         J = sensitivities(state, fit_logs, base_sim=sim)
         ranking = screen(state, remaining, fit_logs, base_sim=sim, nuisance=J, per_log_gain=gain)
         lead = [s.effect_id for s in ranking[:cfg.n_confirm]]
-        ho_now = scored_rmse(state, ho_logs, per_log_gain=gain)
+        ho_res_now = heldout_residual(state, ho_logs, gain)
+        ho_now = rmse_deg([ho_res_now])   # scored_rmse(state, ho_logs, per_log_gain=gain)
         confs = []
         with Progress(len(lead), f"round {k + 1}: confirming") as pr:
             for eid in lead:
                 e = next(x for x in remaining if x.id == eid)
                 c = confirm(state, e, fit_logs, ho_logs, noise_floor_deg=floor, base_fit_residual=stacked(parts),
-                            heldout_before=ho_now, max_nfev=cfg.confirm_max_nfev, nuisance=J, per_log_gain=gain)
+                            heldout_before=ho_now, max_nfev=cfg.confirm_max_nfev, nuisance=J, per_log_gain=gain,
+                            heldout_before_res=ho_res_now)
                 confs.append(c)
                 pr.advance(detail=eid)
         family = len(remaining)
@@ -781,8 +784,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         if pt is not None or best is not None or not cfg.withhold_for_rivals:
             # the rival outside the catalogue, refitted and scored like the candidates
             rival = confirm(state, RIVAL(), fit_logs, ho_logs, noise_floor_deg=floor,
-                            base_fit_residual=stacked(parts), heldout_before=ho_now, max_nfev=cfg.confirm_max_nfev,
-                            nuisance=J, per_log_gain=gain)
+                            base_fit_residual=stacked(parts), heldout_before=ho_now, heldout_before_res=ho_res_now,
+                            max_nfev=cfg.confirm_max_nfev, nuisance=J, per_log_gain=gain)
             if pt is not None:
                 named_id = "+".join(pt.ids)
                 withheld = check_rival(rival, named_id, min(pt.first.heldout_rmse_after, pt.second.heldout_rmse_after),
