@@ -170,10 +170,11 @@ def test_unexplained_remainder_is_attributed_to_log_to_log_variation_only_when_i
     assert res.unexplained and res.variation is not None
     assert res.variation["share_of_gap"] >= 0.8
     assert "log-to-log variation" in res.verdict
-    # the two held-out errors the verdict gives are named apart: as logged (what "unexplained" is decided on) and as
-    # the gate scores candidates (each held-out log with its own small factors)
+    # the two held-out errors the verdict gives are named apart: the model's as fitted (what "unexplained" is decided
+    # on) and as the gate scores candidates (each held-out log with its own small factors)
     line = next(x for x in res.verdict.splitlines() if x.startswith("unexplained:"))
-    assert f"the held-out error as logged ({res.heldout_raw_after:.2f} deg)" in line, line
+    assert f"the held-out error of the model as fitted, with no per-log factor ({res.heldout_raw_after:.2f} deg)" \
+        in line, line
     assert f"each held-out log with its own small factors: {res.heldout_after:.2f} deg" in line, line
 
     friction = get_effect("braid_friction", elements=4)

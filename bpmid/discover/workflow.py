@@ -523,8 +523,9 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
     elif unexplained:
         scored = (f" (scored as the gate scores candidates, each held-out log with its own small factors: "
                   f"{after:.2f} deg)" if abs(after - raw_after) >= 0.005 else "")
-        lines.append(f"unexplained: the held-out error as logged ({raw_after:.2f} deg) stays {raw_after - floor:.2f} "
-                     f"deg above the noise floor{scored}; no catalogue effect accounts for it")
+        lines.append(f"unexplained: the held-out error of the model as fitted, with no per-log factor "
+                     f"({raw_after:.2f} deg), stays {raw_after - floor:.2f} deg above the noise floor{scored}; no "
+                     f"catalogue effect accounts for it")
         if variation is not None and variation["share_of_gap"] >= 0.5:
             lines.append(f"most of that remainder is log-to-log variation of the constants, not a missing effect: "
                          f"refitting the model's constants on each held-out log alone brings it to "
