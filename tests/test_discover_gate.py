@@ -4,11 +4,12 @@ thresholds from records, per-log gains against log-to-log variation."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from bpmid.discover.calibrate import (PERMISSIVE, PROTOCOLS, Record, paper_sized_set, start_model,
+from bpmid.discover.calibrate import (PERMISSIVE, PROTOCOLS, Record, load_thresholds, paper_sized_set, start_model,
                                       thresholds_from_records, truth_model)
 from bpmid.discover.confirm import Confirmation, confirm, holm_adjusted, start_grid
 from bpmid.discover.diagnose import noise_floor
@@ -118,6 +119,13 @@ def test_thresholds_from_records_separate_true_effects_from_null_candidates():
     assert 0.7 <= thr["heldout_gain_min_sigma"] <= 2.0
     assert thr["right_decisions"] == 8 and thr["false_positives"] == 0
     assert set(PERMISSIVE) >= {"heldout_gain_min_sigma", "gap_share_min", "family_alpha"}
+    # a calibration run is permissive whatever the shipped thresholds say: no effect's own drop on the path to the
+    # floor (friction's 1.0 stopped null runs short of their second round) survives into its settings
+    from bpmid.validation.sweep import load_sweep
+    cal = load_sweep(Path(__file__).resolve().parents[1] / "configs" / "sweeps" / "full.yaml").discover_config(
+        "calibration").thresholds()
+    assert load_thresholds()["to_floor_drop_by_effect"] and cal["to_floor_drop_by_effect"] == {}
+    assert cal["to_floor_drop_min_sigma"] == 0.0
 
 
 def test_null_with_log_to_log_variation_gets_nothing_named():

@@ -402,7 +402,7 @@ def heldout_residual(state: ModelState, holdout_logs: Sequence[MotionLog], per_l
                                     normalise=False))
 
 
-#: the share of the held-out samples on which :func:`drop_where_it_acts` judges an effect: those where its refit
+#: the share of the held-out samples on which :func:`drop_where_it_acts` measures an effect: those where its refit
 #: changes the prediction most (a tenth: a lag of a few tenths of a second acts on the ramps' ends, a few per cent
 #: of a log each); not calibrated
 WHERE_IT_ACTS = 0.10
