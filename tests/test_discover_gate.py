@@ -93,7 +93,14 @@ def test_a_refit_that_cannot_move_is_not_tested(lag_case):
     c = confirm(state, _Inert(), fit, ho, noise_floor_deg=0.1, base_fit_residual=r0,
                 heldout_before=scored_rmse(state, ho, per_log_gain=False), max_nfev=20)
     assert not c.tested and "did not move" in c.not_tested_reason
+    assert "and the fit error did not change)" in c.not_tested_reason
     assert judge(c, THR) == [f"not tested: {c.not_tested_reason}"]
+    # a refit that ends worse than the model it started from says so, with the numbers, never "did not change"
+    worse = confirm(state, _Inert(), fit, ho, noise_floor_deg=0.1, base_fit_residual=0.9 * r0,
+                    heldout_before=scored_rmse(state, ho, per_log_gain=False), max_nfev=20)
+    rm0, rm1 = (math.sqrt(float(x @ x) / r0.size) for x in (0.9 * r0, r0))
+    assert not worse.tested
+    assert f"the fit error went from {rm0:.4g} to {rm1:.4g} deg, no better" in worse.not_tested_reason
 
 
 def test_noise_floor_is_right_under_ar1_noise_where_the_white_estimator_reads_low():

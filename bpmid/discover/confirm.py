@@ -329,9 +329,11 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     tested, why_not = True, ""
     if not any(s["moved"] for s in start_log) and sse1 >= sse0 * (1 - 1e-9):
         tested = False
-        why_not = ("the refit did not move from any of its starts (the effect's parameters stayed where they "
-                   "started and the fit error did not change): the optimiser made no progress, so this is no "
-                   "evidence against the effect")
+        m = max(r0.size, 1)
+        error = ("the fit error did not change" if sse1 <= sse0 * (1 + 1e-6) else
+                 f"the fit error went from {math.sqrt(sse0 / m):.4g} to {math.sqrt(sse1 / m):.4g} deg, no better")
+        why_not = (f"the refit did not move from any of its starts (the effect's parameters stayed where they "
+                   f"started and {error}): the optimiser made no progress, so this is no evidence against the effect")
     elif sse1 >= sse0 * (1 - 1e-9) and scored[0][0] < sse0_perp * (1 - 1e-3):
         tested = False
         why_not = ("the refit ended no better than the model without the effect although a start in the effect's "
