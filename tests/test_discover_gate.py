@@ -45,6 +45,9 @@ def test_gate_passes_on_gain_share_and_holm_p_whatever_the_bic():
     assert any("Holm-corrected" in r for r in judge(_conf(lr_p_holm=0.02), THR))
     words = gate_in_words(THR)
     assert "BIC is reported, never a gate" in words and "Holm" in words and "1.00 noise floors" in words
+    # a threshold is never printed rounded into another number: more decimals where two would change it
+    fine = gate_in_words({**THR, "heldout_gain_min_sigma": 0.004, "gap_share_min": 0.655})
+    assert "by at least 0.004 noise floors" in fine and "removing at least 65.5% of that gap" in fine
 
 
 def test_not_tested_is_reported_as_such_and_never_as_evidence_against():

@@ -210,11 +210,24 @@ class DiscoverConfig:
         return out
 
 
+def _thr(x: float) -> str:
+    """A threshold in noise floors as the gate's words give it: two decimals, more where two would change it (a
+    margin of 0.004 reads 0.004, never 0.00)."""
+    x = float(x)
+    return f"{x:.2f}" if not math.isfinite(x) or round(x, 2) == x else f"{x:.4g}"
+
+
+def _pct(x: float) -> str:
+    """A threshold share as a percentage: whole per cent, more where that would change it (0.655 reads 65.5%)."""
+    x = float(x)
+    return f"{x:.0%}" if not math.isfinite(x) or round(100 * x) == 100 * x else f"{100 * x:.3g}%"
+
+
 def _later_words(thr: dict) -> str:
     g, later = float(thr["heldout_gain_min_sigma"]), float(thr.get("heldout_gain_min_sigma_later", math.nan))
     if not math.isfinite(later) or later == g:
         return ""
-    return f" ({later:.2f} for a further effect once one is named: the gap left is smaller)"
+    return f" ({_thr(later)} for a further effect once one is named: the gap left is smaller)"
 
 
 def gate_in_words(thr: dict) -> str:
@@ -222,16 +235,16 @@ def gate_in_words(thr: dict) -> str:
     return (f"an effect is named only if (1) its refit really tested it (started from the screening estimate and "
             f"from a grid over its physical range; a refit that did not move counts as 'not tested', never as "
             f"evidence against), (2) it cuts the held-out error above the noise (sqrt(RMSE^2 - floor^2)) by at least "
-            f"{thr['heldout_gain_min_sigma']:.2f} noise floors" + _later_words(thr)
-            + f", removing at least {thr['gap_share_min']:.0%} of that gap"
-            + (f" and its refit removes at least {thr['fit_share_min']:.0%} of the fitting logs' gap (not asked of a "
-               f"held-out gain above {thr.get('fit_share_waived_above_sigma', math.inf):.2f} noise floors, more than "
+            f"{_thr(thr['heldout_gain_min_sigma'])} noise floors" + _later_words(thr)
+            + f", removing at least {_pct(thr['gap_share_min'])} of that gap"
+            + (f" and its refit removes at least {_pct(thr['fit_share_min'])} of the fitting logs' gap (not asked of a "
+               f"held-out gain above {_thr(thr.get('fit_share_waived_above_sigma', math.inf))} noise floors, more than "
                f"any wrong candidate's on the calibration cases with nothing to find)"
                if float(thr.get("fit_share_min", 0.0)) > 0 else "") +
             f", (3) its likelihood-ratio test on the fitting logs (effective sample size, boundary-corrected p-value) "
             f"passes at family-wise level {thr['family_alpha']:.2g} after a Holm correction over every candidate "
             f"screened in the round, and (4) at least one of its parameters is identifiable"
-            + (f" (not asked above {thr.get('identifiable_waived_above_sigma', math.inf):.2f} noise floors of "
+            + (f" (not asked above {_thr(thr.get('identifiable_waived_above_sigma', math.inf))} noise floors of "
                f"held-out gain, more than any wrong candidate's on the calibration cases with nothing to find: the "
                f"effect is then named with its constants reported as not determined separately)"
                if math.isfinite(float(thr.get("identifiable_waived_above_sigma", math.inf))) else "")
@@ -253,17 +266,17 @@ def _pair_paths_words(thr: dict) -> str:
     if math.isfinite(sh):
         words += (f". When no candidate passes alone in the first round, the {PAIR_LEADERS} largest held-out gains "
                   f"among those tested and identifiable are refitted two at a time; two that both meet (1), (3) and "
-                  f"(4) alone are named together when their joint refit removes at least {sh:.0%} of the held-out gap "
-                  f"with a gain of at least {thr['heldout_gain_min_sigma']:.2f} noise floors, each adds at least "
-                  f"{float(thr.get('pair_gain_min_sigma', math.inf)):.2f} noise floors of held-out gain beside the "
+                  f"(4) alone are named together when their joint refit removes at least {_pct(sh)} of the held-out gap "
+                  f"with a gain of at least {_thr(thr['heldout_gain_min_sigma'])} noise floors, each adds at least "
+                  f"{_thr(thr.get('pair_gain_min_sigma', math.inf))} noise floors of held-out gain beside the "
                   f"other, and each passes the likelihood-ratio test beside the other at the same level (Bonferroni "
                   f"over the pairs tried): two effects sharing a residual each remove too small a share of it alone")
     if math.isfinite(m):
         words += (f". When a first-round candidate passes, the {PAIR_LEADERS} leading candidates are also refitted two "
                   f"at a time; two that both pass (3) alone, each beside the other (Bonferroni over the pairs tried), "
                   f"and are tested and identifiable are named together instead when their joint held-out gain exceeds "
-                  f"the passing candidate's by at least {m:.2f} noise floors and each adds at least "
-                  f"{float(thr.get('pair_over_gain_min_sigma', math.inf)):.2f} noise floors beside the other (no pair is "
+                  f"the passing candidate's by at least {_thr(m)} noise floors and each adds at least "
+                  f"{_thr(thr.get('pair_over_gain_min_sigma', math.inf))} noise floors beside the other (no pair is "
                   f"refitted when the passing candidate leaves less than that margin above the floor: none could "
                   f"beat it): two effects at once can make a third the best alone")
     return words
@@ -1073,7 +1086,7 @@ def judge_pair_over(pt: PairTrial, thr: dict, single: Confirmation) -> list[str]
     if not (math.isfinite(pt.gain_sigma) and math.isfinite(pt.gap_share) and pt.gain_sigma >= need):
         x, lim = _apart(pt.gain_sigma, need, 2)
         why.append(f"together: held-out gain {x} < {lim} noise floors ({single.effect_id} alone "
-                   f"{single.heldout_gain_sigma:.2f}, plus the margin {float(thr['pair_over_single_min_sigma']):.2f})")
+                   f"{single.heldout_gain_sigma:.2f}, plus the margin {_thr(thr['pair_over_single_min_sigma'])})")
     gm = float(thr.get("pair_over_gain_min_sigma", math.inf))
     if not (math.isfinite(pt.min_gain_given_other) and pt.min_gain_given_other >= gm):
         x, lim = _apart(pt.min_gain_given_other, gm, 2)
