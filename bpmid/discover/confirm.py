@@ -33,8 +33,8 @@ import numpy as np
 from scipy.special import chdtrc  # chi2.sf, bit for bit, without importing scipy.stats (0.4 s)
 
 from bpmid.discover.screen import _orthonormal  # one basis routine for screening and confirmation
-from bpmid.discover.model import (ModelState, fit_state, gained_residuals, nuisance_block_columns, rmse_deg,
-                                  sensitivities, simulate, stacked)
+from bpmid.discover.model import (ModelState, fit_state, gained_residuals, heldout_residual, nuisance_block_columns,
+                                  rmse_deg, sensitivities, simulate, stacked)
 from bpmid.effects.base import Effect
 from bpmid.fitting import FitResult, effective_sample_size
 from bpmid.io.motion_logs import MotionLog
@@ -268,8 +268,8 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
             heldout_before_res: np.ndarray | None = None) -> Confirmation:
     """Refit ``state`` + ``effect`` from several starts and compute the evidence (see module docstring).
 
-    ``heldout_before_res``: the stacked held-out residual of ``state`` as scored (:func:`heldout_residual`), the
-    same for every candidate of a round; None computes it.
+    ``heldout_before_res``: the stacked held-out residual of ``state`` as scored
+    (:func:`bpmid.discover.model.heldout_residual`), the same for every candidate of a round; None computes it.
 
     ``nuisance``: (N, k) columns of the current model's sensitivities on the fitting logs (screening's), used to
     score the starts with the base constants' compensation projected out; None computes them.
@@ -377,7 +377,7 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     f_stat = ((sse0 - sse1) / dp) / (sse1 / max(n_eff - p1, 1.0))
     dbic = -n_eff * gain + dp * math.log(max(n_eff, 2.0))
     ho_res_after = heldout_residual(fitted, holdout_logs, per_log_gain)
-    ho_after = rmse_deg([ho_res_after])   # as scored_rmse(fitted, holdout_logs, per_log_gain=per_log_gain)
+    ho_after = rmse_deg([ho_res_after])   # scored_rmse, from the residual the drop where it acts needs too
     c = Confirmation(
         effect_id=effect.id, state=fitted, fit=res,
         fit_rmse_before=math.sqrt(sse0 / n), fit_rmse_after=math.sqrt(sse1 / n),
@@ -395,13 +395,6 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
                      else heldout_before_res)
     c.local_drop_sigma = drop_where_it_acts(ho_res_before, ho_res_after, noise_floor_deg)
     return c
-
-
-def heldout_residual(state: ModelState, holdout_logs: Sequence[MotionLog], per_log_gain) -> np.ndarray:
-    """The stacked held-out residual (deg) as the gate scores it: each held-out log with its own gain or factors
-    (its RMSE is :func:`bpmid.discover.model.scored_rmse`)."""
-    return stacked(gained_residuals(simulate(state, holdout_logs), holdout_logs, per_log_gain=per_log_gain,
-                                    normalise=False))
 
 
 #: the share of the held-out samples on which :func:`drop_where_it_acts` measures an effect: those where its refit

@@ -333,10 +333,16 @@ def gained_residuals(sims: Sequence[np.ndarray], logs: Sequence[MotionLog], *, p
     return [gi * s - lg.angle_deg for gi, s, lg in zip(g, sims, logs)]
 
 
+def heldout_residual(state: ModelState, logs: Sequence[MotionLog], per_log_gain) -> np.ndarray:
+    """The stacked held-out residual (deg) as the gate scores it: with ``per_log_gain`` every log's own gain (or
+    factors) fitted on it, for every model alike."""
+    return stacked(gained_residuals(simulate(state, logs), logs, per_log_gain=per_log_gain, normalise=False))
+
+
 def scored_rmse(state: ModelState, logs: Sequence[MotionLog], *, per_log_gain: bool) -> float:
-    """Held-out RMSE (deg); with ``per_log_gain`` every log's own gain is fitted on it (for every model
-    alike), so a log whose constants differ by a few per cent is not scored as a missing effect."""
-    return rmse_deg(gained_residuals(simulate(state, logs), logs, per_log_gain=per_log_gain, normalise=False))
+    """Held-out RMSE (deg) of :func:`heldout_residual`: a log whose constants differ by a few per cent is not
+    scored as a missing effect."""
+    return rmse_deg([heldout_residual(state, logs, per_log_gain)])
 
 
 def fit_state(state: ModelState, logs: Sequence[MotionLog], *, max_nfev: int | None = None,

@@ -48,12 +48,11 @@ import numpy as np
 
 from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, check_drops_by_effect,
                                       floor_drops, later_gain_follows, load_thresholds)
-from bpmid.discover.confirm import (Confirmation, PairTrial, confirm, excess_deg, heldout_residual, holm_adjusted,
-                                    pair_trial)
+from bpmid.discover.confirm import Confirmation, PairTrial, confirm, excess_deg, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import RIVAL, check_rival, own_shape, rival_constants
-from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, residuals, rmse_deg,
-                                  scored_rmse, sensitivities, simulate, stacked)
+from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, heldout_residual, residuals,
+                                  rmse_deg, scored_rmse, sensitivities, simulate, stacked)
 from bpmid.discover.screen import ScreenResult, screen
 from bpmid.effects import CATALOGUE, get_effect
 from bpmid.effects.base import Effect
@@ -740,7 +739,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         ranking = screen(state, remaining, fit_logs, base_sim=sim, nuisance=J, per_log_gain=gain)
         lead = [s.effect_id for s in ranking[:cfg.n_confirm]]
         ho_res_now = heldout_residual(state, ho_logs, gain)
-        ho_now = rmse_deg([ho_res_now])   # scored_rmse(state, ho_logs, per_log_gain=gain)
+        ho_now = rmse_deg([ho_res_now])   # scored_rmse, the residual kept for every candidate
         confs = []
         with Progress(len(lead), f"round {k + 1}: confirming") as pr:
             for eid in lead:
