@@ -130,6 +130,27 @@ def log_gains(sims: Sequence[np.ndarray], logs: Sequence[MotionLog], *, normalis
     return g
 
 
+def _bounded_mean(mean: np.ndarray, S: np.ndarray, lim: np.ndarray) -> np.ndarray:
+    """The held-out logs' mean factor within ``[-lim, lim]`` that costs their error least.
+
+    With the logs' mean factor held at ``m``, their summed squared error exceeds the free fit's by
+    ``n**2 (m - mean)' S^-1 (m - mean)`` (``S`` the sum of the logs' inverse normal matrices), so the bounded mean
+    is that quadratic's minimum over the box, a bounded linear least-squares problem. Clipping each direction
+    alone is not: where directions are correlated it leaves the others at values fitted jointly with the clipped
+    one's free value, and the held-out error could then exceed the error with no factor at all.
+    """
+    if np.all(np.abs(mean) <= lim):
+        return mean
+    from scipy.optimize import lsq_linear
+
+    W = np.linalg.pinv(0.5 * (S + S.T))
+    w, V = np.linalg.eigh(0.5 * (W + W.T))
+    L = np.sqrt(np.clip(w, 0.0, None))[:, None] * V.T      # L'L = S^-1
+    lo, hi = -np.asarray(lim, float), np.asarray(lim, float)
+    res = lsq_linear(L, L @ mean, bounds=(lo, hi), method="bvls")
+    return np.clip(res.x, lo, hi)
+
+
 class LogNuisance:
     """Log-to-log variation of the constants as per-log nuisance factors (first order).
 
@@ -250,17 +271,17 @@ class LogNuisance:
         # free within what sampling a few logs' variation allows (a common shift beyond it is an effect's)
         free = np.array([Mi @ b for Mi, b in zip(Minv, bs)])
         mean = free.mean(axis=0)
+        if n == 1 and zero_sum:
+            return raw
+        S = sum(Minv)
         if zero_sum:
             target = np.zeros(k)
         else:
             lim = self.mean_bounds if self.mean_bounds is not None and self.mean_bounds.size == k else np.full(k, np.inf)
-            target = np.clip(mean, -lim, lim)
-        if n == 1 and zero_sum:
-            return raw
+            target = _bounded_mean(mean, S, lim)
         if np.array_equal(target, mean):
             lam = np.zeros(k)
         else:
-            S = sum(Minv)
             lam = np.linalg.lstsq(S, sum(Mi @ b for Mi, b in zip(Minv, bs)) - n * target, rcond=None)[0]
         out = []
         for C, r, Mi, b in zip(Cs, raw, Minv, bs):
