@@ -15,9 +15,9 @@ from bpmid.cli._logopts import log_options
 #: ``--holdout a.csv b.csv`` takes every following value up to the next option
 HoldoutCommand = multi_value_command("--holdout")
 
-EPILOG = ("Example (a shipped blind case; its answer is in datasets/discovery/ANSWERS.yaml):  bpmid discover "
-          "datasets/discovery/case_01/train_*.csv --holdout datasets/discovery/case_01/holdout_mixed.csv "
-          "--out out/discover   |   without --holdout, whole logs are held out in turn")
+EPILOG = ("Without --holdout, whole logs are held out in turn. Example (a shipped blind case; its answer is in "
+          "datasets/discovery/ANSWERS.yaml):  bpmid discover datasets/discovery/case_01/train_*.csv --holdout "
+          "datasets/discovery/case_01/holdout_mixed.csv --out out/discover")
 
 
 def load_base(init: Optional[Path], cfg):
