@@ -106,6 +106,8 @@ def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
     text = (out / "verdict.txt").read_text()
     assert max(len(line) for line in text.splitlines()) <= 110
     assert text.split() == d["verdict"].split()
+    # one statement per paragraph: as many blank-line-separated paragraphs as the verdict has statements
+    assert len(text.strip().split("\n\n")) == len([ln for ln in d["verdict"].split("\n") if ln.strip()]) > 1
     assert "angle_offset" in r.output and "held-out error from" in r.output
 
 

@@ -159,8 +159,8 @@ def test_an_effect_gets_its_own_drop_only_where_the_common_one_costs_right_decis
     assert judge_to_floor(lag, own, FLOOR) == []
     assert judge_to_floor(_absorbed(effect_id="angle_offset"), own, FLOOR) == [
         "held-out drop 0.141 < 0.225 noise floors"]
-    assert "(sqrt(before^2 - after^2)); these effects are asked their own: pressure_lag 0.125; a lag shows" in \
-        gate_in_words(own)
+    assert ("(sqrt(before^2 - after^2)); these effects are asked their own drop: pressure_lag 0.125 noise floors; "
+            "a lag shows") in gate_in_words(own)
     assert "pressure_lag not on this path" in gate_in_words({**GATE, "to_floor_drop_by_effect": {"pressure_lag": math.inf}})
     with pytest.raises(InputError) as e:
         DiscoverConfig(to_floor_drop_by_effect={"pressure_lag": -1.0}).validate("discover", "cfg.yaml")

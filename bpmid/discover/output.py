@@ -24,10 +24,10 @@ VERDICT_WIDTH = 110
 
 def readable(verdict: str) -> str:
     """The verdict as ``verdict.txt`` gives it: each statement wrapped to :data:`VERDICT_WIDTH` columns, its
-    continuation lines indented, words and numbers never split."""
-    return "\n".join(textwrap.fill(line, VERDICT_WIDTH, subsequent_indent="  ", break_long_words=False,
-                                    break_on_hyphens=False) if line.strip() else line
-                     for line in verdict.split("\n"))
+    continuation lines indented, words and numbers never split, and a blank line between statements."""
+    lines = [ln for ln in verdict.split("\n") if ln.strip()]
+    return "\n\n".join(textwrap.fill(ln, VERDICT_WIDTH, subsequent_indent="  ", break_long_words=False,
+                                      break_on_hyphens=False) for ln in lines)
 
 
 def write_discovery(out_dir: str | Path, result, prov: dict, *, base_from: str) -> list[str]:

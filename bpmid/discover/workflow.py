@@ -288,8 +288,8 @@ def _to_floor_words(thr: dict) -> str:
     q = float(thr.get("to_floor_ratio_max", 1.0))
     where = "at or below the noise floor" if q == 1.0 else f"at most {q:.3g} noise floors"
     by = {e: float(x) for e, x in (thr.get(BY_EFFECT_KEY) or {}).items()}
-    own = ("; these effects are asked their own: " + ", ".join(
-        f"{e} {x:.3g}" if math.isfinite(x) else f"{e} not on this path" for e, x in sorted(by.items()))
+    own = ("; these effects are asked their own drop: " + ", ".join(
+        f"{e} {x:.3g} noise floors" if math.isfinite(x) else f"{e} not on this path" for e, x in sorted(by.items()))
         + ("; a lag shows only while the pressure moves, so it removes less of a whole log's error"
            if by.get("pressure_lag", d) < d else "")) if by else ""
     return (f". When no candidate passes (1)-(4), one meeting (1), (3) and (4) whose refit leaves the held-out RMSE "
