@@ -106,6 +106,26 @@ def test_a_refit_that_cannot_move_is_not_tested(lag_case):
     assert f"the fit error went from {rm0:.4g} to {rm1:.4g} deg, no better" in worse.not_tested_reason
 
 
+class _LagWithInert(type(get_effect("pressure_lag"))):
+    """A pressure lag with one more parameter that changes nothing (the data do not depend on it)."""
+
+    def default_params(self):
+        return ParamSet(list(super().default_params()) + [Param("pressure_lag.inert", 1.0, "1", 0.0, 10.0)])
+
+
+def test_a_parameter_the_fit_held_for_zero_sensitivity_is_not_counted_identifiable(lag_case):
+    fit, ho, state, r0 = lag_case
+    c = confirm(state, _LagWithInert(), fit, ho, noise_floor_deg=0.1, base_fit_residual=r0,
+                heldout_before=scored_rmse(state, ho, per_log_gain=False), max_nfev=100)
+    assert c.tested and c.identifiable                        # the lag itself is found ...
+    assert c.dp == 1                                          # ... with one degree of freedom, not two
+    assert "zero sensitivity" in c.not_identifiable["pressure_lag.inert"]
+    p = c.state.params["pressure_lag.inert"]
+    assert p.fixed and not p.identifiable and p.stderr is None   # held at a start, never printed as measured
+    assert p.value in {g["pressure_lag.inert"] for g in start_grid(_LagWithInert())}
+    assert c.state.params.value("pressure_lag.tau") == pytest.approx(0.8, rel=0.15)
+
+
 def test_noise_floor_is_right_under_ar1_noise_where_the_white_estimator_reads_low():
     fit, ho = paper_sized_set(get_effect("pressure_lag"), seed=5, noise_deg=0.2, noise_rho=0.6)
     n = noise_floor(fit + ho)

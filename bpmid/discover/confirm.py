@@ -36,7 +36,7 @@ from bpmid.discover.screen import _orthonormal  # one basis routine for screenin
 from bpmid.discover.model import (ModelState, fit_state, gained_residuals, heldout_residual, nuisance_block_columns,
                                   rmse_deg, sensitivities, simulate, stacked)
 from bpmid.effects.base import Effect
-from bpmid.fitting import FitResult, effective_sample_size
+from bpmid.fitting import ZERO_SENSITIVITY, FitResult, effective_sample_size
 from bpmid.io.motion_logs import MotionLog
 
 
@@ -356,7 +356,11 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
                                 per_log_gain=per_log_gain)
         bad, ses = own_identifiability(fitted, res, fit_logs, [n for n in own if n not in held],
                                   per_log_gain=per_log_gain, rel_se_max=rel_se_max, corr_max=corr_max)
-    bad = {**held, **bad}
+    # a parameter a fit held (the data do not depend on it: zero sensitivity) was never estimated either: it ends
+    # fixed at its start, whichever of the refits held it
+    by_fit = {nm: (res.held or {}).get(nm, ZERO_SENSITIVITY) for nm in own
+              if fitted.params[nm].fixed and nm not in held}
+    bad = {**by_fit, **held, **bad}
     estimated = [nm for nm in own if nm not in bad]
     for nm in own:
         if nm in bad:
