@@ -172,3 +172,6 @@ def test_describe_prints_dimensionless_parameters_without_a_unit():
     lag, lp = build_effect("pressure_lag", {"tau": 0.2})
     text = lag.describe(lp)
     assert "tau = 0.2 s" in text and "share = 0" in text and "share = 0 1" not in text
+    # in a discovery verdict a held parameter (share: held unless freed) says it was not fitted
+    assert "share = 0 (held, not fitted)" in lag.describe(lp, mark_held=True) and "held" not in text
+    assert "tau = 0.2 s (held" not in lag.describe(lp, mark_held=True)

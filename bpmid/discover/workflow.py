@@ -467,7 +467,7 @@ def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
     else:
         how = (f"{c.heldout_rmse_after:.2f} deg (its part above the noise by {c.heldout_gain_sigma:.2f} noise floors "
                f"of {floor:.2f} deg; ")
-    return (f"{e.describe(c.state.params)}: {e.meaning}. Where it shows: {e.where_it_shows}. Here the residual "
+    return (f"{e.describe(c.state.params, mark_held=True)}: {e.meaning}. Where it shows: {e.where_it_shows}. Here the residual "
             f"{residual_feature(rnd.diagnostics)}, and the effect's signature explains {s.explained:.0%} of what the "
             f"model left; adding it cut the held-out error from "
             + (f"{c.heldout_rmse_before:.3f}" if c.passed_by == "floor" else f"{c.heldout_rmse_before:.2f}")
@@ -484,7 +484,7 @@ def _pair_member_explanation(c: Confirmation, rnd: Round, floor: float, s, e) ->
     """One of two effects named together: its constants from the joint refit, its numbers alone (why the gate
     refused it) kept apart from its numbers beside the other."""
     params = c.named_with.params if c.named_with is not None else c.state.params
-    head = (f"{e.describe(params)}: {e.meaning}. Where it shows: {e.where_it_shows}. Named as one of two effects that "
+    head = (f"{e.describe(params, mark_held=True)}: {e.meaning}. Where it shows: {e.where_it_shows}. Named as one of two effects that "
             f"share the residual (constants from their joint refit). ")
     if rnd.joint_with:
         body = (f"Beside {rnd.joint_with} it cut the held-out error from {c.heldout_rmse_before:.3f} to "
@@ -513,7 +513,7 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
     if final is not None and len(named) >= 2:
         # each round prints its effect's constants as named; a later round refits them all
         lines.append("constants of the final model (every named effect refitted beside the others; each round above "
-                     "gives them as named): " + "; ".join(e.describe(final.params) for e in final.effects))
+                     "gives them as named): " + "; ".join(e.describe(final.params, mark_held=True) for e in final.effects))
     for r in rounds:
         if r.withheld:
             lines.append(r.withheld.replace("withheld: ", "nothing named: ", 1))

@@ -85,9 +85,12 @@ class Effect(abc.ABC):
         Default: none (the effect is screened only by its refit)."""
         return np.zeros((log.n, 0))
 
-    def describe(self, params: ParamSet) -> str:
+    def describe(self, params: ParamSet, *, mark_held: bool = False) -> str:
+        """``id (name = value unit, ...)``; ``mark_held``: a parameter held at its value (``fixed``: a fit's
+        start or default, not estimated from the data) says so, as in a discovery verdict."""
         # a dimensionless parameter (unit "1") is printed bare: "share = 0", not "share = 0 1"
         vals = ", ".join(f"{p.name.split('.', 1)[-1]} = {p.value:.4g}" + ("" if p.unit in ("1", "") else f" {p.unit}")
+                         + (" (held, not fitted)" if mark_held and p.fixed else "")
                          for p in params if p.name.startswith(self.id + "."))
         return f"{self.id} ({vals})"
 
