@@ -89,6 +89,8 @@ def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
     assert d["schema"] == "bpmid.discovery/1"
     assert d["named_effects"] == ["angle_offset"]
     assert len(d["steps"]) == 1 and d["steps"][0]["evidence"]["identifiable"]
+    # the share the signature explains is of what is left after the base constants' own compensation, and says so
+    assert "of what the model left after the base constants' own compensation" in d["steps"][0]["explanation"]
     g = d["gap"]
     assert g["after_rmse_deg"] < g["before_rmse_deg"]
     assert g["after_rmse_deg"] - g["noise_floor_deg"] <= 0.5 * (g["before_rmse_deg"] - g["noise_floor_deg"])

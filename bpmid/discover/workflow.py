@@ -467,9 +467,10 @@ def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
     else:
         how = (f"{c.heldout_rmse_after:.2f} deg (its part above the noise by {c.heldout_gain_sigma:.2f} noise floors "
                f"of {floor:.2f} deg; ")
-    return (f"{e.describe(c.state.params, mark_held=True)}: {e.meaning}. Where it shows: {e.where_it_shows}. Here the residual "
-            f"{residual_feature(rnd.diagnostics)}, and the effect's signature explains {s.explained:.0%} of what the "
-            f"model left; adding it cut the held-out error from "
+    return (f"{e.describe(c.state.params, mark_held=True)}: {e.meaning}. Where it shows: {e.where_it_shows}. "
+            f"Here the residual {residual_feature(rnd.diagnostics)}, and the effect's signature explains "
+            f"{s.explained:.0%} of what the model left after the base constants' own compensation; adding it cut the "
+            f"held-out error from "
             + (f"{c.heldout_rmse_before:.3f}" if c.passed_by == "floor" else f"{c.heldout_rmse_before:.2f}")
             + " to "
             + how +
@@ -484,8 +485,8 @@ def _pair_member_explanation(c: Confirmation, rnd: Round, floor: float, s, e) ->
     """One of two effects named together: its constants from the joint refit, its numbers alone (why the gate
     refused it) kept apart from its numbers beside the other."""
     params = c.named_with.params if c.named_with is not None else c.state.params
-    head = (f"{e.describe(params, mark_held=True)}: {e.meaning}. Where it shows: {e.where_it_shows}. Named as one of two effects that "
-            f"share the residual (constants from their joint refit). ")
+    head = (f"{e.describe(params, mark_held=True)}: {e.meaning}. Where it shows: {e.where_it_shows}. Named as one "
+            f"of two effects that share the residual (constants from their joint refit). ")
     if rnd.joint_with:
         body = (f"Beside {rnd.joint_with} it cut the held-out error from {c.heldout_rmse_before:.3f} to "
                 f"{c.heldout_rmse_after:.3f} deg (noise floor {floor:.3f} deg; likelihood-ratio p = {c.lr_p:.2g}, "
