@@ -89,7 +89,8 @@ def main(argv=None) -> int:
                              "round's rival outside the catalogue)" if a.rerun else ""),
                 "method": "gaps above the noise in quadrature (sqrt(RMSE^2 - floor^2)); per-log nuisance factors on "
                           "K_inf, branch moduli and time constants (held-out logs' mean within 2.5 standard "
-                          "errors of the fitting logs' spread, at most 10 %); friction with a pressure-proportional "
+                          "errors of the fitting logs' spread, at most 10 %, bounded jointly: the mean within those "
+                          "bounds that costs the held-out error least); friction with a pressure-proportional "
                           "band and an elastic stick; pairs scored (round 1 names one, round 2 the other)",
                 "rule": "thresholds_from_records: no null named; out-of-catalogue names within the 90 % upper bound "
                         "of a 20 % rate; the most right decisions minus twice the wrong names minus the "
