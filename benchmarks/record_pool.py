@@ -26,6 +26,9 @@ def main(argv=None) -> int:
     ap.add_argument("configs", nargs="+", help="CONFIG:HALF, HALF one of all, calibration, heldout")
     ap.add_argument("--out", type=Path, required=True, help="folder for records.jsonl")
     ap.add_argument("--workers", type=int, default=2, help="Dask workers (processes; default 2)")
+    ap.add_argument("--only", nargs="+", default=None, metavar="ID",
+                    help="run only these cases (ids as in records.jsonl), e.g. those a code change can affect; "
+                         "recalibrate.py --rerun OUT/records.jsonl then takes their records over the earlier ones")
     a = ap.parse_args(argv)
 
     from bpmid.validation.sweep import load_sweep, make_cases, read_records, rerun_calibration
@@ -37,7 +40,10 @@ def main(argv=None) -> int:
             ap.error(f"{spec!r}: give CONFIG:HALF with HALF all, calibration or heldout")
         cfg = load_sweep(path)
         cases = make_cases(cfg.effective_generator, cfg.sweep.seed, prefix=cfg.sweep.name)
-        chosen += [(cfg, c) for c in cases if half == "all" or c.split == half]
+        chosen += [(cfg, c) for c in cases if (half == "all" or c.split == half)
+                   and (a.only is None or c.id in a.only)]
+    if a.only is not None and len(chosen) < len(set(a.only)):
+        ap.error(f"{len(set(a.only)) - len(chosen)} of the --only ids are not among the chosen halves of the configs")
     a.out.mkdir(parents=True, exist_ok=True)
     done = {r["id"] for r in read_records(a.out / "records.jsonl")}
     todo = [(cfg, c) for cfg, c in chosen if c.id not in done]

@@ -11,7 +11,7 @@ import pytest
 
 from _discover_cases import discover_case_01
 from bpmid.discover.calibrate import (THRESHOLDS_PATH, Record, _case_outcome, _first_passing, case_records,
-                                      load_thresholds, thresholds_from_records)
+                                      load_thresholds, thresholds_from_records, winner_rank)
 from bpmid.discover.confirm import Confirmation, heldout_drop_sigma
 from bpmid.discover.workflow import DiscoverConfig, gate_in_words, judge, judge_to_floor
 from bpmid.errors import InputError
@@ -96,6 +96,20 @@ def test_an_absorbed_effect_passes_the_path_to_the_floor_and_only_that():
 def _rec(case, kind, truth, cand, gain, drop, aof, rnd=1, before="", share=0.9, p=1e-20):
     return Record(truth, rnd, cand, gain, 0.0, rnd > 1 and truth in before.split("+"), share, p, p, True, True,
                   case, 0.9, kind, before, drop, aof)
+
+
+def test_equal_gains_are_decided_by_the_held_out_drop():
+    # two candidates that each take the held-out error to the floor remove the whole gap: their gains are equal,
+    # and the one that removes more error (the true braid friction of a Dahl-friction case, beside a stiffening
+    # that fits part of its loop) wins, whichever came first in screening
+    stiff = _rec("a", "single", "braid_friction", "strain_stiffening", 0.335, 0.347, 0.99)
+    fric = _rec("a", "single", "braid_friction", "braid_friction", 0.335, 0.618, 0.95)
+    g = (0.2, 0.35, 1e-9, 0.0, math.inf)
+    assert _first_passing([stiff, fric], *g) == _first_passing([fric, stiff], *g) == "braid_friction"
+    bigger = _rec("a", "single", "braid_friction", "thermal_softening", 0.336, 0.40, 1.0)
+    assert _first_passing([stiff, fric, bigger], *g) == "thermal_softening"         # the gain still comes first
+    assert winner_rank(0.335, 0.618) > winner_rank(0.335 + 1e-12, 0.347)            # equal up to rounding
+    assert winner_rank(float("nan"), 1.0) < winner_rank(0.0, float("nan"))          # a missing number ranks last
 
 
 def test_a_round_takes_the_path_only_when_nothing_passes_the_gate():

@@ -403,6 +403,17 @@ def _passes_to_floor(r: Record, drop: float, alpha: float, ratio: float = TO_FLO
             and r.after_over_floor <= ratio)
 
 
+def winner_rank(score: float, drop: float = math.nan) -> tuple[float, float]:
+    """How a round ranks the candidates that pass: by ``score`` (the held-out gain above the noise, or the drop on
+    the path to the floor), then by the held-out ``drop`` (sqrt(before^2 - after^2), noise floors). The gain is
+    the gap above the floor removed, so every candidate that takes the held-out error down to the floor has the
+    same gain, the whole gap; the drop still tells which removed more error. Scores are compared at 1e-9 noise
+    floors (equal gains are equal up to rounding); a missing number ranks last."""
+    def low(x: float) -> float:
+        return float(x) if math.isfinite(float(x)) else -math.inf
+    return (round(low(score), 9), low(drop))
+
+
 def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
                    to_floor: float = math.inf, to_floor_ratio: float = TO_FLOOR_RATIO,
                    withhold: bool = True) -> str | None:
@@ -413,7 +424,7 @@ def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
     cands = [r for r in recs if not r.rival]
     passing = [r for r in cands if _passes(r, g, share, alpha, fit_share, waive)]
     if passing:
-        best = max(passing, key=lambda r: r.gain_sigma)
+        best = max(passing, key=lambda r: winner_rank(r.gain_sigma, r.drop_sigma))   # equal gains: the drop
         return None if withhold and rival_withholds(recs, best.after_over_floor, alpha) else best.candidate
     if math.isfinite(to_floor):
         passing = [r for r in cands if _passes_to_floor(r, to_floor, alpha, to_floor_ratio)]
@@ -622,7 +633,7 @@ def _tally_gains(cases: Sequence[Sequence[Record]], gains: np.ndarray, sh: float
 
     def best(recs):
         ok = [r for r in recs if not r.rival and _passes(r, neg_inf, sh, a, fs, waive)]
-        b = max(ok, key=lambda r: r.gain_sigma) if ok else None
+        b = max(ok, key=lambda r: winner_rank(r.gain_sigma, r.drop_sigma)) if ok else None
         return None if b is None or rival_withholds(recs, b.after_over_floor, a) else b
 
     for recs in cases:

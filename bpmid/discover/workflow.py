@@ -47,7 +47,7 @@ from typing import Mapping, Optional, Sequence
 import numpy as np
 
 from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, check_drops_by_effect,
-                                      floor_drops, later_gain_follows, load_thresholds)
+                                      floor_drops, later_gain_follows, load_thresholds, winner_rank)
 from bpmid.discover.confirm import Confirmation, PairTrial, confirm, excess_deg, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import RIVAL, check_rival, own_shape, rival_constants
@@ -767,10 +767,11 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 elif _open_to_floor(c, thr):
                     c.reasons.append("nor does it take the held-out error to the noise floor: " + "; ".join(why))
             passing = [c for c in confs if c.accepted]
-        # the best of those passing alone (by the held-out drop on the path to the floor, else by the held-out gain)
+        # the best of those passing alone (by the held-out drop on the path to the floor, else by the held-out gain,
+        # equal gains by the drop: :func:`winner_rank`)
         by_floor = bool(passing) and passing[0].passed_by == "floor"
         score = (lambda c: c.drop_sigma) if by_floor else (lambda c: c.heldout_gain_sigma)
-        best = max(passing, key=score) if passing else None
+        best = max(passing, key=lambda c: winner_rank(score(c), c.drop_sigma)) if passing else None
         trials: list[PairTrial] = []
         pair_open = math.isfinite(float(thr.get("pair_share_min", math.inf)))
         margin = float(thr.get("pair_over_single_min_sigma", math.inf))
@@ -865,9 +866,14 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                            + " this round and may explain the same residual: "
                            + ", ".join(f"{c.effect_id} ({what} {score(c):.2f} noise floors"
                                        + ("" if by_floor else f", {c.gap_share:.0%} of the gap") + ")"
-                                       for c in sorted(passing, key=lambda c: -score(c)))
-                           + f"; {best.effect_id} won on the larger confirmed {what}, and the others are "
-                             "judged again in the next round with it in the model")
+                                       for c in sorted(passing, key=lambda c: winner_rank(score(c), c.drop_sigma),
+                                                       reverse=True))
+                           + f"; {best.effect_id} won on the larger confirmed {what}"
+                           + ("" if by_floor or not any(winner_rank(score(c))[0] == winner_rank(score(best))[0]
+                                                        for c in others) else
+                              f" (gains equal: each left the held-out error at the noise floor, so the larger "
+                              f"held-out drop, sqrt(before^2 - after^2), decided: {best.drop_sigma:.3f} noise floors)")
+                           + ", and the others are judged again in the next round with it in the model")
             for c in others:
                 c.accepted, c.passed_by = False, ""
                 c.reasons = [f"passed, but {best.effect_id} explains the held-out logs better "
