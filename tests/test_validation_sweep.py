@@ -245,3 +245,17 @@ def test_a_calibration_case_rerun_on_its_own_is_the_same_run(full_run, tmp_path)
     new = read_records(tmp_path / RECORDS)
     assert seen == [cid] and len(new) == 1
     assert comparable(new) == comparable([old[cid]])
+
+
+def test_the_table_never_rounds_a_rate_onto_a_target_it_misses():
+    from bpmid.validation.sweep import COLUMNS, ROWS, confusion_markdown
+
+    def part(k, n, **kw):
+        return {"n": n, **kw, "rate": k / n}
+    s = {"split": "heldout", "n_cases": 117, "not_judged": 0, "confusion": {r: {c: 0 for c in COLUMNS} for r in ROWS},
+         "single_named_first_right": part(53, 59, right=53), "null_false_positive": part(0, 22, named_something=0),
+         "pair_both_named": part(14, 17, both=14), "out_of_catalogue_nothing_named": part(16, 20, nothing=16),
+         "gap_halved_where_named": part(71, 71, halved=71)}
+    md = confusion_markdown(s)
+    assert "| 53/59 (89.8 %) |" in md                 # not "90 %": the target is at least 90 %
+    assert "| 16/20 (80 %) |" in md and "| 71/71 (100 %) |" in md and "| 0/22 (0 %) |" in md

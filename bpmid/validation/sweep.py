@@ -719,7 +719,12 @@ def confusion_markdown(summary: dict) -> str:
     s = summary
 
     def pct(x):
-        return "n/a" if x is None else f"{100 * x:.0f} %"
+        # one decimal unless whole: a rate rounded to a whole per cent can read as meeting a target it misses
+        # (53/59 is 89.8 %, not 90 %)
+        if x is None:
+            return "n/a"
+        v = 100 * x
+        return f"{v:.0f} %" if abs(v - round(v)) < 1e-9 else f"{v:.1f} %"
     lines += ["", "| measure | value |", "|---|---|",
               f"| single effect named first right | {s['single_named_first_right']['right']}/"
               f"{s['single_named_first_right']['n']} ({pct(s['single_named_first_right']['rate'])}) |",
