@@ -110,6 +110,8 @@ def test_equal_gains_are_decided_by_the_held_out_drop():
     assert _first_passing([stiff, fric, bigger], *g) == "thermal_softening"         # the gain still comes first
     assert winner_rank(0.335, 0.618) > winner_rank(0.335 + 1e-12, 0.347)            # equal up to rounding
     assert winner_rank(float("nan"), 1.0) < winner_rank(0.0, float("nan"))          # a missing number ranks last
+    assert "the largest held-out gain wins (of equal gains, as when each takes the error to the floor, the larger " \
+           "held-out drop)" in gate_in_words(load_thresholds())
 
 
 def test_a_round_takes_the_path_only_when_nothing_passes_the_gate():

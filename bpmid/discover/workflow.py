@@ -248,7 +248,8 @@ def gate_in_words(thr: dict) -> str:
                f"effect is then named with its constants reported as not determined separately)"
                if math.isfinite(float(thr.get("identifiable_waived_above_sigma", math.inf))) else "")
             + "; of several that pass, "
-            f"the largest held-out gain wins" + _to_floor_words(thr) + _pair_paths_words(thr)
+            f"the largest held-out gain wins (of equal gains, as when each takes the error to the floor, the larger "
+            f"held-out drop)" + _to_floor_words(thr) + _pair_paths_words(thr)
             + ". Whatever a round would name, a rival outside the catalogue (payload inertia that rings: an "
               "underdamped response of the angle) is refitted beside it; when the rival passes the likelihood-ratio "
               f"test at {thr['family_alpha']:.2g} uncorrected, needs its own shape (damping off its bound of "
