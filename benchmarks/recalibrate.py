@@ -84,9 +84,8 @@ def main(argv=None) -> int:
                         + "; pairs included; the draw that scores the gate is not among them"
                         + ("; rerun with more recorded (a later file's record of a case replaces an earlier one): "
                            + ", ".join(f"{n} from {p}" for p, n in replaced.items())
-                           + " (benchmarks/record_pair_trials.py: the first round's pair trials, where the path for "
-                             "two effects at once can act; benchmarks/record_rivals.py: every case, with each "
-                             "round's rival outside the catalogue)" if a.rerun else ""),
+                           + " (cases rerun by benchmarks/record_pair_trials.py, record_rivals.py or "
+                             "record_pool.py --only, with the same permissive settings)" if a.rerun else ""),
                 "method": "gaps above the noise in quadrature (sqrt(RMSE^2 - floor^2)); per-log nuisance factors on "
                           "K_inf, branch moduli and time constants (held-out logs' mean within 2.5 standard "
                           "errors of the fitting logs' spread, at most 10 %, bounded jointly: the mean within those "
