@@ -31,6 +31,7 @@ def main(argv=None) -> int:
                          "recalibrate.py --rerun OUT/records.jsonl then takes their records over the earlier ones")
     a = ap.parse_args(argv)
 
+    from bpmid.errors import InputError
     from bpmid.validation.sweep import load_sweep, make_cases, read_records, rerun_calibration
 
     chosen = []
@@ -38,7 +39,10 @@ def main(argv=None) -> int:
         path, _, half = spec.rpartition(":")
         if not path or half not in ("all", "calibration", "heldout"):
             ap.error(f"{spec!r}: give CONFIG:HALF with HALF all, calibration or heldout")
-        cfg = load_sweep(path)
+        try:
+            cfg = load_sweep(path)
+        except InputError as e:
+            ap.error(str(e))
         cases = make_cases(cfg.effective_generator, cfg.sweep.seed, prefix=cfg.sweep.name)
         chosen += [(cfg, c) for c in cases if (half == "all" or c.split == half)
                    and (a.only is None or c.id in a.only)]
