@@ -610,3 +610,24 @@ def test_random_protocol_sizes_are_refused_or_rendered_as_estimated(fs, cycles, 
         os.environ.pop("BPMID_MAX_SAMPLES", None)
         path.unlink()
     assert time.perf_counter() - t0 < 2.0
+
+
+def test_a_refit_that_does_not_check_identifiability_never_reports_an_undetermined_parameter_as_identifiable():
+    # discovery's refits hold nothing (check_identifiability=False); a constant driven onto its bound stays
+    # free but reads not identifiable, with the reason, as the checked fit would say (there it is held)
+    from bpmid.fitting import fit_least_squares
+    from bpmid.params import Param, ParamSet
+
+    rng = np.random.default_rng(4)
+    x = np.linspace(0.0, 1.0, 200)
+    y = 2.0 + 3.0 * x + 0.01 * rng.normal(size=x.size)    # the best c is -0.5: below its lower bound 0.2
+    ps = ParamSet([Param("a", 1.0), Param("b", 1.0), Param("c", 1.0, lower=0.2, upper=10.0)])
+    res = fit_least_squares(lambda p: p.value("a") + p.value("b") * x + p.value("c") * x ** 2 - (y - 0.5 * x ** 2),
+                            ps, check_identifiability=False)
+    c = res.params["c"]
+    assert c.value == pytest.approx(0.2, abs=1e-6) and not c.fixed and c.identifiable is False
+    assert c.note.startswith("not identifiable: ") and "not check identifiability" in c.note
+    assert res.params["a"].identifiable and res.params["b"].identifiable
+    checked = fit_least_squares(lambda p: p.value("a") + p.value("b") * x + p.value("c") * x ** 2
+                                - (y - 0.5 * x ** 2), ps, check_identifiability=True)
+    assert "c" in checked.held and checked.params["c"].identifiable is False
