@@ -34,7 +34,7 @@ def main(argv=None) -> int:
     from bpmid.errors import InputError
     from bpmid.validation.sweep import load_sweep, make_cases, read_records, rerun_calibration
 
-    chosen = []
+    chosen, example = [], ""
     for spec in a.configs:
         path, _, half = spec.rpartition(":")
         if not path or half not in ("all", "calibration", "heldout"):
@@ -44,10 +44,13 @@ def main(argv=None) -> int:
         except InputError as e:
             ap.error(str(e))
         cases = make_cases(cfg.effective_generator, cfg.sweep.seed, prefix=cfg.sweep.name)
+        example = example or (cases[0].id if cases else "")
         chosen += [(cfg, c) for c in cases if (half == "all" or c.split == half)
                    and (a.only is None or c.id in a.only)]
     if a.only is not None and len(chosen) < len(set(a.only)):
-        ap.error(f"{len(set(a.only)) - len(chosen)} of the --only ids are not among the chosen halves of the configs")
+        unknown = sorted(set(a.only) - {c.id for _, c in chosen})
+        ap.error(f"--only: {', '.join(unknown[:5])}{' ...' if len(unknown) > 5 else ''} not among the chosen halves "
+                 f"of the configs (ids look like {example})")
     a.out.mkdir(parents=True, exist_ok=True)
     done = {r["id"] for r in read_records(a.out / "records.jsonl")}
     todo = [(cfg, c) for cfg, c in chosen if c.id not in done]

@@ -15,7 +15,8 @@ from bpmid.cli._logopts import log_options
 #: ``--holdout a.csv b.csv`` takes every following value up to the next option
 HoldoutCommand = multi_value_command("--holdout")
 
-EPILOG = ("Without --holdout, whole logs are held out in turn. Example (a shipped blind case; its answer is in "
+EPILOG = ("Without --holdout, a fixed split holds out whole logs (every 3rd, counting from the last; "
+          "discover.holdout_every in a config). Example (a shipped blind case; its answer is in "
           "datasets/discovery/ANSWERS.yaml):  bpmid discover datasets/discovery/case_01/train_*.csv --holdout "
           "datasets/discovery/case_01/holdout_mixed.csv --out out/discover")
 

@@ -282,6 +282,12 @@ def _pair_paths_words(thr: dict) -> str:
     return words
 
 
+def _ordinal(k: int) -> str:
+    """1st, 2nd, 3rd, 4th, ..., 11th, 12th, 13th, 21st."""
+    suffix = "th" if 10 <= k % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
+    return f"{k}{suffix}"
+
+
 def _to_floor_words(thr: dict) -> str:
     d = float(thr.get("to_floor_drop_min_sigma", math.inf))
     if not math.isfinite(d):
@@ -579,7 +585,7 @@ def split_logs(logs: Sequence[MotionLog], holdout: Sequence[MotionLog] | None, c
         idx_ho = {i for i in range(len(logs) - 1, -1, -k)}
         fit = [lg for i, lg in enumerate(logs) if i not in idx_ho]
         ho = [lg for i, lg in enumerate(logs) if i in idx_ho]
-        how = f"fixed split: every {k}-th log from the last is held out"
+        how = f"fixed split: every {_ordinal(k)} log from the last is held out"
     n_fit = sum(lg.n for lg in fit)
     if n_fit < cfg.min_fit_samples:
         raise InputError(f"cannot judge: the fitting logs hold {n_fit} samples, fewer than {cfg.min_fit_samples}; "
