@@ -72,6 +72,9 @@ def test_quoted_and_measured_numbers_never_mix(study):
         assert f"| {v} |" not in measured
         # the paper's numbers appear nowhere in the report outside the quoted panel
         assert md.count(f"| {v} |") == quoted.count(f"| {v} |")
+    # a stage's wall time is printed to 0.1 s: it once read "| discover | done | 0.936 |", the paper's R^2 exactly
+    stage_rows = re.findall(r"^\| (relax|motion|compare|history|discover|control) \| done \| ([^|]+) \|", md, re.M)
+    assert len(stage_rows) == 6 and all(re.fullmatch(r"\d+\.\d", t.strip()) for _s, t in stage_rows), stage_rows
     assert "quoted" in quoted.lower() or "published" in quoted.lower()
     # measured panel: this run's numbers, from its own files
     by_set = pd.read_csv(study / "compare" / "summary_by_set.csv")
