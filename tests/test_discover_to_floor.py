@@ -178,6 +178,8 @@ def test_an_effect_gets_its_own_drop_only_where_the_common_one_costs_right_decis
     assert ("(sqrt(before^2 - after^2)); these effects are asked their own drop: pressure_lag 0.125 noise floors; "
             "a lag shows") in gate_in_words(own)
     assert "pressure_lag not on this path" in gate_in_words({**GATE, "to_floor_drop_by_effect": {"pressure_lag": math.inf}})
+    assert "thermal_softening 1.00 noise floors" in gate_in_words({**GATE, "to_floor_drop_by_effect":
+                                                                   {"thermal_softening": 1.0}})
     with pytest.raises(InputError) as e:
         DiscoverConfig(to_floor_drop_by_effect={"pressure_lag": -1.0}).validate("discover", "cfg.yaml")
     assert e.value.key == "discover.to_floor_drop_by_effect.pressure_lag"
@@ -242,7 +244,7 @@ def test_cli_names_on_the_path_to_the_floor_and_says_so(tmp_path):
     assert ev["refused_by_the_gate_because"] and "noise floors < 99.00" in ev["refused_by_the_gate_because"][0]
     assert "named on the path to the floor, the gate having refused it because held-out gain above the noise" in \
         d["steps"][0]["explanation"]
-    assert "removes at least 0 noise floors" in d["gate"]
+    assert "removes at least 0.00 noise floors" in d["gate"]
     # both candidates pass the path: the larger held-out drop wins, and the competition says so in its own terms
     assert "passed the gate on the path to the noise floor" in d["steps"][0]["competition"]
     assert "won on the larger confirmed held-out drop" in d["steps"][0]["competition"]

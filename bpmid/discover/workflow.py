@@ -296,11 +296,11 @@ def _to_floor_words(thr: dict) -> str:
     where = "at or below the noise floor" if q == 1.0 else f"at most {q:.3g} noise floors"
     by = {e: float(x) for e, x in (thr.get(BY_EFFECT_KEY) or {}).items()}
     own = ("; these effects are asked their own drop: " + ", ".join(
-        f"{e} {x:.3g} noise floors" if math.isfinite(x) else f"{e} not on this path" for e, x in sorted(by.items()))
+        f"{e} {_thr(x)} noise floors" if math.isfinite(x) else f"{e} not on this path" for e, x in sorted(by.items()))
         + ("; a lag shows only while the pressure moves, so it removes less of a whole log's error"
            if by.get("pressure_lag", d) < d else "")) if by else ""
     return (f". When no candidate passes (1)-(4), one meeting (1), (3) and (4) whose refit leaves the held-out RMSE "
-            f"{where} and removes at least {d:.3g} noise floors of held-out error (sqrt(before^2 - after^2)){own}; it is "
+            f"{where} and removes at least {_thr(d)} noise floors of held-out error (sqrt(before^2 - after^2)){own}; it is "
             f"named, with the gate's reasons for refusing it (an effect the refitted base model mostly absorbed "
             f"leaves too little gap above the floor for (2); of several, the largest such drop wins)")
 
