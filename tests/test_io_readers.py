@@ -385,3 +385,12 @@ def test_reading_once_parses_a_file_once_and_hands_out_copies(tmp_path, monkeypa
     read_motion_log(log_path, require_angle=True)
     read_motion_log(log_path, require_angle=True)
     assert len(calls) == 6  # outside the block every read parses
+
+
+def test_an_unknown_column_with_a_known_unit_is_named_with_the_map_to_give(tmp_path):
+    f = tmp_path / "log.csv"
+    f.write_text("# pressure_reference: absolute\ntime_s,pressure_bar,foo_deg\n0,1.2,14\n0.1,1.3,15\n0.2,1.4,16\n")
+    with pytest.raises(InputError) as e:
+        read_motion_log(f, require_angle=True)
+    msg = str(e.value)
+    assert e.value.key == "foo_deg" and "has an angle unit" in msg and "--columns angle=foo_deg" in msg

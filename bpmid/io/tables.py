@@ -929,7 +929,7 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
             h = cands[0]
             um = grid.info.get("unmatched_map") or []
             note = f"; the column map names {', '.join(repr(k) for k in um)}, not a column of this file" if um else ""
-            raise InputError(f"missing column for {q}: no name bpmid knows, but {h!r} has a {q} unit: map it with "
+            raise InputError(f"missing column for {q}: no name bpmid knows, but {h!r} has {'an' if q[0] in 'aeiou' else 'a'} {q} unit: map it with "
                              f"--columns "
                              f"{q}={h} (config io.columns: {{'{h}': {q}}}), or rename it {BPMID_NAME[q]}{note}",
                              path=where, line=hline, key=h)
