@@ -234,23 +234,18 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
         insensitive = zero_sensitivity(sol.jac, fitted)
         for i in insensitive:  # never "estimated", identifiability check or not: the data say nothing about it
             bad[names[i]] = ZERO_SENSITIVITY
+        judged = identifiability.judge_fit(names, [fitted[n].value for n in names], se, corr, sol.x, lo, hi,
+                                           rel_se_max=rel_se_max, corr_max=corr_max)
         if check_identifiability:
-            judged = identifiability.judge_fit(names, [fitted[n].value for n in names], se, corr, sol.x, lo, hi,
-                                               rel_se_max=rel_se_max, corr_max=corr_max)
             for name, why in judged.items():  # a zero-sensitivity verdict stands
                 bad.setdefault(name, why)
         if not bad:
             out = fitted
-            # unchecked (a refit that holds nothing): a parameter the check would judge undetermined stays free but
-            # is never reported as identifiable
-            unchecked = {} if check_identifiability else identifiability.judge_fit(
-                names, [fitted[n].value for n in names], se, corr, sol.x, lo, hi, rel_se_max=rel_se_max,
-                corr_max=corr_max)
             for i, name in enumerate(names):
                 out = out.replace(name, stderr=float(se[i]) if np.isfinite(se[i]) else None, identifiable=True)
-                if name in unchecked:
+                if name in judged:   # unchecked (a refit that holds nothing): free, but never read as identifiable
                     out = out.replace(name, identifiable=False,
-                                      note=f"not identifiable: {unchecked[name]} (estimated, not held: this refit "
+                                      note=f"not identifiable: {judged[name]} (estimated, not held: this refit "
                                            f"does not check identifiability)")
             for name, why in held.items():
                 out = out.replace(name, stderr=None, identifiable=False, note=f"not identifiable: {why}; held at prior value")
