@@ -111,6 +111,28 @@ def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
     # one statement per paragraph: as many blank-line-separated paragraphs as the verdict has statements
     assert len(text.strip().split("\n\n")) == len([ln for ln in d["verdict"].split("\n") if ln.strip()]) > 1
     assert "angle_offset" in r.output and "held-out error from" in r.output
+    # model.yaml: the final model as a bpmid.vbmm/1 fit with the named effect, run by predict as discovery scored it
+    m = yaml.safe_load((out / "model.yaml").read_text())
+    assert m["schema"] == "bpmid.vbmm/1" and [e["id"] for e in m["effects"]] == ["angle_offset"]
+    assert m["material"]["K_inf"]["value"] == pytest.approx(d["final_model"]["vbmm.K_inf"]["value"])
+    assert m["effects"][0]["parameters"]["offset"]["value"] == pytest.approx(
+        d["final_model"]["angle_offset.offset"]["value"])
+    assert m["material"]["G_inf"]["fixed"] is True          # discovery does not refit G: held, and it says so
+    assert m["metrics"]["heldout"]["rmse_deg"] == pytest.approx(g["raw_after_rmse_deg"], abs=1e-4)
+    pred = tmp_path / "pred"
+    r2 = runner.invoke(app, ["--quiet", "predict", ho[2], "--params", str(out / "model.yaml"), "--out", str(pred)])
+    assert r2.exit_code == 0, r2.output
+    py = yaml.safe_load((pred / "predict.yaml").read_text())
+    assert py["model"]["effects"] == ["angle_offset"]
+    # without the effect the same constants predict worse: the effect is run, not dropped
+    m_no = {k: v for k, v in m.items() if k != "effects"}
+    (tmp_path / "no_fx.yaml").write_text(yaml.safe_dump(m_no))
+    r3 = runner.invoke(app, ["--quiet", "predict", ho[2], "--params", str(tmp_path / "no_fx.yaml"), "--out",
+                             str(tmp_path / "pred_no")])
+    assert r3.exit_code == 0, r3.output
+    rm = yaml.safe_load((tmp_path / "pred_no" / "predict.yaml").read_text())
+    rmse = lambda body: next(iter(body["logs"].values()))["metrics"]["rmse_deg"]
+    assert rmse(py) < rmse(rm)
 
 
 def test_cli_one_log_cannot_be_judged(tmp_path):

@@ -1,5 +1,7 @@
-"""Writing a discovery result: ``discovery.yaml`` (schema ``bpmid.discovery/1``), ``verdict.txt`` and the
-three figures, all or nothing (one staged folder). Used by ``bpmid discover`` and by ``bpmid run``."""
+"""Writing a discovery result: ``discovery.yaml`` (schema ``bpmid.discovery/1``), ``verdict.txt``, the three
+figures and ``model.yaml`` (the final model as a ``bpmid.vbmm/1`` fit with its ``effects`` list, which
+``bpmid predict`` and ``bpmid export --to c`` run), all or nothing (one staged folder). Used by ``bpmid discover``
+and by ``bpmid run``."""
 from __future__ import annotations
 
 import textwrap
@@ -12,6 +14,9 @@ from bpmid.plots import discover as P
 from bpmid.plots.common import label_synthetic, save_figure
 
 SCHEMA = "bpmid.discovery/1"
+#: the final model's file: a ``bpmid.vbmm/1`` fit (CLI.md) with the named effects
+MODEL_FILE = "model.yaml"
+MODEL_SCHEMA = "bpmid.vbmm/1"
 
 #: file name -> figure function of :mod:`bpmid.plots.discover`
 FIGURES = {"residual_before_after.png": P.residual_figure, "screening_ranking.png": P.ranking_figure,
@@ -40,10 +45,78 @@ def write_discovery(out_dir: str | Path, result, prov: dict, *, base_from: str) 
     synthetic = is_synthetic(list(result.fit_logs) + list(result.holdout_logs))
     with staged_dir(out_dir) as tmp:
         write_result(tmp / "discovery.yaml", SCHEMA, body, prov)
+        write_result(tmp / MODEL_FILE, MODEL_SCHEMA, model_body(result), prov)
         write_text(tmp / "verdict.txt", readable(result.verdict) + "\n")
         for name, make in FIGURES.items():
             fig = make(result)
             if synthetic:
                 label_synthetic(fig)
             save_figure(fig, tmp / name)
-    return ["discovery.yaml", "verdict.txt", *FIGURES]
+    return ["discovery.yaml", "verdict.txt", *FIGURES, MODEL_FILE]
+
+
+#: what a material constant discovery does not refit carries in ``model.yaml``
+_HELD_NOTE = "held at the starting model's value (discovery refits K_inf and each branch's K and tau only)"
+
+
+def _material_params(state):
+    """The final VBMM's material constants in the naming of :func:`~bpmid.models.vbmm.model.material_params`,
+    with the standard errors and verdicts of those discovery refitted (``vbmm.*``) and the others marked held."""
+    from bpmid.models.vbmm.model import material_params
+
+    mat = state.material()
+    out = material_params(mat)
+    for p in out:
+        src = f"vbmm.{p.name}"
+        if mat.split and p.name.startswith("tauK_"):
+            src = f"vbmm.tau_{p.name.split('_', 1)[1]}"
+        if src in state.params and not (mat.split and p.name.startswith("tauG_")):
+            q = state.params[src]
+            out = out.replace(p.name, value=float(q.value), stderr=q.stderr, identifiable=q.identifiable,
+                              note=q.note, fixed=q.fixed)
+        else:
+            out = out.replace(p.name, fixed=True, stderr=None, identifiable=None, note=_HELD_NOTE)
+    return out
+
+
+def model_body(result) -> dict:
+    """``model.yaml``: the model discovery ends with (the refitted VBMM and every effect named, with their
+    constants) as a ``bpmid.vbmm/1`` fit, so ``bpmid predict``, ``bpmid export --to c`` and the library run it as
+    discovery scored it. Metrics (deg, %, 1) are those of this model as a file runs it: on the fitting logs, and on
+    the held-out logs without the per-log nuisance factors the held-out scoring allows."""
+    from bpmid.discover.model import simulate
+    from bpmid.effects.fitfile import effects_to_yaml
+    from bpmid.models.vbmm.fit import MAPE_FLOOR_DEG, log_metrics
+    from bpmid.models.vbmm.model import vbmm_yaml_body
+    import numpy as np
+
+    state = result.final_state
+    vbmm = state.fitted_vbmm()
+    body = vbmm_yaml_body(vbmm, params=_material_params(state))
+    body["model"]["time_constants"] = "split" if vbmm.material.split else "shared"
+
+    def pooled(logs):
+        if not logs:
+            return None
+        y = np.concatenate([lg.angle_deg for lg in logs])
+        y_hat = np.concatenate(simulate(state, logs))
+        ok = np.isfinite(y_hat) & np.isfinite(y)
+        m = {k: float(v) for k, v in log_metrics(y[ok], y_hat[ok]).items()}
+        m["n_samples"] = int(ok.sum())
+        return m
+
+    fit_m = pooled(list(result.fit_logs))
+    ho_m = pooled(list(result.holdout_logs))
+    body["effects"] = effects_to_yaml(state.effects, state.params)
+    body["metrics"] = {**(fit_m or {}), "mape_floor_deg": MAPE_FLOOR_DEG,
+                       "scope": "the fitting logs, the model as this file runs it"}
+    if ho_m is not None:
+        body["metrics"]["heldout"] = {**ho_m, "scope": "the held-out logs, without per-log nuisance factors"}
+    body["fit"] = {"by": "bpmid discover",
+                   "named_effects": list(state.ids),
+                   "objective": "angle error (deg) of the forward model with the named effects, fitting logs at once",
+                   "logs": [{"name": lg.name, "samples": lg.n, "duration_s": round(lg.duration_s, 6)}
+                            for lg in result.fit_logs],
+                   "heldout_logs": [lg.name for lg in result.holdout_logs],
+                   "see": "discovery.yaml (the evidence) and verdict.txt"}
+    return body

@@ -76,6 +76,22 @@ def effects_from_yaml(block, path=None):
     return tuple(effects), ParamSet(params)
 
 
+def effects_to_yaml(effects, params) -> list[dict]:
+    """The ``effects`` list of a ``bpmid.vbmm/1`` file for ``effects`` (in the order they act) and a ParamSet
+    holding their ``<id>.<name>`` constants: the writer :func:`effects_from_yaml` reads back. Each entry carries
+    the effect's settings (``SETTINGS``) and its constants as ``{value, stderr, unit}`` with any verdict."""
+    out = []
+    for e in effects:
+        entry = {"id": e.id}
+        settings = {s: getattr(e, s) for s in getattr(type(e), "SETTINGS", ())}
+        if settings:
+            entry["settings"] = settings
+        entry["parameters"] = {n.split(".", 1)[1]: params[n].to_yaml() for n in e.default_params().names()
+                               if n in params}
+        out.append(entry)
+    return out
+
+
 def _fit_body(fit) -> tuple[dict, str | Path | None]:
     """The mapping of a fit and its file: read from a ``bpmid.vbmm/1`` path, or a loaded result's (``to_dict``,
     ``source``) or a mapping."""
