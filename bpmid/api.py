@@ -397,7 +397,7 @@ def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequ
     plant_base = scaled_plant_model(plant_base, cfg.plant_modulus_scale, cfg.plant_tau_scale)
     plant = build_plant(plant_base, list(_as_list(plant_effects)), cfg)
     spec = reference if isinstance(reference, str) else ",".join(str(r) for r in reference)
-    refs = load_references(spec, cfg.rate_hz)
+    refs = load_references(spec, cfg.rate_hz, io=cfg_all.section("io"))
     res = run_control(model, plant, refs, cfg, controllers=controllers)
     inputs = [p for p in (ppath, plant_path) if p is not None] + [r.path for r in refs if r.path is not None]
     prov = provenance(inputs, config=cfg_all if cfg_all.path else None, seed=cfg.seed)

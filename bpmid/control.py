@@ -169,16 +169,19 @@ def builtin_reference(name: str, rate_hz: float = 10.0) -> Reference:
     raise InputError(f"unknown reference {name!r}")
 
 
-def read_reference(path: Path, rate_hz: float, name: str | None = None) -> Reference:
+def read_reference(path: Path, rate_hz: float, name: str | None = None, io=None) -> Reference:
     """A reference table (``time_s``, ``angle_deg``; any format :func:`bpmid.io.tables.read_table` reads),
-    resampled (linear) onto the control grid if needed."""
+    resampled (linear) onto the control grid if needed. ``io``: the config's ``io`` section
+    (:class:`~bpmid.io.motion_logs.IOConfig`: its column map, units and sheet apply, as to any log)."""
     path = Path(path)
     if not path.is_file():
         raise InputError("reference file not found", path=path)
     from bpmid.io.tables import read_table
 
     # the log readers (text dialects, encodings, Excel, MATLAB; units stated, never guessed; strict rows)
-    table = read_table(path, required=("time", "angle"), kind="reference")
+    kw = {} if io is None else {"column_map": io.columns, "sheet": io.sheet, "unit_sources": io.unit_sources(),
+                                "units": {q: u for q, u in io.units.items() if q in ("time", "angle")}}
+    table = read_table(path, required=("time", "angle"), kind="reference", **kw)
     t, a = table.columns["time"], table.columns["angle"]
     if t.size < 2:
         raise InputError("a reference needs at least two samples", path=path)
@@ -197,14 +200,15 @@ def read_reference(path: Path, rate_hz: float, name: str | None = None) -> Refer
     return Reference(name or path.stem, t - t[0], a, path)
 
 
-def load_references(spec: str, rate_hz: float = 10.0) -> list[Reference]:
+def load_references(spec: str, rate_hz: float = 10.0, io=None) -> list[Reference]:
     """``spec``: a comma list of CSV paths or names (a shipped reference in datasets/control/, else a
-    built-in one); ``all`` = every shipped reference (the built-in ones when none is shipped)."""
+    built-in one); ``all`` = every shipped reference (the built-in ones when none is shipped). ``io``: the config's
+    ``io`` section, for the user's files (:func:`read_reference`)."""
     out = []
     for item in [s.strip() for s in spec.split(",") if s.strip()]:
         p = Path(item)
         if p.suffix.lower() == ".csv" or p.is_file():
-            out.append(read_reference(p, rate_hz))
+            out.append(read_reference(p, rate_hz, io=io))
             continue
         shipped = sorted(shipped_dir().glob("*.csv")) if shipped_dir().is_dir() else []
         if item == "all":

@@ -165,3 +165,37 @@ def test_cli_control(tmp_path):
                  ["--reference", "steps", "--kp", "-1"], ["--reference", "steps", "--plant-effect", "nosuch:x=1"]):
         r = runner.invoke(app, ["control", "--params", str(params), "--out", str(tmp_path / "o2"), *args])
         assert r.exit_code == 2, (args, r.output)
+
+
+def test_cli_control_reads_a_reference_in_the_users_units_by_flag_or_config(tmp_path):
+    # a reference with bare column names: the error names the flags control really has, and they (or the config's
+    # io section) read it; minutes and radians convert like any log's
+    from bpmid.cli import app
+    from bpmid.io.results import provenance, write_result
+
+    params = tmp_path / "vbmm.yaml"
+    write_result(params, "bpmid.vbmm/1", vbmm_yaml_body(MODEL), provenance(timestamp=False))
+    ref = builtin_reference("sines")
+    t, a = ref.time_s[:200], ref.angle_deg[:200]
+    pd.DataFrame({"t": t / 60.0, "theta": np.deg2rad(a)}).to_csv(tmp_path / "r.csv", index=False)
+    runner = CliRunner()
+    base = ["control", "--params", str(params), "--reference", str(tmp_path / "r.csv"), "--controller", "pi",
+            "--no-figure"]
+    r = runner.invoke(app, base + ["--out", str(tmp_path / "o0")])
+    assert r.exit_code == 2 and "--time-unit" in r.output and not (tmp_path / "o0").exists()
+    r1 = runner.invoke(app, base + ["--out", str(tmp_path / "o1"), "--columns", "time=t,angle=theta",
+                                    "--time-unit", "min", "--angle-unit", "rad"])
+    assert r1.exit_code == 0, r1.output
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("io:\n  columns: {t: time, theta: angle}\n  units: {time: min, angle: rad}\n")
+    r2 = runner.invoke(app, base + ["--out", str(tmp_path / "o2"), "--config", str(cfg)])
+    assert r2.exit_code == 0, r2.output
+    s1, s2 = (pd.read_csv(tmp_path / o / "summary.csv") for o in ("o1", "o2"))
+    assert s1.rmse_deg.tolist() == s2.rmse_deg.tolist()
+    # the same reference in deg and s gives the same result: the units were converted, not read as numbers
+    pd.DataFrame({"time_s": t, "angle_deg": a}).to_csv(tmp_path / "r_si.csv", index=False)
+    r3 = runner.invoke(app, ["control", "--params", str(params), "--reference", str(tmp_path / "r_si.csv"),
+                             "--controller", "pi", "--no-figure", "--out", str(tmp_path / "o3")])
+    assert r3.exit_code == 0, r3.output
+    s3 = pd.read_csv(tmp_path / "o3" / "summary.csv")
+    assert np.allclose(s1.rmse_deg, s3.rmse_deg, rtol=1e-6)

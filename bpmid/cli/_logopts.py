@@ -23,6 +23,8 @@ from bpmid.errors import InputError
 
 _MOTION = ("columns", "pressure_reference", "pressure_unit", "angle_unit", "time_unit", "sheet", "max_gap", "strict")
 _RELAX = ("columns", "time_unit", "sheet", "max_gap", "strict")
+#: a reference angle table (bpmid control): time and angle only
+_REFERENCE = ("columns", "angle_unit", "time_unit", "sheet")
 
 
 def _options() -> dict[str, inspect.Parameter]:
@@ -137,9 +139,9 @@ class LogOptions:
 
 
 def log_options(kind: str = "motion"):
-    """Decorator: add the reading flags of ``kind`` (``motion`` or ``relax``) to a command; the command receives
-    them as ``logopts`` (a :class:`LogOptions`). Put it under ``@command(...)``."""
-    names = _MOTION if kind == "motion" else _RELAX
+    """Decorator: add the reading flags of ``kind`` (``motion``, ``relax`` or ``reference``) to a command; the
+    command receives them as ``logopts`` (a :class:`LogOptions`). Put it under ``@command(...)``."""
+    names = {"motion": _MOTION, "relax": _RELAX, "reference": _REFERENCE}[kind]
 
     def deco(fn):
         sig = inspect.signature(fn)

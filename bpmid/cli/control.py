@@ -10,6 +10,7 @@ import typer
 from bpmid.plots.options import figure_path, figures_option, set_figure_format
 
 from bpmid.cli._app import app, command
+from bpmid.cli._logopts import log_options
 
 EPILOG = ("Example (the paper's experiment 3 on a plant 5 % stiffer with 10 % faster relaxation):  bpmid control "
           "--params VBMM.yaml --reference all --controller pi,vbmm-pi,ms-pi --plant-modulus-scale 1.05 "
@@ -17,6 +18,7 @@ EPILOG = ("Example (the paper's experiment 3 on a plant 5 % stiffer with 10 % fa
 
 
 @command(app, "control", epilog=EPILOG)
+@log_options("reference")
 def control(
     params: Path = typer.Option(..., "--params", help="The controller's model (bpmid.vbmm/1, e.g. from fit motion)."),
     reference: str = typer.Option(..., "--reference", help="Comma list of reference CSVs (time_s, angle_deg) or "
@@ -41,6 +43,7 @@ def control(
     seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the sensor noise (default 0)."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (sections control, model)."),
     no_figure: bool = typer.Option(False, "--no-figure", help="Do not write fig18.png."),
+    logopts=None,
     figures: Optional[str] = figures_option(),
 ):
     """Simulate closed-loop tracking at the control rate and compare the controllers (the paper's Fig. 18)."""
@@ -49,7 +52,7 @@ def control(
     from bpmid.config import load_config
     from bpmid.errors import InputError
 
-    cfg_all = load_config(config)
+    cfg_all = logopts.apply(load_config(config))   # --columns/--time-unit/--angle-unit/--sheet: reference files
     cfg = cfg_all.section("control")
     changes = {k: v for k, v in {"kp_bar_per_deg": kp, "ki_bar_per_deg_s": ki, "seed": seed,
                                  "pressure_dynamics": pressure_dynamics, "plant_modulus_scale": plant_modulus_scale,
