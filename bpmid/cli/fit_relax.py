@@ -79,7 +79,9 @@ def fit_relax(
             if c.get("criterion") is not None:
                 typer.echo(f"{c['terms']:5d}  {c['criterion']:.2f}{'  *' if c['terms'] == inner.m else ''}")
     elif inner.criterion == "max-error":
-        typer.echo("terms  error %  (* the fewest that meet --max-error)")
+        meets = any(c["error_pct"] <= max_error for c in inner.selection)
+        typer.echo("terms  error %  (* " + ("the fewest that meet --max-error)" if meets else
+                                           f"chosen: none meets --max-error {max_error:g} %, the smallest error)"))
         for c in inner.selection:
             typer.echo(f"{c['terms']:5d}  {c['error_pct']:.3g}{'  *' if c['terms'] == inner.m else ''}")
     if shift_res is not None:

@@ -348,12 +348,13 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
         err_of = _error_pct(quantity, y)
         extra_warn = []
         if max_error_pct is not None:
-            ok = [m for m in sorted(path) if err_of(path[m]) <= max_error_pct]
-            chosen = ok[0] if ok else min(path, key=lambda m: err_of(path[m]))
+            errs = {m: err_of(path[m]) for m in path}
+            ok = [m for m in sorted(path) if errs[m] <= max_error_pct]
+            chosen = ok[0] if ok else fewest_near_best(errs)
             if not ok:
-                extra_warn.append(f"no candidate up to {m_max} terms meets --max-error {max_error_pct:g} %: the best "
-                                  f"has {chosen} terms with {err_of(path[chosen]):.3g} % (raise relax.max_terms or "
-                                  "the stated error)")
+                extra_warn.append(f"none of the candidates tried ({tried_terms(path, m_max)}) meets --max-error "
+                                  f"{max_error_pct:g} %: the smallest error, {errs[chosen]:.3g} %, is reached with "
+                                  f"{chosen} term(s) ({unmet_advice(path, m_max)})")
         elif score:
             chosen = min(path, key=lambda m: score(path[m]))
         else:
@@ -396,3 +397,24 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
                    ("max-error" if max_error_pct is not None else None)),
         requested_terms=terms if max_error_pct is None else "max-error",
         logs=per_log, seconds=time.perf_counter() - t0, warnings=warn)
+
+
+def fewest_near_best(errors: dict) -> int:
+    """The fewest terms whose error (%) is within 0.1 % (relative) of the smallest: more terms that do not lower
+    the error are not chosen."""
+    best = min(errors.values())
+    return min(m for m, e in errors.items() if e <= best * (1.0 + 1e-3))
+
+
+def unmet_advice(path: dict, m_max: int) -> str:
+    """What to do when no candidate meets the stated error."""
+    return ("state a larger error: more terms added nothing here" if max(path) < m_max
+            else "raise relax.max_terms or state a larger error")
+
+
+def tried_terms(path: dict, m_max: int) -> str:
+    """The term counts a model path tried, in words (it stops early when another term adds nothing)."""
+    lo, hi = min(path), max(path)
+    span = f"{lo} term" if lo == hi else f"{lo}-{hi} terms"
+    return span + ("" if hi >= m_max else f"; the path stopped there, another term adding nothing, before "
+                                          f"relax.max_terms = {m_max}")

@@ -257,10 +257,12 @@ def fit_frequency(f, storage, loss, *, modulus: str = "E", terms: int | str = "a
             if ok:
                 chosen = ok[0]
             else:
-                chosen = min(path_sols, key=lambda m: total[m])
-                warn.append(f"no candidate up to {m_max} terms meets --max-error {max_error_pct:g} %: the best has "
-                            f"{chosen} terms with an error of {total[chosen]:.3g} % (raise relax.max_terms or the "
-                            "stated error)")
+                from bpmid.relax.fit import fewest_near_best, tried_terms, unmet_advice
+
+                chosen = fewest_near_best(total)
+                warn.append(f"none of the candidates tried ({tried_terms(path_sols, m_max)}) meets --max-error "
+                            f"{max_error_pct:g} %: the smallest error, {total[chosen]:.3g} %, is reached with "
+                            f"{chosen} term(s) ({unmet_advice(path_sols, m_max)})")
         elif score is not None:
             chosen = min(path_sols, key=lambda m: score(path_sols[m]))
         else:
