@@ -112,12 +112,25 @@ def _num(v) -> str:
     return f"{v:.6g}"
 
 
+def _verdict_of(entry: Mapping) -> str:
+    """The identifiability an entry states itself (``fixed``, ``identifiable``, ``note``), in the words of
+    :attr:`ParamInfo.identifiability`; "" when it states none."""
+    note = str(entry.get("note") or "")
+    if entry.get("identifiable") is False:
+        return note if note.startswith("not identifiable") else ("not identifiable" + (f": {note}" if note else ""))
+    if entry.get("fixed"):
+        return "fixed" + (f": {note}" if note else "")
+    if entry.get("identifiable") is True:
+        return "estimated"
+    return ""
+
+
 def _entry(name: str, entry, unit: str = "", identifiability: str = "") -> ParamInfo:
     """A ParamInfo from a ``{value, stderr, unit}`` entry or a bare number."""
     if isinstance(entry, Mapping):
         se = entry.get("stderr")
         return ParamInfo(name, float(entry.get("value")), None if se is None else float(se),
-                         str(entry.get("unit", unit) or unit), identifiability)
+                         str(entry.get("unit", unit) or unit), identifiability or _verdict_of(entry))
     return ParamInfo(name, float(entry), None, unit, identifiability)
 
 
@@ -365,7 +378,12 @@ class RelaxationResult(Result):
 
     def _headline(self) -> str:
         m = self.metrics
-        return f"{self.body.get('mode')} mode, {m.get('n_terms')} term(s), R^2 {_num(m.get('r2'))}"
+        n = m.get("n_terms")
+        if n is None:   # a file with the contract's keys only (CLI.md): count its terms
+            n = len((self.body.get("prony") or {}).get("terms") or [])
+        mode = self.body.get("mode")
+        return ", ".join(x for x in (f"{mode} mode" if mode else "", f"{n} term(s)",
+                                     f"R^2 {_num(m.get('r2'))}" if m.get("r2") is not None else "") if x)
 
     def modulus_pa(self, t_s, which: str = "E"):
         """E(t), G(t) or K(t) in Pa at times ``t_s`` (s) from the fitted Prony series."""

@@ -142,6 +142,18 @@ class MotionLog:
     def label(self) -> str:
         return self.name
 
+    def __repr__(self) -> str:
+        """A line a person reads (the arrays are in the attributes): name, samples, span, rate, pressure range."""
+        if self.n == 0:
+            return f"<MotionLog {self.name!r}: no samples>"
+        p = self.pressure_pa / 1e5
+        ang = ("no angle" if self.angle_deg is None else
+               f"angle {np.nanmin(self.angle_deg):.4g}..{np.nanmax(self.angle_deg):.4g} deg")
+        rate = f", {1.0 / self.dt_s:.4g} Hz" if self.n > 1 and self.dt_s > 0 else ""
+        src = f", from {self.path}" if self.path is not None else ""
+        return (f"<MotionLog {self.name!r}: {self.n} samples over {self.duration_s:.4g} s{rate}, gauge pressure "
+                f"{np.nanmin(p):.4g}..{np.nanmax(p):.4g} bar, {ang}{src}>")
+
     def with_angle(self, angle_deg: np.ndarray) -> "MotionLog":
         return dataclasses.replace(self, angle_deg=np.asarray(angle_deg, float))
 
@@ -233,11 +245,18 @@ def read_motion_logs(paths: Sequence[str | Path], io_cfg: IOConfig | None = None
     if not paths:
         raise InputError("no motion logs given")
     logs = [read_motion_log(p, io_cfg, require_angle=require_angle) for p in paths]
-    names = [lg.name for lg in logs]
-    dup = {n for n in names if names.count(n) > 1}
-    if dup:
-        raise InputError(f"two logs share the file name {sorted(dup)[0]!r}; outputs are named by it")
+    check_distinct_names(logs)
     return logs
+
+
+def check_distinct_names(logs: Sequence[MotionLog], key: str | None = None) -> None:
+    """Refuse (InputError naming the files) logs that share a file name: outputs are named by it."""
+    names = [lg.name for lg in logs]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        where = [str(lg.path) if lg.path is not None else "(in memory)" for lg in logs if lg.name == dup[0]]
+        raise InputError(f"two logs share the file name {dup[0]!r} ({' and '.join(where)}); outputs are named by "
+                         "it: rename or copy one of them under another name", key=key)
 
 
 def is_synthetic(logs: Sequence[MotionLog]) -> bool:
