@@ -317,10 +317,10 @@ def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models
     for n in models:
         model_class(n)  # unknown names fail before any work
     check_test_logs(test)
+    from bpmid.io.motion_logs import check_distinct_names
+
+    check_distinct_names(test, key="--test")
     names = [lg.name for lg in test]
-    if len(set(names)) != len(names):
-        dup = sorted({n for n in names if names.count(n) > 1})[0]
-        raise InputError(f"two test logs share the file name {dup!r}; outputs are named by it", key="--test")
     sets = {k: list(v) for k, v in (sets or {"test": names}).items()}
     warn = overlap_warnings(train, test)
     for w in warn:

@@ -231,10 +231,9 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
         return []
     # each file read once: the logs checked above are the same files read the same way (their angle is there)
     logs = [seen[str(p)] if str(p) in seen else read_motion_log(p, io_cfg) for p in motion_paths]
-    names = [lg.name for lg in logs]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise InputError(f"two logs share the file name {dup[0]!r}; outputs are named by it")
+    from bpmid.io.motion_logs import check_distinct_names
+
+    check_distinct_names(logs)
     return logs
 
 

@@ -74,4 +74,9 @@ def compare(
                    f"{r.us_per_step:>9.3g}{r.n_params:>7d}")
     for line in verdicts(result)[1:]:
         typer.echo(line)
+    motion_cfg = cfg.section("motion")
+    if "vbmm-mat" in set(s["model"]) and relax_path is None and motion_cfg.relax_fit is None:
+        typer.echo(f"note: vbmm-mat ran on the paper's printed constants (motion.prior {motion_cfg.prior}; no "
+                   "--relax, compare.relax or motion.relax_fit): give your material's relaxation fit (bpmid fit "
+                   "relax) to compare your own muscle's")
     typer.echo(f"wrote {Path(out) / 'metrics.csv'}, {Path(out) / 'summary.csv'} and figures")

@@ -41,6 +41,6 @@ def export_command(
 
         check_outputs([out / f for f in FILES], [fit])
     written = export(fit, to, out, model=model)
-    typer.echo(f"wrote {len(written)} files to {out}: {', '.join(p.name for p in written)}")
+    typer.echo(f"wrote {len(written)} file{'s' if len(written) != 1 else ''} to {out}: {', '.join(p.name for p in written)}")
     if to == "c":
         typer.echo(f"build: cc -std=c99 -O2 {out}/bpmid_model.c {out}/main.c -lm -o bpmid_model")

@@ -39,6 +39,9 @@ def fit_motion_command(
     if init is not None:
         existing_files([init], "relaxation fit")
     figure = None if no_plot else (plot or figure_path(out.with_suffix(".png")))
+    if plot is not None and not no_plot and figures and plot.suffix.lower() != "." + figures.strip().lower():
+        typer.echo(f"note: --plot {plot} is written in the format its suffix names ({plot.suffix or 'none'}); "
+                   f"--figures {figures} sets the format of the figures whose names bpmid chooses", err=True)
     check_outputs([out], paths + [init, config], suffix=".yaml")
     if figure is not None:
         check_outputs([figure], paths + [init, config], key="--plot")

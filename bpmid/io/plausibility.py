@@ -197,8 +197,9 @@ def emit(warnings: Sequence[str], *, strict: bool = False, what: str = "the resu
         print(f"warning: {w}", file=sys.stderr, flush=True)
     if strict and warnings:
         more = f" (and {len(warnings) - 1} more above)" if len(warnings) > 1 else ""
-        raise InputError(f"--strict: {what} was not written because of {len(warnings)} warning(s){more}: "
-                         f"{warnings[0]}", key="--strict")
+        raise InputError(f"{what} was not written: {len(warnings)} warning(s) refused by --strict{more}; the "
+                         f"first: {warnings[0]} (fix the input, or leave out --strict to write with the warnings)",
+                         key="--strict")
 
 
 def attach(prov: dict, logs: Iterable, warnings: Sequence[str]) -> dict:

@@ -496,6 +496,11 @@ def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Pro
         if k in data:
             raise InputError("unknown key", path=path, key=k)
     if "kind" not in data:
+        schema = str(data.get("schema") or "")
+        if schema.startswith("bpmid.") and not schema.startswith("bpmid.protocol/"):
+            raise InputError(f"this is a {schema} result, not a protocol: bpmid simulate takes a protocol file "
+                             "(schema bpmid.protocol/1, kind: motion, reference or relaxation; see "
+                             "datasets/README.md); a fitted VBMM goes to --params", path=path, key="schema")
         raise InputError("missing key (motion, reference or relaxation)", path=path, key="kind")
     proto = build_dataclass(Protocol, data, "", path)
     logs = []
