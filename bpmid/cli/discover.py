@@ -38,7 +38,7 @@ def discover_cmd(
     init: Optional[Path] = typer.Option(None, "--init", help="Starting constants: bpmid.vbmm/1 or bpmid.relax/1 "
                                         "(default: the paper's VBMM-fit)."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (sections io, model, discover)."),
-    out: Path = typer.Option(..., "--out", help="Output folder: discovery.yaml, verdict.txt, figures."),
+    out: Path = typer.Option(..., "--out", help="Output folder: discovery.yaml, verdict.txt, model.yaml (the final model, bpmid.vbmm/1), figures."),
     logopts=None,
     figures: Optional[str] = figures_option(),
 ):
@@ -59,7 +59,8 @@ def discover_cmd(
     ho_paths = existing_files(list(holdout), "held-out log") if holdout else []
     from bpmid.io.atomic import check_outputs_not_inputs  # before any work: no output may replace an input
 
-    check_outputs_not_inputs([out / "discovery.yaml", out / "verdict.txt"], list(paths) + list(ho_paths)
+    check_outputs_not_inputs([out / "discovery.yaml", out / "verdict.txt", out / "model.yaml"],
+                             list(paths) + list(ho_paths)
                              + [init, config])
     fit_logs = read_motion_logs(paths, cfg.section("io"), require_angle=True)
     ho_logs = read_motion_logs(ho_paths, cfg.section("io"), require_angle=True) if ho_paths else None
@@ -74,4 +75,5 @@ def discover_cmd(
     typer.echo(result.verdict)
     typer.echo(f"named effects: {', '.join(result.named_effects) or 'none'}; held-out RMSE "
                f"{result.heldout_before:.3f} -> {result.heldout_after:.3f} deg (noise floor "
-               f"{result.noise_floor_deg:.3f} deg); wrote {Path(out) / 'discovery.yaml'}")
+               f"{result.noise_floor_deg:.3f} deg); wrote {Path(out) / 'discovery.yaml'} and "
+               f"{Path(out) / 'model.yaml'} (the final model: bpmid predict --params, bpmid export --to c)")
