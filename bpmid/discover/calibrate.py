@@ -341,8 +341,7 @@ def records_from_result(truth: str, result, case: str | None = None, kind: str =
                           float(c.heldout_rmse_after) / result.noise_floor_deg, rival=rival,
                           own_shape=bool(rival and own_shape(c)), local_drop_sigma=float(c.local_drop_sigma))
         out += [record(c) for c in rnd.confirmations]
-        if rnd.rival is not None:
-            out.append(record(rnd.rival, rival=True))
+        out += [record(c, rival=True) for c in (rnd.rivals or ([rnd.rival] if rnd.rival is not None else []))]
         if rnd.accepted:
             named_before.append(rnd.accepted)
     return out

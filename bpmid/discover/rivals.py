@@ -2,8 +2,10 @@
 
 An effect the catalogue cannot represent still leaves a residual, and some catalogue entry usually takes part of
 it up: a payload on the tip that rings after every change of the pressure rate adds delay, and a pressure lag
-(one or two first-order lags: it cannot overshoot) removes much of that delay. Judged only against the other
-catalogue entries, the lag would be named. A rival is a model term for such an outside effect, refitted and scored
+(one or two first-order lags: it cannot overshoot) removes much of that delay; a muscle that leaks air through an
+orifice falls short of the supply pressure by an amount growing as the square root of its pressure, and an angle
+offset (with the stiffness refitted) takes up most of that shortfall over a working range. Judged only against the
+other catalogue entries, the lag or the offset would be named. A rival is a model term for such an outside effect, refitted and scored
 exactly like a candidate (:func:`bpmid.discover.confirm.confirm`: the same starts, nuisance and held-out logs);
 when it explains the held-out logs better than the effect the round would name, and it needs what only it has,
 nothing is named that round and the remainder is reported unexplained, with the rival's constants as a clue.
@@ -16,8 +18,12 @@ shows (that the residual rings, not that it is a payload). The rule has no calib
    withholds a name);
 2. it fits what only it can do: :class:`PayloadInertia`'s damping ratio stays inside its range, not on the upper
    bound 0.5 (at the bound the data asked for a response that does not overshoot, which a lag represents);
+   :class:`AirLeak`'s orifice constant is off its lower bound 0 (a leak at all);
 3. its held-out RMSE is below the named candidate's (for two effects named together, below the better of the two
    alone).
+
+Every rival of :data:`RIVALS` is refitted in each round that would name something; the first that takes the round
+withholds it.
 """
 from __future__ import annotations
 
@@ -73,7 +79,46 @@ class PayloadInertia(Effect):
         return np.column_stack([-d1, -d2])
 
 
-#: the rival every round that names something is checked against
+class AirLeak(Effect):
+    """A muscle that leaks air through an orifice while fed through its supply line: in steady flow the line's
+    inflow, proportional to the pressure drop along it, equals the orifice's outflow, proportional to the square
+    root of the muscle's gauge pressure (turbulent orifice flow), so the muscle's pressure ``p`` falls short of the
+    supply ``p_s`` by ``c sqrt(p)``: ``p = p_s - c sqrt(p)``, solved exactly (``sqrt(p) = (sqrt(c^2 + 4 p_s) -
+    c) / 2``). ``c`` (sqrt(Pa)) is the orifice's conductance over the line's. A linear (laminar) leak would only
+    scale the pressure, which the stiffness takes up; the square root is what no catalogue entry has. Outside the
+    catalogue: a rival only (:mod:`bpmid.discover.rivals`)."""
+
+    id = "air_leak"
+    signal_order = 12
+    meaning = ("a muscle that leaks air through an orifice: its pressure falls short of the supply by an amount "
+               "growing as the square root of the pressure (outside the catalogue)")
+    where_it_shows = "an angle shortfall that grows with the pressure, steepest at low pressure"
+    SETTINGS: ClassVar[tuple[str, ...]] = ()
+    #: starting values a refit tries: a shortfall of about 0.3 %, 1.5 % and 6 % at 1 bar gauge
+    START_VALUES: ClassVar[dict] = {"c": (1.0, 5.0, 20.0)}
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([Param(f"{self.id}.c", 5.0, "Pa^0.5", 0.0, 300.0,
+                               note="orifice over line conductance: shortfall c sqrt(p) (Pa)")])
+
+    def null_values(self):
+        return {f"{self.id}.c": 0.0}
+
+    def transform_pressure(self, t, p, params):
+        c = params.value(f"{self.id}.c")
+        if c <= 0.0:
+            return p
+        p = np.asarray(p, float)
+        root = 0.5 * (np.sqrt(c * c + 4.0 * np.maximum(p, 0.0)) - c)
+        return np.where(p > 0.0, root * root, p)
+
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        return np.zeros((log.n, 0))
+
+
+#: the rivals every round that names something is checked against, in the order they are asked
+RIVALS: tuple[type[Effect], ...] = (PayloadInertia, AirLeak)
+#: the first rival (kept for callers that know one)
 RIVAL: type[Effect] = PayloadInertia
 
 #: how close to the damping ratio's upper bound counts as on it (relative)
@@ -82,11 +127,13 @@ _BOUND_TOL = 0.02
 
 def own_shape(c: Confirmation) -> bool:
     """Condition 2: the rival's fit needs what only it has (for :class:`PayloadInertia`: damping inside its range,
-    off the upper bound)."""
+    off the upper bound; for :class:`AirLeak`: a leak at all, its constant above 0)."""
     if c.effect_id == PayloadInertia.id:
         z = c.state.params.value(f"{PayloadInertia.id}.zeta")
         period = c.state.params.value(f"{PayloadInertia.id}.period")
         return bool(period > 0.0 and z < PayloadInertia.ZETA_MAX * (1.0 - _BOUND_TOL))
+    if c.effect_id == AirLeak.id:
+        return bool(c.state.params.value(f"{AirLeak.id}.c") > 0.0)
     return True
 
 
@@ -113,12 +160,22 @@ def rival_constants(c: Confirmation) -> dict:
 def rival_words(c: Confirmation, named: str, named_after_deg: float, floor: float) -> str:
     """Why nothing was named: the rival and its numbers beside the candidate it beat."""
     k = rival_constants(c)
-    what = (f"a response that rings with a natural period of {k.get('period', math.nan):.3g} s and a damping ratio "
-            f"of {k.get('zeta', math.nan):.2f}" if c.effect_id == PayloadInertia.id else c.effect_id)
-    return (f"withheld: the residual is explained better by {what} ({c.effect_id}: outside the catalogue, "
-            f"e.g. a payload's inertia): held-out RMSE {c.heldout_rmse_after:.4g} deg against {named_after_deg:.4g} deg "
-            f"with {named} ({c.heldout_rmse_after / floor:.3f} vs {named_after_deg / floor:.3f} noise floors), "
-            f"likelihood-ratio p {'< 1e-300' if c.lr_p == 0.0 else f'= {c.lr_p:.2g}'}; no catalogue entry can ring, so {named} would only imitate it and "
+    if c.effect_id == PayloadInertia.id:
+        what = (f"a response that rings with a natural period of {k.get('period', math.nan):.3g} s and a damping "
+                f"ratio of {k.get('zeta', math.nan):.2f}")
+        eg, cannot = "e.g. a payload's inertia", "no catalogue entry can ring"
+    elif c.effect_id == AirLeak.id:
+        short = k.get("c", math.nan) * math.sqrt(1e5)
+        what = (f"a pressure shortfall growing as the square root of the pressure ({short:.3g} Pa at 1 bar gauge, "
+                f"c = {k.get('c', math.nan):.3g} Pa^0.5)")
+        eg, cannot = "e.g. an air leak through an orifice", "no catalogue entry falls short as the square root"
+    else:
+        what, eg, cannot = c.effect_id, "", "no catalogue entry represents it"
+    return (f"withheld: the residual is explained better by {what} ({c.effect_id}: outside the catalogue"
+            f"{', ' + eg if eg else ''}): held-out RMSE {c.heldout_rmse_after:.4g} deg against "
+            f"{named_after_deg:.4g} deg with {named} ({c.heldout_rmse_after / floor:.3f} vs "
+            f"{named_after_deg / floor:.3f} noise floors), likelihood-ratio p "
+            f"{'< 1e-300' if c.lr_p == 0.0 else f'= {c.lr_p:.2g}'}; {cannot}, so {named} would only imitate it and "
             "nothing is named this round")
 
 

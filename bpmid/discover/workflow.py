@@ -27,9 +27,10 @@ within the floor's own uncertainty, so the gap-based gain and shares say little,
 fitting share to measure; the drop is still measured on logs the effect was not fitted on. Why the gate refused
 the candidate is reported beside it. Its drop is calibrated like the rest of the gate.
 
-Whatever a round would name is held against a rival outside the catalogue (:mod:`bpmid.discover.rivals`: payload
-inertia that rings), refitted and scored the same way; when the rival explains the held-out logs better and needs
-its own shape, nothing is named that round and the remainder is reported unexplained.
+Whatever a round would name is held against the rivals outside the catalogue (:mod:`bpmid.discover.rivals`: payload
+inertia that rings, an air leak through an orifice), refitted and scored the same way; when a rival explains the
+held-out logs better and needs its own shape, nothing is named that round and the remainder is reported
+unexplained.
 
 Among the candidates that pass, the one with the largest confirmed held-out gain is added (the leading
 ``n_confirm`` screened candidates, by default all, are confirmed, so screening order never decides); when several pass,
@@ -50,7 +51,7 @@ from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS
                                       floor_drops, later_gain_follows, load_thresholds, winner_rank)
 from bpmid.discover.confirm import Confirmation, PairTrial, confirm, excess_deg, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
-from bpmid.discover.rivals import RIVAL, check_rival, own_shape, rival_constants
+from bpmid.discover.rivals import RIVALS, check_rival, own_shape, rival_constants
 from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, heldout_residual, residuals,
                                   rmse_deg, scored_rmse, sensitivities, simulate, stacked)
 from bpmid.discover.screen import ScreenResult, screen
@@ -250,11 +251,12 @@ def gate_in_words(thr: dict) -> str:
             + "; of several that pass, "
             f"the largest held-out gain wins (of equal gains, as when each takes the error to the floor, the larger "
             f"held-out drop)" + _to_floor_words(thr) + _pair_paths_words(thr)
-            + ". Whatever a round would name, a rival outside the catalogue (payload inertia that rings: an "
-              "underdamped response of the angle) is refitted beside it; when the rival passes the likelihood-ratio "
+            + ". Whatever a round would name, two rivals outside the catalogue (payload inertia that rings: an "
+              "underdamped response of the angle; an air leak through an orifice: a pressure shortfall growing as "
+              "the square root of the pressure) are refitted beside it; when a rival passes the likelihood-ratio "
               f"test at {thr['family_alpha']:.2g} uncorrected, needs its own shape (damping off its bound of "
-              "0.5) and leaves a lower held-out RMSE, nothing is named that round (a catalogue effect would only "
-              "imitate it)"
+              "0.5; a leak above 0) and leaves a lower held-out RMSE, nothing is named that round (a catalogue "
+              "effect would only imitate it)"
             + ". BIC is reported, never a gate")
 
 
@@ -319,10 +321,12 @@ class Round:
     pair_trials: list = dataclasses.field(default_factory=list)
     #: a round that only records the second of two effects named together in the round before
     joint_with: str = ""
-    #: the rival outside the catalogue refitted this round (:mod:`bpmid.discover.rivals`), and why it withheld the
-    #: effect the round would have named ("" when it did not)
+    #: the rival outside the catalogue reported for this round (:mod:`bpmid.discover.rivals`: the one that withheld
+    #: the effect the round would have named, else the first refitted), and why it withheld it ("" when none did)
     rival: Optional[Confirmation] = None
     withheld: str = ""
+    #: every rival refitted this round, in the order asked
+    rivals: list = dataclasses.field(default_factory=list)
 
 
 @dataclasses.dataclass
@@ -413,7 +417,9 @@ class DiscoveryResult:
                         "competition": rnd.competition or None,
                         "pairs_refitted_together": [pt.to_yaml() for pt in rnd.pair_trials] or None,
                         "named_together_with": rnd.joint_with or None,
-                        "rival_outside_catalogue": rival_yaml(rnd, self.thresholds, floor)}
+                        "rival_outside_catalogue": rival_yaml(rnd, self.thresholds, floor),
+                        "rivals_outside_catalogue": [rival_yaml(rnd, self.thresholds, floor, c)
+                                                     for c in rnd.rivals] or None}
                        for rnd in self.rounds],
             "base_model": {p.name: p.to_yaml() for p in self.base_state.params},
             "final_model": {p.name: p.to_yaml() for p in self.final_state.params},
@@ -424,17 +430,18 @@ class DiscoveryResult:
 # ---------------------------------------------------------------------------------------------
 # plain-language evidence
 # ---------------------------------------------------------------------------------------------
-def rival_yaml(rnd: Round, thr: dict, floor: float) -> Optional[dict]:
-    """The round's rival outside the catalogue (:mod:`bpmid.discover.rivals`) for ``discovery.yaml``: its
-    evidence, constants, whether its fit needs what only it has, and whether it withheld the round's effect."""
-    c = rnd.rival
+def rival_yaml(rnd: Round, thr: dict, floor: float, c: Optional[Confirmation] = None) -> Optional[dict]:
+    """A rival outside the catalogue (:mod:`bpmid.discover.rivals`; default: the round's reported one) for
+    ``discovery.yaml``: its evidence, constants, whether its fit needs what only it has, and whether it withheld
+    the round's effect."""
+    c = rnd.rival if c is None else c
     if c is None:
         return None
     return {"effect": c.effect_id, "meaning": type(c.state.effects[-1]).meaning,
             "constants": {(f"{k}_s" if k == "period" else "damping_ratio" if k == "zeta" else k): round(v, 4)
                           for k, v in rival_constants(c).items()},
-            "needs_its_own_shape": own_shape(c), "withheld_the_round": bool(rnd.withheld),
-            "reason": rnd.withheld or None,
+            "needs_its_own_shape": own_shape(c), "withheld_the_round": bool(rnd.withheld) and c is rnd.rival,
+            "reason": (rnd.withheld or None) if c is rnd.rival else None,
             "heldout_rmse_after_deg": round(c.heldout_rmse_after, 4),
             "heldout_rmse_after_in_noise_floors": round(c.heldout_rmse_after / floor, 4),
             "fit_rmse_after_deg": round(c.fit_rmse_after, 4),
@@ -802,19 +809,27 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         won = [pt for pt in trials if pt.accepted]
         # what the round would name: two effects together, or the best of those passing alone
         pt = max(won, key=lambda x: x.gain_sigma) if won else None
-        rival, withheld = None, ""
+        rival, withheld, rivals = None, "", []
         if pt is not None or best is not None or not cfg.withhold_for_rivals:
-            # the rival outside the catalogue, refitted and scored like the candidates
-            rival = confirm(state, RIVAL(), fit_logs, ho_logs, noise_floor_deg=floor,
-                            base_fit_residual=stacked(parts), heldout_before=ho_now, heldout_before_res=ho_res_now,
-                            max_nfev=cfg.confirm_max_nfev, nuisance=J, per_log_gain=gain)
-            if pt is not None:
-                named_id = "+".join(pt.ids)
-                withheld = check_rival(rival, named_id, min(pt.first.heldout_rmse_after, pt.second.heldout_rmse_after),
-                                       thr["family_alpha"], floor) or ""
-            elif best is not None:
-                named_id = best.effect_id
-                withheld = check_rival(rival, named_id, best.heldout_rmse_after, thr["family_alpha"], floor) or ""
+            # the rivals outside the catalogue, each refitted and scored like the candidates; the first that takes
+            # the round withholds it
+            for R in RIVALS:
+                rv = confirm(state, R(), fit_logs, ho_logs, noise_floor_deg=floor,
+                             base_fit_residual=stacked(parts), heldout_before=ho_now, heldout_before_res=ho_res_now,
+                             max_nfev=cfg.confirm_max_nfev, nuisance=J, per_log_gain=gain)
+                rivals.append(rv)
+                why = ""
+                if pt is not None:
+                    named_id = "+".join(pt.ids)
+                    why = check_rival(rv, named_id, min(pt.first.heldout_rmse_after, pt.second.heldout_rmse_after),
+                                      thr["family_alpha"], floor) or ""
+                elif best is not None:
+                    named_id = best.effect_id
+                    why = check_rival(rv, named_id, best.heldout_rmse_after, thr["family_alpha"], floor) or ""
+                if why and not withheld:
+                    rival, withheld = rv, why
+            if rival is None and rivals:
+                rival = rivals[0]
         if withheld and cfg.withhold_for_rivals:
             for c in passing:
                 c.accepted, c.passed_by = False, ""
@@ -824,7 +839,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
             for x in won:
                 x.accepted = False
                 x.reasons = [withheld]
-            rounds.append(Round(diag, ranking, confs, None, family, "", trials, rival=rival, withheld=withheld))
+            rounds.append(Round(diag, ranking, confs, None, family, "", trials, rival=rival, withheld=withheld,
+                                rivals=rivals))
             note(f"discover: round {k + 1}: nothing named: " + withheld.split(":", 1)[1].split(";")[0].strip())
             break
         if pt is not None:
@@ -850,7 +866,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 c.named_with = b.state    # the constants named are the joint refit's
             b.lr_p_holm = pt.p_corrected  # its test beside the first, Bonferroni over the pairs tried
             words = pair_words(pt, floor, over=best)
-            rounds.append(Round(diag, ranking, confs, a.effect_id, family, words, trials, rival=rival))
+            rounds.append(Round(diag, ranking, confs, a.effect_id, family, words, trials, rival=rival,
+                                rivals=rivals))
             # the second's record: its evidence beside the first, on the residual the first left
             parts_a = gained_residuals(simulate(a.state, fit_logs), fit_logs, per_log_gain=gain)
             rounds.append(Round(diagnose(fit_logs, parts_a), [x for x in ranking if x.effect_id != a.effect_id],
@@ -886,7 +903,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 c.reasons = [f"passed, but {best.effect_id} explains the held-out logs better "
                              f"({what_vs}{score(best):.2f} vs {score(c):.2f} noise floors)"]
         rounds.append(Round(diag, ranking, confs, best.effect_id if best else None, family, competition, trials,
-                            rival=rival))
+                            rival=rival, rivals=rivals))
         if best is None:
             break
         named.append(best.effect_id)

@@ -214,10 +214,11 @@ def _plain_result(res) -> dict:
             keep.update({"round": k, "effect": c.effect_id, "accepted": bool(getattr(c, "accepted", False))})
             cands.append(keep)
     from bpmid.discover.rivals import own_shape, rival_constants
-    rivals = [{"round": k, "effect": rnd.rival.effect_id, "withheld": bool(rnd.withheld),
-               "own_shape": bool(own_shape(rnd.rival)), "constants": rival_constants(rnd.rival),
-               "heldout_rmse_after_deg": float(rnd.rival.heldout_rmse_after), "likelihood_ratio_p": float(rnd.rival.lr_p)}
-              for k, rnd in enumerate(res.rounds, start=1) if rnd.rival is not None]
+    rivals = [{"round": k, "effect": rv.effect_id, "withheld": bool(rnd.withheld) and rv is rnd.rival,
+               "own_shape": bool(own_shape(rv)), "constants": rival_constants(rv),
+               "heldout_rmse_after_deg": float(rv.heldout_rmse_after), "likelihood_ratio_p": float(rv.lr_p)}
+              for k, rnd in enumerate(res.rounds, start=1)
+              for rv in (rnd.rivals or ([rnd.rival] if rnd.rival is not None else []))]
     return {"named": list(res.named_effects), "unexplained": bool(res.unexplained),
             "heldout_before_deg": float(res.heldout_before), "heldout_after_deg": float(res.heldout_after),
             "noise_floor_deg": float(res.noise_floor_deg), "candidates": cands, "rivals": rivals,
