@@ -273,6 +273,26 @@ def test_stage_without_inputs_is_skipped_and_said_so(tmp_path):
     assert "Not run (no relax_fit.yaml" in md and "History modes on the long-term run" in md
 
 
+def test_a_new_output_folder_honours_the_umask(tmp_path):
+    """The run's folder is made hidden (mkdtemp, mode 0700) with its journal inside and renamed into place: it
+    must end with the mode every other command gives a new folder (0777 less the umask), not 0700 (as did
+    the parent folder the run made for it)."""
+    import os
+    import stat
+
+    cfg = make_study(tmp_path)
+    cfg.write_text("run:\n  long_term: logs/long.csv\n  stages: [history]\n  history_durations_s: [20]\n"
+                   "  history_repeats: 1\n")
+    old = os.umask(0o022)
+    try:
+        r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "new" / "o")])
+    finally:
+        os.umask(old)
+    assert r.exit_code == 0, r.output
+    mode = {d: stat.S_IMODE((tmp_path / d).stat().st_mode) for d in ("new", "new/o")}
+    assert mode == {"new": 0o755, "new/o": 0o755}, {k: oct(v) for k, v in mode.items()}
+
+
 def test_default_config_is_found_from_any_working_directory(tmp_path, monkeypatch):
     import bpmid.run as R
 
