@@ -155,6 +155,20 @@ def test_two_runs_give_identical_metrics_files(study_runs):
             assert da[k] == db[k], f"{f}: {k}"
 
 
+def test_every_file_of_a_run_carries_its_run_id_in_stage_processes_too(study_runs):
+    """run2 ran its later stages in forked processes: their files carry the run's id as well; two runs of the
+    same config have different ids (the report tells a stage file of one from the other's)."""
+    _cfg, (a, b) = study_runs
+    ids = []
+    for out in (a, b):
+        files = sorted(out.rglob("*.yaml"))
+        assert len(files) == 7, files  # run.yaml and the stage files of relax, motion (2), compare, history, discover
+        ids.append({f.relative_to(out).as_posix(): yaml.safe_load(f.read_text())["provenance"]["run_id"]
+                    for f in files})
+        assert len(set(ids[-1].values())) == 1, ids[-1]
+    assert ids[0]["run.yaml"] != ids[1]["run.yaml"]
+
+
 def test_report_figures_drawn_beside_the_stages_are_the_report_stage_s(study_runs):
     """Side by side, the report's own figures are drawn in the stage processes as soon as their files are written
     (each once), and the report uses them: the same files, to the byte, as the report draws itself in a run of one

@@ -3,7 +3,9 @@
 Every loader returns a record or None, and never raises for a file that is absent, partial (a YAML holding
 only its schema line, a CSV with a header and no rows) or unreadable: it records a :class:`Problem` instead,
 so the report can say which file is at fault and build every section it can. A stage whose files are on disk
-but which ``run.yaml`` (the record of the last ``bpmid run``) does not list as done is marked stale.
+but which ``run.yaml`` (the record of the last ``bpmid run``) does not list as done is marked stale, and so is a
+stage run.yaml lists as done whose files another command wrote afterwards (their provenance does not carry the
+run's id: :func:`not_from_run`).
 """
 from __future__ import annotations
 
@@ -65,6 +67,7 @@ class _Reader:
         self.root = root
         self.problems: list[Problem] = []
         self.found: set[str] = set()
+        self.provenance: dict[str, Any] = {}  # relative path -> the provenance block of each YAML read
 
     def rel(self, path: Path) -> str:
         try:
@@ -86,6 +89,7 @@ class _Reader:
         if not isinstance(data, dict):
             self.problems.append(Problem(self.rel(path), "not a YAML mapping"))
             return None
+        self.provenance[self.rel(path)] = data.get("provenance")
         missing = [k for k in required if data.get(k) is None]
         if missing:
             self.problems.append(Problem(self.rel(path), "partial: no " + ", ".join(missing)
@@ -245,6 +249,8 @@ class Study:
     control: ControlInfo | None = None
     problems: list[Problem] = dataclasses.field(default_factory=list)
     stale: dict[str, str] = dataclasses.field(default_factory=dict)  # stage -> why
+    #: the stages of :attr:`stale` whose files run.yaml lists as done but another command wrote (not the run)
+    foreign: set[str] = dataclasses.field(default_factory=set)
 
     @property
     def synthetic(self) -> bool:
@@ -433,9 +439,64 @@ def load_control(rd: _Reader) -> ControlInfo | None:
                        _dict(cy.get("provenance")))
 
 
-#: stage name -> (Study attribute, the files that make it)
+#: stage name -> Study attribute
 STAGE_OF = {"relax": "relax", "motion": "motion", "compare": "compare", "history": "history",
             "discover": "discovery", "control": "control"}
+#: stage name -> its YAML files that carry a provenance block (relative to DIR)
+STAGE_FILES = {"relax": ("relax_fit.yaml",), "motion": ("vbmm_fit.yaml", "vbmm_mat.yaml"),
+               "compare": ("compare/compare.yaml",), "history": ("history_modes.yaml",),
+               "discover": ("discover/discovery.yaml",), "control": ("control/control.yaml",)}
+
+
+def _short(command: Any, n: int = 90) -> str:
+    c = " ".join(str(command).split())
+    return c if len(c) <= n else c[:n - 4].rstrip() + " ..."
+
+
+def _written_by(p: dict) -> str:
+    """'`bpmid compare ...` at 2026-...': what a provenance block says made its file."""
+    cmd = f"`{_short(p['command'])}`" if p.get("command") else "an unrecorded command"
+    return cmd + (f" at {p['created']}" if p.get("created") else "")
+
+
+def not_from_run(run_prov: dict, prov: Any) -> str | None:
+    """What wrote a stage file with provenance ``prov`` when it was not the run whose run.yaml has ``run_prov``
+    (e.g. "`bpmid compare ...` at 2026-..."), or None when the run did. A run stamps its id into every file it
+    writes (``provenance.run_id``); a run.yaml written before that has no id, and then the file must record the
+    run's command and config (path and sha256), as every file of such a run does."""
+    if not isinstance(prov, dict) or not prov:
+        return "a command that recorded no provenance"
+    rid = run_prov.get("run_id")
+    if rid is not None:
+        if prov.get("run_id") == rid:
+            return None
+        if prov.get("run_id") is not None and prov.get("command") == run_prov.get("command"):
+            return (f"another run of the same command (run id {prov['run_id']}"
+                    + (f", at {prov['created']}" if prov.get("created") else "") + ")")
+        return _written_by(prov)
+    if prov.get("command") != run_prov.get("command") or _dict(prov.get("config")) != _dict(run_prov.get("config")):
+        return _written_by(prov)
+    return None
+
+
+def _check_provenance(st: Study, rd: _Reader) -> None:
+    """Mark stale every stage that run.yaml lists as done but whose files say another command wrote them."""
+    run_prov = st.run.provenance if st.run is not None else {}
+    if not run_prov:
+        return
+    run = _written_by(run_prov) + (f", run id {run_prov['run_id']}" if run_prov.get("run_id") else "")
+    for stage, files in STAGE_FILES.items():
+        if stage in st.stale or st.run.status(stage) != "done" or getattr(st, STAGE_OF[stage]) is None:
+            continue
+        whys = [f"{f} was written by {who}" for f in files if f in rd.provenance
+                for who in [not_from_run(run_prov, rd.provenance[f])] if who]
+        if not whys:
+            continue
+        st.stale[stage] = ("; ".join(whys) + f", not by the run that run.yaml records ({run}). Its numbers may come "
+                           "from other inputs or settings than the rest of this report: rerun `bpmid run` into "
+                           "this folder to make it one study again (it rewrites every stage), and give other "
+                           "commands an --out folder of their own")
+        st.foreign.add(stage)
 
 
 def read_study(root: str | Path) -> Study:
@@ -470,4 +531,5 @@ def read_study(root: str | Path) -> Study:
                        "the last run (run.yaml) does not list this stage" if status is None else
                        f"the last run (run.yaml) lists this stage as {status}")
                 st.stale[stage] = why + "; these files are from an earlier run"
+        _check_provenance(st, rd)
     return st

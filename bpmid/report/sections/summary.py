@@ -16,6 +16,8 @@ def cost_phrase(reduction_pct) -> str:
 
 
 def _stale(st, stage):
+    if stage in st.foreign:
+        return " (STALE: not from the run in run.yaml)"
     return " (STALE: from an earlier run)" if stage in st.stale else ""
 
 
