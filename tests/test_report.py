@@ -380,3 +380,45 @@ def test_provenance_decides_which_stage_files_are_the_run_s(study, tmp_path):
     assert read_study(d).stale == {}
     edit("control/control.yaml", config=dict(cfg, sha256="0" * 64))  # same command, another config
     assert set(read_study(d).stale) == {"control"}
+
+
+# --------------------------------------------------------------------------------------------------
+# a folder of single commands without vbmm_fit.yaml (new-user review, item 10)
+# --------------------------------------------------------------------------------------------------
+def test_a_motion_fit_under_another_name_is_read_and_no_placeholder_is_printed(study, tmp_path):
+    """`bpmid fit relax --out relax_fit.yaml` and `bpmid fit motion --out VBMM.yaml` (the README's names) in one
+    folder: the report reads the fit from VBMM.yaml; it never prints '?' for what a file does not say."""
+    import yaml
+
+    from bpmid.report import build_report, read_study, render_markdown
+
+    fit = yaml.safe_load((study / "vbmm_fit.yaml").read_text())
+    d = tmp_path / "single"
+    d.mkdir()
+    shutil.copy(study / "relax_fit.yaml", d / "relax_fit.yaml")
+    shutil.copy(study / "vbmm_fit.yaml", d / "VBMM.yaml")
+    shutil.copy(study / "vbmm_fit.png", d / "VBMM.png")
+    r = runner.invoke(app, ["report", str(d)])
+    assert r.exit_code == 0 and "warning" not in r.output, r.output
+    md = (d / "report.md").read_text()
+    assert "'?'" not in md and "closure ?" not in md
+    assert (f"This study's motion fit (VBMM.yaml) used the '{fit['closure']}' closure and the "
+            f"'{fit['model']['history']}' history mode." in md)
+    motion = md[md.index("## Motion fit"):md.index("## Model comparison")]
+    assert "VBMM-fit read from VBMM.yaml" in motion and "(VBMM.png)" in motion and "| K_inf |" in motion
+    assert "VBMM-fit (VBMM.yaml): refitted on" in md
+
+    def model_text(folder):
+        md = render_markdown(build_report(read_study(folder), {}), "t")
+        assert "?" not in md[md.index("## Model"):md.index("## Relaxation fit")]
+        return " ".join(md.split())
+
+    (d / "VBMM.yaml").unlink()  # only the relaxation fit: the sentence says what is missing
+    assert "No motion fit in this folder (vbmm_fit.yaml, or one bpmid.vbmm/1 fit" in model_text(d)
+    del fit["closure"], fit["model"]["history"]  # a fit that does not say: named keys, no placeholder
+    (d / "vbmm_fit.yaml").write_text(yaml.safe_dump(fit, sort_keys=False))
+    assert ("This study's motion fit (vbmm_fit.yaml) does not state its closure or its history mode (no key "
+            "closure, model.history)." in model_text(d))
+    (d / "vbmm_fit.yaml").rename(d / "A.yaml")
+    shutil.copy(d / "A.yaml", d / "B.yaml")  # two candidates: which one is meant is not guessed
+    assert "no vbmm_fit.yaml but 2 bpmid.vbmm/1 motion fits (A.yaml, B.yaml)" in model_text(d)

@@ -169,12 +169,14 @@ class MotionInfo:
     rmse_deg: float | None
     mape_pct: float | None
     r2: float | None
-    closure: str
-    history: str
+    closure: str | None  # None: the file does not say
+    history: str | None
     logs: list[str]
     provenance: dict
     corr_names: list[str] = dataclasses.field(default_factory=list)
     corr: list[list[float]] = dataclasses.field(default_factory=list)
+    #: the file the VBMM-fit was read from (relative to DIR), or None (only vbmm_mat.yaml)
+    fit_file: str | None = "vbmm_fit.yaml"
 
 
 @dataclasses.dataclass
@@ -347,8 +349,45 @@ def _material(d: dict) -> list[Param]:
     return out
 
 
+#: YAML files of DIR that are never a motion fit under another name
+_NOT_A_MOTION_FIT = {"run.yaml", "relax_fit.yaml", "vbmm_fit.yaml", "vbmm_mat.yaml", "history_modes.yaml"}
+#: larger YAML files are not looked into for a motion fit under another name (a fit is a few kB)
+_MAX_FIT_BYTES = 1 << 20
+
+
+def other_motion_fits(root: Path) -> list[str]:
+    """The YAML files at the top of ``root``, other than the run's own names, that are motion fits (schema
+    ``bpmid.vbmm/1`` with ``material`` and a ``fit`` block, as ``bpmid fit motion --out VBMM.yaml`` writes).
+    The report reads the fit from one such file when the folder has no vbmm_fit.yaml (with more than one, which
+    is meant is not known)."""
+    from bpmid.config import read_yaml
+
+    found = []
+    for p in sorted(root.glob("*.yaml")):
+        if p.name in _NOT_A_MOTION_FIT or not p.is_file():
+            continue
+        try:
+            if p.stat().st_size > _MAX_FIT_BYTES:
+                continue
+            data, _sha = read_yaml(p)
+        except (InputError, OSError):
+            continue
+        if (isinstance(data, dict) and data.get("schema") == "bpmid.vbmm/1" and isinstance(data.get("fit"), dict)
+                and isinstance(data.get("material"), dict)):
+            found.append(p.name)
+    return found
+
+
+def _text(v: Any) -> str | None:
+    return v if isinstance(v, str) and v.strip() else None
+
+
 def load_motion(rd: _Reader) -> MotionInfo | None:
-    fit = rd.yaml(rd.root / "vbmm_fit.yaml", required=("material",))
+    fit_file: str | None = "vbmm_fit.yaml"
+    if not (rd.root / fit_file).is_file():  # a fit written by `bpmid fit motion --out VBMM.yaml`, say
+        others = other_motion_fits(rd.root)
+        fit_file = others[0] if len(others) == 1 else None
+    fit = rd.yaml(rd.root / fit_file, required=("material",)) if fit_file else None
     mat = rd.yaml(rd.root / "vbmm_mat.yaml", required=("material",))
     if fit is None and mat is None:
         return None
@@ -357,9 +396,9 @@ def load_motion(rd: _Reader) -> MotionInfo | None:
     unc = _dict((fit or {}).get("uncertainty"))
     names, corr = _corr(unc)
     return MotionInfo(_material(fit) if fit else [], _material(mat) if mat else [], _num(m.get("rmse_deg")),
-                      _num(m.get("mape_pct")), _num(m.get("r2")), str((fit or mat).get("closure", "?")),
-                      str(_dict((fit or mat).get("model")).get("history", "?")), per_log,
-                      _dict((fit or mat).get("provenance")), names, corr)
+                      _num(m.get("mape_pct")), _num(m.get("r2")), _text((fit or mat).get("closure")),
+                      _text(_dict((fit or mat).get("model")).get("history")), per_log,
+                      _dict((fit or mat).get("provenance")), names, corr, fit_file if fit is not None else None)
 
 
 def _corr(unc: dict) -> tuple[list[str], list[list[float]]]:
