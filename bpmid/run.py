@@ -22,7 +22,9 @@ Every input of every stage that will run is read and checked before the first st
 config (a missing one is an InputError naming the config key and the path), every log with the reader its stage
 uses, and the parameter files the config names (:func:`check_stage_inputs`). Every file is written atomically;
 ``run.yaml`` (schema ``bpmid.run/1``: stages, status, wall time, provenance with the sha256 of every input and of
-the config, and the seed) is written last, so a folder with a ``run.yaml`` holds a complete run. A run that still
+the config, the seed and the run's id) is written last, so a folder with a ``run.yaml`` holds a complete run; every
+file the run writes carries the same ``provenance.run_id`` (:func:`bpmid.io.results.run_stamp`), so ``bpmid report``
+can tell a stage file that another command wrote into DIR afterwards. A run that still
 fails in a stage, or is interrupted (Ctrl-C), is rolled back (:class:`OutputJournal`): the files it wrote are
 removed and the files it replaced are put back, so DIR is as it was before (absent if it did not exist). The
 stages write in place, so every path recorded in the outputs (provenance, report) is the final one.
@@ -551,7 +553,7 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
 
 def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRecord]:
     from bpmid.io.motion_logs import is_synthetic
-    from bpmid.io.results import command_line, write_result
+    from bpmid.io.results import command_line, new_run_id, run_stamp, write_result
 
     rc: RunConfig = config.section("run")
     inp = resolve_run_inputs(config)  # every path checked before any work
@@ -562,10 +564,11 @@ def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRe
     motion_logs = check_stage_inputs(config, inp, stages_to_run(rc, inp))
     check_run_outputs(out, [config.path] + inp.all() + _param_inputs(config, rc, inp))
     ctx = {"seed": rc.seed, "command": command or command_line(),
-           "synthetic": is_synthetic(motion_logs) if motion_logs else True}
+           "synthetic": is_synthetic(motion_logs) if motion_logs else True, "run_id": new_run_id()}
     journal = OutputJournal(out)
     try:
-        records = _run_stages(config, rc, inp, out, ctx, write_result)
+        with run_stamp(ctx["run_id"], ctx["command"]):  # every file of this run says so (provenance.run_id)
+            records = _run_stages(config, rc, inp, out, ctx, write_result)
     except BaseException as exc:  # a failing stage or Ctrl-C: leave DIR as it was
         journal.rollback()
         if isinstance(exc, SystemError) and interrupted(exc):

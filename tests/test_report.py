@@ -290,3 +290,135 @@ def test_loaders_take_wrong_types_inside_a_file(tmp_path):
     assert st.relax is not None and st.relax.corr == [] and [p.name for p in st.relax.constants] == ["E_inf"]
     md = render_markdown(build_report(st, {}), "t")
     assert "## Discovery of missing effects" in md and "| a |" in md and "## Relaxation fit" in md
+
+
+# --------------------------------------------------------------------------------------------------
+# a stage file another command wrote into a run's folder (new-user review, item 2)
+# --------------------------------------------------------------------------------------------------
+STAGE_YAMLS = ("relax_fit.yaml", "vbmm_fit.yaml", "vbmm_mat.yaml", "compare/compare.yaml", "history_modes.yaml",
+               "discover/discovery.yaml", "control/control.yaml")
+
+
+def test_every_file_of_a_run_carries_the_run_s_id(study):
+    import yaml
+
+    rid = yaml.safe_load((study / "run.yaml").read_text())["provenance"]["run_id"]
+    assert isinstance(rid, str) and len(rid) >= 16
+    for f in STAGE_YAMLS:
+        assert yaml.safe_load((study / f).read_text())["provenance"]["run_id"] == rid, f
+    md = (study / "report.md").read_text()
+    assert "STALE" not in md and f"| run id | {rid} |" in md
+
+
+def test_a_stage_another_command_rewrote_is_marked_with_what_to_do(study, tmp_path, monkeypatch):
+    """`bpmid compare --out DIR/compare` after `bpmid run --out DIR`: run.yaml still lists compare as done, but
+    compare/ now holds another command's comparison (other logs, other models); the report says so."""
+    import sys
+
+    import yaml
+
+    d = shutil.copytree(study, tmp_path / "study")
+    r = runner.invoke(app, ["report", str(d)])  # a plain copy of a run: nothing to flag
+    assert r.exit_code == 0 and "warning" not in r.output, r.output
+    assert "STALE" not in (d / "report.md").read_text()
+    logs = study.parent / "logs"
+    args = ["compare", "--train", str(logs / "fit_a.csv"), "--test", str(logs / "rate_0p114.csv"), "--models",
+            "vbmm-mat", "--out", str(d / "compare")]
+    monkeypatch.setattr(sys, "argv", ["bpmid", *args])  # the command line the provenance records
+    r = runner.invoke(app, args)
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(app, ["report", str(d)])
+    assert r.exit_code == 0, r.output
+    out = " ".join(r.output.split())
+    assert "warning: stage compare: compare/compare.yaml was written by `bpmid compare --train" in out
+    rid = yaml.safe_load((d / "run.yaml").read_text())["provenance"]["run_id"]
+    assert "not by the run that run.yaml records (`" in out and f", run id {rid})" in out
+    assert "rerun `bpmid run` into this folder" in out
+    md = (d / "report.md").read_text()
+    summ = md[md.index("## Summary"):md.index("## Model")]
+    assert "Stale: stage compare: compare/compare.yaml was written by `bpmid compare" in summ
+    assert "Comparison (STALE: not from the run in run.yaml)" in summ and "VBMM-fit: refitted" in summ
+    comp = md[md.index("## Model comparison"):md.index("## The paper's numbers")]
+    assert comp.count("STALE: compare/compare.yaml was written by") == 1
+    for title, nxt in (("## The paper's numbers", "## History modes"), ("## Residual diagnostics", "## Discovery")):
+        assert "STALE: the " in md[md.index(title):md.index(nxt)], title
+    for title, nxt in (("## Motion fit", "## Model comparison"), ("## History modes", "## Residual diagnostics"),
+                       ("## Discovery", "## Closed-loop control")):
+        assert "STALE" not in md[md.index(title):md.index(nxt)], title
+    assert "| compare | done; its files were since replaced by another command (STALE) |" in md
+
+
+def test_provenance_decides_which_stage_files_are_the_run_s(study, tmp_path):
+    """By run id; for a run.yaml without one (written before runs stamped it), by command and config."""
+    import yaml
+
+    from bpmid.report import read_study
+
+    d = shutil.copytree(study, tmp_path / "study", ignore=shutil.ignore_patterns("*.png", "*.html", "traces"))
+
+    def edit(rel, **prov):
+        data = yaml.safe_load((d / rel).read_text())
+        for k, v in prov.items():
+            if v is None:
+                data["provenance"].pop(k, None)
+            else:
+                data["provenance"][k] = v
+        (d / rel).write_text(yaml.safe_dump(data, sort_keys=False))
+
+    edit("vbmm_mat.yaml", run_id="0123456789abcdef")  # the same command, run again: another run's file
+    st = read_study(d)
+    assert set(st.stale) == {"motion"} and st.foreign == {"motion"}
+    assert "vbmm_mat.yaml was written by another run of the same command (run id 0123456789abcdef" in st.stale["motion"]
+    edit("history_modes.yaml", run_id=None, command="bpmid run elsewhere.yaml")  # a bpmid without run ids
+    assert set(read_study(d).stale) == {"motion", "history"}
+    for rel in STAGE_YAMLS + ("run.yaml",):  # a whole run written before run ids: command and config decide
+        edit(rel, run_id=None)
+    st = read_study(d)
+    assert set(st.stale) == {"history"} and "`bpmid run elsewhere.yaml`" in st.stale["history"]
+    cfg = yaml.safe_load((d / "run.yaml").read_text())["provenance"]["config"]
+    edit("history_modes.yaml", command=yaml.safe_load((d / "run.yaml").read_text())["provenance"]["command"])
+    assert read_study(d).stale == {}
+    edit("control/control.yaml", config=dict(cfg, sha256="0" * 64))  # same command, another config
+    assert set(read_study(d).stale) == {"control"}
+
+
+# --------------------------------------------------------------------------------------------------
+# a folder of single commands without vbmm_fit.yaml (new-user review, item 10)
+# --------------------------------------------------------------------------------------------------
+def test_a_motion_fit_under_another_name_is_read_and_no_placeholder_is_printed(study, tmp_path):
+    """`bpmid fit relax --out relax_fit.yaml` and `bpmid fit motion --out VBMM.yaml` (the README's names) in one
+    folder: the report reads the fit from VBMM.yaml; it never prints '?' for what a file does not say."""
+    import yaml
+
+    from bpmid.report import build_report, read_study, render_markdown
+
+    fit = yaml.safe_load((study / "vbmm_fit.yaml").read_text())
+    d = tmp_path / "single"
+    d.mkdir()
+    shutil.copy(study / "relax_fit.yaml", d / "relax_fit.yaml")
+    shutil.copy(study / "vbmm_fit.yaml", d / "VBMM.yaml")
+    shutil.copy(study / "vbmm_fit.png", d / "VBMM.png")
+    r = runner.invoke(app, ["report", str(d)])
+    assert r.exit_code == 0 and "warning" not in r.output, r.output
+    md = (d / "report.md").read_text()
+    assert "'?'" not in md and "closure ?" not in md
+    assert (f"This study's motion fit (VBMM.yaml) used the '{fit['closure']}' closure and the "
+            f"'{fit['model']['history']}' history mode." in md)
+    motion = md[md.index("## Motion fit"):md.index("## Model comparison")]
+    assert "VBMM-fit read from VBMM.yaml" in motion and "(VBMM.png)" in motion and "| K_inf |" in motion
+    assert "VBMM-fit (VBMM.yaml): refitted on" in md
+
+    def model_text(folder):
+        md = render_markdown(build_report(read_study(folder), {}), "t")
+        assert "?" not in md[md.index("## Model"):md.index("## Relaxation fit")]
+        return " ".join(md.split())
+
+    (d / "VBMM.yaml").unlink()  # only the relaxation fit: the sentence says what is missing
+    assert "No motion fit in this folder (vbmm_fit.yaml, or one bpmid.vbmm/1 fit" in model_text(d)
+    del fit["closure"], fit["model"]["history"]  # a fit that does not say: named keys, no placeholder
+    (d / "vbmm_fit.yaml").write_text(yaml.safe_dump(fit, sort_keys=False))
+    assert ("This study's motion fit (vbmm_fit.yaml) does not state its closure or its history mode (no key "
+            "closure, model.history)." in model_text(d))
+    (d / "vbmm_fit.yaml").rename(d / "A.yaml")
+    shutil.copy(d / "A.yaml", d / "B.yaml")  # two candidates: which one is meant is not guessed
+    assert "no vbmm_fit.yaml but 2 bpmid.vbmm/1 motion fits (A.yaml, B.yaml)" in model_text(d)

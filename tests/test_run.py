@@ -155,6 +155,20 @@ def test_two_runs_give_identical_metrics_files(study_runs):
             assert da[k] == db[k], f"{f}: {k}"
 
 
+def test_every_file_of_a_run_carries_its_run_id_in_stage_processes_too(study_runs):
+    """run2 ran its later stages in forked processes: their files carry the run's id as well; two runs of the
+    same config have different ids (the report tells a stage file of one from the other's)."""
+    _cfg, (a, b) = study_runs
+    ids = []
+    for out in (a, b):
+        files = sorted(out.rglob("*.yaml"))
+        assert len(files) == 7, files  # run.yaml and the stage files of relax, motion (2), compare, history, discover
+        ids.append({f.relative_to(out).as_posix(): yaml.safe_load(f.read_text())["provenance"]["run_id"]
+                    for f in files})
+        assert len(set(ids[-1].values())) == 1, ids[-1]
+    assert ids[0]["run.yaml"] != ids[1]["run.yaml"]
+
+
 def test_report_figures_drawn_beside_the_stages_are_the_report_stage_s(study_runs):
     """Side by side, the report's own figures are drawn in the stage processes as soon as their files are written
     (each once), and the report uses them: the same files, to the byte, as the report draws itself in a run of one
@@ -271,6 +285,26 @@ def test_stage_without_inputs_is_skipped_and_said_so(tmp_path):
     assert status["relax"]["status"] == "skipped" and "run.relax_logs" in status["relax"]["note"]
     md = (tmp_path / "o" / "report.md").read_text()
     assert "Not run (no relax_fit.yaml" in md and "History modes on the long-term run" in md
+
+
+def test_a_new_output_folder_honours_the_umask(tmp_path):
+    """The run's folder is made hidden (mkdtemp, mode 0700) with its journal inside and renamed into place: it
+    must end with the mode every other command gives a new folder (0777 less the umask), not 0700 (as did
+    the parent folder the run made for it)."""
+    import os
+    import stat
+
+    cfg = make_study(tmp_path)
+    cfg.write_text("run:\n  long_term: logs/long.csv\n  stages: [history]\n  history_durations_s: [20]\n"
+                   "  history_repeats: 1\n")
+    old = os.umask(0o022)
+    try:
+        r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "new" / "o")])
+    finally:
+        os.umask(old)
+    assert r.exit_code == 0, r.output
+    mode = {d: stat.S_IMODE((tmp_path / d).stat().st_mode) for d in ("new", "new/o")}
+    assert mode == {"new": 0o755, "new/o": 0o755}, {k: oct(v) for k, v in mode.items()}
 
 
 def test_default_config_is_found_from_any_working_directory(tmp_path, monkeypatch):

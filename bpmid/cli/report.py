@@ -23,7 +23,8 @@ def report(
 ):
     """Write DIR/report.html (one self-contained file: figures embedded, no scripts, no external links) and
     DIR/report.md (figures as files next to it). Missing or partial stage files are named and the rest is
-    built (exit 0 with a warning); stages left over from an earlier run are marked stale."""
+    built (exit 0 with a warning); stages left over from an earlier run, or rewritten by another command after
+    the run, are marked stale."""
     from bpmid.plots.common import set_figure_format
     from bpmid.report import report_study
 

@@ -341,11 +341,16 @@ def _now() -> float:
     return time.monotonic()
 
 
-def _umask_mode() -> int:
-    """0666 less the process umask: the mode an ordinary ``open()`` would give a new file."""
+def _umask() -> int:
+    """The process umask (read by setting it and putting it back)."""
     mask = os.umask(0)
     os.umask(mask)
-    return 0o666 & ~mask
+    return mask
+
+
+def _umask_mode() -> int:
+    """0666 less the process umask: the mode an ordinary ``open()`` would give a new file."""
+    return 0o666 & ~_umask()
 
 
 def _ensure_parent(path: Path) -> None:
@@ -556,6 +561,7 @@ class Journal:
             journal.data["out"] = str(out)  # where the folder will be: the journal is for it, not the stage
             journal.data["created_levels"] = int(created_levels)
             journal.snapshot([])
+            os.chmod(area.path, 0o777 & ~_umask())  # mkdtemp made it 0700; the result is an ordinary folder
             os.rename(area.path, out)
         except BaseException:
             journal_fd = locals().get("journal")
@@ -859,9 +865,7 @@ def staged_dir(out_dir: str | Path) -> Iterator[Path]:
             lock.enter_context(folder_lock(out, COMMIT_WAIT_S))
         with lock, signals_held():
             if not out.exists() and not inside:
-                mask = os.umask(0)
-                os.umask(mask)
-                os.chmod(stage, 0o777 & ~mask)  # mkdtemp made it 0700; the result is an ordinary folder
+                os.chmod(stage, 0o777 & ~_umask())  # mkdtemp made it 0700; the result is an ordinary folder
                 try:
                     os.rename(stage, out)
                     area.release(remove=False)

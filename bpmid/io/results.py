@@ -6,6 +6,8 @@ where one was used.
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import datetime as _dt
 import hashlib
 import math
@@ -13,7 +15,7 @@ import os
 import shlex
 import sys
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Iterator
 
 import numpy as np
 import yaml
@@ -39,6 +41,30 @@ def command_line() -> str:
     return " ".join(shlex.quote(a) for a in argv)
 
 
+#: (run id, command) of the ``bpmid run`` whose stages are being written, else None (:func:`run_stamp`)
+_RUN: contextvars.ContextVar[tuple[str, str] | None] = contextvars.ContextVar("bpmid_run", default=None)
+
+
+def new_run_id() -> str:
+    """A fresh id for one ``bpmid run`` (random: two runs of the same config get different ids)."""
+    import secrets
+
+    return secrets.token_hex(8)
+
+
+@contextlib.contextmanager
+def run_stamp(run_id: str, command: str) -> Iterator[None]:
+    """While inside, every provenance block (:func:`provenance`) says it was written by the run ``run_id``
+    (key ``run_id``) and records ``command`` unless told another: every file of a ``bpmid run`` (run.yaml and
+    each stage's files, whichever library function writes them, in forked stage processes too) carries the same
+    id, so ``bpmid report`` can tell a stage file some other command wrote into the folder afterwards."""
+    token = _RUN.set((str(run_id), str(command)))
+    try:
+        yield
+    finally:
+        _RUN.reset(token)
+
+
 def provenance(inputs: Iterable[str | Path] = (), *, config=None, seed: int | None = None,
                command: str | None = None, timestamp: bool = True, extra: dict | None = None) -> dict:
     """The provenance block.
@@ -48,10 +74,16 @@ def provenance(inputs: Iterable[str | Path] = (), *, config=None, seed: int | No
     inputs : paths of the input files (hashed with sha256)
     config : a :class:`bpmid.config.Config` or a path, or None
     seed : the seed of every random draw, when one was used
-    command : override the recorded command line (default: ``sys.argv``)
+    command : override the recorded command line (default: the running ``bpmid run``'s, else ``sys.argv``)
     timestamp : include the creation time (False for byte-reproducible files)
+
+    Inside :func:`run_stamp` the block also holds ``run_id``.
     """
-    block: dict[str, Any] = {"bpmid_version": __version__, "command": command or command_line()}
+    run = _RUN.get()
+    block: dict[str, Any] = {"bpmid_version": __version__,
+                             "command": command or (run[1] if run else None) or command_line()}
+    if run is not None:
+        block["run_id"] = run[0]
     block["inputs"] = {str(p): sha256_file(p) for p in inputs}
     if config is not None:
         cpath = getattr(config, "path", config)

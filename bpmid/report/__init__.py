@@ -11,7 +11,7 @@ Layout of the package:
 
 - :mod:`~bpmid.report.inputs`: typed records of every stage file, read once by one loader each; partial or
   unreadable files become :class:`~bpmid.report.inputs.Problem` entries, stale stages are detected from
-  ``run.yaml``;
+  ``run.yaml`` and from each stage file's provenance (the run's id);
 - :mod:`~bpmid.report.doc`: the document model (sections of blocks, numbered figures);
 - :mod:`~bpmid.report.sections`: one module per section, in a registry (summary first, provenance last);
 - :mod:`~bpmid.report.render`: the HTML and Markdown renderers (CSS in ``report.css``);

@@ -3,7 +3,9 @@
 Every loader returns a record or None, and never raises for a file that is absent, partial (a YAML holding
 only its schema line, a CSV with a header and no rows) or unreadable: it records a :class:`Problem` instead,
 so the report can say which file is at fault and build every section it can. A stage whose files are on disk
-but which ``run.yaml`` (the record of the last ``bpmid run``) does not list as done is marked stale.
+but which ``run.yaml`` (the record of the last ``bpmid run``) does not list as done is marked stale, and so is a
+stage run.yaml lists as done whose files another command wrote afterwards (their provenance does not carry the
+run's id: :func:`not_from_run`).
 """
 from __future__ import annotations
 
@@ -65,6 +67,7 @@ class _Reader:
         self.root = root
         self.problems: list[Problem] = []
         self.found: set[str] = set()
+        self.provenance: dict[str, Any] = {}  # relative path -> the provenance block of each YAML read
 
     def rel(self, path: Path) -> str:
         try:
@@ -86,6 +89,7 @@ class _Reader:
         if not isinstance(data, dict):
             self.problems.append(Problem(self.rel(path), "not a YAML mapping"))
             return None
+        self.provenance[self.rel(path)] = data.get("provenance")
         missing = [k for k in required if data.get(k) is None]
         if missing:
             self.problems.append(Problem(self.rel(path), "partial: no " + ", ".join(missing)
@@ -165,12 +169,14 @@ class MotionInfo:
     rmse_deg: float | None
     mape_pct: float | None
     r2: float | None
-    closure: str
-    history: str
+    closure: str | None  # None: the file does not say
+    history: str | None
     logs: list[str]
     provenance: dict
     corr_names: list[str] = dataclasses.field(default_factory=list)
     corr: list[list[float]] = dataclasses.field(default_factory=list)
+    #: the file the VBMM-fit was read from (relative to DIR), or None (only vbmm_mat.yaml)
+    fit_file: str | None = "vbmm_fit.yaml"
 
 
 @dataclasses.dataclass
@@ -245,6 +251,8 @@ class Study:
     control: ControlInfo | None = None
     problems: list[Problem] = dataclasses.field(default_factory=list)
     stale: dict[str, str] = dataclasses.field(default_factory=dict)  # stage -> why
+    #: the stages of :attr:`stale` whose files run.yaml lists as done but another command wrote (not the run)
+    foreign: set[str] = dataclasses.field(default_factory=set)
 
     @property
     def synthetic(self) -> bool:
@@ -341,8 +349,45 @@ def _material(d: dict) -> list[Param]:
     return out
 
 
+#: YAML files of DIR that are never a motion fit under another name
+_NOT_A_MOTION_FIT = {"run.yaml", "relax_fit.yaml", "vbmm_fit.yaml", "vbmm_mat.yaml", "history_modes.yaml"}
+#: larger YAML files are not looked into for a motion fit under another name (a fit is a few kB)
+_MAX_FIT_BYTES = 1 << 20
+
+
+def other_motion_fits(root: Path) -> list[str]:
+    """The YAML files at the top of ``root``, other than the run's own names, that are motion fits (schema
+    ``bpmid.vbmm/1`` with ``material`` and a ``fit`` block, as ``bpmid fit motion --out VBMM.yaml`` writes).
+    The report reads the fit from one such file when the folder has no vbmm_fit.yaml (with more than one, which
+    is meant is not known)."""
+    from bpmid.config import read_yaml
+
+    found = []
+    for p in sorted(root.glob("*.yaml")):
+        if p.name in _NOT_A_MOTION_FIT or not p.is_file():
+            continue
+        try:
+            if p.stat().st_size > _MAX_FIT_BYTES:
+                continue
+            data, _sha = read_yaml(p)
+        except (InputError, OSError):
+            continue
+        if (isinstance(data, dict) and data.get("schema") == "bpmid.vbmm/1" and isinstance(data.get("fit"), dict)
+                and isinstance(data.get("material"), dict)):
+            found.append(p.name)
+    return found
+
+
+def _text(v: Any) -> str | None:
+    return v if isinstance(v, str) and v.strip() else None
+
+
 def load_motion(rd: _Reader) -> MotionInfo | None:
-    fit = rd.yaml(rd.root / "vbmm_fit.yaml", required=("material",))
+    fit_file: str | None = "vbmm_fit.yaml"
+    if not (rd.root / fit_file).is_file():  # a fit written by `bpmid fit motion --out VBMM.yaml`, say
+        others = other_motion_fits(rd.root)
+        fit_file = others[0] if len(others) == 1 else None
+    fit = rd.yaml(rd.root / fit_file, required=("material",)) if fit_file else None
     mat = rd.yaml(rd.root / "vbmm_mat.yaml", required=("material",))
     if fit is None and mat is None:
         return None
@@ -351,9 +396,9 @@ def load_motion(rd: _Reader) -> MotionInfo | None:
     unc = _dict((fit or {}).get("uncertainty"))
     names, corr = _corr(unc)
     return MotionInfo(_material(fit) if fit else [], _material(mat) if mat else [], _num(m.get("rmse_deg")),
-                      _num(m.get("mape_pct")), _num(m.get("r2")), str((fit or mat).get("closure", "?")),
-                      str(_dict((fit or mat).get("model")).get("history", "?")), per_log,
-                      _dict((fit or mat).get("provenance")), names, corr)
+                      _num(m.get("mape_pct")), _num(m.get("r2")), _text((fit or mat).get("closure")),
+                      _text(_dict((fit or mat).get("model")).get("history")), per_log,
+                      _dict((fit or mat).get("provenance")), names, corr, fit_file if fit is not None else None)
 
 
 def _corr(unc: dict) -> tuple[list[str], list[list[float]]]:
@@ -433,9 +478,64 @@ def load_control(rd: _Reader) -> ControlInfo | None:
                        _dict(cy.get("provenance")))
 
 
-#: stage name -> (Study attribute, the files that make it)
+#: stage name -> Study attribute
 STAGE_OF = {"relax": "relax", "motion": "motion", "compare": "compare", "history": "history",
             "discover": "discovery", "control": "control"}
+#: stage name -> its YAML files that carry a provenance block (relative to DIR)
+STAGE_FILES = {"relax": ("relax_fit.yaml",), "motion": ("vbmm_fit.yaml", "vbmm_mat.yaml"),
+               "compare": ("compare/compare.yaml",), "history": ("history_modes.yaml",),
+               "discover": ("discover/discovery.yaml",), "control": ("control/control.yaml",)}
+
+
+def _short(command: Any, n: int = 90) -> str:
+    c = " ".join(str(command).split())
+    return c if len(c) <= n else c[:n - 4].rstrip() + " ..."
+
+
+def _written_by(p: dict) -> str:
+    """'`bpmid compare ...` at 2026-...': what a provenance block says made its file."""
+    cmd = f"`{_short(p['command'])}`" if p.get("command") else "an unrecorded command"
+    return cmd + (f" at {p['created']}" if p.get("created") else "")
+
+
+def not_from_run(run_prov: dict, prov: Any) -> str | None:
+    """What wrote a stage file with provenance ``prov`` when it was not the run whose run.yaml has ``run_prov``
+    (e.g. "`bpmid compare ...` at 2026-..."), or None when the run did. A run stamps its id into every file it
+    writes (``provenance.run_id``); a run.yaml written before that has no id, and then the file must record the
+    run's command and config (path and sha256), as every file of such a run does."""
+    if not isinstance(prov, dict) or not prov:
+        return "a command that recorded no provenance"
+    rid = run_prov.get("run_id")
+    if rid is not None:
+        if prov.get("run_id") == rid:
+            return None
+        if prov.get("run_id") is not None and prov.get("command") == run_prov.get("command"):
+            return (f"another run of the same command (run id {prov['run_id']}"
+                    + (f", at {prov['created']}" if prov.get("created") else "") + ")")
+        return _written_by(prov)
+    if prov.get("command") != run_prov.get("command") or _dict(prov.get("config")) != _dict(run_prov.get("config")):
+        return _written_by(prov)
+    return None
+
+
+def _check_provenance(st: Study, rd: _Reader) -> None:
+    """Mark stale every stage that run.yaml lists as done but whose files say another command wrote them."""
+    run_prov = st.run.provenance if st.run is not None else {}
+    if not run_prov:
+        return
+    run = _written_by(run_prov) + (f", run id {run_prov['run_id']}" if run_prov.get("run_id") else "")
+    for stage, files in STAGE_FILES.items():
+        if stage in st.stale or st.run.status(stage) != "done" or getattr(st, STAGE_OF[stage]) is None:
+            continue
+        whys = [f"{f} was written by {who}" for f in files if f in rd.provenance
+                for who in [not_from_run(run_prov, rd.provenance[f])] if who]
+        if not whys:
+            continue
+        st.stale[stage] = ("; ".join(whys) + f", not by the run that run.yaml records ({run}). Its numbers may come "
+                           "from other inputs or settings than the rest of this report: rerun `bpmid run` into "
+                           "this folder to make it one study again (it rewrites every stage), and give other "
+                           "commands an --out folder of their own")
+        st.foreign.add(stage)
 
 
 def read_study(root: str | Path) -> Study:
@@ -470,4 +570,5 @@ def read_study(root: str | Path) -> Study:
                        "the last run (run.yaml) does not list this stage" if status is None else
                        f"the last run (run.yaml) lists this stage as {status}")
                 st.stale[stage] = why + "; these files are from an earlier run"
+        _check_provenance(st, rd)
     return st

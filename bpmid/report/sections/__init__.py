@@ -20,9 +20,21 @@ def registry():
 
 
 def stale_note(doc, st, stage: str) -> None:
-    """Say, at the top of a section, that its files are left over from an earlier run."""
-    if stage in st.stale:
+    """Say, at the top of a section, that its files are left over from an earlier run, or were written by
+    another command than the run in run.yaml."""
+    if stage in st.foreign:
+        doc.p(f"STALE: {st.stale[stage]}.", css="stale")
+    elif stage in st.stale:
         doc.p(f"STALE: {st.stale[stage]}. Its numbers describe that earlier run, not the last one.", css="stale")
+
+
+def stale_ref(doc, st, stages: tuple[str, ...], what: str) -> None:
+    """Say, in a section built from other stages' files, that some of them are stale (the reason is in the
+    section of that stage and in the summary)."""
+    bad = [s for s in stages if s in st.stale]
+    if bad:
+        doc.p(f"STALE: {what} from {'stages' if len(bad) > 1 else 'stage'} {', '.join(bad)}: not from the run in "
+              "run.yaml (see the summary).", css="stale")
 
 
 def absent(doc, st, path: str, extra: str = "") -> None:

@@ -76,8 +76,33 @@ def build(doc, st, figs) -> None:
                                                   M.row(M.mn(1), M.mo("−"), M.mn(2), gb, F)))),
             "P = th/R * (sigma2 + (sigma2 Gbar + sigma1 (F - 1)) / (1 - 2 Gbar F))",
             "pressure closure, eq. 18 ('paper' closure)")
-    closure = st.motion.closure if st.motion is not None else "?"
-    history = st.motion.history if st.motion is not None else "?"
-    doc.p(f"This study's motion fit used the '{closure}' closure and the '{history}' history mode. P is gauge "
-          "pressure (above atmosphere): every pressure axis in this report is gauge pressure in bar. Angles are in "
-          "degrees (°), times in seconds, costs in microseconds (µs).", css="muted")
+    doc.p(_fit_sentence(st) + "P is gauge pressure (above atmosphere): every pressure axis in this report is gauge "
+          "pressure in bar. Angles are in degrees (°), times in seconds, costs in microseconds (µs).", css="muted")
+
+
+def _fit_sentence(st) -> str:
+    """Which closure and history mode the motion fit used, as far as its file says (never a placeholder)."""
+    m = st.motion
+    if m is None:
+        return several_fits(st) or ("No motion fit in this folder (vbmm_fit.yaml, or one bpmid.vbmm/1 fit under "
+                                    "another name), so the closure and history mode are not stated here. ")
+    which = (f"This study's motion fit ({m.fit_file})" if m.fit_file else
+             "This study's VBMM-mat. (vbmm_mat.yaml; no motion fit in this folder)")
+    used = [f"the '{v}' {what}" for v, what in ((m.closure, "closure"), (m.history, "history mode")) if v]
+    unsaid = [key for v, key in ((m.closure, "closure"), (m.history, "model.history")) if not v]
+    text = f"{which} used {' and '.join(used)}. " if used else f"{which} "
+    if unsaid:
+        text += ("It does not state " if used else "does not state ") + " or ".join(
+            "its closure" if k == "closure" else "its history mode" for k in unsaid) + f" (no key {', '.join(unsaid)}). "
+    return text
+
+
+def several_fits(st) -> str:
+    """What to do when the folder has no vbmm_fit.yaml but several motion fits under other names ('' if not)."""
+    from bpmid.report.inputs import other_motion_fits
+
+    others = other_motion_fits(st.root)
+    if len(others) < 2:
+        return ""
+    return (f"This folder has no vbmm_fit.yaml but {len(others)} bpmid.vbmm/1 motion fits ({', '.join(others)}), so "
+            "the report shows none of them: copy the one it is about to vbmm_fit.yaml and run bpmid report again. ")

@@ -13,9 +13,18 @@ def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     m = st.motion
     if m is None:
-        absent(doc, st, "vbmm_fit.yaml")
+        from bpmid.report.sections.model import several_fits
+
+        several = several_fits(st)
+        if several:
+            doc.p(several.strip(), css="warn")
+        else:
+            absent(doc, st, "vbmm_fit.yaml")
         return
     stale_note(doc, st, "motion")
+    if m.fit_file not in (None, "vbmm_fit.yaml"):
+        doc.p(f"VBMM-fit read from {m.fit_file}: this folder has no vbmm_fit.yaml, and {m.fit_file} is its one "
+              "bpmid.vbmm/1 motion fit.", css="muted")
     mat = {p.name: p for p in m.mat}
     fit = {p.name: p for p in m.fit}
     names = list(dict.fromkeys(list(mat) + list(fit)))
@@ -30,12 +39,13 @@ def build(doc, st, figs) -> None:
           "says so (identifiability).")
     doc.table(["constant", "VBMM-mat.", "VBMM-fit", "VBMM-fit stderr", "unit", "VBMM-fit verdict"], rows)
     if m.rmse_deg is not None:
-        doc.p(f"VBMM-fit on its own fitting set: RMSE {fmt(m.rmse_deg)}°, MAPE {fmt(m.mape_pct)} %, R² {fmt(m.r2)} "
-              f"(closure {m.closure}, history {m.history}).")
+        how = ", ".join(f"{k} {v}" for k, v in (("closure", m.closure), ("history", m.history)) if v)
+        doc.p(f"VBMM-fit on its own fitting set: RMSE {fmt(m.rmse_deg)}°, MAPE {fmt(m.mape_pct)} %, R² {fmt(m.r2)}"
+              + (f" ({how})." if how else "."))
     if m.corr_names:
         doc.p("Correlations of the estimated VBMM-fit constants (|r| near 1: the motion data hardly separate them):")
         doc.table(["", *m.corr_names], [[n, *[fmt(v, 3) for v in row]] for n, row in zip(m.corr_names, m.corr)])
-    f = find_figure(st.root, "vbmm_fit")
+    f = find_figure(st.root, m.fit_file[:-len(".yaml")]) if m.fit_file else None
     if f:
         doc.fig(f, "VBMM-fit on the fitting set: pressure-angle loop, angle against time, and error against time, "
                 "one row per log (gauge pressure).")

@@ -4,6 +4,7 @@ from __future__ import annotations
 from bpmid import __version__
 from bpmid.report.doc import fmt
 from bpmid.report.paper import PAPER_ROWS, PAPER_SOURCE, SET_1A, SET_1B
+from bpmid.report.sections import stale_ref
 
 KEY = "paper"
 TITLE = "The paper's numbers beside ours"
@@ -28,6 +29,7 @@ def build(doc, st, figs) -> None:
     label = "Measured here (bpmid, synthetic shipped data)" if st.synthetic else "Measured here (bpmid, this run's data)"
     with doc.panel(label, "measured"):
         doc.p(f"Computed by bpmid {__version__}; test sets as in the comparison.")
+        stale_ref(doc, st, ("relax", "compare", "history"), "the numbers")
         rows = []
         r = st.relax
         if r is not None:

@@ -18,12 +18,15 @@ def build(doc, st, figs) -> None:
                                   ["config", cfg.get("path", "-")],
                                   ["config sha256", cfg.get("sha256", "-")],
                                   ["created", prov.get("created", "-")],
+                                  ["run id", prov.get("run_id", "-")],
                                   ["seed", prov.get("seed", "-")]])
     if st.run is not None and st.run.stages:
         doc.p("Stages of the run (wall time on this machine):")
         doc.table(["stage", "status", "seconds", "outputs"],
                   [[s.name, "this report" if (s.name, s.status) == ("report", "running") else
-                    (s.status + (f" ({s.note})" if s.note else "")), _seconds(s.seconds), ", ".join(s.outputs) or "-"]
+                    (s.status + (f" ({s.note})" if s.note else "")
+                     + ("; its files were since replaced by another command (STALE)" if s.name in st.foreign else "")),
+                    _seconds(s.seconds), ", ".join(s.outputs) or "-"]
                    for s in st.run.stages])
     inputs = st.inputs()
     if inputs:

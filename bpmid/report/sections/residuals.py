@@ -7,6 +7,7 @@ import numpy as np
 import pandas as pd
 
 from bpmid.report.doc import fmt
+from bpmid.report.sections import stale_ref
 
 KEY = "residuals"
 TITLE = "Residual diagnostics"
@@ -49,6 +50,7 @@ def build(doc, st, figs) -> None:
     if c is None or not c.predictions:
         doc.p("Not available (no compare/predictions/).", css="muted")
         return
+    stale_ref(doc, st, ("compare",), "the predictions")
     frames = [f for v in c.predictions.values() for f in v]
     doc.p("Residual = prediction minus measurement on the test logs. A model that has captured the dynamics leaves "
           "a residual that is close to white and does not track the pressure rate or its sign.")

@@ -16,6 +16,8 @@ def cost_phrase(reduction_pct) -> str:
 
 
 def _stale(st, stage):
+    if stage in st.foreign:
+        return " (STALE: not from the run in run.yaml)"
     return " (STALE: from an earlier run)" if stage in st.stale else ""
 
 
@@ -43,7 +45,8 @@ def build(doc, st, figs) -> None:
         n_est = sum(1 for p in m.fit if p.verdict.startswith("estimated"))
         est = ", ".join(f"{p.name} = {pm(p.value, p.stderr)} {p.unit}" for p in m.fit
                         if p.verdict.startswith("estimated") and p.value is not None)
-        items.append(f"VBMM-fit{_stale(st, 'motion')}: refitted on {len(m.logs)} fitting log(s) "
+        src = f" ({m.fit_file})" if m.fit_file not in (None, "vbmm_fit.yaml") else ""
+        items.append(f"VBMM-fit{src}{_stale(st, 'motion')}: refitted on {len(m.logs)} fitting log(s) "
                      f"({', '.join(m.logs)}): RMSE {fmt(m.rmse_deg)}° on its own fitting set; {n_est} of "
                      f"{len(m.fit)} constants estimated" + (f" ({est})" if est else "")
                      + ", the rest held at their prior (relaxation) values.")
