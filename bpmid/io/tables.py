@@ -172,6 +172,10 @@ class Grid:
     where: str
     header_line: int
     info: dict
+    #: meta key -> the line (sheet row) that stated it, for messages
+    meta_lines: dict = dataclasses.field(default_factory=dict)
+    #: line (sheet row) of the units row, or None
+    unit_row_line: int | None = None
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -391,16 +395,20 @@ def _is_comment(line: str) -> bool:
     return s.startswith("#") or s.startswith("%") or s.startswith("//")
 
 
-def _meta_from_line(body: str, meta: dict) -> None:
+def _meta_from_line(body: str, meta: dict, lines: dict | None = None, line: int | None = None) -> None:
     m = _META.match(body)
     if m:
-        meta[meta_key(m.group(1))] = m.group(2).strip()
+        key = meta_key(m.group(1))
+        meta[key] = m.group(2).strip()
+        if lines is not None and line is not None:
+            lines[key] = line
 
 
 def _text_grid(data: bytes, where: str) -> Grid:
     text, enc = _decode(data, where)
     lines = re.split(r"\r\n|\r|\n", text)
     meta: dict[str, str] = {}
+    meta_lines: dict[str, int] = {}
     i = 0
     delim_hint = None
     while i < len(lines):
@@ -414,18 +422,18 @@ def _text_grid(data: bytes, where: str) -> Grid:
             i += 1
             continue
         if _is_comment(s):
-            _meta_from_line(s.lstrip("#%/ ").strip(), meta)
+            _meta_from_line(s.lstrip("#%/ ").strip(), meta, meta_lines, i + 1)
             i += 1
             continue
         h = _find_header(lines, i, delim_hint)
         if h > i:
             # title or 'key: value' lines above the header (instrument exports): metadata
-            for ln in lines[i:h]:
+            for k, ln in enumerate(lines[i:h], start=i + 1):
                 t = ln.strip()
                 if not t or _is_comment(t):
                     continue
                 if _META.match(t):
-                    _meta_from_line(t, meta)
+                    _meta_from_line(t, meta, meta_lines, k)
                 else:
                     meta.setdefault("title", t)
             i = h
@@ -469,9 +477,9 @@ def _text_grid(data: bytes, where: str) -> Grid:
                              line=ln_no)
         rows.append(cells)
         row_lines.append(ln_no)
-    unit_row = None
+    unit_row = unit_row_line = None
     if rows and not any(_is_number(c) for c in rows[0] if c) and any(rows[0]) and not _looks_like_time(rows[0]):
-        unit_row = rows[0]
+        unit_row, unit_row_line = rows[0], row_lines[0]
         rows, row_lines = rows[1:], row_lines[1:]
     # decimal separator: a comma only where the columns are not comma-separated, and never mixed with points
     decimal = "."
@@ -488,7 +496,7 @@ def _text_grid(data: bytes, where: str) -> Grid:
     cols = [list(c) for c in zip(*rows)] if rows else [[] for _ in header]
     info = {"format": "text", "encoding": enc, "delimiter": info_delim, "decimal": "comma" if decimal == "," else
             "point"}
-    return Grid(header, unit_row, cols, row_lines, meta, where, header_line, info)
+    return Grid(header, unit_row, cols, row_lines, meta, where, header_line, info, meta_lines, unit_row_line)
 
 
 def _fields(line: str, delim: str | None) -> list[str]:
@@ -526,6 +534,7 @@ def _looks_like_time(row: Sequence[str]) -> bool:
 def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
     """A grid from spreadsheet rows (values: str, float, int, datetime, None); row numbers are 1-based."""
     meta: dict[str, str] = {}
+    meta_lines: dict[str, int] = {}
     k = 0
     while k < len(rows):
         vals = [v for v in rows[k] if v is not None and str(v).strip() != ""]
@@ -537,7 +546,7 @@ def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
             # at least, so it is never the header)
             body = vals[0].lstrip("#% ").strip()
             if _META.match(body):
-                _meta_from_line(body, meta)
+                _meta_from_line(body, meta, meta_lines, k + 1)
             else:
                 meta.setdefault("title", body)
             k += 1
@@ -571,13 +580,13 @@ def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
         row = (row + [None] * width)[:width]
         data.append(["" if v is None else (v.strip() if isinstance(v, str) else v) for v in row])
         lines.append(r + 1)
-    unit_row = None
+    unit_row = unit_row_line = None
     if data and all(isinstance(v, str) for v in data[0]) and not any(_is_number(v) for v in data[0] if v) \
             and any(data[0]) and not _looks_like_time(data[0]):
-        unit_row = [str(v) for v in data[0]]
+        unit_row, unit_row_line = [str(v) for v in data[0]], lines[0]
         data, lines = data[1:], lines[1:]
     cols = [list(c) for c in zip(*data)] if data else [[] for _ in header]
-    return Grid(header, unit_row, cols, lines, meta, where, header_line, info)
+    return Grid(header, unit_row, cols, lines, meta, where, header_line, info, meta_lines, unit_row_line)
 
 
 def _xlsx_sheets(path: Path, data: bytes) -> dict[str, list[list]]:
@@ -984,6 +993,8 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
             if unit is not None and stated_u is not None and stated_u != unit:
                 raise InputError(f"the file says the unit of {h!r} is {unit}, {src} says {stated}; drop one or make "
                                  f"them agree", path=where, line=hline, key=h)
+            if meta_unit is not None and unit is not None and unit_from in ("header", "units row"):
+                ref = _check_meta_unit(grid, q, h, unit, ref, unit_from, meta_unit)
             if unit is None and stated_u is not None:
                 unit, ref, unit_from = stated_u, stated_ref, src
             if unit is None and meta_unit is not None:
@@ -1038,6 +1049,40 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
                   reading, [], where)
     return table
+
+
+def _column_name(q: str, unit: str) -> str:
+    """bpmid's name for a column of ``q`` in ``unit`` (``time_ms``; ``'stress (n/mm^2)'`` for a unit with signs)."""
+    return f"{q}_{unit}" if re.fullmatch(r"[a-z0-9]+", unit) else f"'{q} ({unit})'"
+
+
+def _check_meta_unit(grid: Grid, q: str, h: str, unit: str, ref: str | None, unit_from: str,
+                     meta_unit: str) -> str | None:
+    """A ``# <q>_unit:`` line beside a unit the header (or units row) states: it must agree (a unit stated twice
+    must agree; the line is not silently ignored). Returns the pressure reference (the line may add one)."""
+    line = grid.meta_lines.get(f"{q}_unit")
+    said = f"the line '# {q}_unit: {meta_unit}'"
+    mu, mref = split_unit(q, meta_unit)
+    if mu is None:
+        raise InputError(f"unknown unit {meta_unit!r} for {q} in {said} (known: {', '.join(_known(q))}); the column "
+                         f"{h!r} already states its unit ({unit}), so the line can be deleted", path=grid.where,
+                         line=line, key=f"{q}_unit")
+    if unit_from == "units row":
+        src = f"the units row under the header (line {grid.unit_row_line})" if grid.unit_row_line else \
+            "the units row under the header"
+        fix = f"correct the units row (or map the column with its unit: --columns {_column_name(q, mu)}={h})"
+    else:
+        src = f"the header {h!r}"
+        fix = (f"rename the column {_column_name(q, mu)} (or map it with its unit: --columns "
+               f"{_column_name(q, mu)}={h})")
+    if mu != unit:
+        raise InputError(f"{said} says {q} is in {meta_unit}, but {src} says {unit}; a unit stated twice must agree: if "
+                         f"the values are in {unit}, delete or correct the line; if they are in {meta_unit}, {fix}",
+                         path=grid.where, line=line, key=h)
+    if mref is not None and ref is not None and mref != ref:
+        raise InputError(f"{said} says the pressure is {mref}, but {src} says {ref} ({h!r}); make them agree",
+                         path=grid.where, line=line, key=h)
+    return ref if ref is not None else mref
 
 
 def _known(q: str) -> list[str]:

@@ -1,0 +1,81 @@
+"""Log reading after a new-user review: unit statements that disagree, plausibility hints that work, column maps
+that match nothing. Small inline logs only; every CLI case goes through Typer's CliRunner."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+from bpmid.errors import InputError
+from bpmid.io.motion_logs import IOConfig, read_motion_log
+from bpmid.models.vbmm import VBMM, Material, vbmm_yaml_body
+
+runner = CliRunner()
+
+
+def _params(tmp_path: Path) -> Path:
+    data = {"schema": "bpmid.vbmm/1", **vbmm_yaml_body(VBMM(material=Material.paper_fit()))}
+    data["metrics"] = {"rmse_deg": 1.0, "mape_pct": 2.0, "r2": 0.9}
+    p = tmp_path / "p.yaml"
+    p.write_text(yaml.safe_dump(data, sort_keys=False))
+    return p
+
+
+def _motion(head: str, header: str = "time_s,pressure_bar,angle_deg", *, n: int = 40, t_scale: float = 1.0,
+            a_scale: float = 1.0) -> str:
+    """A small absolute-pressure log (a ramp up and down, 0.1 s steps): ``head`` lines, then the header and rows."""
+    rng = np.random.default_rng(7)
+    t = np.arange(n) * 0.1
+    p = 1.2 + 0.4 * np.sin(np.pi * t / t[-1])
+    a = 15.0 + 40.0 * (p - 1.2) + rng.normal(0, 0.1, n)
+    rows = "".join(f"{ti * t_scale:.10g},{pi:.5f},{ai * a_scale:.5f}\n" for ti, pi, ai in zip(t, p, a))
+    return head + header + "\n" + rows
+
+
+def _write(tmp_path: Path, name: str, text: str) -> Path:
+    f = tmp_path / name
+    f.write_text(text)
+    return f
+
+
+# ---- item 1: a '# <quantity>_unit:' line that contradicts the header -------------------------------------------
+@pytest.mark.parametrize("line, column, says", [
+    ("# pressure_unit: kPa", "pressure_bar", "kPa"),
+    ("# angle_unit: rad", "angle_deg", "rad"),
+    ("# Time unit: ms", "time_s", "ms"),
+])
+def test_a_unit_line_that_contradicts_the_header_is_refused(tmp_path, line, column, says):
+    log = _write(tmp_path, "c.csv", _motion(f"# pressure_reference: absolute\n{line}\n"))
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["predict", str(log), "--params", str(_params(tmp_path)), "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    assert f"c.csv:2, key '{column}'" in res.output  # the file, the comment's line, the column
+    assert f"says {'time' if 'Time' in line else line.split('_')[0][2:]} is in {says}" in res.output
+    assert "a unit stated twice must agree" in res.output and "delete or correct the line" in res.output
+    assert not out.exists()
+
+
+def test_a_unit_line_that_agrees_or_stands_alone_still_works(tmp_path):
+    agree = _write(tmp_path, "a.csv", _motion("# pressure_reference: absolute\n# Pressure unit: BAR\n"))
+    alone = _write(tmp_path, "b.csv", _motion("# pressure_reference: absolute\n# pressure_unit: bar\n",
+                                              "time_s,pressure,angle_deg"))
+    ref = _write(tmp_path, "r.csv", _motion("# pressure_unit: bar(a)\n"))  # the line may carry the reference
+    logs = [read_motion_log(f) for f in (agree, alone, ref)]
+    for lg in logs:
+        assert np.allclose(lg.pressure_pa, logs[0].pressure_pa) and lg.pressure_reference == "absolute"
+    assert logs[1].reading["columns"]["pressure"]["unit_from"] == "'# pressure_unit:' line"
+    res = runner.invoke(app, ["predict", str(agree), str(alone), "--params", str(_params(tmp_path)), "--out",
+                              str(tmp_path / "out")])
+    assert res.exit_code == 0, res.output
+
+
+def test_a_unit_line_that_contradicts_a_units_row_names_the_row(tmp_path):
+    f = _write(tmp_path, "u.csv", _motion("# angle_unit: rad\n# pressure_reference: absolute\n",
+                                          "time,pressure,angle\ns,bar,deg"))
+    with pytest.raises(InputError, match=r"the units row under the header \(line 4\) says deg") as e:
+        read_motion_log(f)
+    assert e.value.line == 1 and e.value.key == "angle"
