@@ -79,3 +79,16 @@ def test_a_unit_line_that_contradicts_a_units_row_names_the_row(tmp_path):
     with pytest.raises(InputError, match=r"the units row under the header \(line 4\) says deg") as e:
         read_motion_log(f)
     assert e.value.line == 1 and e.value.key == "angle"
+
+
+# ---- item 7: a units row that contradicts the name is worded by where the unit came from ----------------------
+def test_a_units_row_conflict_names_the_units_row_not_brackets(tmp_path):
+    f = _write(tmp_path, "r.csv", _motion("# pressure_reference: absolute\n", "time_s,pressure_bar,angle_deg\ns,kPa,deg"))
+    res = runner.invoke(app, ["predict", str(f), "--params", str(_params(tmp_path)), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2, res.output
+    assert "r.csv:3, key 'pressure_bar'" in res.output  # the units row's line
+    assert "the units row under the header says kPa" in res.output and "brackets" not in res.output
+    assert "rename the column pressure_kpa" in res.output
+    g = _write(tmp_path, "b.csv", _motion("# pressure_reference: absolute\n", "time_s,pressure_kpa (bar),angle_deg"))
+    with pytest.raises(InputError, match=r"its brackets say bar"):
+        read_motion_log(g)

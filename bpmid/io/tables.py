@@ -248,11 +248,12 @@ def _parse(name: str, unit_row: str | None = None):
     ``unit`` is the spelling as written (lower case) when it is not one bpmid knows, so that the caller can say
     "unknown unit"."""
     raw, unit = _unit_part(name)
+    said = "header"  # where the unit beside the name was written (messages): the header or the units row
     base = _norm(raw)
     if base not in ALIASES and "." in base and _norm(base.rsplit(".", 1)[1]):
         base = _norm(base.rsplit(".", 1)[1])  # a MATLAB struct field: run.t -> t
     if unit is None and unit_row is not None and unit_row.strip():
-        unit = unit_row.strip()
+        unit, said = unit_row.strip(), "units row"
     if base in ALIASES:
         q = ALIASES[base]
         return (q,) + _unit_ref(q, unit) + (False,)
@@ -267,7 +268,7 @@ def _parse(name: str, unit_row: str | None = None):
                 if unit is not None:  # 'pressure_kpa (bar)': the name and the parentheses disagree or repeat
                     u2, ref2 = _unit_ref(q, unit)
                     if u2 != u:
-                        return q, f"conflict:{suffix}|{unit}", None, False
+                        return q, f"conflict:{suffix}|{unit}|{said}", None, False
                 return q, u, ref, False
     # derived columns: angle_pred_deg, pressure_setpoint_bar (named by a quantity plus a qualifier word)
     if len(words) >= 2 and words[0] in ALIASES and any(w in DERIVED_WORDS for w in words[1:]):
@@ -984,9 +985,19 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
                 raise InputError(f"unknown unit {stated!r} for {q} (known: {', '.join(_known(q))})", key=src)
             meta_unit = meta.get(f"{q}_unit")
             if unit is not None and unit.startswith("conflict:"):
-                u1, u2 = unit[len("conflict:"):].split("|", 1)
-                raise InputError(f"the name of column {h!r} says {u1} and its brackets say {u2}; make them agree",
-                                 path=where, line=hline, key=h)
+                u1, u2, said = unit[len("conflict:"):].split("|", 2)
+                if said == "units row":
+                    row = grid.unit_row_line
+                    raise InputError(f"the name of column {h!r} says {u1} and the units row under the header "
+                                     f"says {u2}; make them agree: correct the "
+                                     f"units row, or if the values are in {u2}, rename the column "
+                                     f"{_column_name(q, split_unit(q, u2)[0] or u2.lower())}", path=where,
+                                     line=row or hline, key=h)
+                _raw, written = _unit_part(h)
+                part = f"its brackets say {u2}" if _PAREN.match(str(h).strip().strip('"').strip()) else \
+                    f"the unit written after the name says {written}"
+                raise InputError(f"the name of column {h!r} says {u1} and {part}; make them agree", path=where,
+                                 line=hline, key=h)
             if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None:
                 raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})", path=where,
                                  line=hline, key=h)
