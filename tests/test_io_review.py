@@ -92,3 +92,29 @@ def test_a_units_row_conflict_names_the_units_row_not_brackets(tmp_path):
     g = _write(tmp_path, "b.csv", _motion("# pressure_reference: absolute\n", "time_s,pressure_kpa (bar),angle_deg"))
     with pytest.raises(InputError, match=r"its brackets say bar"):
         read_motion_log(g)
+
+
+def test_an_unknown_unit_that_is_a_pressure_reference_says_what_works(tmp_path):
+    """'p_abs': 'abs' is no unit but a reference; the message offers the forms that read the file, and they do."""
+    f = _write(tmp_path, "p.csv", _motion("", "time_s,p_abs,angle_deg"))
+    params = str(_params(tmp_path))
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2, res.output
+    msg = " ".join(res.output.split())
+    assert "unknown unit 'abs' for pressure" in msg and "reads as the pressure reference (absolute)" in msg
+    assert "--columns pressure_kpa_abs=p_abs" in msg
+    assert "--columns pressure=p_abs with --pressure-unit kPa (and --pressure-reference absolute" in msg
+    for flags in (["--columns", "pressure_bar_abs=p_abs"],
+                  ["--columns", "pressure=p_abs", "--pressure-unit", "bar", "--pressure-reference", "absolute"]):
+        out = tmp_path / f"o{len(flags)}"
+        res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(out), *flags])
+        assert res.exit_code == 0, res.output
+
+
+def test_an_unknown_unit_in_a_units_row_says_to_correct_the_row(tmp_path):
+    f = _write(tmp_path, "u.csv", _motion("# pressure_reference: absolute\n", "t,p,angle\nsecs.,bar,deg"))
+    with pytest.raises(InputError, match=r"unknown unit 'secs\.' for time .*correct the units row, or map the "
+                                         r"column: --columns time_s=t") as e:
+        read_motion_log(f)
+    assert e.value.line == 3
+    assert read_motion_log(f, IOConfig(columns={"t": "time_s"})).n == 40

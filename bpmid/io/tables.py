@@ -999,8 +999,10 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
                 raise InputError(f"the name of column {h!r} says {u1} and {part}; make them agree", path=where,
                                  line=hline, key=h)
             if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None:
-                raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})", path=where,
-                                 line=hline, key=h)
+                in_row = unit_from == "units row"
+                raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})"
+                                 f"{_unknown_unit_hint(q, h, unit, unit_from)}", path=where,
+                                 line=(grid.unit_row_line or hline) if in_row else hline, key=h)
             if unit is not None and stated_u is not None and stated_u != unit:
                 raise InputError(f"the file says the unit of {h!r} is {unit}, {src} says {stated}; drop one or make "
                                  f"them agree", path=where, line=hline, key=h)
@@ -1094,6 +1096,33 @@ def _check_meta_unit(grid: Grid, q: str, h: str, unit: str, ref: str | None, uni
         raise InputError(f"{said} says the pressure is {mref}, but {src} says {ref} ({h!r}); make them agree",
                          path=grid.where, line=line, key=h)
     return ref if ref is not None else mref
+
+
+def columns_arg(pairs: str) -> str:
+    """``--columns`` with its value, quoted for a shell when the value has spaces or brackets (messages)."""
+    return f"--columns {pairs}" if re.fullmatch(r"[\w.,=+-]+", pairs) else f"--columns '{pairs}'"
+
+
+def _unknown_unit_hint(q: str, h: str, unit: str, unit_from: str | None) -> str:
+    """What to do about a column whose stated unit bpmid does not know (``p_abs``: 'abs' is a reference)."""
+    ex = EXAMPLE_UNIT[q]
+    ref = _REF_WORDS.get(unit) if q == "pressure" else None
+    out = ""
+    if ref is not None:
+        out += (f"; {unit!r} reads as the pressure reference ({ref}), which a name carries only after a unit "
+                f"(pressure_{ex.lower()}_{unit})")
+    name = f"pressure_{ex.lower()}_{unit}" if ref is not None else BPMID_NAME[q]
+    mapped = f"{columns_arg(f'{name}={h}')} (config io.columns: {{'{h}': {name}}})"
+    if unit_from == "units row":
+        out += f"; state the unit the column is logged in: correct the units row, or map the column: {mapped}"
+    else:
+        out += f"; state the unit the column is logged in: rename the column ({name}) or map it: {mapped}"
+    if q in UNIT_FLAGS and unit_from == "header" and _unit_part(h)[1] is None:
+        # a name suffix: mapped to the bare quantity, the suffix is no longer read as its unit and the flag applies
+        out += f", or {columns_arg(f'{q}={h}')} with {UNIT_FLAGS[q]} {ex}"
+        if ref is not None:
+            out += f" (and --pressure-reference {ref} unless the file states the reference)"
+    return out
 
 
 def _known(q: str) -> list[str]:
