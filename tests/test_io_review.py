@@ -118,3 +118,53 @@ def test_an_unknown_unit_in_a_units_row_says_to_correct_the_row(tmp_path):
         read_motion_log(f)
     assert e.value.line == 3
     assert read_motion_log(f, IOConfig(columns={"t": "time_s"})).n == 40
+
+
+# ---- item 6: column maps -------------------------------------------------------------------------------------
+RELAX_SEMI = "Zeit [s];Dehnung [-];Spannung [MPa]\n" + "".join(
+    f"{0.02 * i:.2f};{min(0.002 * i, 0.1):.4f};{0.5 * min(0.002 * i, 0.1) * (1 + np.exp(-0.02 * i)):.6f}\n"
+    .replace(".", ",") for i in range(120))
+
+
+def test_a_map_key_matches_a_header_that_carries_its_unit(tmp_path):
+    """'Dehnung' names 'Dehnung [-]' (the header parser reads name and unit apart); the unit comes from the header."""
+    f = _write(tmp_path, "semi.csv", RELAX_SEMI)
+    out = tmp_path / "r.yaml"
+    res = runner.invoke(app, ["fit", "relax", str(f), "--columns", "strain=Dehnung,stress=Spannung", "--out",
+                              str(out), "--no-figure"])
+    assert res.exit_code == 0, res.output
+    reading = yaml.safe_load(out.read_text())["provenance"]["reading"]["semi"]["columns"]
+    assert reading["strain"]["column"] == "Dehnung [-]" and reading["stress"]["unit"] == "mpa"
+    # a header named exactly as the key wins over one that only carries the key as its name
+    from bpmid.io.tables import read_table
+    g = _write(tmp_path, "two.csv", "Zeit,Zeit [ms],strain,stress_mpa\n0,0,0,0\n1,1000,0.1,0.1\n")
+    t = read_table(g, column_map={"Zeit": "time_s"}, required=("time",))
+    assert t.headers["time"] == "Zeit" and np.allclose(t.columns["time"], [0, 1])
+
+
+def test_map_entries_that_match_no_column_are_named(tmp_path):
+    f = _write(tmp_path, "semi.csv", RELAX_SEMI)
+    for cols, named in (("strain=Dehnug,stress=Spanung", "'Dehnug', 'Spanung'"), ("strain=Dehnug,stress=Spannung",
+                                                                                  "'Dehnug'")):
+        res = runner.invoke(app, ["fit", "relax", str(f), "--columns", cols, "--out", str(tmp_path / "r.yaml")])
+        assert res.exit_code == 2, res.output
+        assert f"the column map names {named}, not a column of this file" in " ".join(res.output.split())
+
+
+def test_a_reversed_io_columns_map_is_said_to_be_reversed(tmp_path):
+    f = _write(tmp_path, "r.csv", _motion("# pressure_reference: absolute\n", "t,p_abs,bend"))
+    cfg = _write(tmp_path, "c.yaml", "io:\n  columns: {time_s: t, pressure_bar: p_abs, angle_deg: bend}\n")
+    params = str(_params(tmp_path))
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--config", str(cfg), "--out",
+                              str(tmp_path / "o")])
+    assert res.exit_code == 2, res.output
+    msg = " ".join(res.output.split())
+    assert "the map looks reversed" in msg and "io.columns maps file column -> quantity" in msg
+    assert "io.columns: {t: time_s, p_abs: pressure_bar, bend: angle_deg}" in msg
+    assert "--columns time_s=t,pressure_bar=p_abs,angle_deg=bend" in msg
+    # the two forms the message gives both read the file
+    cfg.write_text("io:\n  columns: {t: time_s, p_abs: pressure_bar, bend: angle_deg}\n")
+    for extra in (["--config", str(cfg)], ["--columns", "time_s=t,pressure_bar=p_abs,angle_deg=bend"]):
+        res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / extra[0][2:]),
+                                  *extra])
+        assert res.exit_code == 0, res.output

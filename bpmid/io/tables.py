@@ -145,6 +145,8 @@ class Table:
     reading: dict = dataclasses.field(default_factory=dict)
     warnings: list[str] = dataclasses.field(default_factory=list)
     where: str | None = None
+    #: the column-map entries that matched no column (and whether the map looks reversed), for messages
+    map_note: str = ""
 
     def has(self, quantity: str) -> bool:
         return quantity in self.columns
@@ -742,23 +744,72 @@ def _file_kind(path: Path, data: bytes) -> str:
 # ---------------------------------------------------------------------------------------------------------
 # columns
 # ---------------------------------------------------------------------------------------------------------
-def _column_map(column_map: Mapping[str, str] | None) -> dict[str, str]:
-    return {_norm(k): str(v) for k, v in (column_map or {}).items()}
+def _column_map(column_map: Mapping[str, str] | None) -> dict[str, tuple[str, str]]:
+    """file header (folded) -> (the key as written, bpmid name)."""
+    return {_norm(k): (str(k), str(v)) for k, v in (column_map or {}).items()}
 
 
-def _resolve(grid: Grid, cmap: dict[str, str], units: Mapping[str, str], unit_sources: Mapping[str, str],
+def _map_key_of(h: str, cmap: Mapping[str, tuple[str, str]], exact: set) -> str | None:
+    """The column-map key (folded) that names header ``h``: the header itself, or its name without the unit
+    written beside it (``Dehnung`` names ``Dehnung [-]``, as the header parser reads the name and the unit) when no
+    header of the file is that name exactly."""
+    k = _norm(h)
+    if k in cmap:
+        return k
+    raw, unit = _unit_part(h)
+    if unit is not None:
+        base = _norm(raw)
+        if base in cmap and base not in exact:
+            return base
+    return None
+
+
+def _map_note(grid: Grid, cmap: Mapping[str, tuple[str, str]], used: set) -> str:
+    """Column-map entries that match no column of the file, for the messages of a missing or unreadable column;
+    entries whose value is a column of the file and whose key a bpmid name look reversed, and are said so."""
+    unmatched = [k for k in cmap if k not in used]
+    if not unmatched:
+        return ""
+    exact = {_norm(h) for h in grid.header if h}
+
+    def is_column(v: str) -> bool:
+        return _norm(v) in exact or any(_unit_part(h)[1] is not None and _norm(_unit_part(h)[0]) == _norm(v)
+                                        for h in grid.header if h)
+
+    def bpmid_like(k: str) -> bool:
+        words = _norm(k).split(" ")
+        return _parse(k)[0] is not None or words[0] in ALIASES or words[0] in BPMID_NAME
+
+    rev = [cmap[k] for k in unmatched if is_column(cmap[k][1]) and bpmid_like(cmap[k][0])]
+    other = [cmap[k][0] for k in unmatched if cmap[k] not in rev]
+    note = ""
+    if rev:
+        pairs = ", ".join(f"{k}: {v}" for k, v in rev)
+        right = ", ".join(f"{v}: {k}" for k, v in rev)
+        flag = columns_arg(",".join(f"{k}={v}" for k, v in rev))
+        note += (f"; the column map's entries {{{pairs}}} match no column, but their values are columns of this "
+                 f"file: the map looks reversed. io.columns maps file column -> quantity (io.columns: {{{right}}}), "
+                 f"the opposite of --columns, which takes quantity=column ({flag})")
+    if other:
+        note += f"; the column map names {', '.join(repr(k) for k in other)}, not a column of this file"
+    return note
+
+
+def _resolve(grid: Grid, cmap: dict[str, tuple[str, str]], units: Mapping[str, str], unit_sources: Mapping[str, str],
              wanted: Sequence[str]) -> tuple[dict, list, list]:
     """quantity -> list of (column index, unit, header, unit_from, reference); derived and unknown columns."""
     found: dict[str, list] = {}
     ignored, unknown = [], []
     used_keys = set()
+    exact = {_norm(h) for h in grid.header if h}
     for j, h in enumerate(grid.header):
         if not h:
             continue
         ur = grid.unit_row[j] if grid.unit_row is not None and j < len(grid.unit_row) else None
-        mapped = cmap.get(_norm(h))
+        key = _map_key_of(h, cmap, exact)
+        mapped = cmap[key][1] if key is not None else None
         if mapped is not None:
-            used_keys.add(_norm(h))
+            used_keys.add(key)
             q, unit, ref, derived = _parse(mapped, None)
             if q is None:
                 raise InputError(f"the column map sends {h!r} to {mapped!r}, which is no bpmid column (known: "
@@ -787,7 +838,8 @@ def _resolve(grid: Grid, cmap: dict[str, str], units: Mapping[str, str], unit_so
         found.setdefault(q, []).append([j, unit, h, unit_from, ref])
     # map entries for columns this file does not have are fine (one map serves files with different headers);
     # they are named when a needed column is then missing
-    grid.info["unmatched_map"] = [k for k in cmap if k not in used_keys]
+    grid.info["unmatched_map"] = [cmap[k][0] for k in cmap if k not in used_keys]
+    grid.info["map_note"] = _map_note(grid, cmap, used_keys)
     return found, ignored, unknown
 
 
@@ -937,8 +989,7 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
         cands = [h for h in unknown if q in _unit_quantities(h)]
         if cands:
             h = cands[0]
-            um = grid.info.get("unmatched_map") or []
-            note = f"; the column map names {', '.join(repr(k) for k in um)}, not a column of this file" if um else ""
+            note = grid.info.get("map_note", "")
             raise InputError(f"missing column for {q}: no name bpmid knows, but {h!r} has {'an' if q[0] in 'aeiou' else 'a'} {q} unit: map it with "
                              f"--columns "
                              f"{q}={h} (config io.columns: {{'{h}': {q}}}), or rename it {BPMID_NAME[q]}{note}",
@@ -947,8 +998,7 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     if missing:
         cols = ", ".join(repr(h) for h in grid.header)
         q = missing[0]
-        um = grid.info.get("unmatched_map") or []
-        note = f"; the column map names {', '.join(repr(k) for k in um)}, not a column of this file" if um else ""
+        note = grid.info.get("map_note", "")
         raise InputError(f"missing column for {q} (found columns: {cols}); name it {BPMID_NAME[q]} or map it with "
                          f"--columns {q}=<your column> (config io.columns){note}", path=where, line=hline, key=q)
     lines = list(grid.lines)
@@ -970,8 +1020,8 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
         raise InputError(f"the units of the columns {cols_txt} are stated nowhere and bpmid never guesses one; state "
                          f"them (1) in the header ({', '.join(BPMID_NAME[q] for q, _h in unstated)} or "
                          f"'{unstated[0][1]} ({EXAMPLE_UNIT[unstated[0][0]]})'), (2) in a units row under the header, "
-                         f"or (3) with the flags {flags or '(none)'} (config io.units)", path=where, line=hline,
-                         key=unstated[0][1])
+                         f"or (3) with the flags {flags or '(none)'} (config io.units){grid.info.get('map_note', '')}",
+                         path=where, line=hline, key=unstated[0][1])
     columns, units_in_file, headers, refs, col_info = {}, {}, {}, {}, {}
     for q, ents in found.items():
         arrays = []
@@ -1001,7 +1051,8 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
             if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None:
                 in_row = unit_from == "units row"
                 raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})"
-                                 f"{_unknown_unit_hint(q, h, unit, unit_from)}", path=where,
+                                 f"{_unknown_unit_hint(q, h, unit, unit_from)}{grid.info.get('map_note', '')}",
+                                 path=where,
                                  line=(grid.unit_row_line or hline) if in_row else hline, key=h)
             if unit is not None and stated_u is not None and stated_u != unit:
                 raise InputError(f"the file says the unit of {h!r} is {unit}, {src} says {stated}; drop one or make "
@@ -1024,7 +1075,8 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
             if unit is None:
                 what = "" if _norm(h) == q else f" ({q})"
                 raise InputError(f"the unit of column {h!r}{what} is stated nowhere and bpmid never guesses one; "
-                                 f"state it: {unit_hint(q, h)}", path=where, line=hline, key=h)
+                                 f"state it: {unit_hint(q, h)}{grid.info.get('map_note', '')}", path=where,
+                                 line=hline, key=h)
             if is_time_text:
                 arr, origin = _parse_times(vals, where, h, lines)
                 col_info_extra = {"time_origin": origin, "timestamps": "ISO-8601 or clock times, seconds since the "
@@ -1055,12 +1107,12 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
         col_info[q] = {"column": h, "unit": unit, "unit_from": unit_from, **({"reference": ref} if ref else {}),
                        **extra}
     first = lines[0] if lines else (grid.header_line + 1)
-    reading = {k: v for k, v in grid.info.items() if k != "unmatched_map" or v}
+    reading = {k: v for k, v in grid.info.items() if k != "map_note" and (k != "unmatched_map" or v)}
     reading["columns"] = col_info
     if ignored or unknown:
         reading["ignored_columns"] = list(ignored) + list(unknown)
     table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
-                  reading, [], where)
+                  reading, [], where, grid.info.get("map_note", ""))
     return table
 
 
