@@ -26,13 +26,13 @@ def _params(tmp_path: Path) -> Path:
 
 
 def _motion(head: str, header: str = "time_s,pressure_bar,angle_deg", *, n: int = 40, t_scale: float = 1.0,
-            a_scale: float = 1.0) -> str:
+            a_scale: float = 1.0, p_scale: float = 1.0) -> str:
     """A small absolute-pressure log (a ramp up and down, 0.1 s steps): ``head`` lines, then the header and rows."""
     rng = np.random.default_rng(7)
     t = np.arange(n) * 0.1
     p = 1.2 + 0.4 * np.sin(np.pi * t / t[-1])
-    a = 15.0 + 40.0 * (p - 1.2) + rng.normal(0, 0.1, n)
-    rows = "".join(f"{ti * t_scale:.10g},{pi:.5f},{ai * a_scale:.5f}\n" for ti, pi, ai in zip(t, p, a))
+    a = VBMM(material=Material.paper_fit()).forward_deg(t, p * 1e5 - 101325.0) + rng.normal(0, 0.1, n)
+    rows = "".join(f"{ti * t_scale:.10g},{pi * p_scale:.5f},{ai * a_scale:.5f}\n" for ti, pi, ai in zip(t, p, a))
     return head + header + "\n" + rows
 
 
@@ -168,3 +168,48 @@ def test_a_reversed_io_columns_map_is_said_to_be_reversed(tmp_path):
         res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / extra[0][2:]),
                                   *extra])
         assert res.exit_code == 0, res.output
+
+
+# ---- item 4: a plausibility hint names the form that works -------------------------------------------------------
+def _warnings(output: str) -> list[str]:
+    return [" ".join(w.split()) for w in output.split("warning: ")[1:]]
+
+
+@pytest.mark.parametrize("header, scale, fix, refused", [
+    ("time_s,pressure_bar,angle_deg", {"t_scale": 1000.0}, "--columns time_ms=time_s", "--time-unit ms"),
+    ("time_s,pressure_bar,angle_deg", {"a_scale": np.pi / 180}, "--columns angle_rad=angle_deg", "--angle-unit rad"),
+])
+def test_a_hint_for_a_unit_the_header_states_is_the_column_map_and_it_works(tmp_path, header, scale, fix, refused):
+    f = _write(tmp_path, "h.csv", _motion("# pressure_reference: absolute\n", header, **scale))
+    params = str(_params(tmp_path))
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "a")])
+    assert res.exit_code == 0, res.output
+    hint = [w for w in _warnings(res.output) if fix in w]
+    assert hint and f"{refused} would be refused as a conflict" in hint[0], res.output
+    assert not any(f"state {refused}" in w for w in _warnings(res.output))
+    flag, value = refused.split()
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "b"), flag, value])
+    assert res.exit_code == 2 and "drop one or make them agree" in res.output  # the flag really is refused
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "c"), *fix.split()])
+    assert res.exit_code == 0 and not _warnings(res.output), res.output
+
+
+def test_a_hint_for_a_unit_a_flag_states_is_the_flag(tmp_path):
+    f = _write(tmp_path, "f.csv", _motion("# pressure_reference: absolute\n", "t,pressure_bar,angle_deg",
+                                          t_scale=1000.0))
+    res = runner.invoke(app, ["predict", str(f), "--params", str(_params(tmp_path)), "--out", str(tmp_path / "a"),
+                              "--time-unit", "s"])
+    assert res.exit_code == 0, res.output
+    assert any("if the times are milliseconds, state --time-unit ms" in w for w in _warnings(res.output)), res.output
+
+
+def test_a_reference_hint_names_what_states_the_reference(tmp_path):
+    """Absolute pressures under a psig header: --pressure-reference absolute would conflict with the unit."""
+    f = _write(tmp_path, "g.csv", _motion("", "time_s,pressure_psig,angle_deg", p_scale=1e5 / 6894.757293168))
+    params = str(_params(tmp_path))
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "a")])
+    w = [x for x in _warnings(res.output) if "absolute pressures read as gauge" in x]
+    assert w and "--columns pressure_psi_abs=pressure_psig" in w[0] and "--pressure-reference" not in w[0], res.output
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "b"), "--columns",
+                              "pressure_psi_abs=pressure_psig"])
+    assert res.exit_code == 0 and not _warnings(res.output), res.output
