@@ -213,3 +213,53 @@ def test_a_reference_hint_names_what_states_the_reference(tmp_path):
     res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "b"), "--columns",
                               "pressure_psi_abs=pressure_psig"])
     assert res.exit_code == 0 and not _warnings(res.output), res.output
+
+
+# ---- item 3: the milliseconds check of motion logs, shared with relaxation test logs -----------------------------
+def _relax_text(t_scale: float) -> str:
+    """A ramp (0.5 s) and hold (5.5 s) of a one-term Prony solid, sampled every 20 ms, seeded noise."""
+    rng = np.random.default_rng(3)
+    t = np.arange(301) * 0.02
+    eps = np.minimum(t / 0.5, 1.0) * 0.1
+    e_inf, e1, tau = 0.5, 1.0, 0.8  # MPa, MPa, s
+    h, sig = 0.0, np.zeros_like(t)
+    for k in range(1, t.size):
+        dt = t[k] - t[k - 1]
+        h = h * np.exp(-dt / tau) + e1 * (eps[k] - eps[k - 1]) * tau / dt * (1 - np.exp(-dt / tau))
+        sig[k] = e_inf * eps[k] + h
+    sig += rng.normal(0, 1e-4, t.size)
+    return "time_s,strain,stress_mpa\n" + "".join(f"{ti * t_scale:.10g},{e:.6f},{s:.6f}\n"
+                                                  for ti, e, s in zip(t, eps, sig))
+
+
+def test_milliseconds_under_seconds_in_a_relaxation_log_are_warned_about(tmp_path):
+    f = _write(tmp_path, "relax_ms.csv", _relax_text(1000.0))
+    out = tmp_path / "r.yaml"
+    res = runner.invoke(app, ["fit", "relax", str(f), "--out", str(out), "--no-figure", "--terms", "1"])
+    assert res.exit_code == 0, res.output
+    w = [x for x in _warnings(res.output) if "samples are 20 s apart and every time is a whole number" in x]
+    assert w and "--columns time_ms=time_s" in w[0], res.output
+    doc = yaml.safe_load(out.read_text())
+    assert any("samples are 20 s apart" in x for x in doc["warnings"])
+    strict = tmp_path / "strict.yaml"
+    res = runner.invoke(app, ["fit", "relax", str(f), "--out", str(strict), "--no-figure", "--terms", "1",
+                              "--strict"])
+    assert res.exit_code == 2 and "samples are 20 s apart" in res.output and not strict.exists()
+    fixed = tmp_path / "fixed.yaml"
+    res = runner.invoke(app, ["fit", "relax", str(f), "--out", str(fixed), "--no-figure", "--terms", "1",
+                              "--columns", "time_ms=time_s"])
+    assert res.exit_code == 0 and not any("whole number" in x for x in _warnings(res.output)), res.output
+    # the same log in seconds: no such warning
+    g = _write(tmp_path, "relax_s.csv", _relax_text(1.0))
+    res = runner.invoke(app, ["fit", "relax", str(g), "--out", str(tmp_path / "s.yaml"), "--no-figure", "--terms", "1"])
+    assert res.exit_code == 0 and not any("whole number" in x for x in _warnings(res.output)), res.output
+
+
+def test_the_shipped_relaxation_logs_raise_no_milliseconds_warning():
+    from bpmid.io import plausibility as plaus
+    from bpmid.io.relax_logs import read_relax_log
+
+    files = sorted((Path(__file__).resolve().parents[1] / "datasets" / "relaxation").glob("*.csv"))
+    assert len(files) >= 12
+    for f in files:
+        assert not plaus.milliseconds_warnings(read_relax_log(f)), f

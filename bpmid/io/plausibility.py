@@ -14,6 +14,8 @@ The thresholds are stated here, once:
 - :data:`RADIAN_MAX`: a degree column whose largest angle stays below 2 pi while the pressure moves
 - :data:`ATMOSPHERE_BAND_PA`: a gauge log that never drops below about one atmosphere (a rest pressure in the band)
 - :data:`MIN_DURATION_S`: a motion log shorter than a second (seconds stated as milliseconds)
+- whole-number times at least half a second apart in a seconds column, motion and relaxation test logs alike
+  (:func:`milliseconds_warnings`: milliseconds under a seconds unit)
 
 A hint names the form that works: a unit flag is refused when the header already states the unit, so then the
 hint is the column map that overrides it (:func:`unit_fix`, :func:`reference_fix`).
@@ -105,6 +107,18 @@ def reference_fix(lg, reference: str) -> str:
     return f"state --pressure-reference {reference} (or the line '# pressure_reference: {reference}')"
 
 
+def milliseconds_warnings(lg) -> list[str]:
+    """The time check every log gets (motion and relaxation test logs alike): samples at least half a second apart,
+    every time a whole number, in a column read as seconds: likely milliseconds under a seconds unit."""
+    t = np.asarray(lg.time_s, float)
+    if t.size > 2 and _column(lg, "time").get("unit") == "s":
+        dt = float(np.median(np.diff(t)))
+        if dt >= 0.5 and np.all(t == np.round(t)):
+            return [f"{_name(lg)}: samples are {dt:g} s apart and every time is a whole number: if the times are "
+                    f"milliseconds, {unit_fix(lg, 'time', 'ms')}"]
+    return []
+
+
 def _units_that_fit(peak_given: float) -> list[str]:
     lo, hi = PRESSURE_RANGE_PA
     return [u for u, f in _P_UNITS.items() if lo <= peak_given * f <= hi * 0.5]
@@ -151,11 +165,7 @@ def motion_data_warnings(logs: Iterable) -> list[str]:
                            f"look like radians in a degree column. If so, {unit_fix(lg, 'angle', 'rad')}")
         t = np.asarray(lg.time_s, float)
         tcol = _column(lg, "time")
-        if t.size > 2 and tcol.get("unit") == "s":
-            dt = float(np.median(np.diff(t)))
-            if dt >= 0.5 and np.all(t == np.round(t)):
-                out.append(f"{where}: samples are {dt:g} s apart and every time is a whole number: if the times are "
-                           f"milliseconds, {unit_fix(lg, 'time', 'ms')}")
+        out += milliseconds_warnings(lg)
         if t.size > 2 and float(t[-1] - t[0]) < MIN_DURATION_S:
             if tcol.get("unit") == "s":
                 # the column already says seconds: no unit to suggest, only the warning that so short a log says
@@ -216,10 +226,15 @@ def prediction_warnings(preds: Sequence) -> list[str]:
 
 
 def relax_warnings(records: Sequence, fit) -> list[str]:
-    """Warnings after ``fit relax``: strain that looks like percent, a modulus no elastomer has, a poor fit."""
+    """Warnings after ``fit relax``: times that look like milliseconds (the motion logs' check), strain that looks
+    like percent, a modulus no elastomer has, a poor fit."""
     out: list[str] = []
     for r in records:
         where = _name(r)
+        if not getattr(r, "is_modulus_curve", False):
+            # the motion logs' check, shared; modulus curves are sampled evenly in log time (whole-number times
+            # decades apart are common there), so it says nothing about them
+            out += milliseconds_warnings(r)
         if r.strain is not None and r.strain.size and float(np.max(r.strain)) > 1.0:
             out.append(f"{where}: the strain reaches {float(np.max(r.strain)):.4g} (over 100 %): if the column is "
                        f"in percent, say so (strain_pct or 'Strain (%)')")
