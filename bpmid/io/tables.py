@@ -14,11 +14,15 @@ Column names, all mapped to ``(quantity, unit)``:
 - bpmid's own names with a unit suffix: ``time_s``, ``pressure_kpa``, ``stress_mpa``, ``angle_deg``
 - instrument style: ``Time (s)``, ``Load [N]``, ``p / bar``, ``Druck in kPa``
 - names then a units row (pyvisco): ``t,E_relax`` / ``s, MPa``
-- a column map (``io.columns`` / ``--columns``): file header -> bpmid name (``Zeit`` -> ``time`` or ``time_s``)
+- a column map (``io.columns`` / ``--columns``): file header -> bpmid name (``Zeit`` -> ``time`` or ``time_s``); a
+  key names a header with or without the unit written beside it (``Dehnung`` names ``Dehnung [-]``); entries that
+  match no column are named in the errors about missing or unreadable columns, and said to look reversed when
+  their values are columns of the file
 
 Units are never guessed. A column whose unit is stated nowhere (name, units row, a ``# pressure_unit: kPa``
 line, ``io.units`` or the ``--pressure-unit``/``--angle-unit``/``--time-unit`` flags) is refused, naming the
-column and the ways to state it; strain is dimensionless by its name. A unit stated twice must agree. A
+column and the ways to state it; strain is dimensionless by its name. A unit stated twice must agree (a
+``# pressure_unit:`` line and the header too; a column map that carries a unit overrides the file's). A
 pressure unit may carry its reference (``psig``, ``bar(a)``, ``kPa abs``). Times may be ISO-8601 timestamps (or
 Excel dates), clock times (``09:30:01.250``) or epoch times (``epoch_s``, ``epoch_ms``); all become seconds since
 the first sample.
