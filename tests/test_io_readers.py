@@ -297,8 +297,8 @@ def test_column_map_entries_for_other_files_are_fine_and_named_when_needed(tmp_p
     f = tmp_path / "m.csv"
     f.write_text("# pressure_reference: gauge\nStoppuhr (s),pressure_kpa,angle_deg\n0,1,2\n0.1,2,3\n")
     lg = read_motion_log(f, IOConfig(columns={"Stoppuhr (s)": "time", "Uhrzeit": "time", "Kraft": "load_n"}))
-    assert lg.n == 2 and lg.reading["unmatched_map"] == ["uhrzeit", "kraft"]
-    with pytest.raises(InputError, match="the column map names 'stopuhr'"):
+    assert lg.n == 2 and lg.reading["unmatched_map"] == ["Uhrzeit", "Kraft"]  # as the user wrote them
+    with pytest.raises(InputError, match="the column map names 'Stopuhr'"):
         read_motion_log(f, IOConfig(columns={"Stopuhr": "time"}))
 
 

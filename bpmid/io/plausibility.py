@@ -14,6 +14,11 @@ The thresholds are stated here, once:
 - :data:`RADIAN_MAX`: a degree column whose largest angle stays below 2 pi while the pressure moves
 - :data:`ATMOSPHERE_BAND_PA`: a gauge log that never drops below about one atmosphere (a rest pressure in the band)
 - :data:`MIN_DURATION_S`: a motion log shorter than a second (seconds stated as milliseconds)
+- whole-number times at least half a second apart in a seconds column, motion and relaxation test logs alike
+  (:func:`milliseconds_warnings`: milliseconds under a seconds unit)
+
+A hint names the form that works: a unit flag is refused when the header already states the unit, so then the
+hint is the column map that overrides it (:func:`unit_fix`, :func:`reference_fix`).
 """
 from __future__ import annotations
 
@@ -47,9 +52,82 @@ def _name(lg) -> str:
     return str(lg.path) if getattr(lg, "path", None) is not None else str(lg.name)
 
 
+def _column(lg, q: str) -> dict:
+    """What the reader recorded for the column of quantity ``q`` (column, unit, unit_from); {} if not read."""
+    return dict(((getattr(lg, "reading", {}) or {}).get("columns", {}) or {}).get(q, {}) or {})
+
+
+def _name_with_unit(q: str, unit: str) -> str:
+    return f"{q}_{unit.lower()}"
+
+
+def unit_fix(lg, q: str, unit: str) -> str:
+    """How to state that the ``q`` column of ``lg`` is in ``unit``, in the form that works given where its current
+    unit came from: a unit flag is refused as a conflict when the header (or units row) states the unit, so then
+    the hint is the column map that overrides the name (``--columns time_ms=time_s``)."""
+    from bpmid.io.tables import UNIT_FLAGS, columns_arg
+
+    col = _column(lg, q)
+    h, src = col.get("column"), col.get("unit_from")
+    name = _name_with_unit(q, unit)
+    flag = UNIT_FLAGS.get(q)
+    if h is None or src is None:
+        return f"state {flag} {unit} (or name the column {name})" if flag else f"name the column {name}"
+    mapped = f"{columns_arg(f'{name}={h}')} (config io.columns: {{'{h}': {name}}})"
+    if src == "header":
+        refused = f", so {flag} {unit} would be refused as a conflict" if flag else ""
+        return f"the header {h!r} states {col.get('unit')}{refused}: map the column with its unit, {mapped}, or " \
+               f"rename the column {name}"
+    if src == "units row":
+        return f"correct the units row under the header, or map the column with its unit: {mapped}"
+    if src.startswith("'#"):
+        return f"correct the line '# {q}_unit:' to {unit}, or map the column with its unit: {mapped}"
+    if src == "column map":
+        return f"map the column with that unit instead: {mapped}"
+    if src.startswith("--") or src.startswith("io.units"):
+        return f"state {flag or src} {unit} (config io.units.{q})" if flag else f"state io.units.{q}: {unit}"
+    return f"map the column with its unit: {mapped}"
+
+
+def reference_fix(lg, reference: str) -> str:
+    """How to state the pressure reference ``reference`` in the form that works given where the log's reference came
+    from (a flag is refused when the file states the other reference)."""
+    from bpmid.io.motion_logs import REFERENCE_KEYS
+    from bpmid.io.tables import columns_arg
+
+    meta = getattr(lg, "meta", {}) or {}
+    fixes = [f"correct the line '# {k}: {meta[k]}' to {reference}" for k in REFERENCE_KEYS if k in meta]
+    col = _column(lg, "pressure")
+    if col.get("reference") is not None and col.get("reference") != reference:  # the unit carries it (psig)
+        h, unit = col.get("column"), str(col.get("unit", "kpa"))
+        name = f"pressure_{unit}_{'abs' if reference == 'absolute' else 'g'}"
+        fixes.append(f"map the column with a unit that says {reference}: {columns_arg(f'{name}={h}')}")
+    if fixes:
+        return " and ".join(fixes)
+    return f"state --pressure-reference {reference} (or the line '# pressure_reference: {reference}')"
+
+
+def milliseconds_warnings(lg) -> list[str]:
+    """The time check every log gets (motion and relaxation test logs alike): samples at least half a second apart,
+    every time a whole number, in a column read as seconds: likely milliseconds under a seconds unit."""
+    t = np.asarray(lg.time_s, float)
+    if t.size > 2 and _column(lg, "time").get("unit") == "s":
+        dt = float(np.median(np.diff(t)))
+        if dt >= 0.5 and np.all(t == np.round(t)):
+            return [f"{_name(lg)}: samples are {dt:g} s apart and every time is a whole number: if the times are "
+                    f"milliseconds, {unit_fix(lg, 'time', 'ms')}"]
+    return []
+
+
 def _units_that_fit(peak_given: float) -> list[str]:
     lo, hi = PRESSURE_RANGE_PA
     return [u for u, f in _P_UNITS.items() if lo <= peak_given * f <= hi * 0.5]
+
+
+def _pressure_fix(lg, fits: Sequence[str]) -> str:
+    if fits:
+        return f"If it is {fits[0]}, {unit_fix(lg, 'pressure', fits[0])}"
+    return f"Check the column's unit; to state another, {unit_fix(lg, 'pressure', '<unit>')}"
 
 
 def motion_data_warnings(logs: Iterable) -> list[str]:
@@ -66,35 +144,28 @@ def motion_data_warnings(logs: Iterable) -> list[str]:
         if lg.pressure_reference == "gauge" and p.size and ATMOSPHERE_BAND_PA[0] <= float(np.min(p)) <= \
                 ATMOSPHERE_BAND_PA[1]:
             out.append(f"{where}: the gauge pressure never drops below {np.min(p) / 1e5:.3g} bar, one atmosphere "
-                       f"or more: these look like absolute pressures read as gauge. If so, state "
-                       f"--pressure-reference absolute (or the line '# pressure_reference: absolute')")
+                       f"or more: these look like absolute pressures read as gauge. If so, "
+                       f"{reference_fix(lg, 'absolute')}")
         elif peak < lo and np.ptp(p) > 0:
             fits = [u for u in _units_that_fit(peak_given) if u != unit]
             hint = f"; in {' or '.join(fits)} it would make sense" if fits else ""
             out.append(f"{where}: the pressure peaks at {peak:.4g} Pa ({peak_given:g} {unit}), too little to drive a "
-                       f"pneumatic muscle: likely a unit slip{hint}. State the column's unit (--pressure-unit, or a "
-                       f"header such as pressure_kpa)")
+                       f"pneumatic muscle: likely a unit slip{hint}. {_pressure_fix(lg, fits)}")
         elif peak > hi:
             fits = [u for u in _units_that_fit(peak_given) if u != unit]
             hint = f"; in {' or '.join(fits)} it would make sense" if fits else ""
             out.append(f"{where}: the pressure peaks at {peak / 1e5:.4g} bar ({peak_given:g} {unit}), more than a "
-                       f"pneumatic muscle takes: likely a unit slip{hint}. State the column's unit (--pressure-unit, "
-                       f"or a header such as pressure_kpa)")
+                       f"pneumatic muscle takes: likely a unit slip{hint}. {_pressure_fix(lg, fits)}")
         a = getattr(lg, "angle_deg", None)
         stated = (getattr(lg, "reading", {}) or {}).get("columns", {}).get("angle", {}).get("unit", "deg")
         if a is not None and np.size(a) and stated in ("deg", "degree", "degrees", "°"):
             amax = float(np.max(np.abs(a)))
             if 0.05 < amax <= RADIAN_MAX and np.ptp(p) > 0.2 * max(peak, 1.0):
                 out.append(f"{where}: the bending angle never exceeds {amax:.3g} deg while the pressure moves: these "
-                           f"look like radians in a degree column. If so, state --angle-unit rad (or name the column "
-                           f"angle_rad)")
+                           f"look like radians in a degree column. If so, {unit_fix(lg, 'angle', 'rad')}")
         t = np.asarray(lg.time_s, float)
-        tcol = (getattr(lg, "reading", {}) or {}).get("columns", {}).get("time", {})
-        if t.size > 2 and tcol.get("unit") == "s":
-            dt = float(np.median(np.diff(t)))
-            if dt >= 0.5 and np.all(t == np.round(t)):
-                out.append(f"{where}: samples are {dt:g} s apart and every time is a whole number: if the times are "
-                           f"milliseconds, state --time-unit ms (or name the column time_ms)")
+        tcol = _column(lg, "time")
+        out += milliseconds_warnings(lg)
         if t.size > 2 and float(t[-1] - t[0]) < MIN_DURATION_S:
             if tcol.get("unit") == "s":
                 # the column already says seconds: no unit to suggest, only the warning that so short a log says
@@ -103,8 +174,7 @@ def motion_data_warnings(logs: Iterable) -> list[str]:
                            f"to show creep or hysteresis; check that the time column holds seconds")
             else:
                 out.append(f"{where}: the log lasts only {float(t[-1] - t[0]):.3g} s ({t.size} samples): if the times "
-                           f"are seconds, not {tcol.get('unit', 'the stated unit')}, state --time-unit s (or name the "
-                           f"column time_s)")
+                           f"are seconds, not {tcol.get('unit', 'the stated unit')}, {unit_fix(lg, 'time', 's')}")
     return out
 
 
@@ -156,10 +226,15 @@ def prediction_warnings(preds: Sequence) -> list[str]:
 
 
 def relax_warnings(records: Sequence, fit) -> list[str]:
-    """Warnings after ``fit relax``: strain that looks like percent, a modulus no elastomer has, a poor fit."""
+    """Warnings after ``fit relax``: times that look like milliseconds (the motion logs' check), strain that looks
+    like percent, a modulus no elastomer has, a poor fit."""
     out: list[str] = []
     for r in records:
         where = _name(r)
+        if not getattr(r, "is_modulus_curve", False):
+            # the motion logs' check, shared; modulus curves are sampled evenly in log time (whole-number times
+            # decades apart are common there), so it says nothing about them
+            out += milliseconds_warnings(r)
         if r.strain is not None and r.strain.size and float(np.max(r.strain)) > 1.0:
             out.append(f"{where}: the strain reaches {float(np.max(r.strain)):.4g} (over 100 %): if the column is "
                        f"in percent, say so (strain_pct or 'Strain (%)')")

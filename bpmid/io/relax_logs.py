@@ -162,7 +162,7 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
     else:
         found = ", ".join(repr(h) for h in table.headers.values()) or "none bpmid knows"
         raise InputError("no relaxation columns: expected time_s with strain and stress_mpa, or extension_mm and "
-                         f"load_n, or modulus_mpa (recognised columns: {found})", path=path,
+                         f"load_n, or modulus_mpa (recognised columns: {found}){table.map_note}", path=path,
                          line=max(table.first_data_line - 1, 1))
     if any(not table.has(q) for q in need):
         table = read_table(path, required=need, kind=KIND, **opts)  # raises, naming the column

@@ -14,11 +14,15 @@ Column names, all mapped to ``(quantity, unit)``:
 - bpmid's own names with a unit suffix: ``time_s``, ``pressure_kpa``, ``stress_mpa``, ``angle_deg``
 - instrument style: ``Time (s)``, ``Load [N]``, ``p / bar``, ``Druck in kPa``
 - names then a units row (pyvisco): ``t,E_relax`` / ``s, MPa``
-- a column map (``io.columns`` / ``--columns``): file header -> bpmid name (``Zeit`` -> ``time`` or ``time_s``)
+- a column map (``io.columns`` / ``--columns``): file header -> bpmid name (``Zeit`` -> ``time`` or ``time_s``); a
+  key names a header with or without the unit written beside it (``Dehnung`` names ``Dehnung [-]``); entries that
+  match no column are named in the errors about missing or unreadable columns, and said to look reversed when
+  their values are columns of the file
 
 Units are never guessed. A column whose unit is stated nowhere (name, units row, a ``# pressure_unit: kPa``
 line, ``io.units`` or the ``--pressure-unit``/``--angle-unit``/``--time-unit`` flags) is refused, naming the
-column and the ways to state it; strain is dimensionless by its name. A unit stated twice must agree. A
+column and the ways to state it; strain is dimensionless by its name. A unit stated twice must agree (a
+``# pressure_unit:`` line and the header too; a column map that carries a unit overrides the file's). A
 pressure unit may carry its reference (``psig``, ``bar(a)``, ``kPa abs``). Times may be ISO-8601 timestamps (or
 Excel dates), clock times (``09:30:01.250``) or epoch times (``epoch_s``, ``epoch_ms``); all become seconds since
 the first sample.
@@ -145,6 +149,8 @@ class Table:
     reading: dict = dataclasses.field(default_factory=dict)
     warnings: list[str] = dataclasses.field(default_factory=list)
     where: str | None = None
+    #: the column-map entries that matched no column (and whether the map looks reversed), for messages
+    map_note: str = ""
 
     def has(self, quantity: str) -> bool:
         return quantity in self.columns
@@ -172,6 +178,10 @@ class Grid:
     where: str
     header_line: int
     info: dict
+    #: meta key -> the line (sheet row) that stated it, for messages
+    meta_lines: dict = dataclasses.field(default_factory=dict)
+    #: line (sheet row) of the units row, or None
+    unit_row_line: int | None = None
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -244,11 +254,12 @@ def _parse(name: str, unit_row: str | None = None):
     ``unit`` is the spelling as written (lower case) when it is not one bpmid knows, so that the caller can say
     "unknown unit"."""
     raw, unit = _unit_part(name)
+    said = "header"  # where the unit beside the name was written (messages): the header or the units row
     base = _norm(raw)
     if base not in ALIASES and "." in base and _norm(base.rsplit(".", 1)[1]):
         base = _norm(base.rsplit(".", 1)[1])  # a MATLAB struct field: run.t -> t
     if unit is None and unit_row is not None and unit_row.strip():
-        unit = unit_row.strip()
+        unit, said = unit_row.strip(), "units row"
     if base in ALIASES:
         q = ALIASES[base]
         return (q,) + _unit_ref(q, unit) + (False,)
@@ -263,7 +274,7 @@ def _parse(name: str, unit_row: str | None = None):
                 if unit is not None:  # 'pressure_kpa (bar)': the name and the parentheses disagree or repeat
                     u2, ref2 = _unit_ref(q, unit)
                     if u2 != u:
-                        return q, f"conflict:{suffix}|{unit}", None, False
+                        return q, f"conflict:{suffix}|{unit}|{said}", None, False
                 return q, u, ref, False
     # derived columns: angle_pred_deg, pressure_setpoint_bar (named by a quantity plus a qualifier word)
     if len(words) >= 2 and words[0] in ALIASES and any(w in DERIVED_WORDS for w in words[1:]):
@@ -391,16 +402,20 @@ def _is_comment(line: str) -> bool:
     return s.startswith("#") or s.startswith("%") or s.startswith("//")
 
 
-def _meta_from_line(body: str, meta: dict) -> None:
+def _meta_from_line(body: str, meta: dict, lines: dict | None = None, line: int | None = None) -> None:
     m = _META.match(body)
     if m:
-        meta[meta_key(m.group(1))] = m.group(2).strip()
+        key = meta_key(m.group(1))
+        meta[key] = m.group(2).strip()
+        if lines is not None and line is not None:
+            lines[key] = line
 
 
 def _text_grid(data: bytes, where: str) -> Grid:
     text, enc = _decode(data, where)
     lines = re.split(r"\r\n|\r|\n", text)
     meta: dict[str, str] = {}
+    meta_lines: dict[str, int] = {}
     i = 0
     delim_hint = None
     while i < len(lines):
@@ -414,18 +429,18 @@ def _text_grid(data: bytes, where: str) -> Grid:
             i += 1
             continue
         if _is_comment(s):
-            _meta_from_line(s.lstrip("#%/ ").strip(), meta)
+            _meta_from_line(s.lstrip("#%/ ").strip(), meta, meta_lines, i + 1)
             i += 1
             continue
         h = _find_header(lines, i, delim_hint)
         if h > i:
             # title or 'key: value' lines above the header (instrument exports): metadata
-            for ln in lines[i:h]:
+            for k, ln in enumerate(lines[i:h], start=i + 1):
                 t = ln.strip()
                 if not t or _is_comment(t):
                     continue
                 if _META.match(t):
-                    _meta_from_line(t, meta)
+                    _meta_from_line(t, meta, meta_lines, k)
                 else:
                     meta.setdefault("title", t)
             i = h
@@ -469,9 +484,9 @@ def _text_grid(data: bytes, where: str) -> Grid:
                              line=ln_no)
         rows.append(cells)
         row_lines.append(ln_no)
-    unit_row = None
+    unit_row = unit_row_line = None
     if rows and not any(_is_number(c) for c in rows[0] if c) and any(rows[0]) and not _looks_like_time(rows[0]):
-        unit_row = rows[0]
+        unit_row, unit_row_line = rows[0], row_lines[0]
         rows, row_lines = rows[1:], row_lines[1:]
     # decimal separator: a comma only where the columns are not comma-separated, and never mixed with points
     decimal = "."
@@ -488,7 +503,7 @@ def _text_grid(data: bytes, where: str) -> Grid:
     cols = [list(c) for c in zip(*rows)] if rows else [[] for _ in header]
     info = {"format": "text", "encoding": enc, "delimiter": info_delim, "decimal": "comma" if decimal == "," else
             "point"}
-    return Grid(header, unit_row, cols, row_lines, meta, where, header_line, info)
+    return Grid(header, unit_row, cols, row_lines, meta, where, header_line, info, meta_lines, unit_row_line)
 
 
 def _fields(line: str, delim: str | None) -> list[str]:
@@ -526,6 +541,7 @@ def _looks_like_time(row: Sequence[str]) -> bool:
 def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
     """A grid from spreadsheet rows (values: str, float, int, datetime, None); row numbers are 1-based."""
     meta: dict[str, str] = {}
+    meta_lines: dict[str, int] = {}
     k = 0
     while k < len(rows):
         vals = [v for v in rows[k] if v is not None and str(v).strip() != ""]
@@ -537,7 +553,7 @@ def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
             # at least, so it is never the header)
             body = vals[0].lstrip("#% ").strip()
             if _META.match(body):
-                _meta_from_line(body, meta)
+                _meta_from_line(body, meta, meta_lines, k + 1)
             else:
                 meta.setdefault("title", body)
             k += 1
@@ -571,13 +587,13 @@ def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
         row = (row + [None] * width)[:width]
         data.append(["" if v is None else (v.strip() if isinstance(v, str) else v) for v in row])
         lines.append(r + 1)
-    unit_row = None
+    unit_row = unit_row_line = None
     if data and all(isinstance(v, str) for v in data[0]) and not any(_is_number(v) for v in data[0] if v) \
             and any(data[0]) and not _looks_like_time(data[0]):
-        unit_row = [str(v) for v in data[0]]
+        unit_row, unit_row_line = [str(v) for v in data[0]], lines[0]
         data, lines = data[1:], lines[1:]
     cols = [list(c) for c in zip(*data)] if data else [[] for _ in header]
-    return Grid(header, unit_row, cols, lines, meta, where, header_line, info)
+    return Grid(header, unit_row, cols, lines, meta, where, header_line, info, meta_lines, unit_row_line)
 
 
 def _xlsx_sheets(path: Path, data: bytes) -> dict[str, list[list]]:
@@ -732,23 +748,72 @@ def _file_kind(path: Path, data: bytes) -> str:
 # ---------------------------------------------------------------------------------------------------------
 # columns
 # ---------------------------------------------------------------------------------------------------------
-def _column_map(column_map: Mapping[str, str] | None) -> dict[str, str]:
-    return {_norm(k): str(v) for k, v in (column_map or {}).items()}
+def _column_map(column_map: Mapping[str, str] | None) -> dict[str, tuple[str, str]]:
+    """file header (folded) -> (the key as written, bpmid name)."""
+    return {_norm(k): (str(k), str(v)) for k, v in (column_map or {}).items()}
 
 
-def _resolve(grid: Grid, cmap: dict[str, str], units: Mapping[str, str], unit_sources: Mapping[str, str],
+def _map_key_of(h: str, cmap: Mapping[str, tuple[str, str]], exact: set) -> str | None:
+    """The column-map key (folded) that names header ``h``: the header itself, or its name without the unit
+    written beside it (``Dehnung`` names ``Dehnung [-]``, as the header parser reads the name and the unit) when no
+    header of the file is that name exactly."""
+    k = _norm(h)
+    if k in cmap:
+        return k
+    raw, unit = _unit_part(h)
+    if unit is not None:
+        base = _norm(raw)
+        if base in cmap and base not in exact:
+            return base
+    return None
+
+
+def _map_note(grid: Grid, cmap: Mapping[str, tuple[str, str]], used: set) -> str:
+    """Column-map entries that match no column of the file, for the messages of a missing or unreadable column;
+    entries whose value is a column of the file and whose key a bpmid name look reversed, and are said so."""
+    unmatched = [k for k in cmap if k not in used]
+    if not unmatched:
+        return ""
+    exact = {_norm(h) for h in grid.header if h}
+
+    def is_column(v: str) -> bool:
+        return _norm(v) in exact or any(_unit_part(h)[1] is not None and _norm(_unit_part(h)[0]) == _norm(v)
+                                        for h in grid.header if h)
+
+    def bpmid_like(k: str) -> bool:
+        words = _norm(k).split(" ")
+        return _parse(k)[0] is not None or words[0] in ALIASES or words[0] in BPMID_NAME
+
+    rev = [cmap[k] for k in unmatched if is_column(cmap[k][1]) and bpmid_like(cmap[k][0])]
+    other = [cmap[k][0] for k in unmatched if cmap[k] not in rev]
+    note = ""
+    if rev:
+        pairs = ", ".join(f"{k}: {v}" for k, v in rev)
+        right = ", ".join(f"{v}: {k}" for k, v in rev)
+        flag = columns_arg(",".join(f"{k}={v}" for k, v in rev))
+        note += (f"; the column map's entries {{{pairs}}} match no column, but their values are columns of this "
+                 f"file: the map looks reversed. io.columns maps file column -> quantity (io.columns: {{{right}}}), "
+                 f"the opposite of --columns, which takes quantity=column ({flag})")
+    if other:
+        note += f"; the column map names {', '.join(repr(k) for k in other)}, not a column of this file"
+    return note
+
+
+def _resolve(grid: Grid, cmap: dict[str, tuple[str, str]], units: Mapping[str, str], unit_sources: Mapping[str, str],
              wanted: Sequence[str]) -> tuple[dict, list, list]:
     """quantity -> list of (column index, unit, header, unit_from, reference); derived and unknown columns."""
     found: dict[str, list] = {}
     ignored, unknown = [], []
     used_keys = set()
+    exact = {_norm(h) for h in grid.header if h}
     for j, h in enumerate(grid.header):
         if not h:
             continue
         ur = grid.unit_row[j] if grid.unit_row is not None and j < len(grid.unit_row) else None
-        mapped = cmap.get(_norm(h))
+        key = _map_key_of(h, cmap, exact)
+        mapped = cmap[key][1] if key is not None else None
         if mapped is not None:
-            used_keys.add(_norm(h))
+            used_keys.add(key)
             q, unit, ref, derived = _parse(mapped, None)
             if q is None:
                 raise InputError(f"the column map sends {h!r} to {mapped!r}, which is no bpmid column (known: "
@@ -777,7 +842,8 @@ def _resolve(grid: Grid, cmap: dict[str, str], units: Mapping[str, str], unit_so
         found.setdefault(q, []).append([j, unit, h, unit_from, ref])
     # map entries for columns this file does not have are fine (one map serves files with different headers);
     # they are named when a needed column is then missing
-    grid.info["unmatched_map"] = [k for k in cmap if k not in used_keys]
+    grid.info["unmatched_map"] = [cmap[k][0] for k in cmap if k not in used_keys]
+    grid.info["map_note"] = _map_note(grid, cmap, used_keys)
     return found, ignored, unknown
 
 
@@ -927,8 +993,7 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
         cands = [h for h in unknown if q in _unit_quantities(h)]
         if cands:
             h = cands[0]
-            um = grid.info.get("unmatched_map") or []
-            note = f"; the column map names {', '.join(repr(k) for k in um)}, not a column of this file" if um else ""
+            note = grid.info.get("map_note", "")
             raise InputError(f"missing column for {q}: no name bpmid knows, but {h!r} has {'an' if q[0] in 'aeiou' else 'a'} {q} unit: map it with "
                              f"--columns "
                              f"{q}={h} (config io.columns: {{'{h}': {q}}}), or rename it {BPMID_NAME[q]}{note}",
@@ -937,8 +1002,7 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     if missing:
         cols = ", ".join(repr(h) for h in grid.header)
         q = missing[0]
-        um = grid.info.get("unmatched_map") or []
-        note = f"; the column map names {', '.join(repr(k) for k in um)}, not a column of this file" if um else ""
+        note = grid.info.get("map_note", "")
         raise InputError(f"missing column for {q} (found columns: {cols}); name it {BPMID_NAME[q]} or map it with "
                          f"--columns {q}=<your column> (config io.columns){note}", path=where, line=hline, key=q)
     lines = list(grid.lines)
@@ -960,8 +1024,8 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
         raise InputError(f"the units of the columns {cols_txt} are stated nowhere and bpmid never guesses one; state "
                          f"them (1) in the header ({', '.join(BPMID_NAME[q] for q, _h in unstated)} or "
                          f"'{unstated[0][1]} ({EXAMPLE_UNIT[unstated[0][0]]})'), (2) in a units row under the header, "
-                         f"or (3) with the flags {flags or '(none)'} (config io.units)", path=where, line=hline,
-                         key=unstated[0][1])
+                         f"or (3) with the flags {flags or '(none)'} (config io.units){grid.info.get('map_note', '')}",
+                         path=where, line=hline, key=unstated[0][1])
     columns, units_in_file, headers, refs, col_info = {}, {}, {}, {}, {}
     for q, ents in found.items():
         arrays = []
@@ -975,15 +1039,30 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
                 raise InputError(f"unknown unit {stated!r} for {q} (known: {', '.join(_known(q))})", key=src)
             meta_unit = meta.get(f"{q}_unit")
             if unit is not None and unit.startswith("conflict:"):
-                u1, u2 = unit[len("conflict:"):].split("|", 1)
-                raise InputError(f"the name of column {h!r} says {u1} and its brackets say {u2}; make them agree",
-                                 path=where, line=hline, key=h)
-            if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None:
-                raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})", path=where,
+                u1, u2, said = unit[len("conflict:"):].split("|", 2)
+                if said == "units row":
+                    row = grid.unit_row_line
+                    raise InputError(f"the name of column {h!r} says {u1} and the units row under the header "
+                                     f"says {u2}; make them agree: correct the "
+                                     f"units row, or if the values are in {u2}, rename the column "
+                                     f"{_column_name(q, split_unit(q, u2)[0] or u2.lower())}", path=where,
+                                     line=row or hline, key=h)
+                _raw, written = _unit_part(h)
+                part = f"its brackets say {u2}" if _PAREN.match(str(h).strip().strip('"').strip()) else \
+                    f"the unit written after the name says {written}"
+                raise InputError(f"the name of column {h!r} says {u1} and {part}; make them agree", path=where,
                                  line=hline, key=h)
+            if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None:
+                in_row = unit_from == "units row"
+                raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})"
+                                 f"{_unknown_unit_hint(q, h, unit, unit_from)}{grid.info.get('map_note', '')}",
+                                 path=where,
+                                 line=(grid.unit_row_line or hline) if in_row else hline, key=h)
             if unit is not None and stated_u is not None and stated_u != unit:
                 raise InputError(f"the file says the unit of {h!r} is {unit}, {src} says {stated}; drop one or make "
                                  f"them agree", path=where, line=hline, key=h)
+            if meta_unit is not None and unit is not None and unit_from in ("header", "units row"):
+                ref = _check_meta_unit(grid, q, h, unit, ref, unit_from, meta_unit)
             if unit is None and stated_u is not None:
                 unit, ref, unit_from = stated_u, stated_ref, src
             if unit is None and meta_unit is not None:
@@ -1000,7 +1079,8 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
             if unit is None:
                 what = "" if _norm(h) == q else f" ({q})"
                 raise InputError(f"the unit of column {h!r}{what} is stated nowhere and bpmid never guesses one; "
-                                 f"state it: {unit_hint(q, h)}", path=where, line=hline, key=h)
+                                 f"state it: {unit_hint(q, h)}{grid.info.get('map_note', '')}", path=where,
+                                 line=hline, key=h)
             if is_time_text:
                 arr, origin = _parse_times(vals, where, h, lines)
                 col_info_extra = {"time_origin": origin, "timestamps": "ISO-8601 or clock times, seconds since the "
@@ -1031,13 +1111,74 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
         col_info[q] = {"column": h, "unit": unit, "unit_from": unit_from, **({"reference": ref} if ref else {}),
                        **extra}
     first = lines[0] if lines else (grid.header_line + 1)
-    reading = {k: v for k, v in grid.info.items() if k != "unmatched_map" or v}
+    reading = {k: v for k, v in grid.info.items() if k != "map_note" and (k != "unmatched_map" or v)}
     reading["columns"] = col_info
     if ignored or unknown:
         reading["ignored_columns"] = list(ignored) + list(unknown)
     table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
-                  reading, [], where)
+                  reading, [], where, grid.info.get("map_note", ""))
     return table
+
+
+def _column_name(q: str, unit: str) -> str:
+    """bpmid's name for a column of ``q`` in ``unit`` (``time_ms``; ``'stress (n/mm^2)'`` for a unit with signs)."""
+    return f"{q}_{unit}" if re.fullmatch(r"[a-z0-9]+", unit) else f"'{q} ({unit})'"
+
+
+def _check_meta_unit(grid: Grid, q: str, h: str, unit: str, ref: str | None, unit_from: str,
+                     meta_unit: str) -> str | None:
+    """A ``# <q>_unit:`` line beside a unit the header (or units row) states: it must agree (a unit stated twice
+    must agree; the line is not silently ignored). Returns the pressure reference (the line may add one)."""
+    line = grid.meta_lines.get(f"{q}_unit")
+    said = f"the line '# {q}_unit: {meta_unit}'"
+    mu, mref = split_unit(q, meta_unit)
+    if mu is None:
+        raise InputError(f"unknown unit {meta_unit!r} for {q} in {said} (known: {', '.join(_known(q))}); the column "
+                         f"{h!r} already states its unit ({unit}), so the line can be deleted", path=grid.where,
+                         line=line, key=f"{q}_unit")
+    if unit_from == "units row":
+        src = f"the units row under the header (line {grid.unit_row_line})" if grid.unit_row_line else \
+            "the units row under the header"
+        fix = f"correct the units row (or map the column with its unit: --columns {_column_name(q, mu)}={h})"
+    else:
+        src = f"the header {h!r}"
+        fix = (f"rename the column {_column_name(q, mu)} (or map it with its unit: --columns "
+               f"{_column_name(q, mu)}={h})")
+    if mu != unit:
+        raise InputError(f"{said} says {q} is in {meta_unit}, but {src} says {unit}; a unit stated twice must agree: if "
+                         f"the values are in {unit}, delete or correct the line; if they are in {meta_unit}, {fix}",
+                         path=grid.where, line=line, key=h)
+    if mref is not None and ref is not None and mref != ref:
+        raise InputError(f"{said} says the pressure is {mref}, but {src} says {ref} ({h!r}); make them agree",
+                         path=grid.where, line=line, key=h)
+    return ref if ref is not None else mref
+
+
+def columns_arg(pairs: str) -> str:
+    """``--columns`` with its value, quoted for a shell when the value has spaces or brackets (messages)."""
+    return f"--columns {pairs}" if re.fullmatch(r"[\w.,=+-]+", pairs) else f"--columns '{pairs}'"
+
+
+def _unknown_unit_hint(q: str, h: str, unit: str, unit_from: str | None) -> str:
+    """What to do about a column whose stated unit bpmid does not know (``p_abs``: 'abs' is a reference)."""
+    ex = EXAMPLE_UNIT[q]
+    ref = _REF_WORDS.get(unit) if q == "pressure" else None
+    out = ""
+    if ref is not None:
+        out += (f"; {unit!r} reads as the pressure reference ({ref}), which a name carries only after a unit "
+                f"(pressure_{ex.lower()}_{unit})")
+    name = f"pressure_{ex.lower()}_{unit}" if ref is not None else BPMID_NAME[q]
+    mapped = f"{columns_arg(f'{name}={h}')} (config io.columns: {{'{h}': {name}}})"
+    if unit_from == "units row":
+        out += f"; state the unit the column is logged in: correct the units row, or map the column: {mapped}"
+    else:
+        out += f"; state the unit the column is logged in: rename the column ({name}) or map it: {mapped}"
+    if q in UNIT_FLAGS and unit_from == "header" and _unit_part(h)[1] is None:
+        # a name suffix: mapped to the bare quantity, the suffix is no longer read as its unit and the flag applies
+        out += f", or {columns_arg(f'{q}={h}')} with {UNIT_FLAGS[q]} {ex}"
+        if ref is not None:
+            out += f" (and --pressure-reference {ref} unless the file states the reference)"
+    return out
 
 
 def _known(q: str) -> list[str]:

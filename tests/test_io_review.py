@@ -1,0 +1,265 @@
+"""Log reading after a new-user review: unit statements that disagree, plausibility hints that work, column maps
+that match nothing. Small inline logs only; every CLI case goes through Typer's CliRunner."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+from bpmid.errors import InputError
+from bpmid.io.motion_logs import IOConfig, read_motion_log
+from bpmid.models.vbmm import VBMM, Material, vbmm_yaml_body
+
+runner = CliRunner()
+
+
+def _params(tmp_path: Path) -> Path:
+    data = {"schema": "bpmid.vbmm/1", **vbmm_yaml_body(VBMM(material=Material.paper_fit()))}
+    data["metrics"] = {"rmse_deg": 1.0, "mape_pct": 2.0, "r2": 0.9}
+    p = tmp_path / "p.yaml"
+    p.write_text(yaml.safe_dump(data, sort_keys=False))
+    return p
+
+
+def _motion(head: str, header: str = "time_s,pressure_bar,angle_deg", *, n: int = 40, t_scale: float = 1.0,
+            a_scale: float = 1.0, p_scale: float = 1.0) -> str:
+    """A small absolute-pressure log (a ramp up and down, 0.1 s steps): ``head`` lines, then the header and rows."""
+    rng = np.random.default_rng(7)
+    t = np.arange(n) * 0.1
+    p = 1.2 + 0.4 * np.sin(np.pi * t / t[-1])
+    a = VBMM(material=Material.paper_fit()).forward_deg(t, p * 1e5 - 101325.0) + rng.normal(0, 0.1, n)
+    rows = "".join(f"{ti * t_scale:.10g},{pi * p_scale:.5f},{ai * a_scale:.5f}\n" for ti, pi, ai in zip(t, p, a))
+    return head + header + "\n" + rows
+
+
+def _write(tmp_path: Path, name: str, text: str) -> Path:
+    f = tmp_path / name
+    f.write_text(text)
+    return f
+
+
+# ---- item 1: a '# <quantity>_unit:' line that contradicts the header -------------------------------------------
+@pytest.mark.parametrize("line, column, says", [
+    ("# pressure_unit: kPa", "pressure_bar", "kPa"),
+    ("# angle_unit: rad", "angle_deg", "rad"),
+    ("# Time unit: ms", "time_s", "ms"),
+])
+def test_a_unit_line_that_contradicts_the_header_is_refused(tmp_path, line, column, says):
+    log = _write(tmp_path, "c.csv", _motion(f"# pressure_reference: absolute\n{line}\n"))
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["predict", str(log), "--params", str(_params(tmp_path)), "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    assert f"c.csv:2, key '{column}'" in res.output  # the file, the comment's line, the column
+    assert f"says {'time' if 'Time' in line else line.split('_')[0][2:]} is in {says}" in res.output
+    assert "a unit stated twice must agree" in res.output and "delete or correct the line" in res.output
+    assert not out.exists()
+
+
+def test_a_unit_line_that_agrees_or_stands_alone_still_works(tmp_path):
+    agree = _write(tmp_path, "a.csv", _motion("# pressure_reference: absolute\n# Pressure unit: BAR\n"))
+    alone = _write(tmp_path, "b.csv", _motion("# pressure_reference: absolute\n# pressure_unit: bar\n",
+                                              "time_s,pressure,angle_deg"))
+    ref = _write(tmp_path, "r.csv", _motion("# pressure_unit: bar(a)\n"))  # the line may carry the reference
+    logs = [read_motion_log(f) for f in (agree, alone, ref)]
+    for lg in logs:
+        assert np.allclose(lg.pressure_pa, logs[0].pressure_pa) and lg.pressure_reference == "absolute"
+    assert logs[1].reading["columns"]["pressure"]["unit_from"] == "'# pressure_unit:' line"
+    res = runner.invoke(app, ["predict", str(agree), str(alone), "--params", str(_params(tmp_path)), "--out",
+                              str(tmp_path / "out")])
+    assert res.exit_code == 0, res.output
+
+
+def test_a_unit_line_that_contradicts_a_units_row_names_the_row(tmp_path):
+    f = _write(tmp_path, "u.csv", _motion("# angle_unit: rad\n# pressure_reference: absolute\n",
+                                          "time,pressure,angle\ns,bar,deg"))
+    with pytest.raises(InputError, match=r"the units row under the header \(line 4\) says deg") as e:
+        read_motion_log(f)
+    assert e.value.line == 1 and e.value.key == "angle"
+
+
+# ---- item 7: a units row that contradicts the name is worded by where the unit came from ----------------------
+def test_a_units_row_conflict_names_the_units_row_not_brackets(tmp_path):
+    f = _write(tmp_path, "r.csv", _motion("# pressure_reference: absolute\n", "time_s,pressure_bar,angle_deg\ns,kPa,deg"))
+    res = runner.invoke(app, ["predict", str(f), "--params", str(_params(tmp_path)), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2, res.output
+    assert "r.csv:3, key 'pressure_bar'" in res.output  # the units row's line
+    assert "the units row under the header says kPa" in res.output and "brackets" not in res.output
+    assert "rename the column pressure_kpa" in res.output
+    g = _write(tmp_path, "b.csv", _motion("# pressure_reference: absolute\n", "time_s,pressure_kpa (bar),angle_deg"))
+    with pytest.raises(InputError, match=r"its brackets say bar"):
+        read_motion_log(g)
+
+
+def test_an_unknown_unit_that_is_a_pressure_reference_says_what_works(tmp_path):
+    """'p_abs': 'abs' is no unit but a reference; the message offers the forms that read the file, and they do."""
+    f = _write(tmp_path, "p.csv", _motion("", "time_s,p_abs,angle_deg"))
+    params = str(_params(tmp_path))
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2, res.output
+    msg = " ".join(res.output.split())
+    assert "unknown unit 'abs' for pressure" in msg and "reads as the pressure reference (absolute)" in msg
+    assert "--columns pressure_kpa_abs=p_abs" in msg
+    assert "--columns pressure=p_abs with --pressure-unit kPa (and --pressure-reference absolute" in msg
+    for flags in (["--columns", "pressure_bar_abs=p_abs"],
+                  ["--columns", "pressure=p_abs", "--pressure-unit", "bar", "--pressure-reference", "absolute"]):
+        out = tmp_path / f"o{len(flags)}"
+        res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(out), *flags])
+        assert res.exit_code == 0, res.output
+
+
+def test_an_unknown_unit_in_a_units_row_says_to_correct_the_row(tmp_path):
+    f = _write(tmp_path, "u.csv", _motion("# pressure_reference: absolute\n", "t,p,angle\nsecs.,bar,deg"))
+    with pytest.raises(InputError, match=r"unknown unit 'secs\.' for time .*correct the units row, or map the "
+                                         r"column: --columns time_s=t") as e:
+        read_motion_log(f)
+    assert e.value.line == 3
+    assert read_motion_log(f, IOConfig(columns={"t": "time_s"})).n == 40
+
+
+# ---- item 6: column maps -------------------------------------------------------------------------------------
+RELAX_SEMI = "Zeit [s];Dehnung [-];Spannung [MPa]\n" + "".join(
+    f"{0.02 * i:.2f};{min(0.002 * i, 0.1):.4f};{0.5 * min(0.002 * i, 0.1) * (1 + np.exp(-0.02 * i)):.6f}\n"
+    .replace(".", ",") for i in range(120))
+
+
+def test_a_map_key_matches_a_header_that_carries_its_unit(tmp_path):
+    """'Dehnung' names 'Dehnung [-]' (the header parser reads name and unit apart); the unit comes from the header."""
+    f = _write(tmp_path, "semi.csv", RELAX_SEMI)
+    out = tmp_path / "r.yaml"
+    res = runner.invoke(app, ["fit", "relax", str(f), "--columns", "strain=Dehnung,stress=Spannung", "--out",
+                              str(out), "--no-figure"])
+    assert res.exit_code == 0, res.output
+    reading = yaml.safe_load(out.read_text())["provenance"]["reading"]["semi"]["columns"]
+    assert reading["strain"]["column"] == "Dehnung [-]" and reading["stress"]["unit"] == "mpa"
+    # a header named exactly as the key wins over one that only carries the key as its name
+    from bpmid.io.tables import read_table
+    g = _write(tmp_path, "two.csv", "Zeit,Zeit [ms],strain,stress_mpa\n0,0,0,0\n1,1000,0.1,0.1\n")
+    t = read_table(g, column_map={"Zeit": "time_s"}, required=("time",))
+    assert t.headers["time"] == "Zeit" and np.allclose(t.columns["time"], [0, 1])
+
+
+def test_map_entries_that_match_no_column_are_named(tmp_path):
+    f = _write(tmp_path, "semi.csv", RELAX_SEMI)
+    for cols, named in (("strain=Dehnug,stress=Spanung", "'Dehnug', 'Spanung'"), ("strain=Dehnug,stress=Spannung",
+                                                                                  "'Dehnug'")):
+        res = runner.invoke(app, ["fit", "relax", str(f), "--columns", cols, "--out", str(tmp_path / "r.yaml")])
+        assert res.exit_code == 2, res.output
+        assert f"the column map names {named}, not a column of this file" in " ".join(res.output.split())
+
+
+def test_a_reversed_io_columns_map_is_said_to_be_reversed(tmp_path):
+    f = _write(tmp_path, "r.csv", _motion("# pressure_reference: absolute\n", "t,p_abs,bend"))
+    cfg = _write(tmp_path, "c.yaml", "io:\n  columns: {time_s: t, pressure_bar: p_abs, angle_deg: bend}\n")
+    params = str(_params(tmp_path))
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--config", str(cfg), "--out",
+                              str(tmp_path / "o")])
+    assert res.exit_code == 2, res.output
+    msg = " ".join(res.output.split())
+    assert "the map looks reversed" in msg and "io.columns maps file column -> quantity" in msg
+    assert "io.columns: {t: time_s, p_abs: pressure_bar, bend: angle_deg}" in msg
+    assert "--columns time_s=t,pressure_bar=p_abs,angle_deg=bend" in msg
+    # the two forms the message gives both read the file
+    cfg.write_text("io:\n  columns: {t: time_s, p_abs: pressure_bar, bend: angle_deg}\n")
+    for extra in (["--config", str(cfg)], ["--columns", "time_s=t,pressure_bar=p_abs,angle_deg=bend"]):
+        res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / extra[0][2:]),
+                                  *extra])
+        assert res.exit_code == 0, res.output
+
+
+# ---- item 4: a plausibility hint names the form that works -------------------------------------------------------
+def _warnings(output: str) -> list[str]:
+    return [" ".join(w.split()) for w in output.split("warning: ")[1:]]
+
+
+@pytest.mark.parametrize("header, scale, fix, refused", [
+    ("time_s,pressure_bar,angle_deg", {"t_scale": 1000.0}, "--columns time_ms=time_s", "--time-unit ms"),
+    ("time_s,pressure_bar,angle_deg", {"a_scale": np.pi / 180}, "--columns angle_rad=angle_deg", "--angle-unit rad"),
+])
+def test_a_hint_for_a_unit_the_header_states_is_the_column_map_and_it_works(tmp_path, header, scale, fix, refused):
+    f = _write(tmp_path, "h.csv", _motion("# pressure_reference: absolute\n", header, **scale))
+    params = str(_params(tmp_path))
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "a")])
+    assert res.exit_code == 0, res.output
+    hint = [w for w in _warnings(res.output) if fix in w]
+    assert hint and f"{refused} would be refused as a conflict" in hint[0], res.output
+    assert not any(f"state {refused}" in w for w in _warnings(res.output))
+    flag, value = refused.split()
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "b"), flag, value])
+    assert res.exit_code == 2 and "drop one or make them agree" in res.output  # the flag really is refused
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "c"), *fix.split()])
+    assert res.exit_code == 0 and not _warnings(res.output), res.output
+
+
+def test_a_hint_for_a_unit_a_flag_states_is_the_flag(tmp_path):
+    f = _write(tmp_path, "f.csv", _motion("# pressure_reference: absolute\n", "t,pressure_bar,angle_deg",
+                                          t_scale=1000.0))
+    res = runner.invoke(app, ["predict", str(f), "--params", str(_params(tmp_path)), "--out", str(tmp_path / "a"),
+                              "--time-unit", "s"])
+    assert res.exit_code == 0, res.output
+    assert any("if the times are milliseconds, state --time-unit ms" in w for w in _warnings(res.output)), res.output
+
+
+def test_a_reference_hint_names_what_states_the_reference(tmp_path):
+    """Absolute pressures under a psig header: --pressure-reference absolute would conflict with the unit."""
+    f = _write(tmp_path, "g.csv", _motion("", "time_s,pressure_psig,angle_deg", p_scale=1e5 / 6894.757293168))
+    params = str(_params(tmp_path))
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "a")])
+    w = [x for x in _warnings(res.output) if "absolute pressures read as gauge" in x]
+    assert w and "--columns pressure_psi_abs=pressure_psig" in w[0] and "--pressure-reference" not in w[0], res.output
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "b"), "--columns",
+                              "pressure_psi_abs=pressure_psig"])
+    assert res.exit_code == 0 and not _warnings(res.output), res.output
+
+
+# ---- item 3: the milliseconds check of motion logs, shared with relaxation test logs -----------------------------
+def _relax_text(t_scale: float) -> str:
+    """A ramp (0.5 s) and hold (5.5 s) of a one-term Prony solid, sampled every 20 ms, seeded noise."""
+    rng = np.random.default_rng(3)
+    t = np.arange(301) * 0.02
+    eps = np.minimum(t / 0.5, 1.0) * 0.1
+    e_inf, e1, tau = 0.5, 1.0, 0.8  # MPa, MPa, s
+    h, sig = 0.0, np.zeros_like(t)
+    for k in range(1, t.size):
+        dt = t[k] - t[k - 1]
+        h = h * np.exp(-dt / tau) + e1 * (eps[k] - eps[k - 1]) * tau / dt * (1 - np.exp(-dt / tau))
+        sig[k] = e_inf * eps[k] + h
+    sig += rng.normal(0, 1e-4, t.size)
+    return "time_s,strain,stress_mpa\n" + "".join(f"{ti * t_scale:.10g},{e:.6f},{s:.6f}\n"
+                                                  for ti, e, s in zip(t, eps, sig))
+
+
+def test_milliseconds_under_seconds_in_a_relaxation_log_are_warned_about(tmp_path):
+    f = _write(tmp_path, "relax_ms.csv", _relax_text(1000.0))
+    out = tmp_path / "r.yaml"
+    res = runner.invoke(app, ["fit", "relax", str(f), "--out", str(out), "--no-figure", "--terms", "1"])
+    assert res.exit_code == 0, res.output
+    w = [x for x in _warnings(res.output) if "samples are 20 s apart and every time is a whole number" in x]
+    assert w and "--columns time_ms=time_s" in w[0], res.output
+    doc = yaml.safe_load(out.read_text())
+    assert any("samples are 20 s apart" in x for x in doc["warnings"])
+    strict = tmp_path / "strict.yaml"
+    res = runner.invoke(app, ["fit", "relax", str(f), "--out", str(strict), "--no-figure", "--terms", "1",
+                              "--strict"])
+    assert res.exit_code == 2 and "samples are 20 s apart" in res.output and not strict.exists()
+    fixed = tmp_path / "fixed.yaml"
+    res = runner.invoke(app, ["fit", "relax", str(f), "--out", str(fixed), "--no-figure", "--terms", "1",
+                              "--columns", "time_ms=time_s"])
+    assert res.exit_code == 0 and not any("whole number" in x for x in _warnings(res.output)), res.output
+    # the same log in seconds: no such warning
+    g = _write(tmp_path, "relax_s.csv", _relax_text(1.0))
+    res = runner.invoke(app, ["fit", "relax", str(g), "--out", str(tmp_path / "s.yaml"), "--no-figure", "--terms", "1"])
+    assert res.exit_code == 0 and not any("whole number" in x for x in _warnings(res.output)), res.output
+
+
+def test_the_shipped_relaxation_logs_raise_no_milliseconds_warning():
+    from bpmid.io import plausibility as plaus
+    from bpmid.io.relax_logs import read_relax_log
+
+    files = sorted((Path(__file__).resolve().parents[1] / "datasets" / "relaxation").glob("*.csv"))
+    assert len(files) >= 12
+    for f in files:
+        assert not plaus.milliseconds_warnings(read_relax_log(f)), f
