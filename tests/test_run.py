@@ -162,7 +162,7 @@ def test_every_file_of_a_run_carries_its_run_id_in_stage_processes_too(study_run
     ids = []
     for out in (a, b):
         files = sorted(out.rglob("*.yaml"))
-        assert len(files) == 7, files  # run.yaml and the stage files of relax, motion (2), compare, history, discover
+        assert len(files) == 8, files  # run.yaml and the stage files of relax, motion (2), compare, history, discover (2)
         ids.append({f.relative_to(out).as_posix(): yaml.safe_load(f.read_text())["provenance"]["run_id"]
                     for f in files})
         assert len(set(ids[-1].values())) == 1, ids[-1]
