@@ -263,3 +263,22 @@ def test_the_shipped_relaxation_logs_raise_no_milliseconds_warning():
     assert len(files) >= 12
     for f in files:
         assert not plaus.milliseconds_warnings(read_relax_log(f)), f
+
+
+def test_a_unit_line_and_a_flag_that_disagree_are_refused_and_agreeing_ones_read(tmp_path):
+    # the header states no unit; the file's '# time_unit:' line and --time-unit both do: stated twice, they must
+    # agree (the flag used to win silently)
+    f = _write(tmp_path, "t.csv", _motion("# pressure_reference: absolute\n# time_unit: ms\n",
+                                          header="t,pressure_bar,angle_deg", t_scale=1000.0))
+    params = _params(tmp_path)
+    r = runner.invoke(app, ["predict", str(f), "--params", str(params), "--out", str(tmp_path / "o"),
+                            "--time-unit", "s"])
+    assert r.exit_code == 2, r.output
+    assert "'# time_unit: ms'" in r.output and "--time-unit" in r.output and ":2" in r.output
+    assert not (tmp_path / "o").exists()
+    ok = runner.invoke(app, ["predict", str(f), "--params", str(params), "--out", str(tmp_path / "o2"),
+                             "--time-unit", "ms"])
+    assert ok.exit_code == 0, ok.output
+    alone = runner.invoke(app, ["predict", str(f), "--params", str(params), "--out", str(tmp_path / "o3")])
+    assert alone.exit_code == 0, alone.output
+    assert (tmp_path / "o2" / "t.csv").read_bytes() == (tmp_path / "o3" / "t.csv").read_bytes()

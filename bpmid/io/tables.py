@@ -1063,6 +1063,15 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
                                  f"them agree", path=where, line=hline, key=h)
             if meta_unit is not None and unit is not None and unit_from in ("header", "units row"):
                 ref = _check_meta_unit(grid, q, h, unit, ref, unit_from, meta_unit)
+            if unit is None and stated_u is not None and meta_unit is not None:
+                # the file's '# <q>_unit:' line and a flag (or io.units) both state the unit: they must agree too
+                mu, mref = split_unit(q, meta_unit)
+                if mu is not None and (mu != stated_u or (mref is not None and stated_ref is not None
+                                                          and mref != stated_ref)):
+                    raise InputError(f"the line '# {q}_unit: {meta_unit}' says {q} is in {meta_unit}, {src} says "
+                                     f"{stated}; a unit stated twice must agree: drop {src} (the file states it) "
+                                     f"or correct the line", path=where, line=grid.meta_lines.get(f"{q}_unit"),
+                                     key=h)
             if unit is None and stated_u is not None:
                 unit, ref, unit_from = stated_u, stated_ref, src
             if unit is None and meta_unit is not None:
