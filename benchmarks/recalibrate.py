@@ -100,8 +100,8 @@ def main(argv=None) -> int:
                         "each beside the other asked on the path for two effects at once (a first round where nothing "
                         "passes either path), and the margin over the single effect and the gain of each beside the "
                         "other asked of two effects named at once over the one a first round would name, each by the "
-                        "same score within the same bounds; the best final score wins; the rival outside the "
-                        "catalogue withholds as in discovery",
+                        "same score within the same bounds; the best final score wins; the rivals outside the "
+                        "catalogue (a ringing payload, an air leak through an orifice) withhold as in discovery",
                 "generator": cfgs[0].effective_generator.to_yaml()}
         print("wrote", write_thresholds(values, meta))
     return 0
