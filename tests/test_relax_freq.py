@@ -130,7 +130,7 @@ def test_cli_max_error_prints_each_candidate(tmp_path):
     res = runner.invoke(app, ["fit", "relax", str(p), "--max-error", "0.5", "--no-figure", "--out",
                               str(tmp_path / "c.yaml")])
     assert res.exit_code == 0, res.output
-    assert "error %" in res.output and "3 term(s)" in res.output
+    assert "error %" in res.output and "3 term(s)" in res.output and "the fewest that meet --max-error" in res.output
 
 
 # ---- bad input ---------------------------------------------------------------------------------
