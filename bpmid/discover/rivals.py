@@ -5,8 +5,9 @@ it up: a payload on the tip that rings after every change of the pressure rate a
 (one or two first-order lags: it cannot overshoot) removes much of that delay; a muscle that leaks air through an
 orifice falls short of the supply pressure by an amount growing as the square root of its pressure, and an angle
 offset (with the stiffness refitted) takes up most of that shortfall over a working range. Judged only against the
-other catalogue entries, the lag or the offset would be named. A rival is a model term for such an outside effect, refitted and scored
-exactly like a candidate (:func:`bpmid.discover.confirm.confirm`: the same starts, nuisance and held-out logs);
+other catalogue entries, the lag or the offset would be named. A rival is a model term for such an outside
+effect, refitted and scored exactly like a candidate (:func:`bpmid.discover.confirm.confirm`: the same starts,
+nuisance and held-out logs);
 when it explains the held-out logs better than the effect the round would name, and it needs what only it has,
 nothing is named that round and the remainder is reported unexplained, with the rival's constants as a clue.
 
