@@ -282,3 +282,19 @@ def test_a_unit_line_and_a_flag_that_disagree_are_refused_and_agreeing_ones_read
     alone = runner.invoke(app, ["predict", str(f), "--params", str(params), "--out", str(tmp_path / "o3")])
     assert alone.exit_code == 0, alone.output
     assert (tmp_path / "o2" / "t.csv").read_bytes() == (tmp_path / "o3" / "t.csv").read_bytes()
+
+
+def test_a_vacuum_refusal_names_the_form_that_works_for_where_the_unit_came_from(tmp_path):
+    # the header states the unit: --pressure-unit would be refused, so the hint is the column map
+    f = _write(tmp_path, "v.csv", "# pressure_reference: gauge\ntime_s,pressure_kpa,angle_deg\n0,-20,10\n0.1,30,11\n"
+                                  "0.2,40,12\n")
+    r = runner.invoke(app, ["fit", "motion", str(f), "--out", str(tmp_path / "o.yaml")])
+    assert r.exit_code == 2 and ":3" in r.output
+    text = " ".join(r.output.split())
+    assert "--columns pressure_bar=pressure_kpa" in text and "(--pressure-unit)" not in text
+    # a bare column whose unit a flag gave: the flag is the hint
+    g = _write(tmp_path, "w.csv", "time_s,p,angle_deg\n0,-0.2,10\n0.1,0.3,11\n0.2,0.4,12\n")
+    r = runner.invoke(app, ["fit", "motion", str(g), "--out", str(tmp_path / "o2.yaml"), "--columns", "pressure=p",
+                            "--pressure-unit", "bar", "--pressure-reference", "gauge"])
+    assert r.exit_code == 2 and "(--pressure-unit)" in " ".join(r.output.split())
+    assert not (tmp_path / "o.yaml").exists() and not (tmp_path / "o2.yaml").exists()
