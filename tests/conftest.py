@@ -98,7 +98,26 @@ def pytest_configure_node(node):
     node.workerinput[_GROUPS_KEY] = cfg._bpmid_groups_dir
 
 
+def pytest_configure(config):
+    """On the xdist controller (``-n 2``), fill numba's cache in a process of its own while the workers start
+    (``tests/_warm_numba.py``): it only saves the workers compiling the same kernels at once, and decides nothing."""
+    if hasattr(config, "workerinput") or not config.getoption("numprocesses", default=None):
+        return
+    import subprocess
+    import sys
+
+    config._bpmid_warm = subprocess.Popen([sys.executable, os.path.join(os.path.dirname(__file__), "_warm_numba.py")],
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                          env={**os.environ, "PYTHONPATH": os.pathsep.join(
+                                              [REPO] + [x for x in os.environ.get("PYTHONPATH", "").split(os.pathsep)
+                                                        if x])})
+
+
 def pytest_unconfigure(config):
+    warm = getattr(config, "_bpmid_warm", None)
+    if warm is not None and warm.poll() is None:
+        warm.kill()
+        warm.wait()
     folder = getattr(config, "_bpmid_groups_dir", None)
     if folder:
         import shutil

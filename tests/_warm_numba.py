@@ -1,0 +1,29 @@
+"""Fill numba's on-disk cache with the kernels most tests use, once, in a process of its own (started by
+``conftest.pytest_configure`` on the xdist controller while the two workers start and collect). Without it both
+workers compile the same kernels at the same time when their first tests need them, each for itself; with it, a
+worker that starts a test after a kernel was cached reads it. It decides nothing: a kernel not cached yet is
+compiled by the worker as before."""
+from __future__ import annotations
+
+
+def warm() -> None:
+    import numpy as np
+
+    from bpmid.discover.rivals import RIVALS
+    from bpmid.effects import CATALOGUE, get_effect
+    from bpmid.effects.base import AugmentedVBMM
+    from bpmid.models.vbmm import VBMM, Material
+
+    t = np.arange(0.0, 20.0, 0.1)
+    p = 1e5 * (0.2 + 0.4 * np.abs(np.sin(t / 3.0)))
+    for closure in ("paper", "consistent"):
+        for history in ("recursive", "window", "full"):
+            VBMM(material=Material.paper_fit(), closure=closure, history=history).forward_deg(t, p)
+    base = VBMM(material=Material.paper_fit())
+    effects = [get_effect(e) for e in CATALOGUE] + [R() for R in RIVALS]
+    for e in effects:
+        AugmentedVBMM(base, (e,), e.default_params()).simulate_deg(t, p)
+
+
+if __name__ == "__main__":
+    warm()
