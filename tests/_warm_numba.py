@@ -22,7 +22,20 @@ def warm() -> None:
     base = VBMM(material=Material.paper_fit())
     effects = [get_effect(e) for e in CATALOGUE] + [R() for R in RIVALS]
     for e in effects:
-        AugmentedVBMM(base, (e,), e.default_params()).simulate_deg(t, p)
+        try:   # each kernel on its own: one that fails here is compiled by the worker that needs it, as before
+            AugmentedVBMM(base, (e,), e.default_params()).simulate_deg(t, p)
+        except Exception:
+            pass
+    try:       # the relaxation fit's hereditary kernels
+        import glob
+        import os
+
+        import bpmid
+
+        root = os.path.join(os.path.dirname(__file__), "..", "datasets", "relaxation")
+        bpmid.fit_relaxation(sorted(glob.glob(os.path.join(root, "relax_*_[23]0pct.csv"))))
+    except Exception:
+        pass
 
 
 if __name__ == "__main__":
