@@ -580,15 +580,15 @@ class PredictionResult(Result):
 
     def save(self, path: str | Path, *, figure: bool = False) -> Path:
         """Write ``DIR/<log>.csv`` per log and ``DIR/predict.yaml`` (and with ``figure`` ``DIR/predict.png``), all
-        or nothing; a loaded result writes ``predict.yaml`` only."""
+        or nothing (the paths written: ``.written``); a loaded result writes ``predict.yaml`` only."""
         if self.raw is not None:
             from bpmid.predict import write_predictions
 
             from bpmid.io.motion_logs import is_synthetic
 
-            write_predictions(path, self.raw, prov=self.provenance, params=self.body.get("params"),
-                              model=getattr(self, "_model", None), figure=figure,
-                              synthetic=is_synthetic([p.log for p in self.raw]))
+            self.written = write_predictions(path, self.raw, prov=self.provenance, params=self.body.get("params"),
+                                             model=getattr(self, "_model", None), figure=figure,
+                                             synthetic=is_synthetic([p.log for p in self.raw]))
             return Path(path)
         return super().save(path)
 

@@ -47,6 +47,5 @@ def predict_command(
             typer.echo(f"{p.log.name}: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, R^2 {m['r2']:.4f}")
         else:
             typer.echo(f"{p.log.name}: {p.log.n} samples predicted (no measured angle)")
-    names = [f"{pr.log.name}.csv" for pr in result.raw] + ["predict.yaml", figure_path(Path(out) / "predict.png").name]
-    written = [n for n in names if (Path(out) / n).is_file()]
+    written = [p.name for p in result.written]
     typer.echo(f"wrote {len(written)} file{'s' if len(written) != 1 else ''} to {out}: {', '.join(written)}")

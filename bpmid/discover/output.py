@@ -7,6 +7,8 @@ from __future__ import annotations
 import textwrap
 from pathlib import Path
 
+import numpy as np
+
 from bpmid.io.atomic import staged_dir, write_text
 from bpmid.io.motion_logs import is_synthetic
 from bpmid.io.results import write_result
@@ -70,7 +72,7 @@ def _material_params(state):
         src = f"vbmm.{p.name}"
         if mat.split and p.name.startswith("tauK_"):
             src = f"vbmm.tau_{p.name.split('_', 1)[1]}"
-        if src in state.params and not (mat.split and p.name.startswith("tauG_")):
+        if src in state.params:   # a split material's tauG_j has no vbmm.* counterpart: held
             q = state.params[src]
             out = out.replace(p.name, value=float(q.value), stderr=q.stderr, identifiable=q.identifiable,
                               note=q.note, fixed=q.fixed)
@@ -88,7 +90,6 @@ def model_body(result) -> dict:
     from bpmid.effects.fitfile import effects_to_yaml
     from bpmid.models.vbmm.fit import MAPE_FLOOR_DEG, log_metrics
     from bpmid.models.vbmm.model import vbmm_yaml_body
-    import numpy as np
 
     state = result.final_state
     vbmm = state.fitted_vbmm()

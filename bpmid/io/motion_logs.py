@@ -225,19 +225,18 @@ def _read_motion_log(path: Path, io_cfg: IOConfig, require_angle: bool) -> Motio
     low = np.flatnonzero(gauge < io_cfg.min_gauge_pa)
     if low.size:
         k = int(low[0])
+        import types
+
+        from bpmid.io.plausibility import reference_fix, unit_fix
+
         h = table.headers["pressure"]
+        view = types.SimpleNamespace(reading=table.reading, meta=table.meta)   # what the hints read of a log
         unit_from = str(((table.reading.get("columns") or {}).get("pressure") or {}).get("unit_from") or "")
         # a flag is refused where the file itself states the unit or the reference: then the hint is the column map
-        if unit_from in ("header", "units row") or unit_from.startswith("'#"):
-            other = "bar" if unit.lower() != "bar" else "kpa"
-            unit_how = (f"stated by the {unit_from.strip(chr(39))}; if it is wrong, correct it or map the column with "
-                        f"its unit, e.g. --columns pressure_{other}={h}")
-        else:
-            unit_how = "--pressure-unit"
-        ref_how = (f"stated by {ref_from}; if it is wrong, map the column with a unit that says the other reference, "
-                   f"e.g. --columns pressure_{unit.lower()}_{'abs' if ref == 'gauge' else 'g'}={h}"
-                   if "unit of" in ref_from else
-                   "--pressure-reference, '# pressure_reference:'")
+        stated_in_file = unit_from in ("header", "units row") or unit_from.startswith("'#")
+        unit_how = unit_fix(view, "pressure", "bar" if unit.lower() != "bar" else "kpa") if stated_in_file \
+            else "--pressure-unit"
+        ref_how = reference_fix(view, "absolute" if ref == "gauge" else "gauge")
         raise InputError(f"pressure {given[k]:g} {unit} ({ref}, from {ref_from}) is {-gauge[k] / PA_PER_BAR:.3g} bar below "
                          f"atmosphere; a muscle is not driven by vacuum: check the pressure reference ({ref_how}) "
                          f"and the unit of the column {h!r} ({unit_how})", path=table.name, line=table.line_of(k))
