@@ -89,6 +89,22 @@ def covariance_from_jacobian(jac: np.ndarray, residual: np.ndarray, n_eff: float
 
 #: the verdict of a parameter the residual does not depend on
 ZERO_SENSITIVITY = "the data do not depend on it (zero sensitivity)"
+
+
+def zero_sensitivity_verdict(param, value: float) -> str:
+    """:data:`ZERO_SENSITIVITY`, saying so when the fit ended on one of the parameter's bounds: there the data
+    asked for no more (a pressure lag of 0 s, a leak of 0: the effect switched off), which is not the same as a
+    parameter the model ignores. Every verdict starts with :data:`ZERO_SENSITIVITY`."""
+    lo, hi = float(param.lower), float(param.upper)
+    # on a bound: within 1e-5 of the range (a finite range) or 1e-9 (relative) of it; a step that changes
+    # nothing there leaves the optimiser a few ulps to a few millionths of the range away
+    tol = 1e-5 * (hi - lo) if np.isfinite(hi - lo) else 0.0
+    for end, b in (("lower", lo), ("upper", hi)):
+        if np.isfinite(b) and abs(value - b) <= max(tol, 1e-9 * max(1.0, abs(b))):
+            unit = f" {param.unit}" if param.unit not in ("", "1") else ""
+            return (f"{ZERO_SENSITIVITY}: it ended on its {end} bound {b:g}{unit} ({value:.3g}), where the data "
+                    "asked for no more of it")
+    return ZERO_SENSITIVITY
 #: a parameter whose sensitivity is below this share of the largest one's is taken as having none: a
 #: two-point finite difference of a forward model that ignores the parameter gives about 1e-8 of it from
 #: rounding alone
@@ -233,7 +249,7 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
         bad: dict[str, str] = {}
         insensitive = zero_sensitivity(sol.jac, fitted)
         for i in insensitive:  # never "estimated", identifiability check or not: the data say nothing about it
-            bad[names[i]] = ZERO_SENSITIVITY
+            bad[names[i]] = zero_sensitivity_verdict(fitted[names[i]], fitted[names[i]].value)
         judged = identifiability.judge_fit(names, [fitted[n].value for n in names], se, corr, sol.x, lo, hi,
                                            rel_se_max=rel_se_max, corr_max=corr_max)
         if check_identifiability:
@@ -252,7 +268,7 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
             return FitResult(out, names, cov, corr, r, r.size, n_eff, bool(sol.success), str(sol.message),
                              int(sol.nfev), held)
         # hold the worst offender at its prior value and refit (one at a time: the others may recover)
-        worst = max(bad, key=lambda n: (2 if bad[n] == ZERO_SENSITIVITY else 0 if "correlated" in bad[n] else 1,
+        worst = max(bad, key=lambda n: (2 if bad[n].startswith(ZERO_SENSITIVITY) else 0 if "correlated" in bad[n] else 1,
                                         se[names.index(n)] / max(abs(fitted[n].value), 1e-300)))
         held[worst] = bad[worst]
         current = fitted.replace(worst, value=prior[worst].value, fixed=True)

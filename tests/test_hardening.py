@@ -370,6 +370,20 @@ def test_a_zero_sensitivity_parameter_is_never_estimated():
         assert res.params.value("a") == pytest.approx(2.0) and res.params["a"].identifiable
 
 
+def test_a_zero_sensitivity_parameter_on_its_bound_says_the_data_asked_for_no_more():
+    """A term switched off at its bound (a lag of 0 s) is not a term the model ignores: the verdict says which."""
+    from bpmid.fitting import ZERO_SENSITIVITY, fit_least_squares
+    from bpmid.params import Param, ParamSet
+
+    x = np.linspace(0.0, 1.0, 200)
+    y = 2.0 + 3.0 * x
+    ps = ParamSet([Param("a", 1.0), Param("b", 1.0), Param("tau", 0.0, "s", lower=0.0, upper=10.0)])
+    res = fit_least_squares(lambda p: p.value("a") + p.value("b") * x + p.value("tau") ** 2 * x ** 2 - y, ps)
+    why = res.held["tau"]
+    assert why.startswith(ZERO_SENSITIVITY) and "ended on its lower bound 0 s" in why, why
+    assert res.params.value("b") == pytest.approx(3.0)
+
+
 def test_constant_pressure_log_holds_the_branch_constants(tmp_path):
     from bpmid.io.motion_logs import read_motion_log
     from bpmid.motion_fit import fit_motion
