@@ -298,3 +298,19 @@ def test_a_vacuum_refusal_names_the_form_that_works_for_where_the_unit_came_from
                             "--pressure-unit", "bar", "--pressure-reference", "gauge"])
     assert r.exit_code == 2 and "(--pressure-unit)" in " ".join(r.output.split())
     assert not (tmp_path / "o.yaml").exists() and not (tmp_path / "o2.yaml").exists()
+
+
+@pytest.mark.parametrize("where", ["first", "after_metadata", "between_metadata"])
+def test_a_comment_line_among_an_instruments_metadata_lines_is_read(tmp_path, where):
+    """An instrument export's 'key: value' lines above the header, with the '# pressure_reference:' line first,
+    after them or between them: read the same (it was ignored after them and the file refused)."""
+    meta = ["Title: bench log (synthetic)", "Instrument: virtual DAQ", "Sample rate: 10 Hz"]
+    line = "# pressure_reference: absolute"
+    at = {"first": 0, "after_metadata": 3, "between_metadata": 2}[where]
+    head = "".join(x + "\n" for x in meta[:at] + [line] + meta[at:])
+    f = _write(tmp_path, "log.csv", _motion(head, "Time (ms),Pressure (psi),Angle (deg)", t_scale=1e3,
+                                            p_scale=14.503773773))
+    lg = read_motion_log(f)
+    assert lg.pressure_reference == "absolute" and "pressure_reference" in lg.reading["pressure_reference"]["from"]
+    assert lg.time_s[1] == pytest.approx(0.1) and lg.n == 40
+    assert lg.pressure_pa.max() == pytest.approx(1.6e5 - 101325.0, rel=0.02)   # absolute 1.6 bar, read as gauge

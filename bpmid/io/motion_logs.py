@@ -196,7 +196,7 @@ def _reference(table, io_cfg: IOConfig, path: Path) -> tuple[str, str]:
                          f"{b[0]}; drop or correct one", path=table.name, key="pressure_reference")
     if not stated:
         raise InputError("pressure reference unknown (bpmid never guesses it): state it with (1) a line "
-                         "'# pressure_reference: gauge' (or absolute) at the top of the file, (2) the flag "
+                         "'# pressure_reference: gauge' (or absolute) above the column names, (2) the flag "
                          "--pressure-reference gauge|absolute (config io.pressure_reference), or (3) a unit that "
                          "carries it (pressure_psig, 'Pressure (bar a)')", path=table.name, key="pressure_reference")
     return stated[0]

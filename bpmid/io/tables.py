@@ -437,7 +437,10 @@ def _text_grid(data: bytes, where: str) -> Grid:
             # title or 'key: value' lines above the header (instrument exports): metadata
             for k, ln in enumerate(lines[i:h], start=i + 1):
                 t = ln.strip()
-                if not t or _is_comment(t):
+                if not t:
+                    continue
+                if _is_comment(t):   # a "# key: value" line among the metadata lines: read as at the top
+                    _meta_from_line(t.lstrip("#%/ ").strip(), meta, meta_lines, k)
                     continue
                 if _META.match(t):
                     _meta_from_line(t, meta, meta_lines, k)
