@@ -3,6 +3,7 @@ multi-start refits that find a parameter far from its default, the AR(1)-aware n
 thresholds from records, per-log gains against log-to-log variation."""
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -104,6 +105,28 @@ def test_a_refit_that_cannot_move_is_not_tested(lag_case):
     rm0, rm1 = (math.sqrt(float(x @ x) / r0.size) for x in (0.9 * r0, r0))
     assert not worse.tested
     assert f"the fit error went from {rm0:.4g} to {rm1:.4g} deg, no better" in worse.not_tested_reason
+
+
+def test_a_parameter_its_own_judgement_finds_identifiable_carries_no_stale_verdict(lag_case, monkeypatch):
+    """The refit runs without the generic identifiability check, whose note ("not identifiable: relative
+    standard error ...") may judge a parameter with every constant free beside it; discovery's own judgement
+    decides, and a parameter it finds identifiable must not keep the other verdict beside ``identifiable: true``."""
+    import bpmid.discover.confirm as CF
+
+    real = CF.fit_state
+
+    def stale_note(*a, **k):
+        st, res = real(*a, **k)
+        params = st.params.replace("pressure_lag.tau", note="not identifiable: relative standard error >1000% > 50%")
+        return dataclasses.replace(st, params=params), res
+
+    fit, ho, state, r0 = lag_case
+    monkeypatch.setattr(CF, "fit_state", stale_note)
+    c = confirm(state, get_effect("pressure_lag"), fit, ho, noise_floor_deg=0.1, base_fit_residual=r0,
+                heldout_before=scored_rmse(state, ho, per_log_gain=False), max_nfev=100)
+    p = c.state.params["pressure_lag.tau"]
+    assert c.tested and p.identifiable and p.stderr is not None
+    assert "not identifiable" not in (p.note or "")
 
 
 class _LagWithInert(type(get_effect("pressure_lag"))):

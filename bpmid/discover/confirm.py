@@ -367,8 +367,10 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
             fitted = dataclasses.replace(fitted, params=fitted.params.replace(
                 nm, identifiable=False, stderr=None, note=f"not identifiable: {bad[nm]}"))
         else:
+            # its own verdict (the part of its sensitivity no other constant spans) replaces the generic fit's
+            # note, which judged the standard error with every constant free beside it
             fitted = dataclasses.replace(fitted, params=fitted.params.replace(nm, identifiable=True,
-                                                                                  stderr=ses.get(nm)))
+                                                                                  stderr=ses.get(nm), note=""))
     r1 = res.residual
     sse1 = max(float(r1 @ r1), 1e-300)
     n = r0.size
