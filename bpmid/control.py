@@ -280,6 +280,8 @@ def causal_terms(aug, t: np.ndarray) -> tuple[VBMM, PlantTerms]:
     declares them: its pressure operators (:meth:`~bpmid.effects.base.Effect.causal_pressure`), its sensor
     gain and offset (:meth:`~bpmid.effects.base.Effect.causal_angle`) and its modulus scale (a function of time
     only). No effect is named here; an effect whose pressure or angle term has no causal form is refused."""
+    from bpmid.effects.base import Effect
+
     ops, gain, offset, scale = [], 1.0, 0.0, None
     p = aug.params
     for e in aug.effects:
@@ -296,6 +298,9 @@ def causal_terms(aug, t: np.ndarray) -> tuple[VBMM, PlantTerms]:
             raise InputError(f"effect {e.id} changes the angle in a way the closed loop cannot step", key=e.id)
         g, o = affine  # applied after the effects before it: y = g (gain beta + offset) + o
         gain, offset = g * gain, g * offset + o
+        if type(e).pressure_modulus_scale is not Effect.pressure_modulus_scale:
+            raise InputError(f"effect {e.id} softens the rubber with the pressure history in a way the closed loop "
+                             "cannot step", key=e.id)
         s = e.modulus_scale(np.asarray(t, float), p)
         if s is not None:
             scale = s if scale is None else scale * s

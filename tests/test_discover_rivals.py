@@ -13,7 +13,7 @@ import pytest
 from bpmid.discover.calibrate import PERMISSIVE, Record, _case_outcome, _first_passing, rival_withholds
 from bpmid.discover.confirm import Confirmation
 from bpmid.discover.model import ModelState
-from bpmid.discover.rivals import RIVALS, AirLeak, PayloadInertia, beats, check_rival, own_shape
+from bpmid.discover.rivals import RIVALS, AirLeak, MullinsSoftening, PayloadInertia, beats, check_rival, own_shape
 from bpmid.discover.workflow import DiscoverConfig, discover, gate_in_words
 from bpmid.discover.calibrate import PROTOCOLS, load_thresholds, paper_sized_set, start_model
 from bpmid.effects import get_effect
@@ -143,7 +143,7 @@ def test_the_leak_solves_the_orifice_balance_exactly_and_is_absent_at_zero():
         assert np.all(np.diff(p[order]) >= 0)                                        # a higher supply, a higher pressure
     null = leak.default_params().with_values(leak.null_values())
     assert np.array_equal(leak.transform_pressure(t, ps, null), ps)
-    assert [R.id for R in RIVALS] == ["payload_inertia", "air_leak"]
+    assert [R.id for R in RIVALS] == ["payload_inertia", "air_leak", "mullins"]
     assert leak.causal_pressure(leak.default_params()) is None     # never named: no causal form for the loop
 
 
@@ -158,9 +158,77 @@ def test_an_air_leak_gets_nothing_named_and_an_offset_is_still_named():
     assert rv.effect_id == "air_leak" and rv.state.params.value("air_leak.c") == pytest.approx(20.0, rel=0.25)
     y = res.to_yaml()["rounds"][0]
     assert y["rival_outside_catalogue"]["effect"] == "air_leak" and y["rival_outside_catalogue"]["withheld_the_round"]
-    assert [r["effect"] for r in y["rivals_outside_catalogue"]] == ["payload_inertia", "air_leak"]
+    assert [r["effect"] for r in y["rivals_outside_catalogue"]] == ["payload_inertia", "air_leak", "mullins"]
     assert "square root of the pressure" in res.verdict and res.unexplained
 
     fit, ho = paper_sized_set(get_effect("angle_offset"), size=1.0, seed=22, noise_deg=0.1, protocols=SHORT)
     res = discover(fit, start_model(), holdout=ho, cfg=cfg)
     assert res.named_effects == ["angle_offset"] and not res.rounds[0].withheld
+
+
+# ------------------------------------------------------------------------------------------------ the Mullins effect
+def test_mullins_softens_only_below_the_largest_pressure_so_far_and_is_absent_at_zero():
+    m = MullinsSoftening()
+    t = np.arange(0.0, 30.0, 0.05)
+    p = 1e5 * np.abs(np.sin(2 * np.pi * t / 10.0)) * (1.0 + 0.5 * (t > 10.0))   # a larger cycle after the first
+    ps = m.default_params().with_values({"mullins.d": 0.2, "mullins.w": 0.3})
+    s = m.pressure_modulus_scale(t, p, ps)
+    pm = np.maximum.accumulate(p)
+    at_max = p >= pm - 1e-9
+    assert np.all(s[at_max] == pytest.approx(1.0))                     # the first loading to a new largest: virgin
+    below = p < 0.7 * pm
+    assert np.all(s[below] < 1.0) and np.all(s >= 1.0 - 0.2 - 1e-12)   # softer below it, never more than d
+    # the same pressure is softer on the way down than on the way up to a new largest pressure
+    up, down = np.argmin(np.abs(t - 12.0)), np.argmin(np.abs(t - 8.0))
+    assert p[down] < pm[down] and s[down] < 1.0 and s[up] == pytest.approx(1.0)
+    assert m.pressure_modulus_scale(t, p, m.default_params().with_values(m.null_values())) is None
+    assert m.causal_pressure(ps) == ()    # the pressure itself is left alone
+    from bpmid.effects.base import AugmentedVBMM
+    from bpmid.models.vbmm import VBMM, Material
+
+    base = VBMM(material=Material.paper_fit())
+    soft = AugmentedVBMM(base, (m,), ps).simulate_deg(t, p)
+    plain = base.forward_deg(t, p)
+    first = t < 2.5                                                      # the first rise: nothing remembered yet
+    assert np.max(np.abs(soft[first] - plain[first])) < 1e-9
+    assert np.max(soft - plain) > 0.5                                    # softer rubber bends further
+
+
+def test_the_closed_loop_refuses_an_effect_that_softens_with_the_pressure_history():
+    from bpmid.control import causal_terms
+    from bpmid.effects.base import AugmentedVBMM
+    from bpmid.errors import InputError
+    from bpmid.models.vbmm import VBMM, Material
+
+    m = MullinsSoftening()
+    aug = AugmentedVBMM(VBMM(material=Material.paper_fit()), (m,), m.default_params())
+    with pytest.raises(InputError, match="mullins.*closed loop cannot step"):
+        causal_terms(aug, np.arange(0.0, 1.0, 0.1))
+
+
+def test_mullins_softening_gets_nothing_named_and_friction_is_still_named():
+    """Simulate-then-discover with thermal softening and braid friction the candidates and a gate that would name
+    one: rubber 3 % softer below the largest pressure so far (thermal softening takes part of it up) is withheld by
+    the Mullins rival with its constants near the truth. True friction is still named."""
+    cfg = DiscoverConfig(candidates=("thermal_softening", "braid_friction"), max_effects=1, **LOOSE)
+    truth = MullinsSoftening()
+    fit, ho = paper_sized_set(truth, size=0.3, seed=31, noise_deg=0.1, protocols=SHORT)   # d = 0.03, w = 0.3
+    res = discover(fit, start_model(), holdout=ho, cfg=cfg)
+    assert res.named_effects == [] and res.rounds[0].withheld.startswith("withheld:")
+    rv = res.rounds[0].rival
+    assert rv.effect_id == "mullins" and own_shape(rv)
+    assert rv.state.params.value("mullins.d") == pytest.approx(0.03, rel=0.1)
+    assert rv.state.params.value("mullins.w") == pytest.approx(0.3, rel=0.2)
+    y = res.to_yaml()["rounds"][0]
+    assert y["rival_outside_catalogue"]["effect"] == "mullins" and y["rival_outside_catalogue"]["withheld_the_round"]
+    assert set(y["rival_outside_catalogue"]["constants"]) == {"softening_share", "onset_width_share"}
+    assert "below the largest pressure so far" in res.verdict and res.unexplained
+    line = next(x for x in res.verdict.splitlines() if x.startswith("unexplained:"))   # which held-out error it is
+    assert f"the held-out error of the model as fitted, with no per-log factor ({res.heldout_raw_after:.2f} deg" in line
+
+    fit, ho = paper_sized_set(get_effect("braid_friction"), size=1.0, seed=32, noise_deg=0.1, protocols=SHORT)
+    res = discover(fit, start_model(), holdout=ho, cfg=cfg)
+    assert res.named_effects == ["braid_friction"] and not res.rounds[0].withheld
+    mullins = next(c for c in res.rounds[0].rivals if c.effect_id == "mullins")
+    friction = next(c for c in res.rounds[0].confirmations if c.effect_id == "braid_friction")
+    assert not beats(mullins, friction.heldout_rmse_after, 1e-6)   # the rival does not explain friction better

@@ -4,8 +4,9 @@ An effect the catalogue cannot represent still leaves a residual, and some catal
 it up: a payload on the tip that rings after every change of the pressure rate adds delay, and a pressure lag
 (one or two first-order lags: it cannot overshoot) removes much of that delay; a muscle that leaks air through an
 orifice falls short of the supply pressure by an amount growing as the square root of its pressure, and an angle
-offset (with the stiffness refitted) takes up most of that shortfall over a working range. Judged only against the
-other catalogue entries, the lag or the offset would be named. A rival is a model term for such an outside
+offset (with the stiffness refitted) takes up most of that shortfall over a working range; rubber that softens
+below the largest stretch so far (the Mullins effect) opens a loop that friction or a slower deflation partly
+takes up. Judged only against the other catalogue entries, the lag, the offset or the friction would be named. A rival is a model term for such an outside
 effect, refitted and scored exactly like a candidate (:func:`bpmid.discover.confirm.confirm`: the same starts,
 nuisance and held-out logs);
 when it explains the held-out logs better than the effect the round would name, and it needs what only it has,
@@ -19,7 +20,8 @@ shows (that the residual rings, not that it is a payload). The rule has no calib
    withholds a name);
 2. it fits what only it can do: :class:`PayloadInertia`'s damping ratio stays inside its range, not on the upper
    bound 0.5 (at the bound the data asked for a response that does not overshoot, which a lag represents);
-   :class:`AirLeak`'s orifice constant is off its lower bound 0 (a leak at all);
+   :class:`AirLeak`'s orifice constant is off its lower bound 0 (a leak at all); :class:`MullinsSoftening`'s
+   softening is off its lower bound 0;
 3. its held-out RMSE is below the named candidate's (for two effects named together, below the better of the two
    alone).
 
@@ -117,8 +119,64 @@ class AirLeak(Effect):
         return np.zeros((log.n, 0))
 
 
+class MullinsSoftening(Effect):
+    """The Mullins effect: filled rubber softens once stretched, and on every later loading below the largest
+    stretch so far it is softer than on the first (the softening recovers only with rest). With the muscle's
+    pressure as the measure of its stretch, all moduli scale by ``1 - d erf((pm^2 - p^2) / (w pm^2))`` with ``pm``
+    the largest pressure (gauge, after the pressure terms) since the start of the log (each log starts from a
+    rested muscle): 1 while the pressure is at its largest so far (the first loading), less below it; ``d`` the
+    largest fractional softening, ``w`` how far below the largest pressure it takes hold (a share of ``pm^2``).
+    A loop from softening below the previous largest pressure looks like friction or a slower deflation, which
+    the catalogue has; what only this has is its dependence on the largest pressure so far. Outside the
+    catalogue: a rival only (:mod:`bpmid.discover.rivals`)."""
+
+    id = "mullins"
+    signal_order = 30
+    meaning = ("the Mullins effect: rubber stretched once is softer on every later loading below the largest "
+               "stretch so far (outside the catalogue)")
+    where_it_shows = "a softer return and reloading below the largest pressure so far in each log"
+    SETTINGS: ClassVar[tuple[str, ...]] = ()
+    #: starting values a refit tries: 2 %, 8 % and 25 % softening, taking hold just below the largest pressure or
+    #: over most of the range
+    START_VALUES: ClassVar[dict] = {"d": (0.02, 0.08, 0.25), "w": (0.05, 0.3, 1.5)}
+    #: a pressure below this share of the log's largest counts as none (a log starting at rest: no softening
+    #: before the muscle was loaded)
+    _PM_FLOOR = 1e-3
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([
+            Param(f"{self.id}.d", 0.1, "1", 0.0, 0.6, note="largest fractional softening below the largest pressure"),
+            Param(f"{self.id}.w", 0.3, "1", 0.01, 5.0, log_scale=True,
+                  note="how far below the largest pressure it takes hold (share of its square)"),
+        ])
+
+    def null_values(self):
+        return {f"{self.id}.d": 0.0}
+
+    def pressure_modulus_scale(self, t, p, params):
+        d = params.value(f"{self.id}.d")
+        if d <= 0.0:
+            return None
+        w = params.value(f"{self.id}.w")
+        p = np.maximum(np.asarray(p, float), 0.0)
+        pm = np.maximum.accumulate(p) if p.size else p
+        floor = max(self._PM_FLOOR * (float(pm[-1]) if pm.size else 0.0), 1e-9)
+        pm_safe = np.maximum(pm, floor)
+        x = np.where(pm > floor, (pm_safe ** 2 - p ** 2) / (w * pm_safe ** 2), 0.0)   # at rest before loading: none
+        return 1.0 - d * _erf(np.clip(x, 0.0, None))
+
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        return np.zeros((log.n, 0))
+
+
+def _erf(x: np.ndarray) -> np.ndarray:
+    from scipy.special import erf
+
+    return erf(x)
+
+
 #: the rivals every round that names something is checked against, in the order they are asked
-RIVALS: tuple[type[Effect], ...] = (PayloadInertia, AirLeak)
+RIVALS: tuple[type[Effect], ...] = (PayloadInertia, AirLeak, MullinsSoftening)
 #: the first rival (kept for callers that know one)
 RIVAL: type[Effect] = PayloadInertia
 
@@ -135,6 +193,8 @@ def own_shape(c: Confirmation) -> bool:
         return bool(period > 0.0 and z < PayloadInertia.ZETA_MAX * (1.0 - _BOUND_TOL))
     if c.effect_id == AirLeak.id:
         return bool(c.state.params.value(f"{AirLeak.id}.c") > 0.0)
+    if c.effect_id == MullinsSoftening.id:
+        return bool(c.state.params.value(f"{MullinsSoftening.id}.d") > 0.0)
     return True
 
 
@@ -170,6 +230,10 @@ def rival_words(c: Confirmation, named: str, named_after_deg: float, floor: floa
         what = (f"a pressure shortfall growing as the square root of the pressure ({short:.3g} Pa at 1 bar gauge, "
                 f"c = {k.get('c', math.nan):.3g} Pa^0.5)")
         eg, cannot = "e.g. an air leak through an orifice", "no catalogue entry falls short as the square root"
+    elif c.effect_id == MullinsSoftening.id:
+        what = (f"rubber {100 * k.get('d', math.nan):.3g} % softer below the largest pressure so far in each log "
+                f"(w = {k.get('w', math.nan):.3g})")
+        eg, cannot = "e.g. the Mullins effect", "no catalogue entry remembers the largest pressure"
     else:
         what, eg, cannot = c.effect_id, "", "no catalogue entry represents it"
     return (f"withheld: the residual is explained better by {what} ({c.effect_id}: outside the catalogue"

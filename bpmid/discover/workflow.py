@@ -28,7 +28,7 @@ fitting share to measure; the drop is still measured on logs the effect was not 
 the candidate is reported beside it. Its drop is calibrated like the rest of the gate.
 
 Whatever a round would name is held against the rivals outside the catalogue (:mod:`bpmid.discover.rivals`: payload
-inertia that rings, an air leak through an orifice), refitted and scored the same way; when a rival explains the
+inertia that rings, an air leak through an orifice, the Mullins effect), refitted and scored the same way; when a rival explains the
 held-out logs better and needs its own shape, nothing is named that round and the remainder is reported
 unexplained.
 
@@ -251,11 +251,13 @@ def gate_in_words(thr: dict) -> str:
             + "; of several that pass, "
             f"the largest held-out gain wins (of equal gains, as when each takes the error to the floor, the larger "
             f"held-out drop)" + _to_floor_words(thr) + _pair_paths_words(thr)
-            + ". Whatever a round would name, two rivals outside the catalogue (payload inertia that rings: an "
+            + ". Whatever a round would name, three rivals outside the catalogue (payload inertia that rings: an "
               "underdamped response of the angle; an air leak through an orifice: a pressure shortfall growing as "
-              "the square root of the pressure) are refitted beside it; when a rival passes the likelihood-ratio "
+              "the square root of the pressure; the Mullins effect: rubber softer below the largest pressure so "
+              "far) are refitted beside it; when a rival passes the likelihood-ratio "
               f"test at {thr['family_alpha']:.2g} uncorrected, needs its own shape (damping off its bound of "
-              "0.5; a leak above 0) and leaves a lower held-out RMSE, nothing is named that round (a catalogue "
+              "0.5; a leak above 0; a softening above 0) and leaves a lower held-out RMSE, nothing is named that "
+              "round (a catalogue "
               "effect would only imitate it)"
             + ". BIC is reported, never a gate")
 
@@ -430,6 +432,11 @@ class DiscoveryResult:
 # ---------------------------------------------------------------------------------------------
 # plain-language evidence
 # ---------------------------------------------------------------------------------------------
+#: a rival's constants as discovery.yaml names them (with their unit where they have one)
+_RIVAL_CONSTANT_NAMES = {"period": "period_s", "zeta": "damping_ratio", "d": "softening_share",
+                         "w": "onset_width_share"}
+
+
 def rival_yaml(rnd: Round, thr: dict, floor: float, c: Optional[Confirmation] = None) -> Optional[dict]:
     """A rival outside the catalogue (:mod:`bpmid.discover.rivals`; default: the round's reported one) for
     ``discovery.yaml``: its evidence, constants, whether its fit needs what only it has, and whether it withheld
@@ -438,8 +445,7 @@ def rival_yaml(rnd: Round, thr: dict, floor: float, c: Optional[Confirmation] = 
     if c is None:
         return None
     return {"effect": c.effect_id, "meaning": type(c.state.effects[-1]).meaning,
-            "constants": {(f"{k}_s" if k == "period" else "damping_ratio" if k == "zeta" else k): round(v, 4)
-                          for k, v in rival_constants(c).items()},
+            "constants": {_RIVAL_CONSTANT_NAMES.get(k, k): round(v, 4) for k, v in rival_constants(c).items()},
             "needs_its_own_shape": own_shape(c), "withheld_the_round": bool(rnd.withheld) and c is rnd.rival,
             "reason": (rnd.withheld or None) if c is rnd.rival else None,
             "heldout_rmse_after_deg": round(c.heldout_rmse_after, 4),
@@ -543,21 +549,23 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
         lines.append(f"no missing effect found: no catalogue effect improved the held-out error "
                      f"({before:.2f} deg, noise floor {floor:.2f} deg) enough to pass")
     raw_after = after if raw_after is None else raw_after
+    scored = (f" (scored as the gate scores candidates, each held-out log with its own small factors: "
+              f"{after:.2f} deg)" if abs(after - raw_after) >= 0.005 else "")
     if unexplained and any(r.withheld for r in rounds):
-        lines.append(f"unexplained: the held-out error ({raw_after:.2f} deg, {raw_after - floor:.2f} deg above the "
-                     f"noise floor) holds a residual that an effect outside the catalogue explains better than any "
-                     f"catalogue effect (above)")
+        lines.append(f"unexplained: the held-out error of the model as fitted, with no per-log factor "
+                     f"({raw_after:.2f} deg, {raw_after - floor:.2f} deg above the noise floor){scored}, holds a "
+                     f"residual that an effect outside the catalogue explains better than any catalogue effect "
+                     f"(above)")
     elif unexplained:
-        scored = (f" (scored as the gate scores candidates, each held-out log with its own small factors: "
-                  f"{after:.2f} deg)" if abs(after - raw_after) >= 0.005 else "")
         lines.append(f"unexplained: the held-out error of the model as fitted, with no per-log factor "
                      f"({raw_after:.2f} deg), stays {raw_after - floor:.2f} deg above the noise floor{scored}; no "
                      f"catalogue effect accounts for it")
         if variation is not None and variation["share_of_gap"] >= 0.5:
-            lines.append(f"most of that remainder is log-to-log variation of the constants, not a missing effect: "
+            lines.append(f"log-to-log variation of the constants can account for most of that remainder: "
                          f"refitting the model's constants on each held-out log alone brings it to "
-                         f"{variation['per_log_refit_rmse_deg']:.2f} deg ({variation['share_of_gap']:.0%} of the gap; "
-                         f"an in-sample check, so it bounds what specimen or replicate variation can explain)")
+                         f"{variation['per_log_refit_rmse_deg']:.2f} deg ({variation['share_of_gap']:.0%} of the gap). "
+                         f"An in-sample check: per-log constants also take up part of an effect they can imitate, "
+                         f"so this is an upper bound on the variation, not a finding that no effect is missing")
     else:
         lines.append(f"the held-out error ({raw_after:.2f} deg) is within the noise floor ({floor:.2f} deg) give or "
                      f"take the reporting margin ({unexplained_margin:g} noise floors): nothing left to explain")

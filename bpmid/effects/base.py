@@ -61,6 +61,12 @@ class Effect(abc.ABC):
     def modulus_scale(self, t: np.ndarray, params: ParamSet) -> np.ndarray | None:
         return None
 
+    def pressure_modulus_scale(self, t: np.ndarray, p: np.ndarray, params: ParamSet) -> np.ndarray | None:
+        """A per-step scale of all moduli that depends on the pressure the rubber sees (``p``, gauge Pa, after
+        the pressure terms): the Mullins rival's softening below the largest pressure so far
+        (:mod:`bpmid.discover.rivals`). No causal form: the closed loop refuses an effect that has one."""
+        return None
+
     def transform_angle(self, t: np.ndarray, beta_deg: np.ndarray, params: ParamSet) -> np.ndarray:
         return beta_deg
 
@@ -127,9 +133,9 @@ class AugmentedVBMM:
             p = e.transform_pressure(t, p, self.params)
         scale = None
         for e in self.effects:
-            s = e.modulus_scale(t, self.params)
-            if s is not None:
-                scale = s if scale is None else scale * s
+            for s in (e.modulus_scale(t, self.params), e.pressure_modulus_scale(t, p, self.params)):
+                if s is not None:
+                    scale = s if scale is None else scale * s
         beta = np.degrees(self.model().forward(t, p, scale=scale, name=name, path=path))
         for e in self.effects:
             beta = e.transform_angle(t, beta, self.params)
