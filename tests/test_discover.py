@@ -226,7 +226,10 @@ def test_boundary_corrected_lr_p_value():
 @pytest.mark.parametrize("text, key", [("fit_share_min: 1.5", "discover.fit_share_min"),
                                        ("fit_share_waived_above_sigma: -1", "discover.fit_share_waived_above_sigma"),
                                        ("per_log_constants: maybe", "discover.per_log_constants"),
-                                       ("to_floor_drop_min_sigma: -1", "discover.to_floor_drop_min_sigma")])
+                                       ("to_floor_drop_min_sigma: -1", "discover.to_floor_drop_min_sigma"),
+                                       ("hold: {pressure_lag.shares: 0}", "discover.hold.pressure_lag.shares"),
+                                       ("hold: {pressure_lag.share: 0.9}", "discover.hold.pressure_lag.share"),
+                                       ("hold: {lag.share: 0}", "discover.hold")])
 def test_cli_rejects_bad_gate_settings_naming_the_key(tmp_path, text, key):
     cfg = tmp_path / "cfg.yaml"
     cfg.write_text(f"discover:\n  {text}\n")

@@ -56,7 +56,7 @@ from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_res
                                   rmse_deg, scored_rmse, sensitivities, simulate, stacked)
 from bpmid.discover.screen import ScreenResult, screen
 from bpmid.effects import CATALOGUE, get_effect
-from bpmid.effects.base import Effect
+from bpmid.effects.base import Effect, held
 from bpmid.errors import ConvergenceError, InputError
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models.vbmm import VBMM
@@ -122,6 +122,9 @@ class DiscoverConfig:
         small effects
     unexplained_gap_sigma : the remainder is reported unexplained when the held-out RMSE stays more than this
         many noise floors above the floor
+    hold : effect parameters held at a value instead of fitted, ``<effect id>.<name>`` -> value in the
+        parameter's unit (e.g. ``{pressure_lag.share: 0}``: a single first-order lag, for a rig whose line is
+        known to be short); a held parameter is not a new parameter of the candidate
     """
 
     candidates: tuple[str, ...] = ()
@@ -152,11 +155,13 @@ class DiscoverConfig:
     per_log_gain: bool = True
     per_log_constants: bool = True
     unexplained_gap_sigma: float = 0.5
+    hold: Optional[Mapping[str, float]] = None
 
     def __post_init__(self):
         # a plain dict (a config file's mapping arrives read-only, and a sweep ships the config to its workers)
-        if isinstance(self.to_floor_drop_by_effect, Mapping):
-            object.__setattr__(self, "to_floor_drop_by_effect", dict(self.to_floor_drop_by_effect))
+        for name in ("to_floor_drop_by_effect", "hold"):
+            if isinstance(getattr(self, name), Mapping):
+                object.__setattr__(self, name, dict(getattr(self, name)))
 
     def validate(self, where, path):
         for c in self.candidates:
@@ -196,6 +201,16 @@ class DiscoverConfig:
                 raise InputError(f"must be {what}, found {v}", path=path, key=f"{where}.{name}")
         if self.to_floor_drop_by_effect is not None:
             check_drops_by_effect(self.to_floor_drop_by_effect, path, f"{where}.to_floor_drop_by_effect")
+        for name, value in (self.hold or {}).items():
+            eid = str(name).split(".", 1)[0]
+            if eid not in CATALOGUE or "." not in str(name):
+                raise InputError(f"{name!r} names no effect parameter: give <effect id>.<name>, e.g. "
+                                 f"pressure_lag.share (effect ids: {', '.join(CATALOGUE)})", path=path,
+                                 key=f"{where}.hold")
+            try:
+                held(get_effect(eid), {str(name): float(value)})
+            except ValueError as e:
+                raise InputError(str(e), path=path, key=f"{where}.hold.{name}") from None
 
     def thresholds(self) -> dict:
         return self.overrides(load_thresholds())
@@ -685,6 +700,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         thr = cfg.overrides(later_gain_follows({**thr, **given}, given))
     if effects is None:
         effects = [get_effect(i) for i in (cfg.candidates or tuple(CATALOGUE))]
+    if cfg.hold:
+        effects = [held(e, cfg.hold) for e in effects]
     fit_logs, ho_logs, how = split_logs(logs, holdout, cfg)
     if holdout is not None:  # a held-out score on a fitting log tests nothing: the verdict would rest on it
         from bpmid.compare import overlap_warnings

@@ -23,6 +23,7 @@ Units: pressure in Pa (gauge), angle in degrees, time in s.
 from __future__ import annotations
 
 import abc
+import copy
 import dataclasses
 from typing import ClassVar, Sequence
 
@@ -156,3 +157,32 @@ def effect_params(effects: Sequence[Effect]) -> ParamSet:
     for e in effects:
         out.extend(e.default_params())
     return ParamSet(out)
+
+
+def held(effect: Effect, values: dict[str, float]) -> Effect:
+    """A copy of ``effect`` whose parameters named in ``values`` (``<id>.<name>``) are held at those values
+    (fixed: a refit does not move them, and they count as no new parameter). Names of other effects are
+    ignored; a name of this effect that it does not have, or a value outside its bounds, is a ValueError."""
+    own = {k: float(v) for k, v in values.items() if k.split(".", 1)[0] == effect.id}
+    if not own:
+        return effect
+    names = {p.name: p for p in effect.default_params()}
+    for k, v in own.items():
+        if k not in names:
+            raise ValueError(f"{effect.id} has no parameter {k.split('.', 1)[1]!r} (it has: "
+                             f"{', '.join(n.split('.', 1)[1] for n in names)})")
+        if not names[k].lower <= v <= names[k].upper:
+            raise ValueError(f"{k} = {v:g} is outside its bounds [{names[k].lower:g}, {names[k].upper:g}]")
+    cls = type(effect)
+
+    def default_params(self, _own=own, _base=cls.default_params) -> ParamSet:
+        ps = _base(self)
+        for k, v in _own.items():
+            ps = ps.replace(k, value=v, fixed=True)
+        return ps
+
+    sub = type(cls.__name__, (cls,), {"default_params": default_params, "__module__": cls.__module__,
+                                      "__qualname__": cls.__qualname__, "__doc__": cls.__doc__})
+    out = copy.copy(effect)
+    out.__class__ = sub
+    return out

@@ -220,11 +220,10 @@ class PressureLag(Effect):
     def default_params(self) -> ParamSet:
         return ParamSet([
             Param(f"{self.id}.tau", 0.25, "s", 0.0, 10.0, note="total lag time constant (sum of the cascade's)"),
-            # held at 0 in discovery (fixed): freeing it changed no calibration lag case (their held-out gap is
-            # log-to-log variation) and let a second-order lag name payload inertia (docs/notes/fric.md); the twin,
-            # the closed loop and the export take any value
-            Param(f"{self.id}.share", 0.0, "1", 0.0, 0.5, fixed=True,
-                  note="share of tau in a second cascaded lag (held unless freed)"),
+            # free in discovery: a line feeding a volume, or a dead time before a lag, is a second lag's worth
+            # of delay that one first-order lag cannot follow through a step
+            Param(f"{self.id}.share", 0.0, "1", 0.0, 0.5,
+                  note="share of tau in a second cascaded lag"),
         ])
 
     def null_values(self):
