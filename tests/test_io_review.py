@@ -314,3 +314,13 @@ def test_a_comment_line_among_an_instruments_metadata_lines_is_read(tmp_path, wh
     assert lg.pressure_reference == "absolute" and "pressure_reference" in lg.reading["pressure_reference"]["from"]
     assert lg.time_s[1] == pytest.approx(0.1) and lg.n == 40
     assert lg.pressure_pa.max() == pytest.approx(1.6e5 - 101325.0, rel=0.02)   # absolute 1.6 bar, read as gauge
+
+
+@pytest.mark.parametrize("temp", ["T (K)", "T [°C]", "t (degC)"])
+def test_a_one_letter_temperature_column_is_not_taken_for_the_time(tmp_path, temp):
+    """'T (K)' beside 'Time (s)' is the rig's temperature: listed among the ignored columns, never read as a second
+    time column (it was, and the file refused with 'unknown unit k for time')."""
+    f = _write(tmp_path, "log.csv", "# pressure_reference: gauge\n" + f"Time (s),Pressure (kPa),Angle (deg),{temp}\n"
+               + "".join(f"{0.1 * k:.1f},{5.0 * k},{10 + k},{295 + 0.01 * k}\n" for k in range(40)))
+    lg = read_motion_log(f)
+    assert lg.n == 40 and lg.time_s[1] == pytest.approx(0.1) and temp in lg.reading["ignored_columns"]

@@ -68,6 +68,9 @@ UNITS: dict[str, dict[str, float]] = {
     "angle": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "°": 1.0, "rad": 180.0 / np.pi, "mrad": 0.18 / np.pi},
 }
 
+#: units that make a one-letter name (T, P) a temperature, not the time or the pressure (lower case, no spaces)
+TEMPERATURE_UNITS = {"k", "kelvin", "°c", "ºc", "degc", "deg c", "c", "celsius", "°f", "degf", "f", "fahrenheit"}
+
 #: time units that are points in time (epoch), turned into seconds since the first sample
 EPOCH_UNITS = ("epoch_s", "epoch_ms", "unix_s", "unix_ms")
 
@@ -262,6 +265,8 @@ def _parse(name: str, unit_row: str | None = None):
         unit, said = unit_row.strip(), "units row"
     if base in ALIASES:
         q = ALIASES[base]
+        if len(base) == 1 and unit is not None and _norm(unit).replace(" ", "") in TEMPERATURE_UNITS:
+            return None, None, None, False  # 'T (K)', 'T [°C]': a temperature beside the log, not the time
         return (q,) + _unit_ref(q, unit) + (False,)
     words = base.split(" ")
     # suffix forms: time_s, pressure_kpa, angle_deg, pressure_bar_abs, pressure_kpa_g, theta_rad
