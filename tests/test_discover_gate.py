@@ -130,10 +130,13 @@ def test_a_parameter_its_own_judgement_finds_identifiable_carries_no_stale_verdi
 
 
 class _LagWithInert(type(get_effect("pressure_lag"))):
-    """A pressure lag with one more parameter that changes nothing (the data do not depend on it)."""
+    """A first-order pressure lag (share and sat held at 0) with one more parameter that changes nothing (the data
+    do not depend on it)."""
 
     def default_params(self):
-        return ParamSet(list(super().default_params()) + [Param("pressure_lag.inert", 1.0, "1", 0.0, 10.0)])
+        own = [p.replace(fixed=True) if p.name in ("pressure_lag.share", "pressure_lag.sat") else p
+               for p in super().default_params()]
+        return ParamSet(own + [Param("pressure_lag.inert", 1.0, "1", 0.0, 10.0)])
 
 
 def test_a_parameter_the_fit_held_for_zero_sensitivity_is_not_counted_identifiable(lag_case):

@@ -176,3 +176,43 @@ def test_describe_prints_dimensionless_parameters_without_a_unit():
     held = lp.replace("pressure_lag.share", fixed=True)
     assert "share = 0 (held, not fitted)" in lag.describe(held, mark_held=True) and "held" not in text
     assert "tau = 0.2 s (held" not in lag.describe(held, mark_held=True)
+
+
+# --------------------------------------------------------------------------------------------------
+# the flow-limited fill (pressure_lag.sat): an orifice's flow grows as the square root of the difference
+# --------------------------------------------------------------------------------------------------
+def test_flow_limited_lag_with_sat_zero_is_the_first_order_lag_and_a_large_step_fills_at_a_limited_rate():
+    t, p = triangle_log(fs=50.0, cycles=1)
+    assert np.array_equal(K.flow_lag(t, p, 0.2, 0.0), K.lag(t, p, 0.2))
+    ts = np.arange(0.0, 5.0, 0.01)
+    for sat in (1e-4, 1e-3):
+        small = K.flow_lag(ts, np.where(ts > 0.5, 1e3, 0.0), 0.1, sat) / 1e3      # a 1 kPa step
+        large = K.flow_lag(ts, np.where(ts > 0.5, 1e5, 0.0), 0.1, sat) / 1e5      # a 1 bar step
+        for y in (small, large):   # no overshoot, monotone, settles at the input
+            assert np.all(np.diff(y) >= -1e-12) and y.max() <= 1.0 + 1e-12 and y[-1] > 0.999
+        rise = lambda y: ts[np.argmax(y >= 1.0 - np.exp(-1.0))] - 0.5   # noqa: E731
+        assert rise(large) > 2.0 * rise(small)          # the large step takes longer: the flow is limited
+    assert abs(rise(K.lag(ts, np.where(ts > 0.5, 1.0, 0.0), 0.1)) - 0.1) < 0.011   # the linear lag: tau
+
+
+def test_flow_limited_lag_is_refused_by_the_closed_loop_and_the_c_export_naming_what_to_do():
+    from bpmid.export.c import causal_vbmm
+
+    lag, lp = build_effect("pressure_lag", {"tau": 0.2, "sat": 1.0})
+    aug = AugmentedVBMM(VBMM(), (lag,), lp)
+    with pytest.raises(InputError, match="pressure_lag changes the pressure in a way the closed loop cannot step"):
+        causal_terms(aug, np.arange(0.0, 1.0, 0.1))
+    with pytest.raises(InputError) as e:
+        causal_vbmm(aug)
+    assert e.value.key == "effects[0].parameters.sat" and "pressure_lag.sat: 0" in str(e.value)
+    lin, lp0 = build_effect("pressure_lag", {"tau": 0.2, "sat": 0.0})   # a linear fill exports as before
+    assert [op for op, _v in causal_vbmm(AugmentedVBMM(VBMM(), (lin,), lp0)).chain] == ["lag"]
+
+
+def test_refit_recovers_a_flow_limited_fill():
+    truth = {"pressure_lag.tau": 0.3, "pressure_lag.sat": 0.5}
+    ps, res = _recover("pressure_lag", truth, {"pressure_lag.tau": 0.1, "pressure_lag.sat": 0.1}, seed=6,
+                       held=("pressure_lag.share",))
+    assert ps.value("pressure_lag.tau") == pytest.approx(0.3, rel=0.15)
+    assert ps.value("pressure_lag.sat") == pytest.approx(0.5, rel=0.3)
+    assert res.rmse < 0.06

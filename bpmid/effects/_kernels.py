@@ -134,6 +134,35 @@ def lag_kernel(t, x, tau):  # pragma: no cover - compiled
     return y
 
 
+#: sub-steps per sample of the flow-limited lag (its time constant is frozen over each; the update is exact for a
+#: frozen one, so any step is stable)
+FLOW_LAG_SUBSTEPS = 8
+
+
+@numba.njit(cache=True)
+def flow_lag_kernel(t, x, tau, sat):  # pragma: no cover - compiled
+    """A lag whose time constant grows with the pressure difference across the valve, as an orifice's flow grows
+    only as its square root: ``tau sqrt(1 + sat |x - y|) y' = x - y``, ``sat`` (1/Pa) >= 0; y_0 = x_0, x linear
+    between samples, :data:`FLOW_LAG_SUBSTEPS` sub-steps per sample with the time constant frozen over each.
+    ``sat = 0`` is the first-order lag (:func:`lag_kernel`, exact); tau <= 0 returns a copy of x."""
+    n = x.size
+    y = x.copy()
+    if tau <= 0.0 or n == 0:
+        return y
+    if sat <= 0.0:
+        return lag_kernel(t, x, tau)
+    v = x[0]
+    m = FLOW_LAG_SUBSTEPS
+    for k in range(1, n):
+        h = (t[k] - t[k - 1]) / m
+        for i in range(m):
+            xi = x[k - 1] + (x[k] - x[k - 1]) * (i + 0.5) / m
+            e = xi - v
+            v = xi - e * math.exp(-h / (tau * math.sqrt(1.0 + sat * abs(e))))
+        y[k] = v
+    return y
+
+
 @numba.njit(cache=True)
 def delay_kernel(t, x, d):  # pragma: no cover - compiled
     """x(t - d) by linear interpolation between the samples; x_0 before the start. d <= 0: a copy."""
@@ -160,6 +189,11 @@ def friction(x: np.ndarray, r: float, mu: float = 0.0, slip: float = 0.0) -> np.
 def lag(t: np.ndarray, x: np.ndarray, tau: float) -> np.ndarray:
     """First-order lag of time constant ``tau`` (s) on (N,) ``x`` sampled at (N,) ``t`` (s)."""
     return lag_kernel(np.ascontiguousarray(t, float), np.ascontiguousarray(x, float), float(tau))
+
+
+def flow_lag(t: np.ndarray, x: np.ndarray, tau: float, sat: float) -> np.ndarray:
+    """Flow-limited lag (see :func:`flow_lag_kernel`): ``tau`` (s), ``sat`` (1/Pa) on (N,) ``x`` at (N,) ``t`` (s)."""
+    return flow_lag_kernel(np.ascontiguousarray(t, float), np.ascontiguousarray(x, float), float(tau), float(sat))
 
 
 def delay(t: np.ndarray, x: np.ndarray, d: float) -> np.ndarray:

@@ -4,7 +4,7 @@
 |---|---|---|
 | second_relaxation | weight (1, 0.25, 0), tau (s, 10) | a second, slower Prony branch G_2 = weight G_inf, K_2 = weight K_inf |
 | braid_friction | r (Pa, 2500, 0), mu (1, 0, 0), slip (Pa, 0) | dry friction on the pressure: sliding level r + mu p, elastic stick over slip (mu = slip = 0: a play, dead band +-r) |
-| pressure_lag | tau (s, 0.25, 0), share (1, 0) | lag of the muscle pressure behind the logged one: two cascaded lags (1 - share) tau, share tau |
+| pressure_lag | tau (s, 0.25, 0), share (1, 0), sat (1/kPa, 0) | lag of the muscle pressure behind the logged one: two cascaded lags (1 - share) tau, share tau; the first slower by sqrt(1 + sat abs(difference)) (a valve's flow-limited fill) |
 | asymmetric_relaxation | fall_ratio (1, 0.4, 1) | time constants times fall_ratio while the pressure falls |
 | strain_stiffening | c (1, 10, 0) | moduli scale by 1 + c eps1^2 (hyperelastic stiffening) |
 | angle_offset | offset (deg, 2, 0) | the angle sensor adds a constant |
@@ -199,8 +199,11 @@ class PressureLag(Effect):
     Model term: two first-order lags in cascade with time constants (1 - share) tau and share tau (s): ``tau``
     is the total lag (the mean delay of the pressure step response), ``share`` in [0, 0.5] the part of it in a
     second lag (0: one first-order lag, the default; 0.5: two equal lags, e.g. a line feeding a volume, whose
-    step response starts flat like a short dead time). Setting ``dead_time`` (s, twin): a pure delay before
-    the lags. The loop widens with the pressure rate.
+    step response starts flat like a short dead time). ``sat`` (1/kPa, >= 0): the valve's flow grows only as
+    the square root of the pressure difference across it (an orifice), so the first lag's time constant is
+    ``(1 - share) tau sqrt(1 + sat |difference|)``: a large step fills at a limited rate, a small one at the
+    lag's own (0: linear, the default). Setting ``dead_time`` (s, twin): a pure delay before the lags. The loop
+    widens with the pressure rate.
     """
 
     id = "pressure_lag"
@@ -209,10 +212,11 @@ class PressureLag(Effect):
     where_it_shows = "residual correlates with the pressure rate at positive lag; loops widen with rate"
     SETTINGS: ClassVar[tuple[str, ...]] = ("dead_time",)
     #: parameters added after the first release; share = 0 is the first-order lag, so older files may omit it
-    OPTIONAL_PARAMS: ClassVar[tuple[str, ...]] = ("share",)
+    OPTIONAL_PARAMS: ClassVar[tuple[str, ...]] = ("share", "sat")
     #: starting values a refit tries (the physical range: a total lag of a few samples at 100 Hz to 1 s; one
-    #: lag or two equal ones when share is freed)
-    START_VALUES: ClassVar[dict] = {"tau": (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.4, 1.0), "share": (0.0, 0.5)}
+    #: lag or two equal ones; a linear fill or one limited from about 1 kPa of difference on)
+    START_VALUES: ClassVar[dict] = {"tau": (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.4, 1.0), "share": (0.0, 0.5),
+                                    "sat": (0.0, 1.0)}
 
     def __init__(self, dead_time: float = 0.0):
         self.dead_time = _Setting.number(self.id, "dead_time", dead_time, 0.0, 10.0)
@@ -224,6 +228,9 @@ class PressureLag(Effect):
             # of delay that one first-order lag cannot follow through a step
             Param(f"{self.id}.share", 0.0, "1", 0.0, 0.5,
                   note="share of tau in a second cascaded lag"),
+            # an orifice's flow grows as the square root of the difference: a large step fills at a limited rate
+            Param(f"{self.id}.sat", 0.0, "1/kPa", 0.0, 10.0,
+                  note="flow saturation of the first lag: its time constant grows as sqrt(1 + sat |difference|)"),
         ])
 
     def null_values(self):
@@ -235,17 +242,23 @@ class PressureLag(Effect):
         share = params.value(f"{self.id}.share") if f"{self.id}.share" in params else 0.0
         return (1.0 - share) * tau, share * tau
 
+    def sat_per_pa(self, params) -> float:
+        """The flow saturation in 1/Pa (0: a linear lag; files written before it have none)."""
+        return 1e-3 * params.value(f"{self.id}.sat") if f"{self.id}.sat" in params else 0.0
+
     def transform_pressure(self, t, p, params):
         tau1, tau2 = self.taus(params)
         if tau1 == 0.0 and tau2 == 0.0 and self.dead_time == 0.0:
             return p
-        y = _kernels.lag(t, _kernels.delay(t, p, self.dead_time), tau1)
+        y = _kernels.flow_lag(t, _kernels.delay(t, p, self.dead_time), tau1, self.sat_per_pa(params))
         return _kernels.lag(t, y, tau2) if tau2 > 0.0 else y
 
     def causal_pressure(self, params):
         tau1, tau2 = self.taus(params)
         if tau1 == 0.0 and tau2 == 0.0 and self.dead_time == 0.0:
             return ()
+        if self.sat_per_pa(params) > 0.0 and tau1 > 0.0:
+            return None  # no one-step form of the flow-limited fill yet: the closed loop refuses it
         return (("delay", (self.dead_time,)), ("lag", (tau1,))) + ((("lag", (tau2,)),) if tau2 > 0.0 else ())
 
     def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:

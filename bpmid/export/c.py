@@ -99,6 +99,11 @@ def causal_vbmm(aug, path=None) -> CausalVBMM:
                 raise InputError("pressure_lag with a dead time cannot be exported: a dead time needs a sample "
                                  "buffer whose length depends on the sample rate, and its inverse (the "
                                  "feedforward) would need the future", path=path, key=f"effects[{i}].settings.dead_time")
+            if e.sat_per_pa(p) > 0.0:
+                raise InputError("pressure_lag with a flow-limited fill (sat > 0) cannot be exported yet: its C step "
+                                 "and its inverse are not written; refit with the fill held linear (a config with "
+                                 "discover: {hold: {pressure_lag.sat: 0}}) to export a linear lag", path=path,
+                                 key=f"effects[{i}].parameters.sat")
             for tau in e.taus(p):          # one lag, or two in cascade (pressure_lag.share > 0)
                 if tau != 0.0:
                     chain.append(("lag", float(tau)))
