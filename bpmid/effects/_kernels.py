@@ -4,6 +4,8 @@
 - :func:`play_kernel`: the play (backlash) operator of half-width r, the model term of dry friction
 - :func:`lag_kernel`: a first-order lag, exact for an input that is linear between samples
   (first-order hold), with uneven sampling
+- :func:`flow_lag_kernel`: a lag whose time constant grows as the square root of the difference it closes (an
+  orifice's flow-limited fill); whole-signal only (the closed loop and the C export refuse it), exact when linear
 - :func:`delay_kernel`: a pure dead time by linear interpolation in the input's own samples
 - :func:`friction_kernel`: pressure-dependent dry friction with an elastic stick (a generalised play: the
   band grows with the pressure, the friction builds up over a slip pressure); the play is its special case
