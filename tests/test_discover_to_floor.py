@@ -256,3 +256,7 @@ def test_cli_names_on_the_path_to_the_floor_and_says_so(tmp_path):
     # up, and the held-out error ends at the noise floor (a single first-order lag left 9 % of the gap)
     assert d["final_model"]["pressure_lag.share"]["value"] > 0.3
     assert d["gap"]["after_rmse_deg"] < 1.02 * d["gap"]["noise_floor_deg"]
+    # the case's lag is linear: a flow saturation the data do not determine is held at 0, the linear fill (so the
+    # discovered model exports to C), not at the value the refit wandered to
+    sat = d["final_model"]["pressure_lag.sat"]
+    assert sat["value"] == 0.0 and sat["fixed"] and "held at 0, the simpler form" in sat["note"]

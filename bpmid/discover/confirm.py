@@ -351,7 +351,13 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
         on_bound = [n for n in pending if bad[n] == _ON_BOUND]
         name = on_bound[0] if on_bound else pending[-1]
         held[name] = bad[name]
-        cand = dataclasses.replace(fitted, params=fitted.params.replace(name, fixed=True))
+        # a parameter whose effect names a simpler form for it (a linear fill) goes back to that form when the data
+        # do not determine it, unless it ran onto a bound (the data then asked for more of it than the range allows)
+        simpler = getattr(effect, "UNDETERMINED_TO", {}).get(name.split(".", 1)[1])
+        back = {} if simpler is None or bad[name] == _ON_BOUND else {"value": float(simpler)}
+        if back:
+            held[name] = f"{bad[name]}; held at {simpler:g}, the simpler form"
+        cand = dataclasses.replace(fitted, params=fitted.params.replace(name, fixed=True, **back))
         fitted, res = fit_state(cand, fit_logs, max_nfev=max_nfev, check_identifiability=False,
                                 per_log_gain=per_log_gain)
         bad, ses = own_identifiability(fitted, res, fit_logs, [n for n in own if n not in held],

@@ -219,6 +219,9 @@ class PressureLag(Effect):
     #: stuck there, leaving 22 % of the gap removed against 89 % from a linear start)
     START_VALUES: ClassVar[dict] = {"tau": (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.4, 1.0), "share": (0.0, 0.5),
                                     "sat": (0.0,)}
+    #: a flow saturation the data do not determine is held at 0, the linear fill (which the closed loop and the C
+    #: export take), not at whatever value the refit wandered to
+    UNDETERMINED_TO: ClassVar[dict] = {"sat": 0.0}
 
     def __init__(self, dead_time: float = 0.0):
         self.dead_time = _Setting.number(self.id, "dead_time", dead_time, 0.0, 10.0)
