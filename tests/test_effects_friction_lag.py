@@ -176,6 +176,9 @@ def test_describe_prints_dimensionless_parameters_without_a_unit():
     held = lp.replace("pressure_lag.share", fixed=True)
     assert "share = 0 (held, not fitted)" in lag.describe(held, mark_held=True) and "held" not in text
     assert "tau = 0.2 s (held" not in lag.describe(held, mark_held=True)
+    # one the data did not determine (a refit held it) says that instead: it was fitted, then held
+    undetermined = lp.replace("pressure_lag.sat", fixed=True, note="not identifiable: relative standard error 537% > 50%")
+    assert "sat = 0 1/kPa (held: the data did not determine it)" in lag.describe(undetermined, mark_held=True)
 
 
 # --------------------------------------------------------------------------------------------------

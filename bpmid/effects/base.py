@@ -97,9 +97,17 @@ class Effect(abc.ABC):
         start or default, not estimated from the data) says so, as in a discovery verdict."""
         # a dimensionless parameter (unit "1") is printed bare: "share = 0", not "share = 0 1"
         vals = ", ".join(f"{p.name.split('.', 1)[-1]} = {p.value:.4g}" + ("" if p.unit in ("1", "") else f" {p.unit}")
-                         + (" (held, not fitted)" if mark_held and p.fixed else "")
+                         + (_held_mark(p) if mark_held and p.fixed else "")
                          for p in params if p.name.startswith(self.id + "."))
         return f"{self.id} ({vals})"
+
+
+def _held_mark(p) -> str:
+    """How a verdict marks a parameter held at its value: one the data did not determine (its refit ran it onto a
+    bound or left it undetermined, then held it) says so; one held from the start (a default, a config's hold) is
+    "held, not fitted"."""
+    return " (held: the data did not determine it)" if str(p.note).startswith("not identifiable") else \
+        " (held, not fitted)"
 
 
 @dataclasses.dataclass(frozen=True)
