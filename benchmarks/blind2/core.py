@@ -70,6 +70,23 @@ def _stiff_mult(e1, code, sp):
 
 
 @njit(cache=True)
+def _static_state(b, R0, l0, n, stiff_code, sp, Ginf, Kinf, mth, ev):
+    """Kinematics and the long-term (equilibrium) stresses at angle b: (u3, F, e1, e2, s1, s2)."""
+    u3 = _u3(b, R0, l0, n)
+    F = _F(u3, R0, l0, n)
+    e1 = F - 1.0
+    e2 = u3 / R0
+    m = _stiff_mult(e1, stiff_code, sp) * mth
+    G = Ginf * m
+    K = Kinf * m
+    ekk = e1 + e2
+    lamb = K - 2.0 * G / 3.0
+    s1 = 2.0 * G * e1 + lamb * ekk - Kinf * mth * ev
+    s2 = 2.0 * G * e2 + lamb * ekk - Kinf * mth * ev
+    return u3, F, e1, e2, s1, s2
+
+
+@njit(cache=True)
 def simulate_muscle(t, p, geo, mat, br, brkind, stiff_code, sp, therm_code, tp, thsched,
                     fric_code, fp, fe, load_code, lp, creep_code, cp, ev0):
     """Forward VBMM: angle (rad) for internal gauge pressure p (Pa) at times t (s).
@@ -101,17 +118,7 @@ def simulate_muscle(t, p, geo, mat, br, brkind, stiff_code, sp, therm_code, tp, 
 
     # ---- relaxed start at p[0] (long-term moduli only; friction as after a slow rise from zero)
     def p_static(b, mth, pk):
-        u3 = _u3(b, R0, l0, n)
-        F = _F(u3, R0, l0, n)
-        e1 = F - 1.0
-        e2 = u3 / R0
-        m = _stiff_mult(e1, stiff_code, sp) * mth
-        G = Ginf * m
-        K = Kinf * m
-        ekk = e1 + e2
-        lamb = K - 2.0 * G / 3.0
-        s1 = 2.0 * G * e1 + lamb * ekk - Kinf * mth * ev
-        s2 = 2.0 * G * e2 + lamb * ekk - Kinf * mth * ev
+        u3, F, e1, e2, s1, s2 = _static_state(b, R0, l0, n, stiff_code, sp, Ginf, Kinf, mth, ev)
         if fric_code == 2:
             f = 0.0
             for i in range(ne):
@@ -193,17 +200,7 @@ def simulate_muscle(t, p, geo, mat, br, brkind, stiff_code, sp, therm_code, tp, 
                 Lf = fp[2] + (fp[1] - fp[2]) * math.exp(-(vprev / fp[3]) ** 2)
 
         def resid(b):
-            u3 = _u3(b, R0, l0, n)
-            F = _F(u3, R0, l0, n)
-            e1 = F - 1.0
-            e2 = u3 / R0
-            m = _stiff_mult(e1, stiff_code, sp) * mth
-            G = Ginf * m
-            K = Kinf * m
-            ekk = e1 + e2
-            lamb = K - 2.0 * G / 3.0
-            s1 = 2.0 * G * e1 + lamb * ekk - Kinf * mth * ev
-            s2 = 2.0 * G * e2 + lamb * ekk - Kinf * mth * ev
+            u3, F, e1, e2, s1, s2 = _static_state(b, R0, l0, n, stiff_code, sp, Ginf, Kinf, mth, ev)
             d1 = e1 - e1p
             d2 = e2 - e2p
             for j in range(nb):
