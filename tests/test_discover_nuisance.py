@@ -113,3 +113,41 @@ def test_bounded_held_out_factors_are_the_best_within_the_bounds(seed):
     assert best.success
     assert sse(got) == pytest.approx(best.fun, rel=1e-4)
     assert sse(got) < 0.95 * sse(raw)                  # and the bounded factors still take part of it
+
+
+def _variant3(k_inf: float, k: float, tau: float):
+    m = truth_model()
+    mat = dataclasses.replace(m.material, K_inf=m.material.K_inf * k_inf, K=tuple(v * k for v in m.material.K),
+                              tauG=tuple(t * tau for t in m.material.tauG))
+    return m.replace(material=mat)
+
+
+def test_a_direction_whose_fitting_logs_happen_to_agree_still_allows_the_variation_the_others_show():
+    # 4 fitting logs whose K_inf factors happen to agree (a spread read from 4 logs is itself uncertain) while their
+    # branch moduli and time constants vary by ~5 %; 2 held-out logs from runs 5 % softer in K_inf. The held-out
+    # shift is within the variation the fitting logs show, so the scored held-out error must not keep it
+    fit_f = [(1.0, 1.05, 0.95), (1.002, 0.95, 1.05), (0.998, 1.06, 1.04), (1.0, 0.94, 0.96)]
+    ho_f = [(0.95, 1.0, 1.0), (0.955, 1.0, 1.0)]
+    logs = []
+    for i, f in enumerate(fit_f + ho_f):
+        fit, ho = paper_sized_set(None, seed=11 + i, noise_deg=0.01, truth=_variant3(*f))
+        logs.append((fit + ho)[i])
+    state = ModelState.start(truth_model())
+    sims = simulate(state, logs)
+    ho_logs, ho_sims = logs[4:], sims[4:]
+    raw = rmse_deg([s - lg.angle_deg for s, lg in zip(ho_sims, ho_logs)])
+    scored = {}
+    for pool in (False, True):
+        old = LogNuisance.POOL_DIRECTIONS
+        LogNuisance.POOL_DIRECTIONS = pool
+        try:
+            nu = LogNuisance.for_state(state, logs, gain=False, fit_logs=logs[:4])
+        finally:
+            LogNuisance.POOL_DIRECTIONS = old
+        scored[pool] = (rmse_deg(nu.residuals(ho_sims, ho_logs, zero_sum=False)), nu.mean_bounds)
+    assert raw > 0.3                                                  # the shift is a clear error (deg)
+    k_inf_own, k_inf_pooled = scored[False][1][0], scored[True][1][0]
+    assert k_inf_own < 0.03 < k_inf_pooled                            # K_inf's own spread would bound it tight
+    assert np.all(scored[True][1] >= scored[False][1])                # pooling only ever widens
+    assert scored[True][0] < 0.3 * scored[False][0]                   # and the held-out shift is now taken up
+    assert scored[True][0] < 0.2 * raw

@@ -182,6 +182,8 @@ class LogNuisance:
     #: error, and a true effect (a constant offset of 0.33 deg, fitted right) made the scored error worse. The
     #: 2.5-standard-error rule above is the bound; this limit only guards against a wild spread estimate.
     BOUND_RANGE = (0.002, 0.10)
+    #: each direction's spread is at least the directions' median spread (see :meth:`for_state`)
+    POOL_DIRECTIONS = True
 
     def __init__(self, bases: dict, gain: bool = True, labels: Sequence[str] = (), mean_bounds=None):
         self._bases = dict(bases)
@@ -233,6 +235,11 @@ class LogNuisance:
             sims_fit = [s for s, lg in zip(base, logs) if any(lg is f for f in fit)]
             F = nu.factors(sims_fit, fit)
             rms = np.sqrt(np.mean(F**2, axis=0) * len(fit) / (len(fit) - 1)) if F.size else np.zeros(len(labels))
+            if cls.POOL_DIRECTIONS and rms.size > 1:
+                # a spread read from 3-7 logs is itself uncertain (a chi-square on n-1 degrees of freedom): one
+                # direction's can come out a third of the true variation while the others show it. Each direction
+                # is allowed at least the directions' median spread (robust to one poorly determined direction)
+                rms = np.maximum(rms, float(np.median(rms)))
             n_ho = max(len(logs) - len(fit), 1)
             nu.mean_bounds = np.clip(cls.BOUND_SPREADS * rms * math.sqrt(1.0 / n_ho + 1.0 / len(fit)),
                                      *cls.BOUND_RANGE)
