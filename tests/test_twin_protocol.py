@@ -158,5 +158,8 @@ def test_bad_effect_arguments_name_the_key(tmp_path):
     with pytest.raises(InputError) as exc:
         simulate(path, effects=["pressure_lag:tua=0.1"])
     assert exc.value.key == "--effect.pressure_lag.tua"
-    with pytest.raises(InputError, match="given twice"):
+    with pytest.raises(InputError, match="given twice") as exc:
         simulate(path, effects=["braid_friction:r=10"])
+    # it says where the id already is and how to change it instead
+    assert exc.value.key == "plant.effects.braid_friction"
+    assert "plant.effects and --effect" in str(exc.value) and "edit plant.effects.braid_friction" in str(exc.value)

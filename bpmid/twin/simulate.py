@@ -224,8 +224,13 @@ def _collect_effects(proto: Protocol, effect_args: Sequence[str]):
     ids = [e.id for e, _p in rig + injected]
     dup = sorted({i for i in ids if ids.count(i) > 1})
     if dup:
-        raise InputError(f"effect {dup[0]} is given twice (the rig's plant.effects, the protocol's effects and "
-                         f"--effect must not repeat an id)", path=proto.path, key=dup[0])
+        where = [w for w, src in (("plant.effects", proto.plant.effects), ("effects", proto.effects)) if dup[0] in src]
+        where += ["--effect"] * sum(1 for text in effect_args if parse_effect_arg(text)[0] == dup[0])
+        raise InputError(f"effect {dup[0]} is given twice ({' and '.join(where)}; the rig's plant.effects, the "
+                         f"protocol's effects and --effect must not repeat an id). To change it, edit "
+                         f"{'plant.effects.' if dup[0] in proto.plant.effects else 'effects.'}{dup[0]} in a copy of "
+                         f"the protocol instead of adding it again", path=proto.path,
+                         key=("plant.effects." if dup[0] in proto.plant.effects else "effects.") + dup[0])
     return rig, injected
 
 
