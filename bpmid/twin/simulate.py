@@ -218,19 +218,20 @@ def _simulate_reference(proto: Protocol, prov: dict) -> Simulation:
 def _collect_effects(proto: Protocol, effect_args: Sequence[str]):
     rig = [build_effect(eid, v, "plant.effects", proto.path) for eid, v in proto.plant.effects.items()]
     injected = [build_effect(eid, v, "effects", proto.path) for eid, v in proto.effects.items()]
+    given = ["plant.effects"] * len(rig) + ["effects"] * len(injected)
     for text in effect_args:
         eid, values = parse_effect_arg(text)
         injected.append(build_effect(eid, values, "--effect"))
+        given.append("--effect")
     ids = [e.id for e, _p in rig + injected]
     dup = sorted({i for i in ids if ids.count(i) > 1})
     if dup:
-        where = [w for w, src in (("plant.effects", proto.plant.effects), ("effects", proto.effects)) if dup[0] in src]
-        where += ["--effect"] * sum(1 for text in effect_args if parse_effect_arg(text)[0] == dup[0])
+        where = [w for i, w in zip(ids, given) if i == dup[0]]
+        key = f"{where[0]}.{dup[0]}"
         raise InputError(f"effect {dup[0]} is given twice ({' and '.join(where)}; the rig's plant.effects, the "
-                         f"protocol's effects and --effect must not repeat an id). To change it, edit "
-                         f"{'plant.effects.' if dup[0] in proto.plant.effects else 'effects.'}{dup[0]} in a copy of "
-                         f"the protocol instead of adding it again", path=proto.path,
-                         key=("plant.effects." if dup[0] in proto.plant.effects else "effects.") + dup[0])
+                         f"protocol's effects and --effect must not repeat an id). To change it, edit {key} "
+                         f"instead of adding it again (a copy of the protocol for its own keys)", path=proto.path,
+                         key=key)
     return rig, injected
 
 
