@@ -36,8 +36,9 @@ SAT_NONE, SAT_HIGH, SAT_LOW = 0, 1, -1
 
 
 class _State:  # documentation only: the state arrays every stepper carries
-    """hG1, hG2, hK1, hK2 (branch states per strain), aG, aK (decays of this step), x (4,): e1, e2 of the
-    previous step, the previous input (pressure or angle) and the previous beta."""
+    """hG1, hG2, hK1, hK2 (branch states per strain), aG, aK (decays of this step), x (5,): e1, e2 of the
+    previous step, the previous input (pressure or angle), the previous beta, and 1 when the angle fell on the
+    previous step (asymmetric relaxation)."""
 
 
 @numba.njit(cache=True)
@@ -90,7 +91,7 @@ def inverse_incremental(t, beta, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, f
     m, q = Gj.size, Kj.size
     hG1, hG2, aG = np.zeros(m), np.zeros(m), np.ones(m)
     hK1, hK2, aK = np.zeros(q), np.zeros(q), np.ones(q)
-    x = np.zeros(4)
+    x = np.zeros(5)
     out = np.empty(t.size)
     for k in range(t.size):
         dt = t[k] - t[k - 1] if k > 0 else 0.0
@@ -105,7 +106,7 @@ def forward_stepped(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, fall, st
     m, q = Gj.size, Kj.size
     hG1, hG2, aG = np.zeros(m), np.zeros(m), np.ones(m)
     hK1, hK2, aK = np.zeros(q), np.zeros(q), np.ones(q)
-    x = np.zeros(4)
+    x = np.zeros(5)
     out = np.empty(t.size)
     status = np.zeros(t.size, np.int64)
     for k in range(t.size):
@@ -119,14 +120,28 @@ def forward_stepped(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, fall, st
 def plant_step(k, dt, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, fall, stiff, sc,
                hG1, hG2, hK1, hK2, aG, aK, x):  # pragma: no cover - compiled
     """One step of the forward VBMM: beta (rad) for gauge pressure p (Pa) at step k; commits the step.
-    Falling pressure (p < previous) uses tau * fall (the asymmetric_relaxation term)."""
-    r = fall if (k > 0 and p < x[2]) else 1.0
+    A falling angle uses tau * fall (the asymmetric_relaxation term), decided as the open-loop kernel decides it
+    (:func:`bpmid.models._vbmm_kernels.forward_kernel`): solved with the last step's direction, again with the
+    other when the angle moves the other way, kept when that one is consistent."""
+    falling = k > 0 and fall != 1.0 and x[4] > 0.5
+    r = fall if falling else 1.0
     G0, K0, cG1, cG2, cK1, cK2 = _step_history(k, dt, r, Ginf, Gj, tauG, Kinf, Kj, tauK,
                                                hG1, hG2, hK1, hK2, aG, aK, x)
     b, st = _solve_beta(p, x[3], geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)
+    if k > 0 and fall != 1.0 and (b < x[3]) != falling:
+        r2 = 1.0 if falling else fall
+        G0, K0, c1, c2, c3, c4 = _step_history(k, dt, r2, Ginf, Gj, tauG, Kinf, Kj, tauK,
+                                               hG1, hG2, hK1, hK2, aG, aK, x)
+        b2, st2 = _solve_beta(p, x[3], geo, closure, G0, K0, c1, c2, c3, c4, sc, stiff)
+        if (b2 < x[3]) != falling:    # consistent: the angle turned
+            b, st = b2, st2
+            falling = not falling
+        else:                         # neither is consistent: the first solve stands, with its decays
+            _step_history(k, dt, r, Ginf, Gj, tauG, Kinf, Kj, tauK, hG1, hG2, hK1, hK2, aG, aK, x)
     _commit_step(k, b, geo, hG1, hG2, hK1, hK2, aG, aK, x)
     x[2] = p
     x[3] = b
+    x[4] = 1.0 if falling else 0.0
     return b, st
 
 
@@ -227,12 +242,12 @@ def closed_loop(t, ref, kind, kp, ki, p_lo, p_hi, atm, p_start, preview,
     m, q = Gj.size, Kj.size
     hG1, hG2, aG = np.zeros(m), np.zeros(m), np.ones(m)
     hK1, hK2, aK = np.zeros(q), np.zeros(q), np.ones(q)
-    x = np.zeros(4)
+    x = np.zeros(5)
     # feedforward state
     cm, cq = c_Gj.size, c_Kj.size
     fG1, fG2, faG = np.zeros(cm), np.zeros(cm), np.ones(cm)
     fK1, fK2, faK = np.zeros(cq), np.zeros(cq), np.ones(cq)
-    fx = np.zeros(4)
+    fx = np.zeros(5)
     ms_d = np.zeros(ms_D.size)
     ms_prev = 0.0
     # pressure terms' state

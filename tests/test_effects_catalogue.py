@@ -161,6 +161,43 @@ def test_asymmetric_relaxation_shows_only_once_the_pressure_falls():
     assert np.max(np.abs(d[(t > 4.0) & (t <= 8.0)])) > 1.0
 
 
+def _steps_and_holds(fs=20.0):
+    """Gauge pressure (Pa): 1.2 bar absolute, a step to 2.2 bar, held 12 s, a step back, held 12 s."""
+    t = np.arange(0.0, 30.0, 1.0 / fs)
+    pa = np.where((t >= 2.0) & (t < 14.0), 2.2, 1.2) * 1e5 - 101325.0
+    return t, pa
+
+
+def test_asymmetric_relaxation_switches_on_the_angle_so_the_transient_after_a_step_down_runs_at_its_rate():
+    """Seed 004 measures the deflation rate on the transient after a pressure step down, at constant pressure:
+    the falling rate applies while the angle falls, so the forward model and the inverse (which reads the
+    direction from the angle) agree through the holds, and the relaxation after the step down runs fall_ratio
+    times faster."""
+    t, p = _steps_and_holds()
+    m = BASE.replace(fall_ratio=0.25)
+    beta = m.forward(t, p)
+    assert m.inverse(t, beta) == pytest.approx(p, abs=0.05)            # Pa: the inverse gives the pressure back
+    after = (t > 14.0)
+    assert np.all(np.diff(beta[after]) <= 1e-12)                       # the angle falls through the hold
+    # the slow part of the transient (the branch relaxing) decays four times faster than the plain model's
+    plain = BASE.forward(t, p)
+    def settle(b):   # time after the step for the angle to come within 1 % of its final fall
+        rest = b[after] - b[-1]
+        return t[after][np.argmax(np.abs(rest) <= 0.01 * np.abs(rest[0]))] - 14.0
+    assert settle(beta) < 0.5 * settle(plain)
+
+
+def test_asymmetric_relaxation_is_not_switched_by_the_logged_pressures_noise_while_it_is_held():
+    """A logged pressure's noise (20 Pa) while held changes the angle by about the noise's own effect, not by a
+    rate switched at random on every step the noisy pressure happens to fall."""
+    t, p = _steps_and_holds()
+    noisy = p + np.random.default_rng(4).normal(0.0, 20.0, t.size)
+    m = BASE.replace(fall_ratio=0.25)
+    d_asym = np.degrees(m.forward(t, noisy) - m.forward(t, p))
+    d_plain = np.degrees(BASE.forward(t, noisy) - BASE.forward(t, p))
+    assert np.sqrt(np.mean(d_asym**2)) < 2.0 * np.sqrt(np.mean(d_plain**2)) + 1e-4
+
+
 def test_strain_stiffening_grows_with_amplitude_and_lowers_peaks():
     diffs = []
     for hi in (1.8, 2.0, 2.2):

@@ -5,7 +5,7 @@
 | second_relaxation | weight (1, 0.25, 0), tau (s, 10) | a second, slower Prony branch G_2 = weight G_inf, K_2 = weight K_inf |
 | braid_friction | r (Pa, 2500, 0), mu (1, 0, 0), slip (Pa, 0) | dry friction on the pressure: sliding level r + mu p, elastic stick over slip (mu = slip = 0: a play, dead band +-r) |
 | pressure_lag | tau (s, 0.25, 0), share (1, 0), sat (1/kPa, 0) | lag of the muscle pressure behind the logged one: two cascaded lags (1 - share) tau, share tau; the first slower by sqrt(1 + sat abs(difference)) (a valve's flow-limited fill) |
-| asymmetric_relaxation | fall_ratio (1, 0.4, 1) | time constants times fall_ratio while the pressure falls |
+| asymmetric_relaxation | fall_ratio (1, 0.4, 1) | time constants times fall_ratio while the muscle's angle falls (deflating, and relaxing back after a step down) |
 | strain_stiffening | c (1, 10, 0) | moduli scale by 1 + c eps1^2 (hyperelastic stiffening) |
 | angle_offset | offset (deg, 2, 0) | the angle sensor adds a constant |
 | thermal_softening | amount (1, 0.1, 0), T (s, 300) | moduli scale by 1 - amount (1 - exp(-(t - t0)/T)) |
@@ -274,8 +274,12 @@ class PressureLag(Effect):
 class AsymmetricRelaxation(Effect):
     """The muscle relaxes at a different rate while deflating than while inflating (seed 004).
 
-    Model term: every time constant is multiplied by fall_ratio on steps where the pressure falls
-    (fall_ratio < 1: faster relaxation while deflating).
+    Model term: every time constant is multiplied by fall_ratio on steps where the muscle's angle falls
+    (fall_ratio < 1: faster relaxation while deflating). The switch is the muscle's own motion, not the logged
+    pressure: the relaxation transient after a pressure step down runs at constant pressure (seed 004 measures
+    the deflation rate on exactly that transient), and a logged pressure's noise would switch the rate at random
+    while it is held. The forward model decides each step's direction consistently with the angle it solves for
+    (:func:`bpmid.models._vbmm_kernels.forward_kernel`); the inverse reads it from the angle it is given.
     """
 
     id = "asymmetric_relaxation"
@@ -297,9 +301,8 @@ class AsymmetricRelaxation(Effect):
         return {} if r == 1.0 else {"fall_ratio": base.fall_ratio * r}
 
     def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
-        rate = _rate(log.time_s, base_angle_deg)
-        dp = np.diff(log.pressure_pa, prepend=log.pressure_pa[0])
-        return np.column_stack([np.where(dp > 0, rate, 0.0), np.where(dp < 0, rate, 0.0)])
+        rate = _rate(log.time_s, base_angle_deg)     # rising and falling by the angle's motion, as the term
+        return np.column_stack([np.where(rate > 0, rate, 0.0), np.where(rate < 0, rate, 0.0)])
 
 
 class StrainStiffening(Effect):

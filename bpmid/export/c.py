@@ -202,7 +202,8 @@ def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
                "    bpmid_real p_prev, p_prev2;   /* pressures the rubber saw at the previous two steps (Pa) */",
                "    bpmid_real d_prev;    /* dP/dbeta at the last evaluation (Pa/rad), for the start of the next solve */",
                "    bpmid_real e1, e2;    /* strains of the previous step */",
-               "    bpmid_real b1, b2;    /* angles (rad) of the previous two steps */"]
+               "    bpmid_real b1, b2;    /* angles (rad) of the previous two steps */",
+               "    int falling;          /* 1 when the angle fell on the previous step (asymmetric relaxation) */"]
     for j in range(nb):
         taus = [("", mat.tauG[j])] if shared else [("G", mat.tauG[j]), ("K", mat.tau_K[j])]
         for tag, tau in taus:
@@ -245,10 +246,11 @@ def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
     else:
         thermal = "    return R(1.0);\n"
     if m.fall_ratio != 1.0:
-        fall_f = "    if (s->k > 0 && p < s->p_prev) {\n        r = FALL;\n    }\n"
+        fall_f = "    if (s->k > 0 && s->falling) {\n        r = FALL;\n    }\n"
         fall_i = "    if (s->k > 0 && b < s->b1) {\n        r = FALL;\n    }\n"
+        fall_c = _FALL_CHECK
     else:
-        fall_f = fall_i = ""
+        fall_f = fall_i = fall_c = ""
     chain_code, chain_fields, chain_reset = _chain_sources(cv.chain)
     fields += chain_fields
     reset += chain_reset
@@ -258,10 +260,35 @@ def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
                 decay_code="".join(d + "\n" for d in decay), history_code="".join(h + "\n" for h in hist),
                 commit_code="".join(c + "\n" for c in commit), thermal_code=thermal,
                 reset_code="".join(r + "\n" for r in reset), chain_code=chain_code, fall_forward=fall_f,
-                fall_inverse=fall_i)
+                fall_inverse=fall_i, fall_check=fall_c)
     return {"bpmid_model.h": _template("common.h.in").substitute(subs),
             "bpmid_model.c": _template("vbmm.c.in").substitute(subs),
             "main.c": _template("main.c.in").substitute(subs)}
+
+
+#: the forward step's check of the direction it assumed (asymmetric relaxation): the angle falling, as
+#: :func:`bpmid.models._vbmm_kernels.forward_kernel` decides it (solved with the last step's direction, again with
+#: the other when the angle moves the other way, kept when that one is consistent)
+_FALL_CHECK = """    if (s->k > 0 && (b < s->b1) != (r != R(1.0))) {
+        /* the angle moved against the direction assumed: solve again with the other direction's rate */
+        const bpmid_real r1 = r;
+        bpmid_real b2, d2 = s->d_prev;
+        int st2 = BPMID_STATUS_OK;
+        r = r1 != R(1.0) ? R(1.0) : FALL;
+        history(s, dt, r, &c);
+        b2 = solve_beta(p, x0, &c, &st2, &d2);
+        if ((b2 < s->b1) == (r != R(1.0))) {
+            b = b2;
+            s->status = st2;
+            s->d_prev = d2;
+        } else {
+            /* neither is consistent (a reversal within the step): the first solve stands, with its decays */
+            r = r1;
+            history(s, dt, r, &c);
+        }
+    }
+    s->falling = r != R(1.0);
+"""
 
 
 def _chain_sources(chain) -> tuple[str, list[str], list[str]]:
@@ -510,8 +537,7 @@ def _vbmm_description(cv: CausalVBMM, meta: dict) -> list[str]:
                            f"and elastic stick slip; (r Pa, mu, slip Pa) = "
                            + ", ".join(f"({v[j]!r}, {v[j + 1]!r}, {v[j + 2]!r})" for j in range(0, len(v), 3)))
         if m.fall_ratio != 1.0:
-            out.append(f"  asymmetric relaxation: tau times {m.fall_ratio!r} while the pressure falls (forward) or "
-                       "the angle falls (inverse)")
+            out.append(f"  asymmetric relaxation: tau times {m.fall_ratio!r} while the angle falls")
         if m.stiffening != 0.0:
             out.append(f"  strain stiffening: moduli times 1 + {m.stiffening!r} eps1^2")
         if cv.thermal is not None:

@@ -279,7 +279,11 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
     """beta (rad) for gauge pressures ``p`` (Pa) at times ``t`` (s).
 
     Returns (beta, e1, e2, status); status[k] is STATUS_OK, STATUS_ABOVE_RANGE or STATUS_NO_CONVERGENCE.
-    ``fall_ratio`` multiplies every tau on steps where the pressure falls (recursive mode only);
+    ``fall_ratio`` multiplies every tau on steps where the angle falls (recursive mode only): the muscle's
+    own motion, so the relaxation transient after a pressure step down, at constant pressure, runs at the falling
+    rate too, and the logged pressure's noise does not switch it. The step is solved with the last step's
+    direction; when the angle moves the other way, it is solved again with the other direction's rate, and kept
+    when that one is consistent (otherwise, a reversal within the step, the first solve stands);
     ``stiff`` is the strain-stiffening coefficient (moduli scale by 1 + stiff e1^2); ``scale`` (N,) a
     per-step modulus scale (thermal softening). Defaults 1, 0, ones give the plain VBMM.
     """
@@ -310,15 +314,18 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
     d_prev = 0.0
     dt_a = -1.0  # the step length and fall ratio the decays aG, aK were computed for
     r_a = -1.0
+    falling = False  # the direction of the angle's last step (asymmetric relaxation)
+    asym = mode == 0 and fall_ratio != 1.0
     for k in range(n):
         dt = 0.0
+        r = 1.0
         if k == 0:
             G0, K0 = Ginf, Kinf
             cG1 = cG2 = cK1 = cK2 = 0.0
         else:
             G0, K0 = G0full, K0full
             dt = t[k] - t[k - 1]
-            r = fall_ratio if (mode == 0 and p[k] < p[k - 1]) else 1.0
+            r = fall_ratio if (asym and falling) else 1.0
             if dt != dt_a or r != r_a:  # even sampling: one exp per branch per log, not per step
                 decay(aG, dt, tauG, r)
                 decay(aK, dt, tauK, r)
@@ -349,6 +356,23 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
             if d_prev > 0.0:
                 x0 = x0 + (p[k] - (p[k - 1] + (p[k - 1] - p[k - 2]) * (dt / dt_prev))) / d_prev
         b, status[k], d_prev = solve_beta_gc(p[k], x0, gc, closure, G0, K0, cG1, cG2, cK1, cK2, scale[k], stiff)
+        if asym and k > 0 and (b < b_prev) != falling:
+            # the angle moved against the direction assumed: solve with the other direction's rate
+            r2 = 1.0 if falling else fall_ratio
+            decay(aG, dt, tauG, r2)
+            decay(aK, dt, tauK, r2)
+            c21 = recursion_const(Gj, aG, hG1, e1[k - 1])
+            c22 = recursion_const(Gj, aG, hG2, e2[k - 1])
+            c23 = recursion_const(Kj, aK, hK1, e1[k - 1])
+            c24 = recursion_const(Kj, aK, hK2, e2[k - 1])
+            b2, st2, d2 = solve_beta_gc(p[k], x0, gc, closure, G0, K0, c21, c22, c23, c24, scale[k], stiff)
+            if (b2 < b_prev) != falling:   # consistent: the angle turned
+                b, status[k], d_prev = b2, st2, d2
+                falling = not falling
+                r_a = r2
+            else:                          # neither is consistent: the first solve stands, with its decays
+                decay(aG, dt, tauG, r)
+                decay(aK, dt, tauK, r)
         beta[k] = b
         # u3_from_beta and stretch with the constants of gc (the same values, computed once per log)
         u3 = -2.0 * R0 + (2.0 * math.sqrt(gc[4] * b * b + gc[5]) - 2.0 * l0 * b) / (b * b + gc[3])

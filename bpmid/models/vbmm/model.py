@@ -289,7 +289,7 @@ class VBMM:
     closure : "paper" or "consistent"
     history : "recursive", "window" or "full"
     window_s : T_win (s) for history = "window"
-    fall_ratio : time constants are multiplied by this on falling-pressure steps (1 = symmetric;
+    fall_ratio : time constants are multiplied by this on steps where the angle falls (1 = symmetric;
         the asymmetric_relaxation effect; recursive history only)
     stiffening : strain-stiffening coefficient c, moduli scale by (1 + c eps1^2) (0 = linear; the
         strain_stiffening effect)
