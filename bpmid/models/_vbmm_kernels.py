@@ -355,24 +355,34 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
             x0 = b_prev + (b_prev - b_prev2) * (dt / dt_prev)
             if d_prev > 0.0:
                 x0 = x0 + (p[k] - (p[k - 1] + (p[k - 1] - p[k - 2]) * (dt / dt_prev))) / d_prev
-        b, status[k], d_prev = solve_beta_gc(p[k], x0, gc, closure, G0, K0, cG1, cG2, cK1, cK2, scale[k], stiff)
-        if asym and k > 0 and (b < b_prev) != falling:
-            # the angle moved against the direction assumed: solve with the other direction's rate
-            r2 = 1.0 if falling else fall_ratio
-            decay(aG, dt, tauG, r2)
-            decay(aK, dt, tauK, r2)
-            c21 = recursion_const(Gj, aG, hG1, e1[k - 1])
-            c22 = recursion_const(Gj, aG, hG2, e2[k - 1])
-            c23 = recursion_const(Kj, aK, hK1, e1[k - 1])
-            c24 = recursion_const(Kj, aK, hK2, e2[k - 1])
-            b2, st2, d2 = solve_beta_gc(p[k], x0, gc, closure, G0, K0, c21, c22, c23, c24, scale[k], stiff)
-            if (b2 < b_prev) != falling:   # consistent: the angle turned
-                b, status[k], d_prev = b2, st2, d2
-                falling = not falling
-                r_a = r2
-            else:                          # neither is consistent: the first solve stands, with its decays
+        # asymmetric relaxation: solved with the last step's direction; when the angle moves the other way, once
+        # more with the other direction's rate (one call site: the solver is inlined, so a second would double it)
+        fall_try = falling
+        b = 0.0
+        for attempt in range(2 if (asym and k > 0) else 1):
+            if attempt == 1:
+                fall_try = not falling
+                r = fall_ratio if fall_try else 1.0
                 decay(aG, dt, tauG, r)
                 decay(aK, dt, tauK, r)
+                r_a = r
+                cG1 = recursion_const(Gj, aG, hG1, e1[k - 1])
+                cG2 = recursion_const(Gj, aG, hG2, e2[k - 1])
+                cK1 = recursion_const(Kj, aK, hK1, e1[k - 1])
+                cK2 = recursion_const(Kj, aK, hK2, e2[k - 1])
+            bt, st, dt_slope = solve_beta_gc(p[k], x0, gc, closure, G0, K0, cG1, cG2, cK1, cK2, scale[k], stiff)
+            if attempt == 0:
+                b, status[k], d_prev = bt, st, dt_slope
+                if (bt < b_prev) == fall_try:
+                    break
+            elif (bt < b_prev) == fall_try:    # consistent: the angle turned
+                b, status[k], d_prev = bt, st, dt_slope
+                falling = fall_try
+            else:                               # neither is consistent: the first solve stands, with its decays
+                r = fall_ratio if falling else 1.0
+                decay(aG, dt, tauG, r)
+                decay(aK, dt, tauK, r)
+                r_a = r
         beta[k] = b
         # u3_from_beta and stretch with the constants of gc (the same values, computed once per log)
         u3 = -2.0 * R0 + (2.0 * math.sqrt(gc[4] * b * b + gc[5]) - 2.0 * l0 * b) / (b * b + gc[3])
