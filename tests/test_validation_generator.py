@@ -252,6 +252,30 @@ def test_effects_are_sized_to_the_target_ratio():
     assert empty_spec()["pressure"]["kind"] == "none"
 
 
+def test_pressure_transducer_noise_is_in_the_log_only_and_off_by_default():
+    """``pressure_noise_pa``: white noise on the logged pressure, not on what the muscle saw; absent by default, so
+    the draws made before it (their configs, fingerprints and cases) are unchanged."""
+    from bpmid.validation.generator import config_digest, generator_config
+    plain = make_cases(SMALL, seed=5)
+    zero = make_cases({**SMALL, "pressure_noise_pa": [0.0, 0.0]}, seed=5)
+    assert "pressure_noise_pa" not in generator_config(SMALL).to_yaml()
+    assert config_digest(plain[0].config) == config_digest(zero[0].config)
+    assert [(c.id, c.seed, c.noise_deg, c.pressure_noise_pa) for c in plain] == \
+           [(c.id, c.seed, c.noise_deg, c.pressure_noise_pa) for c in zero]
+    noisy = make_cases({**SMALL, "pressure_noise_pa": [80.0, 80.0]}, seed=5)
+    assert noisy[0].pressure_noise_pa == 80.0 and noisy[0].seed == plain[0].seed
+    a, b = realize(plain[0]), realize(noisy[0])
+    assert b.truth["pressure_noise_pa"] == 80.0 and "pressure_noise_pa" not in a.truth
+    d = np.concatenate([y.pressure_pa - x.pressure_pa for x, y in zip(a.logs, b.logs)])
+    assert np.std(d) == pytest.approx(80.0, rel=0.1) and abs(np.mean(d)) < 10.0
+    for x, y in zip(a.logs, b.logs):      # the muscle saw the same pressure: the same angles, noise and all
+        np.testing.assert_array_equal(x.angle_deg, y.angle_deg)
+    from bpmid.errors import InputError
+    with pytest.raises(InputError) as e:
+        make_cases({**SMALL, "pressure_noise_pa": [-1.0, 5.0]}, seed=0)
+    assert "generator.pressure_noise_pa" in e.value.format()
+
+
 def test_bad_generator_config_names_the_key():
     from bpmid.errors import InputError
     with pytest.raises(InputError) as e:

@@ -190,12 +190,12 @@ def test_rig_section_sets_noise_rate_and_geometry(tmp_path):
     from bpmid.validation import make_cases
     cfg_path = tmp_path / "rig.yaml"
     cfg_path.write_text(TINY.read_text() + "rig: {noise_deg: 0.25, noise_ar1_rho: 0.6, sampling_hz: 40, "
-                        "pressure_unit: psi, geometry: {name: mine, th_mm: 1.8, alpha0_deg: 28, R0_mm: 14, "
-                        "l0_mm: 170, n: 6.5}}\n")
+                        "pressure_unit: psi, pressure_noise_pa: 60, geometry: {name: mine, th_mm: 1.8, "
+                        "alpha0_deg: 28, R0_mm: 14, l0_mm: 170, n: 6.5}}\n")
     cfg = load_sweep(cfg_path)
     cases = make_cases(cfg.effective_generator, cfg.sweep.seed, prefix="rig")
-    assert {(c.noise_deg, c.noise_rho, c.fs_hz, c.pressure_unit, c.geometry.name) for c in cases} == {
-        (0.25, 0.6, 40.0, "psi", "mine")}
+    assert {(c.noise_deg, c.noise_rho, c.fs_hz, c.pressure_unit, c.geometry.name, c.pressure_noise_pa)
+            for c in cases} == {(0.25, 0.6, 40.0, "psi", "mine", 60.0)}
     cfg_path.write_text(TINY.read_text() + "rig: {noise_deg: -1}\n")
     from bpmid.errors import InputError
     with pytest.raises(InputError) as e:

@@ -86,6 +86,9 @@ class GeneratorConfig:
     noise_rho : range of the AR(1) lag-1 correlation of the noise from one sample to the next (0 = white), as
         measured on a rig's logs at its own rate
     white_share : share of cases with white noise whatever noise_rho says
+    pressure_noise_pa : range of the pressure transducer's white noise standard deviation (Pa) on the logged
+        pressure; the muscle sees the pressure without it ([0, 0], the default: a noise-free pressure log, as every
+        draw before it existed)
     variation : range of the log-to-log variation of the constants (relative standard deviation, 0.05 = 5 %)
     size_ratio : range of the held-out RMSE of the true base model over the noise (1.5: just detectable)
     duration_scale : multiplies the number of cycles and the hold times of every protocol (1 = paper-sized)
@@ -109,6 +112,7 @@ class GeneratorConfig:
     noise_deg: tuple[float, float] = (0.1, 0.3)
     noise_rho: tuple[float, float] = (0.0, 0.8)
     white_share: float = 0.4
+    pressure_noise_pa: tuple[float, float] = (0.0, 0.0)
     variation: tuple[float, float] = (0.0, 0.05)
     size_ratio: tuple[float, float] = (1.5, 4.0)
     duration_scale: float = 1.0
@@ -153,7 +157,8 @@ class GeneratorConfig:
             if not 1.0 <= f <= 2000.0:
                 raise InputError(f"sampling rate {f} Hz is outside 1-2000 Hz", path=path, key=f"{where}.sampling_hz")
         for name, lo_ok, hi_ok in (("noise_deg", 0.0, 10.0), ("noise_rho", 0.0, 0.99), ("variation", 0.0, 0.3),
-                                   ("size_ratio", 1.0, 50.0), ("atmosphere_pa", 50e3, 120e3)):
+                                   ("size_ratio", 1.0, 50.0), ("atmosphere_pa", 50e3, 120e3),
+                                   ("pressure_noise_pa", 0.0, 1e4)):
             rng = getattr(self, name)
             if len(rng) != 2 or not (lo_ok <= rng[0] <= rng[1] <= hi_ok):
                 raise InputError(f"expected [low, high] within [{lo_ok:g}, {hi_ok:g}], found {list(rng)}", path=path,
@@ -181,6 +186,8 @@ class GeneratorConfig:
         d = dataclasses.asdict(self)
         d["mix"] = dict(self.mix)
         d["geometries"] = [g if isinstance(g, str) else dataclasses.asdict(g) for g in self.geometries]
+        if not self.pressure_noise_pa[1] > 0:   # absent: the configs (and fingerprints) of draws before it
+            del d["pressure_noise_pa"]
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in d.items()}
 
 
@@ -228,6 +235,7 @@ class Case:
     fs_hz, pressure_unit, pressure_reference, atmosphere_pa, time_unit, header_style : how the logs look
     noise_deg, noise_rho : sensor noise (standard deviation, AR(1) lag-1 correlation at the log rate)
     variation : log-to-log relative standard deviation of the constants
+    pressure_noise_pa : the pressure transducer's white noise (Pa) on the logged pressure (0: none)
     p_lo_pa, p_hi_pa : gauge pressure range of the protocols (from the geometry: about 12-70 deg at rest)
     config : the generator config it was made from (for the labels)
     """
@@ -252,6 +260,7 @@ class Case:
     p_lo_pa: float
     p_hi_pa: float
     config: GeneratorConfig
+    pressure_noise_pa: float = 0.0
 
     @property
     def split(self) -> str:
@@ -402,7 +411,9 @@ def make_cases(config: GeneratorConfig | Mapping | None = None, seed: int = 0, *
             pressure_reference=str(_choice(r, cfg.pressure_references)), atmosphere_pa=f(*cfg.atmosphere_pa),
             time_unit=str(_choice(r, cfg.time_units)), header_style=str(_choice(r, cfg.header_styles)),
             noise_deg=f(*cfg.noise_deg), noise_rho=float(rho),
-            variation=f(*cfg.variation), p_lo_pa=lo, p_hi_pa=hi, config=cfg))
+            variation=f(*cfg.variation), p_lo_pa=lo, p_hi_pa=hi, config=cfg,
+            # drawn only when asked for, so that the draws before it make the same cases
+            pressure_noise_pa=f(*cfg.pressure_noise_pa) if cfg.pressure_noise_pa[1] > 0 else 0.0))
     return cases
 
 
@@ -587,10 +598,14 @@ def realize(case: Case) -> CaseData:
     offs = _offsets(spec, len(protos), np.random.default_rng(offset_seed))
     clean = _simulate_logs(case, spec, protos, var, offs) if case.effects else base
     logs = []
+    # the transducer's noise from a stream of its own: the same angles (and angle noise) with or without it
+    prng = np.random.default_rng((case.seed, 7)) if case.pressure_noise_pa > 0 else None
     for (name, role, seg), ang in zip(protos, clean):
         t, u = _profile(seg, 1.0 / case.fs_hz)
         p = case.p_lo_pa + u * (case.p_hi_pa - case.p_lo_pa)
         e = _ar1(rng, t.size, case.noise_deg, case.noise_rho)
+        if case.pressure_noise_pa > 0:   # the transducer's noise is in the log, not in what the muscle saw
+            p = p + prng.normal(0.0, case.pressure_noise_pa, t.size)
         logs.append(Log(name, role, t, p, ang, ang + e))
     ho_true = _heldout_rms(clean, base, roles)
     truth = dict(case.truth)
@@ -600,6 +615,8 @@ def realize(case: Case) -> CaseData:
     truth["noise"] = {"sigma_deg": round(case.noise_deg, 5), "ar1_rho": round(case.noise_rho, 4),
                       "colour": "white" if case.noise_rho == 0 else "AR(1)"}
     truth["log_to_log_variation"] = round(case.variation, 5)
+    if case.pressure_noise_pa > 0:
+        truth["pressure_noise_pa"] = round(case.pressure_noise_pa, 3)
     truth["material"] = _plain(case.material)
     truth["per_log_factors"] = {p[0]: {k: round(float(v), 5) for k, v in f.items()} for p, f in zip(protos, var)}
     return CaseData(case, logs, truth)

@@ -93,6 +93,7 @@ class RigSection:
     sampling_hz : sampling rate (Hz)
     geometry : a built-in name or {name, th_mm, alpha0_deg, R0_mm, l0_mm, n}
     pressure_unit, pressure_reference, time_unit : how the rig logs
+    pressure_noise_pa : the pressure transducer's noise standard deviation (Pa)
     """
 
     noise_deg: Optional[float] = None
@@ -102,6 +103,7 @@ class RigSection:
     pressure_unit: Optional[Literal["bar", "kpa", "psi"]] = None
     pressure_reference: Optional[Literal["absolute", "gauge"]] = None
     time_unit: Optional[Literal["s", "ms"]] = None
+    pressure_noise_pa: Optional[float] = None
 
     def apply(self, gen: GeneratorConfig, path=None) -> GeneratorConfig:
         d = gen.to_yaml()
@@ -112,6 +114,8 @@ class RigSection:
             d["white_share"] = 1.0 if self.noise_ar1_rho == 0 else 0.0
         if self.sampling_hz is not None:
             d["sampling_hz"] = [self.sampling_hz]
+        if self.pressure_noise_pa is not None:
+            d["pressure_noise_pa"] = [self.pressure_noise_pa, self.pressure_noise_pa]
         if self.geometry is not None:
             d["geometries"] = [self.geometry if isinstance(self.geometry, str) else dataclasses.asdict(self.geometry)]
         for key, gkey in (("pressure_unit", "pressure_units"), ("pressure_reference", "pressure_references"),
