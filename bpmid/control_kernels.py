@@ -36,9 +36,9 @@ SAT_NONE, SAT_HIGH, SAT_LOW = 0, 1, -1
 
 
 class _State:  # documentation only: the state arrays every stepper carries
-    """hG1, hG2, hK1, hK2 (branch states per strain), aG, aK (decays of this step), x (5,): e1, e2 of the
-    previous step, the previous input (pressure or angle), the previous beta, and 1 when the angle fell on the
-    previous step (asymmetric relaxation)."""
+    """hG1, hG2, hK1, hK2 (branch states per strain), aG, aK (decays of this step), x (4,): e1, e2 of the
+    previous step, 1 when the angle fell on the previous step (asymmetric relaxation; the forward step's), and the
+    previous beta."""
 
 
 @numba.njit(cache=True)
@@ -91,7 +91,7 @@ def inverse_incremental(t, beta, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, f
     m, q = Gj.size, Kj.size
     hG1, hG2, aG = np.zeros(m), np.zeros(m), np.ones(m)
     hK1, hK2, aK = np.zeros(q), np.zeros(q), np.ones(q)
-    x = np.zeros(5)
+    x = np.zeros(4)
     out = np.empty(t.size)
     for k in range(t.size):
         dt = t[k] - t[k - 1] if k > 0 else 0.0
@@ -106,7 +106,7 @@ def forward_stepped(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, fall, st
     m, q = Gj.size, Kj.size
     hG1, hG2, aG = np.zeros(m), np.zeros(m), np.ones(m)
     hK1, hK2, aK = np.zeros(q), np.zeros(q), np.ones(q)
-    x = np.zeros(5)
+    x = np.zeros(4)
     out = np.empty(t.size)
     status = np.zeros(t.size, np.int64)
     for k in range(t.size):
@@ -123,7 +123,7 @@ def plant_step(k, dt, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, fall, sti
     A falling angle uses tau * fall (the asymmetric_relaxation term), decided as the open-loop kernel decides it
     (:func:`bpmid.models._vbmm_kernels.forward_kernel`): solved with the last step's direction, again with the
     other when the angle moves the other way, kept when that one is consistent."""
-    falling = k > 0 and fall != 1.0 and x[4] > 0.5
+    falling = k > 0 and fall != 1.0 and x[2] > 0.5
     r = fall if falling else 1.0
     G0, K0, cG1, cG2, cK1, cK2 = _step_history(k, dt, r, Ginf, Gj, tauG, Kinf, Kj, tauK,
                                                hG1, hG2, hK1, hK2, aG, aK, x)
@@ -139,9 +139,8 @@ def plant_step(k, dt, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, fall, sti
         else:                         # neither is consistent: the first solve stands, with its decays
             _step_history(k, dt, r, Ginf, Gj, tauG, Kinf, Kj, tauK, hG1, hG2, hK1, hK2, aG, aK, x)
     _commit_step(k, b, geo, hG1, hG2, hK1, hK2, aG, aK, x)
-    x[2] = p
+    x[2] = 1.0 if falling else 0.0
     x[3] = b
-    x[4] = 1.0 if falling else 0.0
     return b, st
 
 
@@ -242,12 +241,12 @@ def closed_loop(t, ref, kind, kp, ki, p_lo, p_hi, atm, p_start, preview,
     m, q = Gj.size, Kj.size
     hG1, hG2, aG = np.zeros(m), np.zeros(m), np.ones(m)
     hK1, hK2, aK = np.zeros(q), np.zeros(q), np.ones(q)
-    x = np.zeros(5)
+    x = np.zeros(4)
     # feedforward state
     cm, cq = c_Gj.size, c_Kj.size
     fG1, fG2, faG = np.zeros(cm), np.zeros(cm), np.ones(cm)
     fK1, fK2, faK = np.zeros(cq), np.zeros(cq), np.ones(cq)
-    fx = np.zeros(5)
+    fx = np.zeros(4)
     ms_d = np.zeros(ms_D.size)
     ms_prev = 0.0
     # pressure terms' state
