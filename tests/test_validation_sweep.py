@@ -134,6 +134,34 @@ def test_summary_rates():
     assert s["out_of_catalogue_nothing_named"]["rate"] == 1.0
     assert s["gap_halved_where_named"] == {"n": 3, "halved": 2, "rate": round(2 / 3, 4)}
     assert s["confusion"]["none"]["angle_offset"] == 1 and s["confusion"]["pair"]["braid_friction"] == 1
+    # no true noise in these records: no case has a size a user sees
+    assert all(c["n"] == 0 for row in s["by_visible_size"].values() for c in row.values())
+
+
+def test_outcomes_by_the_size_a_user_sees():
+    from bpmid.validation.sweep import SIZE_BANDS, by_visible_size, confusion_markdown, summarize
+
+    def rec(i, kind, named, before, truth=("pressure_lag",), **kw):
+        label = {"single": truth[0], "null": "none"}.get(kind, kind)
+        return dict({"id": str(i), "kind": kind, "truth_label": label,
+                     "truth_ids": list(truth) if kind in ("single", "pair") else [], "named": list(named),
+                     "error": None, "unexplained": not named, "noise_floor_deg": 0.1, "noise_deg": 0.1,
+                     "heldout_before_deg": before, "heldout_after_deg": 0.1}, **kw)
+    recs = [rec(0, "single", [], 0.105), rec(1, "single", ["pressure_lag"], 0.11),     # below 1.2: 1 of 2
+            rec(2, "single", ["angle_offset"], 0.13),                                   # 1.2-1.5: wrong name
+            rec(3, "pair", ["braid_friction", "angle_offset"], 0.2, truth=("angle_offset", "braid_friction")),
+            rec(4, "pair", ["braid_friction"], 0.16, truth=("angle_offset", "braid_friction")),
+            rec(5, "null", [], 0.1), rec(6, "out_of_catalogue", ["angle_offset"], 0.12),
+            rec(7, "single", ["pressure_lag"], None, error="cannot judge")]            # not judged: in no band
+    b = by_visible_size(recs)
+    low, mid, high = (name for _, _, name in SIZE_BANDS)
+    assert b["single"][low] == {"n": 2, "right": 1, "rate": 0.5}
+    assert b["single"][mid] == {"n": 1, "right": 0, "rate": 0.0} and b["single"][high]["n"] == 0
+    assert b["pair"][high] == {"n": 2, "right": 1, "rate": 0.5}
+    assert b["null"][low]["right"] == 1 and b["out_of_catalogue"][mid] == {"n": 1, "right": 0, "rate": 0.0}
+    md = confusion_markdown(summarize(recs, "heldout"))
+    assert "| single effect named first right | 1/2 (50 %) | 0/1 (0 %) | - |" in md
+    assert "| pair: both named | - | - | 1/2 (50 %) |" in md
 
 
 def test_cli_calibrate_resumes_a_finished_folder_and_rejects_bad_configs(full_run, tmp_path):
