@@ -6,12 +6,13 @@ conditions; the drop is calibrated within the null and out-of-catalogue bounds."
 from __future__ import annotations
 
 import math
+import types
 
 import pytest
 
 from _discover_cases import discover_case_01
 from bpmid.discover.calibrate import (THRESHOLDS_PATH, Record, _case_outcome, _first_passing, case_records,
-                                      load_thresholds, thresholds_from_records, winner_rank)
+                                      gain_winner, load_thresholds, thresholds_from_records, winner_rank)
 from bpmid.discover.confirm import Confirmation, heldout_drop_sigma
 from bpmid.discover.workflow import DiscoverConfig, gate_in_words, judge, judge_to_floor
 from bpmid.errors import InputError
@@ -112,6 +113,33 @@ def test_equal_gains_are_decided_by_the_held_out_drop():
     assert winner_rank(float("nan"), 1.0) < winner_rank(0.0, float("nan"))          # a missing number ranks last
     assert "the largest held-out gain wins (of equal gains, as when each takes the error to the floor, the larger " \
            "held-out drop)" in gate_in_words(load_thresholds())
+
+
+def test_gains_level_on_the_held_out_logs_are_decided_by_the_fitting_logs():
+    # a fibre lock-up (an independent generator's stiffening): a friction refit gains 0.76 noise floors held out, the
+    # stiffening 0.71, but the stiffening's refit removes far more of the fitting logs' gap. Gains closer than the
+    # gain the gate asks of an effect at all are level: the fitting logs decide
+    fric = _rec("a", "single", "strain_stiffening", "braid_friction", 0.76, 0.9, 1.45)
+    stiff = _rec("a", "single", "strain_stiffening", "strain_stiffening", 0.71, 0.85, 1.49)
+    fric.fit_share, stiff.fit_share = 0.46, 0.60
+    g = (0.12, 0.3, 1e-9, 0.0, math.inf)
+    assert _first_passing([fric, stiff], *g) == _first_passing([stiff, fric], *g) == "strain_stiffening"
+    assert _first_passing([fric, stiff], 0.04, *g[1:]) == "braid_friction"    # 0.05 apart: not level at 0.04
+    far = _rec("a", "single", "strain_stiffening", "thermal_softening", 0.90, 0.95, 1.40)
+    far.fit_share = 0.30
+    assert _first_passing([fric, stiff, far], *g) == "thermal_softening"       # level with neither: its gain wins
+    far.fit_share = 0.95
+    assert _first_passing([fric, stiff, far], *g) == "thermal_softening"
+    fric.fit_share = float("nan")   # the best with no gap on the fitting logs: they decide nothing
+    assert _first_passing([fric, stiff], *g) == "braid_friction"
+    fric.fit_share, stiff.fit_share = 0.46, float("nan")   # nor for a candidate without a fitting share
+    assert _first_passing([fric, stiff], *g) == "braid_friction"
+    c = [types.SimpleNamespace(id=i, g=gg, d=0.5, f=ff) for i, gg, ff in (("x", 0.5, 0.2), ("y", 0.45, 0.3))]
+    pick = lambda tie: gain_winner(c, lambda o: o.g, lambda o: o.d, lambda o: o.f, tie).id   # noqa: E731
+    assert pick(0.1) == "y" and pick(0.05) == "y" and pick(0.01) == "x" and pick(math.inf) == "y"
+    assert pick(-1e9) == "x"                          # a permissive gate's negative gain: only equal gains are level
+    assert "the held-out logs then leave them level, and the one whose refit removed the larger share of the " \
+           "fitting logs' gap wins" in gate_in_words(load_thresholds())
 
 
 def test_a_round_takes_the_path_only_when_nothing_passes_the_gate():

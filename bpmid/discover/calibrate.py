@@ -413,17 +413,39 @@ def winner_rank(score: float, drop: float = math.nan) -> tuple[float, float]:
     return (round(low(score), 9), low(drop))
 
 
+def gain_winner(items: Sequence, gain, drop, fit_share, tie: float):
+    """The candidate a round names among ``items`` passing the gate on the held-out gap: the largest held-out gain
+    (equal gains by the held-out drop, :func:`winner_rank`), unless the held-out logs do not tell it from another:
+    a candidate whose gain is within ``tie`` noise floors of the largest (the gain the gate asks of an effect at
+    all: less than that is no evidence for naming one, so none for preferring one either) and whose refit removed
+    a larger share of the fitting logs' gap above the noise is named instead: the fitting logs, a second and
+    larger data set, decide between candidates the held-out logs leave level. ``gain``, ``drop``, ``fit_share``:
+    accessors of a candidate (noise floors, noise floors, share; a share that is not a number, when the fitting
+    logs leave no gap above the noise, decides nothing)."""
+    best = max(items, key=lambda c: winner_rank(gain(c), drop(c)))
+    if not math.isfinite(float(fit_share(best))):
+        return best
+    tie = max(float(tie), 0.0)   # a permissive gate's negative gain: only equal gains are level
+    close = [c for c in items if gain(c) >= gain(best) - tie - 1e-12 and math.isfinite(float(fit_share(c)))]
+    return max(close, key=lambda c: (round(float(fit_share(c)), 9),) + winner_rank(gain(c), drop(c)))
+
+
+def _record_winner(passing: Sequence[Record], tie: float) -> Record:
+    return gain_winner(passing, lambda r: r.gain_sigma, lambda r: r.drop_sigma, lambda r: r.fit_share, tie)
+
+
 def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
                    to_floor: float = math.inf, to_floor_ratio: float = TO_FLOOR_RATIO,
                    withhold: bool = True) -> str | None:
-    """The candidate a round names: the largest held-out gain among those passing the gate; when none does, the
-    largest held-out drop among those leaving the held-out error at most ``to_floor_ratio`` floors with a drop of
-    ``to_floor``; None also when the round's rival outside the catalogue withholds that candidate
-    (:func:`rival_withholds`; ``withhold=False``: the candidate before that check)."""
+    """The candidate a round names: the largest held-out gain among those passing the gate, the fitting logs
+    deciding between gains within ``g`` of each other (:func:`gain_winner`); when none passes, the largest held-out
+    drop among those leaving the held-out error at most ``to_floor_ratio`` floors with a drop of ``to_floor``; None
+    also when the round's rival outside the catalogue withholds that candidate (:func:`rival_withholds`;
+    ``withhold=False``: the candidate before that check)."""
     cands = [r for r in recs if not r.rival]
     passing = [r for r in cands if _passes(r, g, share, alpha, fit_share, waive)]
     if passing:
-        best = max(passing, key=lambda r: winner_rank(r.gain_sigma, r.drop_sigma))   # equal gains: the drop
+        best = _record_winner(passing, g)
         return None if withhold and rival_withholds(recs, best.after_over_floor, alpha) else best.candidate
     if math.isfinite(to_floor):
         passing = [r for r in cands if _passes_to_floor(r, to_floor, alpha, to_floor_ratio)]
@@ -630,42 +652,61 @@ def _tally_gains(cases: Sequence[Sequence[Record]], gains: np.ndarray, sh: float
     t["ooc"] = 0
     neg_inf = -math.inf
 
-    def best(recs):
+    def named(recs) -> list[tuple[Record, np.ndarray]]:
+        """(candidate, where it is named) over ``gains``: at threshold g the candidates with a gain of at least g
+        pass, and :func:`gain_winner` with the tie g chooses among them; a rival may withhold the one chosen."""
         ok = [r for r in recs if not r.rival and _passes(r, neg_inf, sh, a, fs, waive)]
-        b = max(ok, key=lambda r: winner_rank(r.gain_sigma, r.drop_sigma)) if ok else None
-        return None if b is None or rival_withholds(recs, b.after_over_floor, a) else b
+        if not ok:
+            return []
+        top = max(ok, key=lambda r: winner_rank(r.gain_sigma, r.drop_sigma))
+        # in the order gain_winner prefers them; each is named where it passes, is level with the top (within g)
+        # and no candidate before it is
+        if math.isfinite(top.fit_share):
+            order = sorted((r for r in ok if math.isfinite(r.fit_share) or r is top),
+                           key=lambda r: (round(r.fit_share, 9) if math.isfinite(r.fit_share) else neg_inf,)
+                           + winner_rank(r.gain_sigma, r.drop_sigma), reverse=True)
+        else:
+            order = [top]
+        taken = np.zeros(ng, bool)
+        out = []
+        for r in order:
+            level = ((np.maximum(gains, 0.0) >= top.gain_sigma - r.gain_sigma - 1e-12) if r is not top
+                     else np.ones(ng, bool))
+            m = ~taken & (gains <= r.gain_sigma) & level
+            taken |= m
+            if m.any() and not rival_withholds(recs, r.after_over_floor, a):
+                out.append((r, m))
+        return out
 
     for recs in cases:
         truth, kind = recs[0].truth, recs[0].kind
-        b1 = best([r for r in recs if r.round == 1])
-        named1 = gains <= (b1.gain_sigma if b1 is not None else neg_inf)
+        firsts = named([r for r in recs if r.round == 1])
         if truth == "none":
+            named1 = np.zeros(ng, bool)
+            for _, m in firsts:
+                named1 |= m
             key = "ooc_named" if kind == "out_of_catalogue" else "null_named"
             t["ooc"] += kind == "out_of_catalogue"
             t[key] += named1
             t["right"] += ~named1
             continue
-        if b1 is None:
-            continue
-        if "+" in truth:
-            truths = set(truth.split("+"))
-            if b1.candidate not in truths:
+        for b1, named1 in firsts:
+            if "+" in truth:
+                truths = set(truth.split("+"))
+                if b1.candidate not in truths:
+                    t["wrong"] += named1
+                    continue
+                later = [r for r in recs if r.round == 2 and r.named_before == b1.candidate]
+                for b2, m2 in (named(later) if later else []):
+                    named2 = named1 & m2
+                    t["right" if b2.candidate in truths - {b1.candidate} else "wrong"] += named2
+                continue
+            if b1.candidate != truth:
                 t["wrong"] += named1
                 continue
-            later = [r for r in recs if r.round == 2 and r.named_before == b1.candidate]
-            b2 = best(later) if later else None
-            if b2 is None:
-                continue
-            named2 = named1 & (gains <= b2.gain_sigma)
-            t["right" if b2.candidate in truths - {b1.candidate} else "wrong"] += named2
-            continue
-        if b1.candidate != truth:
-            t["wrong"] += named1
-            continue
-        t["right"] += named1
-        bl = best([r for r in recs if r.truth_in_model and r.round == 2])
-        if bl is not None:
-            t["wrong"] += named1 & (gains <= bl.gain_sigma)
+            t["right"] += named1
+            for _, m2 in named([r for r in recs if r.truth_in_model and r.round == 2]):
+                t["wrong"] += named1 & m2
     return t
 
 

@@ -48,7 +48,8 @@ from typing import Mapping, Optional, Sequence
 import numpy as np
 
 from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, check_drops_by_effect,
-                                      floor_drops, later_gain_follows, load_thresholds, winner_rank)
+                                      floor_drops, gain_winner, later_gain_follows, load_thresholds,
+                                      winner_rank)
 from bpmid.discover.confirm import Confirmation, PairTrial, confirm, excess_deg, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import RIVALS, check_rival, own_shape, rival_constants
@@ -265,7 +266,13 @@ def gate_in_words(thr: dict) -> str:
                if math.isfinite(float(thr.get("identifiable_waived_above_sigma", math.inf))) else "")
             + "; of several that pass, "
             f"the largest held-out gain wins (of equal gains, as when each takes the error to the floor, the larger "
-            f"held-out drop)" + _to_floor_words(thr) + _pair_paths_words(thr)
+            f"held-out drop), unless another's gain is within the gain asked of an effect at all "
+            f"({_thr(thr['heldout_gain_min_sigma'])} noise floors"
+            + ("" if float(thr.get("heldout_gain_min_sigma_later", thr["heldout_gain_min_sigma"]))
+               == float(thr["heldout_gain_min_sigma"]) else
+               f"; {_thr(thr['heldout_gain_min_sigma_later'])} for a further effect")
+            + f") of it: the held-out logs then leave them level, and the one whose refit removed "
+            f"the larger share of the fitting logs' gap wins" + _to_floor_words(thr) + _pair_paths_words(thr)
             + ". Whatever a round would name, three rivals outside the catalogue (payload inertia that rings: an "
               "underdamped response of the angle; an air leak through an orifice: a pressure shortfall growing as "
               "the square root of the pressure; the Mullins effect: rubber softer below the largest pressure so "
@@ -807,10 +814,16 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                     c.reasons.append("nor does it take the held-out error to the noise floor: " + "; ".join(why))
             passing = [c for c in confs if c.accepted]
         # the best of those passing alone (by the held-out drop on the path to the floor, else by the held-out gain,
-        # equal gains by the drop: :func:`winner_rank`)
+        # equal gains by the drop: :func:`winner_rank`; gains within the round's gain threshold of each other by the
+        # fitting logs: :func:`gain_winner`)
         by_floor = bool(passing) and passing[0].passed_by == "floor"
         score = (lambda c: c.drop_sigma) if by_floor else (lambda c: c.heldout_gain_sigma)
-        best = max(passing, key=lambda c: winner_rank(score(c), c.drop_sigma)) if passing else None
+        tie = float(thr.get("heldout_gain_min_sigma_later", thr["heldout_gain_min_sigma"]) if named
+                    else thr["heldout_gain_min_sigma"])
+        top = max(passing, key=lambda c: winner_rank(score(c), c.drop_sigma)) if passing else None
+        best = (top if by_floor or top is None else
+                gain_winner(passing, lambda c: c.heldout_gain_sigma, lambda c: c.drop_sigma, lambda c: c.fit_share,
+                            tie))
         trials: list[PairTrial] = []
         pair_open = math.isfinite(float(thr.get("pair_share_min", math.inf)))
         margin = float(thr.get("pair_over_single_min_sigma", math.inf))
@@ -917,16 +930,25 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                                        + ("" if by_floor else f", {c.gap_share:.0%} of the gap") + ")"
                                        for c in sorted(passing, key=lambda c: winner_rank(score(c), c.drop_sigma),
                                                        reverse=True))
-                           + f"; {best.effect_id} won on the larger confirmed {what}"
-                           + ("" if by_floor or not any(winner_rank(score(c))[0] == winner_rank(score(best))[0]
-                                                        for c in others) else
+                           + (f"; {best.effect_id} won on the larger confirmed {what}" if best is top else
+                              f"; the held-out logs leave {best.effect_id} and {top.effect_id} level (held-out gains "
+                              f"{score(best):.2f} and {score(top):.2f} noise floors, within the {tie:g} the gate asks "
+                              f"of an effect at all), so the fitting logs decided: {best.effect_id}'s refit removed "
+                              f"{best.fit_share:.0%} of their gap above the noise, {top.effect_id}'s "
+                              f"{top.fit_share:.0%}")
+                           + ("" if by_floor or best is not top
+                              or not any(winner_rank(score(c))[0] == winner_rank(score(best))[0] for c in others) else
                               f" (gains equal: each left the held-out error at the noise floor, so the larger "
                               f"held-out drop, sqrt(before^2 - after^2), decided: {best.drop_sigma:.3f} noise floors)")
                            + ", and the others are judged again in the next round with it in the model")
             for c in others:
                 c.accepted, c.passed_by = False, ""
                 c.reasons = [f"passed, but {best.effect_id} explains the held-out logs better "
-                             f"({what_vs}{score(best):.2f} vs {score(c):.2f} noise floors)"]
+                             f"({what_vs}{score(best):.2f} vs {score(c):.2f} noise floors)"
+                             if score(best) >= score(c) else
+                             f"passed, level with {best.effect_id} on the held-out logs ({score(c):.2f} vs "
+                             f"{score(best):.2f} noise floors, within {tie:g}), whose refit explains more of the "
+                             f"fitting logs ({best.fit_share:.0%} vs {c.fit_share:.0%} of their gap above the noise)"]
         rounds.append(Round(diag, ranking, confs, best.effect_id if best else None, family, competition, trials,
                             rival=rival, rivals=rivals))
         if best is None:
