@@ -90,7 +90,7 @@ def test_reference_stated_twice_must_agree(tmp_path):
     with pytest.raises(InputError, match="disagrees") as e:
         read_motion_log(f, IOConfig(pressure_reference="absolute", stated_by={"pressure_reference":
                                                                                "--pressure-reference"}))
-    assert "--pressure-reference" in e.value.message and "# pressure_reference" in e.value.message
+    assert "--pressure-reference" in e.value.message and "line 1 (pressure_reference: Gauge)" in e.value.message
     g = tmp_path / "g.csv"
     g.write_text("# pressure_reference: absolute\ntime_s,pressure_psig,angle_deg\n0,10,1\n0.1,20,2\n")
     with pytest.raises(InputError, match="disagrees"):

@@ -316,6 +316,25 @@ def test_a_comment_line_among_an_instruments_metadata_lines_is_read(tmp_path, wh
     assert lg.pressure_pa.max() == pytest.approx(1.6e5 - 101325.0, rel=0.02)   # absolute 1.6 bar, read as gauge
 
 
+@pytest.mark.parametrize("sep", ["\t", ";", " "])
+def test_a_key_value_line_of_as_many_words_as_columns_is_not_taken_for_the_header(tmp_path, sep):
+    """'Operator: John Smith' and 'Pressure Reference: Gauge' (three words, no '#') right above a three-column header:
+    metadata, not the header (they were taken for it, and the file refused: 'found columns Pressure, Reference:,
+    Gauge'). A table split on spaces, with a decimal comma, still finds its header."""
+    head = "Instrument: virtual DAQ\nOperator: John Smith\nPressure Reference: Absolute\n"
+    header = sep.join(["Time (ms)", "Pressure (psi)", "Angle (deg)"] if sep != " " else ["Time_ms", "Pressure_psi",
+                                                                                         "Angle_deg"])
+    body = _motion("", header, t_scale=1e3, p_scale=14.503773773).split("\n", 1)[1].replace(",", sep)
+    if sep == " ":
+        body = body.replace(".", ",")   # a decimal comma in a table split on spaces
+    f = _write(tmp_path, "log.txt", head + header + "\n" + body)
+    lg = read_motion_log(f)
+    assert lg.n == 40 and lg.time_s[1] == pytest.approx(0.1)
+    assert lg.pressure_reference == "absolute" and lg.reading["pressure_reference"]["from"] == \
+        "line 3 (pressure_reference: Absolute)"
+    assert lg.pressure_pa.max() == pytest.approx(1.6e5 - 101325.0, rel=0.02)
+
+
 @pytest.mark.parametrize("temp", ["T (K)", "T [°C]", "t (degC)"])
 def test_a_one_letter_temperature_column_is_not_taken_for_the_time(tmp_path, temp):
     """'T (K)' beside 'Time (s)' is the rig's temperature: listed among the ignored columns, never read as a second

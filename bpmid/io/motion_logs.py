@@ -182,7 +182,8 @@ def _reference(table, io_cfg: IOConfig, path: Path) -> tuple[str, str]:
             if word is None:
                 raise InputError(f"pressure reference must be absolute or gauge, found {table.meta[k]!r}",
                                  path=table.name, key=k)
-            stated.append((word, f"the line '# {k}: {table.meta[k]}'"))
+            ln = table.meta_lines.get(k)   # the file's line: its key may read 'Pressure Reference', not this
+            stated.append((word, f"line {ln} ({k}: {table.meta[k]})" if ln else f"the line '# {k}: {table.meta[k]}'"))
     if "pressure" in table.references:
         stated.append((table.references["pressure"], f"the unit of {table.headers['pressure']!r}"))
     if io_cfg.pressure_reference is not None:

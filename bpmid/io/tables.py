@@ -154,6 +154,8 @@ class Table:
     where: str | None = None
     #: the column-map entries that matched no column (and whether the map looks reversed), for messages
     map_note: str = ""
+    #: metadata key -> the file line (sheet row) it was read from
+    meta_lines: dict = dataclasses.field(default_factory=dict)
 
     def has(self, quantity: str) -> bool:
         return quantity in self.columns
@@ -532,6 +534,10 @@ def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int
         if not nxt:
             break
         delim = delim_hint if delim_hint is not None else _choose_delimiter(lines[k], nxt)
+        if delim is None and (_META.match(lines[k].strip()) or _rows_delimited(nxt)):
+            # a line split on its spaces ('Operator: John Smith', 'Pressure Reference: Gauge') above lines that
+            # share a tab, ';' or '|': a 'key: value' line, never the header of a table split otherwise
+            continue
         head = _fields(lines[k], delim)
         width = len(head)
         if width < 2 or any(_is_number(c) for c in head if c.strip()) or _looks_like_time(head):
@@ -540,6 +546,12 @@ def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int
         if all(len(r) == width for r in rows) and any(_is_number(c) for r in rows for c in r if c.strip()):
             return k
     return start
+
+
+def _rows_delimited(rows: Sequence[str]) -> bool:
+    """Whether every one of ``rows`` holds the same tab, ';' or '|' (a comma is not asked: it may be a decimal
+    comma in a table split on spaces)."""
+    return bool(rows) and any(all(d in r for r in rows) for d in ("\t", ";", "|"))
 
 
 def _looks_like_time(row: Sequence[str]) -> bool:
@@ -1133,7 +1145,7 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     if ignored or unknown:
         reading["ignored_columns"] = list(ignored) + list(unknown)
     table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
-                  reading, [], where, grid.info.get("map_note", ""))
+                  reading, [], where, grid.info.get("map_note", ""), dict(grid.meta_lines or {}))
     return table
 
 
