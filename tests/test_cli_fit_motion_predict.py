@@ -56,6 +56,16 @@ def test_fit_motion_writes_contract_keys_and_figure(fitted):
     assert "fitting.csv" in " ".join(d["provenance"]["inputs"])
     assert out.with_suffix(".png").stat().st_size > 10_000
     assert "not identifiable" in text and "RMSE" in text
+    # no geometry given: the run says it took the paper's muscle, and how to give another
+    assert "note: muscle geometry: the paper's (th 2 mm, alpha0 30 deg" in text and "with --config" in text
+
+
+def test_the_paper_geometry_is_stated_only_when_it_is_the_one_used():
+    from bpmid.models.vbmm import Geometry
+    from bpmid.models.vbmm.model import paper_geometry_note
+
+    assert "R0 16.73 mm, l0 195.9 mm, n 7.43" in paper_geometry_note(Geometry())
+    assert paper_geometry_note(Geometry(th=2.6e-3, R0=13.5e-3, l0=0.172, n=6.3)) is None
 
 
 def test_predict_writes_one_csv_per_log(fitted, data, tmp_path):

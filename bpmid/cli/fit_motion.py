@@ -45,6 +45,10 @@ def fit_motion_command(
     check_outputs([out], paths + [init, config], suffix=".yaml")
     if figure is not None:
         check_outputs([figure], paths + [init, config], key="--plot")
+    from bpmid.models.vbmm.model import paper_geometry_note
+
+    if paper_geometry_note(cfg.section("model").geometry):
+        typer.echo("note: " + paper_geometry_note(cfg.section("model").geometry), err=True)
     result = fit_motion(paths, init=init, config=cfg)
     from bpmid.io import plausibility as plaus
 

@@ -607,6 +607,19 @@ def starting_vbmm(init=None, cfg: VBMMConfig | None = None) -> tuple[VBMM, str, 
     raise InputError(f"needs a bpmid.vbmm/1 or bpmid.relax/1 file, found schema {schema!r}", path=path, key="schema")
 
 
+def paper_geometry_note(geometry: Geometry) -> str | None:
+    """A sentence for the user when ``geometry`` is the paper's muscle, which is also what a run without any
+    geometry gets (a different muscle fitted with it gives wrong constants and may name wrong effects); None
+    otherwise."""
+    if geometry != Geometry():
+        return None
+    g = geometry
+    return (f"muscle geometry: the paper's (th {g.th * 1e3:g} mm, alpha0 {math.degrees(g.alpha0):g} deg, "
+            f"R0 {g.R0 * 1e3:g} mm, l0 {g.l0 * 1e3:g} mm, n {g.n:g}), used when none is given; for another muscle "
+            "give its geometry in a config (model: {geometry: {th_mm: ..., alpha0_deg: ..., R0_mm: ..., l0_mm: "
+            "..., n: ...}}) with --config")
+
+
 def vbmm_yaml_body(model: VBMM, stderr: dict | None = None, *, params=None) -> dict:
     """The model part of a ``bpmid.vbmm/1`` file (geometry, closure, material, history settings): the one
     writer of the format, read back by :func:`vbmm_from_mapping`. ``params`` (the naming of
