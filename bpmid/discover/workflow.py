@@ -579,10 +579,14 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
                      f"residual that an effect outside the catalogue explains better than any catalogue effect "
                      f"(above)")
     elif unexplained:
+        varies = variation is not None and variation["share_of_gap"] >= 0.5
         lines.append(f"unexplained: the held-out error of the model as fitted, with no per-log factor "
-                     f"({raw_after:.2f} deg), stays {raw_after - floor:.2f} deg above the noise floor{scored}; no "
-                     f"catalogue effect accounts for it")
-        if variation is not None and variation["share_of_gap"] >= 0.5:
+                     f"({raw_after:.2f} deg), stays {raw_after - floor:.2f} deg above the noise floor{scored}; "
+                     + ("the constants' variation from log to log can account for most of it (next line), and no "
+                        "effect in a model with one set of constants takes that up"
+                        + (" (the gate judged the effects named on the scored error)" if named else "")
+                        if varies else "no catalogue effect accounts for it"))
+        if varies:
             lines.append(f"log-to-log variation of the constants can account for most of that remainder: "
                          f"refitting the model's constants on each held-out log alone brings it to "
                          f"{variation['per_log_refit_rmse_deg']:.2f} deg ({variation['share_of_gap']:.0%} of the gap). "
