@@ -335,6 +335,20 @@ def test_a_key_value_line_of_as_many_words_as_columns_is_not_taken_for_the_heade
     assert lg.pressure_pa.max() == pytest.approx(1.6e5 - 101325.0, rel=0.02)
 
 
+@pytest.mark.parametrize("sep", [";", ",", "\t"])
+def test_key_and_value_in_two_cells_above_the_header_are_metadata(tmp_path, sep):
+    """An instrument that writes its settings as two-cell rows ('Pressure Reference;Gauge') above the header: the
+    rows are metadata, read like 'key: value' lines (the reference was not found and the file refused)."""
+    head = f"Operator{sep}John Smith\nPressure Reference{sep}Absolute\nSample rate (Hz){sep}10\n"
+    header = sep.join(["Time (ms)", "Pressure (psi)", "Angle (deg)"])
+    body = _motion("", header, t_scale=1e3, p_scale=14.503773773).split("\n", 1)[1]
+    if sep != ",":
+        body = body.replace(",", sep)
+    lg = read_motion_log(_write(tmp_path, "log.csv", head + header + "\n" + body))
+    assert lg.n == 40 and lg.pressure_reference == "absolute"
+    assert lg.reading["pressure_reference"]["from"] == "line 2 (pressure_reference: Absolute)"
+
+
 @pytest.mark.parametrize("temp", ["T (K)", "T [°C]", "t (degC)"])
 def test_a_one_letter_temperature_column_is_not_taken_for_the_time(tmp_path, temp):
     """'T (K)' beside 'Time (s)' is the rig's temperature: listed among the ignored columns, never read as a second

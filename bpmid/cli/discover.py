@@ -68,11 +68,11 @@ def discover_cmd(
     warnings = plaus.reader_warnings(all_logs) + plaus.motion_data_warnings(all_logs)
     plaus.emit(warnings, strict=cfg.section("io").strict, what=str(out))
     base, base_from = load_base(init, cfg)
+    result = discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
     from bpmid.models.vbmm.model import paper_geometry_note
 
-    if paper_geometry_note(base.geometry):
+    if paper_geometry_note(base.geometry):   # after the inputs were judged: not beside an error
         typer.echo("note: " + paper_geometry_note(base.geometry), err=True)
-    result = discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
     inputs = list(paths) + list(ho_paths) + ([init] if init else [])
     note("discover: writing figures")
     write_discovery(out, result, plaus.attach(provenance(inputs, config=cfg), all_logs, warnings), base_from=base_from)

@@ -45,11 +45,11 @@ def fit_motion_command(
     check_outputs([out], paths + [init, config], suffix=".yaml")
     if figure is not None:
         check_outputs([figure], paths + [init, config], key="--plot")
+    result = fit_motion(paths, init=init, config=cfg)
     from bpmid.models.vbmm.model import paper_geometry_note
 
-    if paper_geometry_note(cfg.section("model").geometry):
+    if paper_geometry_note(cfg.section("model").geometry):   # after the inputs were judged: not beside an error
         typer.echo("note: " + paper_geometry_note(cfg.section("model").geometry), err=True)
-    result = fit_motion(paths, init=init, config=cfg)
     from bpmid.io import plausibility as plaus
 
     plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out))

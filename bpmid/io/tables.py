@@ -442,6 +442,8 @@ def _text_grid(data: bytes, where: str) -> Grid:
         h = _find_header(lines, i, delim_hint)
         if h > i:
             # title or 'key: value' lines above the header (instrument exports): metadata
+            table_delim = delim_hint if delim_hint is not None else _choose_delimiter(
+                lines[h], [ln for ln in lines[h + 1:h + 4] if ln.strip()])
             for k, ln in enumerate(lines[i:h], start=i + 1):
                 t = ln.strip()
                 if not t:
@@ -449,8 +451,12 @@ def _text_grid(data: bytes, where: str) -> Grid:
                 if _is_comment(t):   # a "# key: value" line among the metadata lines: read as at the top
                     _meta_from_line(t.lstrip("#%/ ").strip(), meta, meta_lines, k)
                     continue
+                pair = [c.strip() for c in _fields(t, table_delim) if c.strip()] if table_delim else []
                 if _META.match(t):
                     _meta_from_line(t, meta, meta_lines, k)
+                elif len(pair) == 2 and re.match(r"^[A-Za-z][\w \-./()]*$", pair[0]):
+                    # 'Pressure Reference;Gauge': a key and its value in two cells of the table's separator
+                    _meta_from_line(f"{pair[0]}: {pair[1]}", meta, meta_lines, k)
                 else:
                     meta.setdefault("title", t)
             i = h
