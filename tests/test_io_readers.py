@@ -128,6 +128,31 @@ def test_config_io_section_states_units_columns_sheet_and_strict(tmp_path):
     assert d["provenance"]["reading"]["no_units_rig_names"]["decimal"] == "comma"
 
 
+def test_key_and_value_cells_above_a_sheets_header_are_metadata(tmp_path):
+    """An instrument's settings as two-cell rows above a sheet's header ('Pressure Reference' | 'Gauge'): metadata
+    (the first such row was taken for the header and the sheet refused); a two-column sheet's header stays one."""
+    import openpyxl
+
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    for row in (["Operator", "John Smith"], ["Pressure Reference", "Gauge"], ["Time (ms)", "Pressure (psi)",
+                                                                              "Angle (deg)"]):
+        ws.append(row)
+    for i in range(6):
+        ws.append([i * 20.0, 10.0 + i, 20.0 + i])
+    wb.save(tmp_path / "kv.xlsx")
+    lg = read_motion_log(tmp_path / "kv.xlsx")
+    assert lg.n == 6 and lg.pressure_reference == "gauge" and lg.time_s[1] == pytest.approx(0.02)
+    assert lg.reading["pressure_reference"]["from"] == "line 2 (pressure_reference: Gauge)"
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws.append(["time_s", "modulus_mpa"])
+    for i in range(6):
+        ws.append([i * 0.5, 1.0 + np.exp(-i)])
+    wb.save(tmp_path / "relax.xlsx")
+    assert read_relax_log(tmp_path / "relax.xlsx").modulus_mpa.size == 6
+
+
 def test_sheet_by_name_and_ambiguous_workbooks(tmp_path):
     import openpyxl
 

@@ -587,6 +587,15 @@ def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
         if all(isinstance(v, str) and _is_comment(v) for v in vals):
             k += 1
             continue
+        if len(vals) == 2 and isinstance(vals[0], str) and re.match(r"^[A-Za-z][\w \-./()]*$", vals[0].strip()):
+            # a key and its value in two cells ('Pressure Reference' | 'Gauge') among such rows above a header of
+            # more columns (a two-column log's header is followed by two-cell rows only)
+            counts = (sum(1 for v in r if v is not None and str(v).strip() != "") for r in rows[k + 1:])
+            wider = next((c for c in counts if c not in (0, 1, 2)), 0)
+            if wider > 2:
+                _meta_from_line(f"{vals[0].strip()}: {str(vals[1]).strip()}", meta, meta_lines, k + 1)
+                k += 1
+                continue
         break
     if k >= len(rows):
         raise InputError("empty sheet: no header row", path=where)
