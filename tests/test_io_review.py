@@ -349,6 +349,37 @@ def test_key_and_value_in_two_cells_above_the_header_are_metadata(tmp_path, sep)
     assert lg.reading["pressure_reference"]["from"] == "line 2 (pressure_reference: Absolute)"
 
 
+_LVM_HEAD = ("LabVIEW Measurement\t\nWriter_Version\t2\nReader_Version\t2\nSeparator\tTab\nDecimal_Separator\t.\n"
+             "Multi_Headings\tNo\nX_Columns\tOne\nTime_Pref\tRelative\nOperator\tJohn Smith\nDate\t2026/11/27\n"
+             "Time\t10:00:00.000\n***End_of_Header***\t\n\t\nChannels\t2\t\nSamples\t40\t40\t\n"
+             "Date\t2026/11/27\t2026/11/27\t\nTime\t10:00:00\t10:00:00\t\nX_Dimension\tTime\tTime\t\n"
+             "X0\t0.0000000000000000E+0\t0.0000000000000000E+0\t\nDelta_X\t0.100000\t0.100000\t\n"
+             "***End_of_Header***\t\t\t\n")
+
+
+@pytest.mark.parametrize("trail", ["", "\t"])
+def test_a_labview_measurement_file_is_read(tmp_path, trail):
+    """A LabVIEW .lvm export: its two header blocks are metadata, X_Value is the time in s (X_Dimension Time), the
+    'Comment' column may be left off the rows; the channels' units as the user named them."""
+    body = _motion("", "X_Value\tPressure (psia)\tAngle (deg)\tComment", p_scale=14.503773773)
+    rows = body.split("\n", 1)[1].replace(",", "\t").replace("\n", trail + "\n")
+    lg = read_motion_log(_write(tmp_path, "run.lvm", _LVM_HEAD + body.split("\n", 1)[0] + "\n" + rows))
+    assert lg.n == 40 and lg.time_s[1] == pytest.approx(0.1) and lg.pressure_reference == "absolute"
+    assert lg.pressure_pa.max() == pytest.approx(1.6e5 - 101325.0, rel=0.02)
+
+
+def test_a_labview_file_with_several_segments_or_no_header_end_is_refused(tmp_path):
+    body = _motion("", "X_Value\tPressure (psia)\tAngle (deg)").replace(",", "\t")
+    seg = _LVM_HEAD.split("***End_of_Header***\t\n", 1)[1]
+    f = _write(tmp_path, "two.lvm", _LVM_HEAD + body + seg + body)
+    with pytest.raises(InputError, match="2 segments, each with its own header: export one segment per file") as e:
+        read_motion_log(f)
+    assert e.value.line is not None
+    g = _write(tmp_path, "cut.lvm", _LVM_HEAD.split("***End_of_Header***")[0] + body)
+    with pytest.raises(InputError, match="without its '\\*\\*\\*End_of_Header\\*\\*\\*' line"):
+        read_motion_log(g)
+
+
 @pytest.mark.parametrize("temp", ["T (K)", "T [°C]", "t (degC)"])
 def test_a_one_letter_temperature_column_is_not_taken_for_the_time(tmp_path, temp):
     """'T (K)' beside 'Time (s)' is the rig's temperature: listed among the ignored columns, never read as a second

@@ -418,13 +418,39 @@ def _meta_from_line(body: str, meta: dict, lines: dict | None = None, line: int 
             lines[key] = line
 
 
+_LVM_END = re.compile(r"^\s*\*\*\*End_of_Header\*\*\*", re.IGNORECASE)
+
+
+def _labview_header(lines: list[str], where: str, meta: dict, meta_lines: dict) -> tuple[int, str | None]:
+    """A LabVIEW measurement file (``.lvm``): its file header and its segment header (``key<sep>value`` lines,
+    each ending at ``***End_of_Header***``) read as metadata. Returns (index of the line after them, the file's
+    separator), or (0, None) when ``lines`` are no LabVIEW measurement file."""
+    first = next((ln.strip().lstrip("\ufeff") for ln in lines if ln.strip()), "")
+    if not first.lower().startswith("labview measurement"):
+        return 0, None
+    ends = [k for k, ln in enumerate(lines) if _LVM_END.match(ln)]
+    if not ends:
+        raise InputError("a LabVIEW measurement file without its '***End_of_Header***' line: export it again",
+                         path=where)
+    if len(ends) > 2:
+        raise InputError(f"a LabVIEW measurement file with {len(ends) - 1} segments, each with its own header: "
+                         "export one segment per file (or one header only)", path=where, line=ends[2] + 1)
+    sep = "," if any(re.match(r"^\s*Separator[\t,]\s*Comma", ln, re.IGNORECASE) for ln in lines[:ends[0]]) \
+        else "\t"
+    for k in range(ends[-1]):
+        cells = [c.strip() for c in lines[k].split(sep)]
+        if len(cells) >= 2 and cells[1] and re.match(r"^[A-Za-z][\w ]*$", cells[0]):
+            _meta_from_line(f"{cells[0]}: {cells[1]}", meta, meta_lines, k + 1)
+    return ends[-1] + 1, sep
+
+
 def _text_grid(data: bytes, where: str) -> Grid:
     text, enc = _decode(data, where)
     lines = re.split(r"\r\n|\r|\n", text)
     meta: dict[str, str] = {}
     meta_lines: dict[str, int] = {}
-    i = 0
-    delim_hint = None
+    i, delim_hint = _labview_header(lines, where, meta, meta_lines)
+    labview = i > 0
     while i < len(lines):
         s = lines[i].strip().lstrip("\ufeff")
         if not s:
@@ -480,6 +506,13 @@ def _text_grid(data: bytes, where: str) -> Grid:
                 return line.split(_d)
         info_delim = {"\t": "tab", ",": "comma", ";": "semicolon", "|": "pipe"}.get(delim, repr(delim))
     header = [h.strip().strip('"').strip() for h in split(header_text)]
+    if labview:
+        # LabVIEW's x column is the time when its X_Dimension says so (in s); its 'Comment' column is often left
+        # off the rows
+        if header and header[0].lower() == "x_value" and meta.get("x_dimension", "").lower().startswith("time"):
+            header[0] = "time (s)"
+        if header and header[-1].lower() == "comment" and body and len(split(body[0][1])) == len(header) - 1:
+            header = header[:-1]
     if not any(header):
         raise InputError("the header row is empty", path=where, line=header_line)
     if all(_is_number(h) for h in header if h):
