@@ -71,8 +71,9 @@ def discover_cmd(
     result = discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
     from bpmid.models.vbmm.model import paper_geometry_note
 
-    if paper_geometry_note(base.geometry):   # after the inputs were judged: not beside an error
-        typer.echo("note: " + paper_geometry_note(base.geometry), err=True)
+    geometry_note = paper_geometry_note(base.geometry)
+    if geometry_note:   # after the inputs were judged: not beside an error
+        typer.echo("note: " + geometry_note, err=True)
     inputs = list(paths) + list(ho_paths) + ([init] if init else [])
     note("discover: writing figures")
     write_discovery(out, result, plaus.attach(provenance(inputs, config=cfg), all_logs, warnings), base_from=base_from)

@@ -48,8 +48,9 @@ def fit_motion_command(
     result = fit_motion(paths, init=init, config=cfg)
     from bpmid.models.vbmm.model import paper_geometry_note
 
-    if paper_geometry_note(cfg.section("model").geometry):   # after the inputs were judged: not beside an error
-        typer.echo("note: " + paper_geometry_note(cfg.section("model").geometry), err=True)
+    geometry_note = paper_geometry_note(cfg.section("model").geometry)
+    if geometry_note:   # after the inputs were judged: not beside an error
+        typer.echo("note: " + geometry_note, err=True)
     from bpmid.io import plausibility as plaus
 
     plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out))

@@ -116,6 +116,8 @@ _DOT_NUM = re.compile(r"^[+-]?\d*\.\d+(?:[eE][+-]?\d+)?$")
 _CLOCK = re.compile(r"^\s*\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?\s*$")
 _SEP_LINE = re.compile(r'^\s*"?sep=(.)"?\s*$', re.IGNORECASE)
 _META = re.compile(r"^\s*([A-Za-z][\w \-./()]*?)\s*[:=]\s*(.*)$")
+#: a metadata key standing in a cell of its own ('Pressure Reference' | 'Gauge'): the key of :data:`_META`
+_META_KEY = re.compile(r"^[A-Za-z][\w \-./()]*$")
 _MAGIC_XLSX = b"PK\x03\x04"
 _MAGIC_OLE = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"
 _MAGIC_HDF5 = b"\x89HDF\r\n\x1a\n"
@@ -480,7 +482,7 @@ def _text_grid(data: bytes, where: str) -> Grid:
                 pair = [c.strip() for c in _fields(t, table_delim) if c.strip()] if table_delim else []
                 if _META.match(t):
                     _meta_from_line(t, meta, meta_lines, k)
-                elif len(pair) == 2 and re.match(r"^[A-Za-z][\w \-./()]*$", pair[0]):
+                elif len(pair) == 2 and _META_KEY.match(pair[0]):
                     # 'Pressure Reference;Gauge': a key and its value in two cells of the table's separator
                     _meta_from_line(f"{pair[0]}: {pair[1]}", meta, meta_lines, k)
                 else:
@@ -620,7 +622,7 @@ def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
         if all(isinstance(v, str) and _is_comment(v) for v in vals):
             k += 1
             continue
-        if len(vals) == 2 and isinstance(vals[0], str) and re.match(r"^[A-Za-z][\w \-./()]*$", vals[0].strip()):
+        if len(vals) == 2 and isinstance(vals[0], str) and _META_KEY.match(vals[0].strip()):
             # a key and its value in two cells ('Pressure Reference' | 'Gauge') among such rows above a header of
             # more columns (a two-column log's header is followed by two-cell rows only)
             counts = (sum(1 for v in r if v is not None and str(v).strip() != "") for r in rows[k + 1:])

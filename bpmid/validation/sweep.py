@@ -721,21 +721,17 @@ def summarize(recs: Sequence[dict], split: str) -> dict:
     def rate(num, den):
         return None if den == 0 else round(num / den, 4)
 
-    def both(r):
-        return set(r["truth_ids"]) <= set(r.get("named") or [])
+    single_right = sum(1 for r in single if case_right(r))
+    pair_both = sum(1 for r in pair if case_right(r))
 
     return {
         "split": split, "n_cases": len(recs),
         "not_judged": sum(1 for r in recs if r.get("error") and r.get("error_kind") != "internal"),
         "internal_failures": sum(1 for r in recs if r.get("error_kind") == "internal"),
-        "single_named_first_right": {"n": len(single), "right": sum(1 for r in single if r.get("named") and
-                                                                  r["named"][0] == r["truth_label"]),
-                                     "rate": rate(sum(1 for r in single if r.get("named") and
-                                                      r["named"][0] == r["truth_label"]), len(single))},
+        "single_named_first_right": {"n": len(single), "right": single_right, "rate": rate(single_right, len(single))},
         "null_false_positive": {"n": len(null), "named_something": sum(1 for r in null if r.get("named")),
                                 "rate": rate(sum(1 for r in null if r.get("named")), len(null))},
-        "pair_both_named": {"n": len(pair), "both": sum(1 for r in pair if both(r)),
-                            "rate": rate(sum(1 for r in pair if both(r)), len(pair)),
+        "pair_both_named": {"n": len(pair), "both": pair_both, "rate": rate(pair_both, len(pair)),
                             "at_least_one_rate": rate(sum(1 for r in pair if set(r["truth_ids"]) &
                                                           set(r.get("named") or [])), len(pair))},
         "out_of_catalogue_nothing_named": {"n": len(oof), "nothing": sum(1 for r in oof if not r.get("named")),
