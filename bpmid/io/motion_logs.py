@@ -11,6 +11,7 @@ Gaps in the time column are read with a warning (``io.max_gap_s`` refuses them).
 from __future__ import annotations
 
 import dataclasses
+import re
 from pathlib import Path
 from typing import Literal, Mapping, Optional, Sequence
 
@@ -203,6 +204,62 @@ def _reference(table, io_cfg: IOConfig, path: Path) -> tuple[str, str]:
     return stated[0]
 
 
+#: comment keys (spaces as underscores, lower case) that state the ambient pressure, optionally with a unit suffix
+#: ('atmosphere_pa: 84000', 'Ambient pressure: 840 mbar', 'Barometric pressure (hPa): 1013')
+_AMBIENT_KEY = re.compile(r"^(?:atmosphere|atmospheric_pressure|ambient_pressure|barometric_pressure|air_pressure|"
+                          r"luftdruck|umgebungsdruck)(?:_?\(?([a-z]+)\)?)?$")
+_VALUE_UNIT = re.compile(r"^\s*([+-]?(?:\d+[.,]?\d*|[.,]\d+)(?:[eE][+-]?\d+)?)\s*\(?([A-Za-z]*)\)?\s*$")
+
+
+def _atmosphere(table, io_cfg: IOConfig) -> tuple[float | np.ndarray, str]:
+    """The ambient pressure an absolute pressure is turned into gauge with (Pa; an array when the log has a column
+    of it) and where it came from: a column of the log ('Ambient pressure (kPa)'), else a line of the file
+    ('# atmosphere_pa: 84000', 'Ambient pressure: 840 mbar'), else ``io.atmosphere_pa``. A file's statement and a
+    configured value (other than the standard atmosphere) must agree within 0.1 kPa; a value outside 50-120 kPa, or
+    one without a unit where the key carries none, is refused with its line."""
+    cfg_src = io_cfg.stated_by.get("atmosphere_pa") or (
+        "io.atmosphere_pa (config)" if io_cfg.atmosphere_pa != ATMOSPHERE_PA else None)
+    found: list[tuple[float | np.ndarray, str, int | None]] = []
+    if "ambient" in table.columns:
+        col = np.asarray(table.columns["ambient"], float)
+        found.append((col, f"the column {table.headers['ambient']!r}", None))
+    for k, v in table.meta.items():
+        m = _AMBIENT_KEY.match(k)
+        if not m or (m.group(1) and split_unit("pressure", m.group(1))[0] is None) \
+                or not re.search(r"\d", str(v)):
+            continue   # another key ('atmosphere_type'), or no number ('atmosphere: nitrogen')
+        line = table.meta_lines.get(k)
+        vm = _VALUE_UNIT.match(str(v))
+        unit = (vm.group(2) if vm and vm.group(2) else None) or m.group(1)
+        u = split_unit("pressure", unit)[0] if unit else None
+        if vm is None or u is None:
+            raise InputError(f"the line '{k}: {v}' states the ambient pressure, but bpmid cannot read it as a number "
+                             f"with a pressure unit ({', '.join(sorted(x for x in UNITS['pressure']))}); write it so, "
+                             f"as in 'atmosphere_pa: 101325' or 'ambient_pressure: 1013 mbar'", path=table.name,
+                             line=line, key=k)
+        found.append((float(vm.group(1).replace(",", ".")) * UNITS["pressure"][u], f"line {line} ({k}: {v})"
+                      if line else f"the line '{k}: {v}'", line))
+    for val, src, line in found:
+        arr = np.atleast_1d(val)
+        bad = np.flatnonzero(~((arr >= 50e3) & (arr <= 120e3)))
+        if bad.size:
+            k = int(bad[0])
+            raise InputError(f"{src} gives an ambient pressure of {arr[k]:g} Pa, which is not an ambient pressure "
+                             f"(50-120 kPa): check its unit", path=table.name,
+                             line=line if line is not None else table.line_of(k), key="atmosphere_pa")
+    if cfg_src is not None:
+        found.append((io_cfg.atmosphere_pa, cfg_src, None))
+    if not found:
+        return io_cfg.atmosphere_pa, "io.atmosphere_pa (the standard atmosphere; set it for your lab)"
+    first, first_src, _ = found[0]
+    for val, src, _ in found[1:]:
+        if np.max(np.abs(np.asarray(first, float) - np.asarray(val, float))) > 100.0:
+            raise InputError(f"the ambient pressure is stated twice and disagrees: {first_src} gives "
+                             f"{np.mean(first):.6g} Pa, {src} gives {np.mean(val):.6g} Pa; drop or correct one",
+                             path=table.name, key="atmosphere_pa")
+    return first, first_src
+
+
 def read_motion_log(path: str | Path, io_cfg: IOConfig | None = None, *, require_angle: bool = False) -> MotionLog:
     """Read one motion log (see module docstring). Errors name the file and line."""
     from bpmid.io.read_once import read_once
@@ -215,14 +272,16 @@ def read_motion_log(path: str | Path, io_cfg: IOConfig | None = None, *, require
 
 def _read_motion_log(path: Path, io_cfg: IOConfig, require_angle: bool) -> MotionLog:
     required = ("time", "pressure") + (("angle",) if require_angle else ())
-    table = read_table(path, column_map=io_cfg.columns, required=required, optional=("angle",), kind="motion log",
+    table = read_table(path, column_map=io_cfg.columns, required=required, optional=("angle", "ambient"),
+                       kind="motion log",
                        units=io_cfg.units, unit_sources=io_cfg.unit_sources(), sheet=io_cfg.sheet)
     t = check_time(table, kind="motion log", gap_factor=io_cfg.max_gap_factor, max_gap_s=io_cfg.max_gap_s)
     ref, ref_from = _reference(table, io_cfg, path)
     unit = table.units_in_file["pressure"]
     p_pa = table.columns["pressure"]
     given = p_pa / UNITS["pressure"][unit]
-    gauge = p_pa - io_cfg.atmosphere_pa if ref == "absolute" else p_pa
+    atm, atm_from = _atmosphere(table, io_cfg) if ref == "absolute" else (io_cfg.atmosphere_pa, None)
+    gauge = p_pa - atm if ref == "absolute" else p_pa
     low = np.flatnonzero(gauge < io_cfg.min_gauge_pa)
     if low.size:
         k = int(low[0])
@@ -244,11 +303,14 @@ def _read_motion_log(path: Path, io_cfg: IOConfig, require_angle: bool) -> Motio
     angle = table.columns.get("angle")
     reading = dict(table.reading)
     reading["pressure_reference"] = {"reference": ref, "from": ref_from}
+    atm_mean = float(np.mean(atm))
     if ref == "absolute":
-        reading["pressure_reference"]["atmosphere_pa"] = float(io_cfg.atmosphere_pa)
+        reading["pressure_reference"]["atmosphere_pa"] = round(atm_mean, 3)
+        if atm_from != "io.atmosphere_pa (config)" and not atm_from.startswith("io.atmosphere_pa (the"):
+            reading["pressure_reference"]["atmosphere_from"] = atm_from
     warnings = list(table.warnings)
     return MotionLog(name=path.stem, time_s=t, pressure_pa=gauge, angle_deg=angle, pressure_reference=ref,
-                     pressure_unit=unit, pressure_as_given=given, atmosphere_pa=io_cfg.atmosphere_pa,
+                     pressure_unit=unit, pressure_as_given=given, atmosphere_pa=atm_mean,
                      path=path, meta=dict(table.meta), reading=reading, warnings=warnings)
 
 

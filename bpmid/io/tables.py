@@ -50,23 +50,26 @@ from bpmid.io.atomic import note_input
 #: quantity -> canonical unit
 CANONICAL = {
     "time": "s", "strain": "1", "stress": "MPa", "load": "N", "extension": "mm",
-    "modulus": "MPa", "pressure": "Pa", "angle": "deg",
+    "modulus": "MPa", "pressure": "Pa", "angle": "deg", "ambient": "Pa",
 }
 
 #: quantity -> {unit spelling (lower case) -> factor to the canonical unit}
 UNITS: dict[str, dict[str, float]] = {
     "time": {"s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3, "msec": 1e-3,
-             "us": 1e-6, "µs": 1e-6, "min": 60.0, "h": 3600.0, "epoch_s": 1.0, "epoch_ms": 1e-3,
+             "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "min": 60.0, "h": 3600.0, "epoch_s": 1.0, "epoch_ms": 1e-3,
              "unix_s": 1.0, "unix_ms": 1e-3, "iso8601": 1.0},
     "strain": {"1": 1.0, "-": 1.0, "": 1.0, "mm/mm": 1.0, "m/m": 1.0, "%": 0.01, "pct": 0.01},
     "stress": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "n/mm²": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3,
                "psi": 6894.757293168e-6},
     "load": {"n": 1.0, "kn": 1e3, "mn": 1e-3, "lbf": 4.4482216152605},
-    "extension": {"mm": 1.0, "m": 1e3, "um": 1e-3, "µm": 1e-3, "cm": 10.0, "in": 25.4},
+    "extension": {"mm": 1.0, "m": 1e3, "um": 1e-3, "µm": 1e-3, "μm": 1e-3, "cm": 10.0, "in": 25.4},
     "modulus": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "n/mm²": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3},
     "pressure": {"pa": 1.0, "hpa": 1e2, "kpa": 1e3, "bar": 1e5, "mbar": 1e2, "mpa": 1e6, "psi": 6894.757293168},
-    "angle": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "°": 1.0, "rad": 180.0 / np.pi, "mrad": 0.18 / np.pi},
+    "angle": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "°": 1.0, "rad": 180.0 / np.pi, "mrad": 0.18 / np.pi,
+              "gon": 0.9},
 }
+# the ambient (barometric) pressure logged beside an absolute pressure: the same units
+UNITS["ambient"] = dict(UNITS["pressure"])
 
 #: units that make a one-letter name (T, P) a temperature, not the time or the pressure (lower case, no spaces)
 TEMPERATURE_UNITS = {"k", "kelvin", "°c", "ºc", "degc", "deg c", "c", "celsius", "°f", "degf", "f", "fahrenheit"}
@@ -88,18 +91,25 @@ ALIASES = {
     "pressure": "pressure", "p": "pressure", "druck": "pressure", "supply pressure": "pressure",
     "angle": "angle", "beta": "angle", "bending angle": "angle", "theta": "angle", "bend angle": "angle",
     "winkel": "angle", "biegewinkel": "angle",
+    "ambient pressure": "ambient", "atmospheric pressure": "ambient", "barometric pressure": "ambient",
+    "air pressure": "ambient", "p amb": "ambient", "p atm": "ambient", "p ambient": "ambient", "p baro": "ambient",
+    "luftdruck": "ambient", "umgebungsdruck": "ambient",
 }
+
+#: header base names whose unit 'grad' is the German for degree (elsewhere 'grad' may be the gradian: refused)
+GERMAN_ANGLE = {"winkel", "biegewinkel"}
 
 #: how a user states the unit of each quantity on the command line (others: the config's io.units)
 UNIT_FLAGS = {"time": "--time-unit", "pressure": "--pressure-unit", "angle": "--angle-unit"}
 
 #: an example unit per quantity (messages)
 EXAMPLE_UNIT = {"time": "s", "pressure": "kPa", "angle": "deg", "stress": "MPa", "load": "N", "extension": "mm",
-                "modulus": "MPa", "strain": "1"}
+                "modulus": "MPa", "strain": "1", "ambient": "kPa"}
 
 #: bpmid's name for each quantity in canonical unit (messages, ``--columns``)
 BPMID_NAME = {"time": "time_s", "pressure": "pressure_kpa", "angle": "angle_deg", "strain": "strain",
-              "stress": "stress_mpa", "load": "load_n", "extension": "extension_mm", "modulus": "modulus_mpa"}
+              "stress": "stress_mpa", "load": "load_n", "extension": "extension_mm", "modulus": "modulus_mpa",
+              "ambient": "ambient_pressure_kpa"}
 
 #: words in a column name that mark it as derived from a quantity, not the quantity itself
 #: (bpmid's own outputs: ``angle_pred_deg``, ``angle_ref_deg``; rigs: ``pressure_setpoint_bar``)
@@ -216,7 +226,7 @@ def split_unit(quantity: str, unit: str) -> tuple[str | None, str | None]:
     ``('kpa', 'absolute')``; an unknown spelling -> ``(None, None)``.
     """
     u = _clean_unit(unit)
-    if quantity == "angle" and u in ("°", "grad", "deg."):
+    if quantity == "angle" and u in ("°", "deg."):
         return "deg", None
     if quantity == "time" and u in ("iso", "iso8601", "iso-8601", "datetime"):
         return "iso8601", None
@@ -226,7 +236,7 @@ def split_unit(quantity: str, unit: str) -> tuple[str | None, str | None]:
         return "epoch_ms", None
     if u in UNITS[quantity]:
         return u, None
-    if quantity == "pressure":
+    if quantity in ("pressure", "ambient"):
         m = _PRESSURE_REF.match(re.sub(r"[\s()\[\]._\-]+", "", u))
         if m:
             return m.group(1), (_REF_WORDS[m.group(2)] if m.group(2) else None)
@@ -265,13 +275,17 @@ def _parse(name: str, unit_row: str | None = None):
     base = _norm(raw)
     if base not in ALIASES and "." in base and _norm(base.rsplit(".", 1)[1]):
         base = _norm(base.rsplit(".", 1)[1])  # a MATLAB struct field: run.t -> t
-    if unit is None and unit_row is not None and unit_row.strip():
-        unit, said = unit_row.strip(), "units row"
+    row = unit_row.strip() if unit_row is not None and unit_row.strip() else None
+    if unit is None and row is not None:
+        unit, said, row = row, "units row", None
     if base in ALIASES:
         q = ALIASES[base]
         if len(base) == 1 and unit is not None and _norm(unit).replace(" ", "") in TEMPERATURE_UNITS:
             return None, None, None, False  # 'T (K)', 'T [°C]': a temperature beside the log, not the time
-        return (q,) + _unit_ref(q, unit) + (False,)
+        if q == "angle" and base in GERMAN_ANGLE and unit is not None and _clean_unit(unit) == "grad":
+            unit = "deg"   # 'Winkel [Grad]': German for degree
+        u, ref = _unit_ref(q, unit)
+        return _against_row(q, u, ref, unit, row) + (False,)
     words = base.split(" ")
     # suffix forms: time_s, pressure_kpa, angle_deg, pressure_bar_abs, pressure_kpa_g, theta_rad
     for cut in (1, 2):
@@ -279,6 +293,8 @@ def _parse(name: str, unit_row: str | None = None):
             q = ALIASES[" ".join(words[:-cut])]
             suffix = " ".join(words[-cut:])
             u, ref = split_unit(q, suffix)
+            if u is None and q == "angle" and " ".join(words[:-cut]) in GERMAN_ANGLE and suffix == "grad":
+                u, ref = "deg", None
             if u is not None:
                 if unit is not None:  # 'pressure_kpa (bar)': the name and the parentheses disagree or repeat
                     u2, ref2 = _unit_ref(q, unit)
@@ -293,6 +309,20 @@ def _parse(name: str, unit_row: str | None = None):
         q = ALIASES[words[0]]
         return q, words[1], None, False
     return None, None, None, False
+
+
+def _against_row(q: str, u: str | None, ref: str | None, written: str | None, row: str | None):
+    """(quantity, unit, reference) of a header that states its unit in brackets, checked against the units row
+    under it (``row``, None when the header alone states it): a known unit there that differs, or a reference
+    that differs, is a conflict (never one of them silently dropped); the row may add the reference."""
+    if row is None or u is None or u.startswith("conflict:") or u not in UNITS[q]:
+        return q, u, ref
+    ru, rref = split_unit(q, row)
+    if ru is None:
+        return q, u, ref
+    if ru != u or (rref is not None and ref is not None and rref != ref):
+        return q, f"conflict:{written}|{row}|units row", None
+    return q, u, ref if ref is not None else rref
 
 
 def _unit_ref(q: str, unit: str | None) -> tuple[str | None, str | None]:
@@ -447,6 +477,12 @@ def _labview_header(lines: list[str], where: str, meta: dict, meta_lines: dict) 
 
 
 def _text_grid(data: bytes, where: str) -> Grid:
+    body_bytes = data.rstrip(b"\x00")
+    nul_tail = len(data) - len(body_bytes)
+    if nul_tail and b"\x00" not in body_bytes:
+        data = body_bytes   # a logger that lost power leaves its file padded with NUL bytes: the text before them
+    else:
+        nul_tail = 0
     text, enc = _decode(data, where)
     lines = re.split(r"\r\n|\r|\n", text)
     meta: dict[str, str] = {}
@@ -474,7 +510,7 @@ def _text_grid(data: bytes, where: str) -> Grid:
                 lines[h], [ln for ln in lines[h + 1:h + 4] if ln.strip()])
             for k, ln in enumerate(lines[i:h], start=i + 1):
                 t = ln.strip()
-                if not t:
+                if not t or _EMPTY_ROW.match(t):
                     continue
                 if _is_comment(t):   # a "# key: value" line among the metadata lines: read as at the top
                     _meta_from_line(t.lstrip("#%/ ").strip(), meta, meta_lines, k)
@@ -493,7 +529,8 @@ def _text_grid(data: bytes, where: str) -> Grid:
         raise InputError("empty log: no header row (expected column names such as time_s)", path=where)
     header_line = i + 1
     header_text = lines[i].lstrip("\ufeff")
-    body = [(k + 1, ln) for k, ln in enumerate(lines[i + 1:], start=i + 1) if ln.strip() and not _is_comment(ln)]
+    body = [(k + 1, ln) for k, ln in enumerate(lines[i + 1:], start=i + 1)
+            if ln.strip() and not _is_comment(ln) and not _EMPTY_ROW.match(ln)]
     delim = delim_hint if delim_hint is not None else _choose_delimiter(header_text, [ln for _, ln in body[:5]])
     if delim is None:
         split = _split_ws
@@ -508,6 +545,8 @@ def _text_grid(data: bytes, where: str) -> Grid:
                 return line.split(_d)
         info_delim = {"\t": "tab", ",": "comma", ";": "semicolon", "|": "pipe"}.get(delim, repr(delim))
     header = [h.strip().strip('"').strip() for h in split(header_text)]
+    while len(header) > 1 and not header[-1]:
+        header.pop()   # 'time_s,pressure_kpa,angle_deg,': a separator at the end of the header
     if labview:
         # LabVIEW's x column is the time when its X_Dimension says so (in s); its 'Comment' column is often left
         # off the rows
@@ -524,6 +563,8 @@ def _text_grid(data: bytes, where: str) -> Grid:
     row_lines: list[int] = []
     for ln_no, ln in body:
         cells = [c.strip() for c in split(ln)]
+        if len(cells) > len(header) and not any(cells[len(header):]):
+            cells = cells[:len(header)]   # a separator at the end of each row
         if len(cells) != len(header):
             hint = ""
             if delim == "," and any(_COMMA_NUM.match(f"{a},{b}") for a, b in zip(cells, cells[1:])):
@@ -554,6 +595,8 @@ def _text_grid(data: bytes, where: str) -> Grid:
     cols = [list(c) for c in zip(*rows)] if rows else [[] for _ in header]
     info = {"format": "text", "encoding": enc, "delimiter": info_delim, "decimal": "comma" if decimal == "," else
             "point"}
+    if nul_tail:
+        info["nul_bytes_at_end"] = nul_tail
     return Grid(header, unit_row, cols, row_lines, meta, where, header_line, info, meta_lines, unit_row_line)
 
 
@@ -566,10 +609,13 @@ def _fields(line: str, delim: str | None) -> list[str]:
         return line.split(delim)
 
 
-def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int = 30) -> int:
+def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int = 200) -> int:
     """The header's index: the first line (from ``start``, within ``look`` lines) whose next lines have its number
-    of fields, at least two, with a number among them. ``start`` when none does (its errors are then reported)."""
-    cand = [k for k in range(start, min(len(lines), start + look)) if lines[k].strip() and not _is_comment(lines[k])]
+    of fields, at least two, with a number among them, and whose next line holds a number or is a units row (a
+    key and its value padded to the table's width, 'Operator,J. Doe,', is neither). ``start`` when none does (its
+    errors are then reported)."""
+    cand = [k for k in range(start, min(len(lines), start + look)) if lines[k].strip() and not _is_comment(lines[k])
+            and not _EMPTY_ROW.match(lines[k])]
     for n, k in enumerate(cand):
         nxt = [lines[j] for j in cand[n + 1:n + 4]]
         if not nxt:
@@ -584,9 +630,30 @@ def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int
         if width < 2 or any(_is_number(c) for c in head if c.strip()) or _looks_like_time(head):
             continue  # a header names its columns: no numbers, no timestamps
         rows = [_fields(ln, delim) for ln in nxt]
-        if all(len(r) == width for r in rows) and any(_is_number(c) for r in rows for c in r if c.strip()):
+        if all(len(r) == width for r in rows) and any(_is_number(c) for r in rows for c in r if c.strip()) \
+                and (any(_is_number(c) for c in rows[0] if c.strip()) or _units_row(rows[0])):
             return k
     return start
+
+
+#: a line of separators only (a spreadsheet's empty row: ',,', ';;'): a blank line
+_EMPTY_ROW = re.compile(r"^[\s,;|]*$")
+
+#: unit spellings of a units row besides those of :data:`UNITS` (channels a log keeps beside its own)
+_OTHER_UNITS = {"v", "mv", "ma", "a", "hz", "%", "-", "1", "n", "w", "rpm", "l/min", "slpm", "sccm"}
+
+
+def _units_row(cells: Sequence[str]) -> bool:
+    """Whether a row under a candidate header reads as units: at least half its filled cells a unit spelling."""
+    filled = [c for c in cells if str(c).strip()]
+    if not filled:
+        return False
+
+    def is_unit(c: str) -> bool:
+        u = _clean_unit(c)
+        return (u in _OTHER_UNITS or _norm(u).replace(" ", "") in TEMPERATURE_UNITS
+                or any(split_unit(q, c)[0] is not None for q in UNITS))
+    return sum(is_unit(c) for c in filled) * 2 >= len(filled)
 
 
 def _rows_delimited(rows: Sequence[str]) -> bool:
@@ -875,6 +942,7 @@ def _resolve(grid: Grid, cmap: dict[str, tuple[str, str]], units: Mapping[str, s
     found: dict[str, list] = {}
     ignored, unknown = [], []
     used_keys = set()
+    mapped_js: set[int] = set()
     exact = {_norm(h) for h in grid.header if h}
     for j, h in enumerate(grid.header):
         if not h:
@@ -910,6 +978,14 @@ def _resolve(grid: Grid, cmap: dict[str, tuple[str, str]], units: Mapping[str, s
                 continue
             unit_from = None if unit is None else ("header" if _parse(h, None)[1] is not None else "units row")
         found.setdefault(q, []).append([j, unit, h, unit_from, ref])
+        if mapped is not None:
+            mapped_js.add(j)
+    # a quantity the user mapped a column to is that column: others bpmid would take by their names are set aside
+    for q, ents in found.items():
+        if any(e[0] in mapped_js for e in ents) and not all(e[0] in mapped_js for e in ents):
+            ignored.extend(e[2] for e in ents if e[0] not in mapped_js)
+            found[q] = [e for e in ents if e[0] in mapped_js]
+    grid.info["mapped_quantities"] = sorted({q for q, ents in found.items() if any(e[0] in mapped_js for e in ents)})
     # map entries for columns this file does not have are fine (one map serves files with different headers);
     # they are named when a needed column is then missing
     grid.info["unmatched_map"] = [cmap[k][0] for k in cmap if k not in used_keys]
@@ -971,6 +1047,9 @@ def _numbers(values: list, where: str, header: str, lines: list[int]) -> np.ndar
                 x = float(cell)
             except ValueError:
                 what = "an empty cell" if not cell else f"{cell!r} is not a number"
+                if _COMMA_NUM.match(cell):
+                    what += ("; a decimal comma in a comma-separated file (the cell is quoted)? Export with a point "
+                             "as the decimal separator, or separate the columns with ';'")
                 raise InputError(f"column {header!r}: {what}", path=where,
                                  line=lines[r] if r < len(lines) else None) from None
         if not np.isfinite(x):
@@ -1189,14 +1268,70 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
             refs[q] = ref
         col_info[q] = {"column": h, "unit": unit, "unit_from": unit_from, **({"reference": ref} if ref else {}),
                        **extra}
+    _check_rivals(grid, columns, headers, units_in_file, unknown, ignored, lines)
     first = lines[0] if lines else (grid.header_line + 1)
-    reading = {k: v for k, v in grid.info.items() if k != "map_note" and (k != "unmatched_map" or v)}
+    reading = {k: v for k, v in grid.info.items() if k not in ("map_note", "mapped_quantities")
+               and (k != "unmatched_map" or v)}
     reading["columns"] = col_info
     if ignored or unknown:
         reading["ignored_columns"] = list(ignored) + list(unknown)
+    warns = [f"the file ends in {grid.info['nul_bytes_at_end']} NUL bytes (a logger that lost power?): read the rows "
+             f"before them; check that its last row (line {lines[n_rows - 1]}) is complete"] \
+        if grid.info.get("nul_bytes_at_end") and n_rows else []
     table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
-                  reading, [], where, grid.info.get("map_note", ""), dict(grid.meta_lines or {}))
+                  reading, warns, where, grid.info.get("map_note", ""), dict(grid.meta_lines or {}))
     return table
+
+
+#: the quantities a log may hold a second column of under another name ('Chamber pressure' beside 'Supply pressure')
+_RIVAL_QUANTITIES = ("pressure", "angle")
+
+
+def _check_rivals(grid: Grid, columns: dict, headers: dict, units_in_file: dict, unknown: list, ignored: list,
+                  lines: list) -> None:
+    """A column bpmid took by its name for the pressure or the angle, beside another whose name holds the same
+    word ('pressure', 'p', 'angle', 'winkel') and whose unit is one of that quantity ('Supply pressure (bar g)' and
+    'Chamber pressure (bar g)'; 'Pressure (bar g)' and 'Pressure sensor (bar g)'): when their values differ, bpmid
+    does not choose (one is often the supply or the setpoint) and asks for the column to use. Columns named as
+    derived (setpoint, command, reference, ...) are not rivals; equal values are one channel logged twice."""
+    mapped = set(grid.info.get("mapped_quantities", ()))
+    for q in _RIVAL_QUANTITIES:
+        if q not in columns or q in mapped:
+            continue
+        words_q = {w for w, qq in ALIASES.items() if qq == q and " " not in w}
+        for h2 in list(unknown):
+            raw, unit = _unit_part(h2)
+            words = _norm(raw).split(" ")
+            if unit is None:
+                if len(words) < 2:
+                    continue
+                unit, words = words[-1], words[:-1]
+            if not (set(words) & words_q) or set(words) & DERIVED_WORDS:
+                continue
+            u, _ref = split_unit(q, unit)
+            if u is None or h2 not in grid.header:
+                continue
+            try:
+                vals = _numbers(grid.cols[grid.header.index(h2)], grid.where, h2, lines) * UNITS[q][u]
+            except InputError:
+                continue
+            a = columns[q]
+            if vals.shape == a.shape:
+                d = np.abs(vals - a)
+                d = d[np.isfinite(d)]
+                scale = float(np.nanmax(np.abs(a))) if a.size else 1.0
+                if d.size == 0 or float(np.max(d)) <= 1e-3 * max(scale, 1e-12):
+                    unknown.remove(h2)
+                    ignored.append(h2)
+                    continue
+            h = headers[q]
+            canon = CANONICAL[q]
+            diff = f" (by up to {float(np.max(d)):.4g} {canon})" if vals.shape == a.shape and d.size else ""
+            raise InputError(f"two columns could be the {q}: {h!r}, by its name, and {h2!r}, by its name and unit, "
+                             f"and their values differ{diff}; one is often the supply or the setpoint, so bpmid does "
+                             f"not choose: name the measured {q} with {columns_arg(f'{q}={h2}')} or "
+                             f"{columns_arg(f'{q}={h}')} (config io.columns: {{'<column>': {q}}})",
+                             path=grid.where, line=grid.header_line or None, key=h2)
 
 
 def _column_name(q: str, unit: str) -> str:
@@ -1246,6 +1381,9 @@ def _unknown_unit_hint(q: str, h: str, unit: str, unit_from: str | None) -> str:
     if ref is not None:
         out += (f"; {unit!r} reads as the pressure reference ({ref}), which a name carries only after a unit "
                 f"(pressure_{ex.lower()}_{unit})")
+    if q == "angle" and unit == "grad":
+        out += ("; 'grad' is the degree in German but the gradian (400 to a turn) in English, so bpmid does not "
+                "read it either way: write deg or gon")
     name = f"pressure_{ex.lower()}_{unit}" if ref is not None else BPMID_NAME[q]
     mapped = f"{columns_arg(f'{name}={h}')} (config io.columns: {{'{h}': {name}}})"
     if unit_from == "units row":

@@ -1,0 +1,145 @@
+"""Lab exports that were read wrong without a word, or refused wrongly (a fuzz of ~130 re-exports of a shipped
+log): a second pressure column beside the one taken by its name, a units row that contradicts the header, an
+ambient pressure the file states, 'grad' for an angle, Excel's padded rows, a separator at the end of each row,
+NUL bytes a logger leaves when it loses power. Each file is read back against the values written."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+from bpmid.errors import InputError
+from bpmid.io.motion_logs import IOConfig, read_motion_log
+
+runner = CliRunner()
+T = np.round(np.arange(12) * 0.1, 3)
+P_KPA = np.round(18.0 + 4.0 * np.sin(T), 4)          # the muscle's gauge pressure (kPa)
+A = np.round(10.0 + 5.0 * np.sin(T - 0.2), 4)        # the angle (deg)
+
+
+def _rows(*cols, sep=",", end=""):
+    return "".join(sep.join(f"{c[i]:.12g}" for c in cols) + end + "\n" for i in range(len(T)))
+
+
+def test_a_second_pressure_column_is_never_set_aside_without_a_word(tmp_path):
+    """'Supply pressure' is a name bpmid knows; 'Chamber pressure' beside it differs: refused, both named, and the
+    suggested --columns reads the chosen one (the other is listed as ignored). Equal values: one channel logged
+    twice, read. A setpoint named as such is no rival."""
+    f = tmp_path / "two.csv"
+    f.write_text("Time (s),Supply pressure (bar g),Chamber pressure (bar g),Angle (deg)\n"
+                 + _rows(T, np.full(T.size, 6.0), P_KPA / 100, A))
+    with pytest.raises(InputError, match="two columns could be the pressure") as e:
+        read_motion_log(f)
+    assert "'Chamber pressure (bar g)'" in e.value.message and "--columns 'pressure=Chamber pressure (bar g)'" in \
+        e.value.message
+    lg = read_motion_log(f, IOConfig(columns={"Chamber pressure (bar g)": "pressure"}))
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    assert lg.reading["ignored_columns"] == ["Supply pressure (bar g)"]
+    res = runner.invoke(app, ["fit", "motion", str(f), "--out", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2 and "two columns could be the pressure" in res.output and "two.csv" in res.output
+    assert not (tmp_path / "o.yaml").exists()
+    same = tmp_path / "same.csv"
+    same.write_text("Time (s),Pressure (bar g),Pressure sensor (bar g),Angle (deg)\n"
+                    + _rows(T, P_KPA / 100, P_KPA / 100, A))
+    assert read_motion_log(same).reading["ignored_columns"] == ["Pressure sensor (bar g)"]
+    sp = tmp_path / "sp.csv"
+    sp.write_text("Time (s),Setpoint pressure (bar g),Pressure (bar g),Angle (deg)\n"
+                  + _rows(T, np.full(T.size, 0.2), P_KPA / 100, A))
+    np.testing.assert_allclose(read_motion_log(sp).pressure_pa, P_KPA * 1e3, atol=1e-6)
+
+
+@pytest.mark.parametrize("header,row,says", [
+    ("Time (s),Pressure (bar g),Angle (deg)", "s,psi,deg", "units row under the header says psi"),
+    ("Time (s),Pressure (kPa g),Angle (deg)", "ms,kPa,deg", "units row under the header says ms"),
+    ("Time (s),Pressure (bar g),Angle (deg)", "s,bar(a),deg", "units row under the header says bar(a)"),
+])
+def test_a_units_row_that_contradicts_the_header_is_refused_with_its_line(tmp_path, header, row, says):
+    f = tmp_path / "u.csv"
+    f.write_text(f"{header}\n{row}\n" + _rows(T, P_KPA / 100, A))
+    with pytest.raises(InputError, match="make them agree") as e:
+        read_motion_log(f)
+    assert says in e.value.message and e.value.line == 2
+
+
+def test_a_units_row_that_repeats_the_header_or_adds_the_reference_is_read(tmp_path):
+    f = tmp_path / "u.csv"
+    f.write_text("Time (s),Pressure (kPa),Angle (deg)\n[s],kPa g,°\n" + _rows(T, P_KPA, A))
+    lg = read_motion_log(f)
+    assert lg.pressure_reference == "gauge"
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+
+
+def test_the_ambient_pressure_a_file_states_turns_absolute_into_gauge(tmp_path):
+    """A lab at 840 mbar: '# ambient_pressure: 840 mbar' (or an ambient column) is used, and said where from;
+    a configured value that disagrees, or a line whose number has no pressure unit, is refused with the line."""
+    p_abs_bar = (P_KPA * 1e3 + 84000.0) / 1e5
+    f = tmp_path / "amb.csv"
+    f.write_text("# pressure_reference: absolute\n# ambient_pressure: 840 mbar\n# ambient_temperature: 21 C\n"
+                 "time_s,pressure_bar,angle_deg\n" + _rows(T, p_abs_bar, A))
+    lg = read_motion_log(f)
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    assert lg.reading["pressure_reference"]["atmosphere_from"] == "line 2 (ambient_pressure: 840 mbar)"
+    assert lg.atmosphere_pa == pytest.approx(84000.0)
+    with pytest.raises(InputError, match="ambient pressure is stated twice and disagrees"):
+        read_motion_log(f, IOConfig(atmosphere_pa=95000.0))
+    np.testing.assert_allclose(read_motion_log(f, IOConfig(atmosphere_pa=84000.0)).pressure_pa, P_KPA * 1e3,
+                               atol=1e-6)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("# pressure_reference: absolute\n# atmosphere: 84\ntime_s,pressure_bar,angle_deg\n"
+                   + _rows(T, p_abs_bar, A))
+    with pytest.raises(InputError, match="cannot read it as a number with a pressure unit") as e:
+        read_motion_log(bad)
+    assert e.value.line == 2
+    gauge = tmp_path / "gauge.csv"   # a gauge log: the ambient pressure is not needed, and not asked
+    gauge.write_text("# pressure_reference: gauge\n# atmosphere: 84\ntime_s,pressure_kpa,angle_deg\n"
+                     + _rows(T, P_KPA, A))
+    np.testing.assert_allclose(read_motion_log(gauge).pressure_pa, P_KPA * 1e3, atol=1e-6)
+    col = tmp_path / "col.csv"
+    amb = 84.0 + 0.1 * np.arange(T.size)
+    col.write_text("Time (s),Pressure (kPa a),Ambient pressure (kPa),Angle (deg)\n"
+                   + _rows(T, P_KPA + amb, amb, A))
+    lg = read_motion_log(col)
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    assert lg.reading["pressure_reference"]["atmosphere_from"] == "the column 'Ambient pressure (kPa)'"
+
+
+def test_grad_is_read_as_degrees_only_under_a_german_name(tmp_path):
+    f = tmp_path / "g.csv"
+    f.write_text("# pressure_reference: gauge\nTime (s),Pressure (kPa),Angle (grad)\n" + _rows(T, P_KPA, A))
+    with pytest.raises(InputError, match="gradian") as e:
+        read_motion_log(f)
+    assert "deg or gon" in e.value.message
+    de = tmp_path / "de.csv"
+    de.write_text("# pressure_reference: gauge\nZeit [s];Druck [kPa];Winkel [Grad]\n" + _rows(T, P_KPA, A, sep=";"))
+    np.testing.assert_allclose(read_motion_log(de).angle_deg, A)
+    gon = tmp_path / "gon.csv"
+    gon.write_text("# pressure_reference: gauge\nTime (s),Pressure (kPa),Angle (gon)\n" + _rows(T, P_KPA, A / 0.9))
+    np.testing.assert_allclose(read_motion_log(gon).angle_deg, A, atol=1e-3)
+
+
+@pytest.mark.parametrize("text", [
+    # Excel pads every row to the table's width: metadata rows above the header, an empty row, rows at the end
+    "Muscle A cycle test,,\nPressure Reference,Gauge,\n,,\nOperator,J. Doe,\ntime_s,pressure_kpa,angle_deg\n{rows},,\n,,\n",
+    # a tab at the end of each data row, not of the header
+    "# pressure_reference: gauge\ntime_s\tpressure_kpa\tangle_deg\n{rows_tab}",
+    # more instrument lines above the header than a screenful
+    "".join(f"Channel {k} gain: 1.000\n" for k in range(40)) + "Pressure Reference: Gauge\n"
+    "time_s,pressure_kpa,angle_deg\n{rows}",
+])
+def test_spreadsheet_and_instrument_layouts_are_read(tmp_path, text):
+    f = tmp_path / "x.csv"
+    f.write_text(text.format(rows=_rows(T, P_KPA, A), rows_tab=_rows(T, P_KPA, A, sep="\t", end="\t")))
+    lg = read_motion_log(f)
+    assert lg.n == T.size and lg.pressure_reference == "gauge"
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    np.testing.assert_allclose(lg.angle_deg, A)
+
+
+def test_nul_bytes_after_the_rows_are_read_with_a_warning_and_micro_in_greek(tmp_path):
+    f = tmp_path / "n.csv"
+    f.write_bytes(("# pressure_reference: gauge\ntime_us,pressure_kpa,angle_deg\n".replace("us", "μs") +
+                   _rows(T * 1e6, P_KPA, A)).encode() + b"\x00" * 512)
+    lg = read_motion_log(f)
+    np.testing.assert_allclose(lg.time_s, T, atol=1e-9)
+    assert any("NUL bytes" in w and "line 14" in w for w in lg.warnings)
