@@ -143,3 +143,35 @@ def test_nul_bytes_after_the_rows_are_read_with_a_warning_and_micro_in_greek(tmp
     lg = read_motion_log(f)
     np.testing.assert_allclose(lg.time_s, T, atol=1e-9)
     assert any("NUL bytes" in w and "line 14" in w for w in lg.warnings)
+
+
+def test_elapsed_minutes_seconds_a_clock_past_midnight_and_excel_durations(tmp_path):
+    """Excel's 'mm:ss.0' cells (a fraction rules out hh:mm), a clock that passes midnight, and '[h]:mm:ss.000'
+    duration cells in a sheet: seconds since the first sample."""
+    import datetime as dt
+
+    import openpyxl
+
+    t = np.array([0.0, 30.5, 59.9, 61.2, 125.0, 3601.5])
+    p, a = np.linspace(10, 20, t.size), np.linspace(1, 5, t.size)
+    mmss = [f"{int(x // 60):02d}:{x % 60:04.1f}" for x in t]
+    f = tmp_path / "mmss.csv"
+    f.write_text("# pressure_reference: gauge\nTime,pressure_kpa,angle_deg\n"
+                 + "".join(f"{m},{pp:g},{aa:g}\n" for m, pp, aa in zip(mmss, p, a)))
+    lg = read_motion_log(f)
+    np.testing.assert_allclose(lg.time_s, t, atol=1e-9)
+    assert "minutes:seconds" in lg.reading["columns"]["time"]["time_origin"]
+    clock = ["23:59:58.5", "23:59:59.5", "00:00:00.5", "00:00:01.5"]
+    g = tmp_path / "midnight.csv"
+    g.write_text("# pressure_reference: gauge\nTime,pressure_kpa,angle_deg\n"
+                 + "".join(f"{c},{10 + k},{k}\n" for k, c in enumerate(clock)))
+    np.testing.assert_allclose(read_motion_log(g).time_s, [0.0, 1.0, 2.0, 3.0], atol=1e-9)
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws.append(["# pressure_reference: gauge"])
+    ws.append(["Elapsed", "pressure_kpa", "angle_deg"])
+    for x, pp, aa in zip(t, p, a):
+        ws.append([dt.timedelta(seconds=float(x)), float(pp), float(aa)])
+        ws.cell(ws.max_row, 1).number_format = "[h]:mm:ss.000"
+    wb.save(tmp_path / "dur.xlsx")
+    np.testing.assert_allclose(read_motion_log(tmp_path / "dur.xlsx").time_s, t, atol=1e-6)

@@ -124,6 +124,8 @@ _REF_WORDS = {"a": "absolute", "abs": "absolute", "absolute": "absolute", "g": "
 _COMMA_NUM = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
 _DOT_NUM = re.compile(r"^[+-]?\d*\.\d+(?:[eE][+-]?\d+)?$")
 _CLOCK = re.compile(r"^\s*\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?\s*$")
+#: an elapsed time as minutes:seconds with a fraction (Excel's 'mm:ss.0': '01:05.3'); a fraction rules out hh:mm
+_MMSS = re.compile(r"^\s*(\d{1,4}):(\d{2}[.,]\d+)\s*$")
 _SEP_LINE = re.compile(r'^\s*"?sep=(.)"?\s*$', re.IGNORECASE)
 _META = re.compile(r"^\s*([A-Za-z][\w \-./()]*?)\s*[:=]\s*(.*)$")
 #: a metadata key standing in a cell of its own ('Pressure Reference' | 'Gauge'): the key of :data:`_META`
@@ -999,12 +1001,19 @@ def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tup
 
     import pandas as pd
 
+    if values and all(isinstance(v, _dt.timedelta) for v in values):  # Excel durations ('[h]:mm:ss.000' cells)
+        secs = np.array([v.total_seconds() for v in values], dtype=float)
+        return secs - secs[0], f"elapsed time {values[0]} (an Excel duration)"
     texts = []
     for v in values:
         if isinstance(v, (_dt.datetime, _dt.time)):
             texts.append(v.isoformat())
         else:
             texts.append(str(v).strip())
+    if texts and all(_MMSS.match(x) for x in texts):  # elapsed minutes:seconds.f (Excel's mm:ss.0)
+        parts = [_MMSS.match(x) for x in texts]
+        secs = np.array([60.0 * float(m.group(1)) + float(m.group(2).replace(",", ".")) for m in parts])
+        return secs - secs[0], f"elapsed time {texts[0]} (minutes:seconds)"
     if texts and all(_CLOCK.match(x) for x in texts):  # clock times of one day: 09:30:01.250
         td = pd.to_timedelta(pd.Series([x.replace(",", ".") for x in texts]), errors="coerce")
         bad = np.flatnonzero(td.isna().to_numpy())
@@ -1012,7 +1021,10 @@ def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tup
             k = int(bad[0])
             raise InputError(f"column {header!r}: {texts[k]!r} is not a clock time (hh:mm:ss.fff)", path=where,
                              line=lines[k] if k < len(lines) else None)
-        return (td - td.iloc[0]).dt.total_seconds().to_numpy(dtype=float), f"clock time {texts[0]}"
+        secs = td.dt.total_seconds().to_numpy(dtype=float)
+        # a clock that passes midnight starts the day again: a step back of more than half a day is the next day
+        secs = secs + 86400.0 * np.concatenate([[0], np.cumsum(np.diff(secs) < -43200.0)])
+        return secs - secs[0], f"clock time {texts[0]}"
     try:
         ts = pd.to_datetime(pd.Series(texts), format="ISO8601", utc=True, errors="coerce")
     except (ValueError, TypeError):
@@ -1406,9 +1418,9 @@ def _time_is_text(vals: list) -> bool:
     import datetime as _dt
 
     for v in vals[:5]:
-        if isinstance(v, (_dt.datetime, _dt.time)):
+        if isinstance(v, (_dt.datetime, _dt.time, _dt.timedelta)):
             return True
-        if isinstance(v, str) and _CLOCK.match(v):
+        if isinstance(v, str) and (_CLOCK.match(v) or _MMSS.match(v)):
             return True
         if isinstance(v, str) and v.strip() and not _is_number(v) and re.match(r"^\s*\d{4}-\d{2}-\d{2}", v):
             return True
