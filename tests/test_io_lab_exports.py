@@ -175,3 +175,50 @@ def test_elapsed_minutes_seconds_a_clock_past_midnight_and_excel_durations(tmp_p
         ws.cell(ws.max_row, 1).number_format = "[h]:mm:ss.000"
     wb.save(tmp_path / "dur.xlsx")
     np.testing.assert_allclose(read_motion_log(tmp_path / "dur.xlsx").time_s, t, atol=1e-6)
+
+
+def test_second_round_what_the_new_rules_must_not_refuse_or_misread(tmp_path):
+    """From an adversarial look at the rules above: units rows that spell the header's unit another way, a
+    description row under the header, a raw-signal column beside the calibrated one, an unreadable ambient column
+    in a gauge log, instrument lines that mention the atmosphere, a relaxation log's '%' units row."""
+    from bpmid.io.relax_logs import read_relax_log
+
+    def read(name, text, **kw):
+        f = tmp_path / name
+        f.write_text(text)
+        return read_motion_log(f, IOConfig(**kw))
+
+    rows = _rows(T, P_KPA, A)
+    lg = read("syn.csv", "# pressure_reference: gauge\nTime (s),Pressure (hPa),Angle (deg)\nsec,mbar,°\n"
+              + _rows(T, P_KPA * 10, A))
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    lg = read("desc.csv", "# pressure_reference: gauge\nTime (s),Pressure (kPa),Angle (deg)\n"
+              "elapsed time,chamber pressure,bending angle\n" + rows)
+    assert lg.n == T.size and lg.reading["columns"]["pressure"]["column"] == "Pressure (kPa)"
+    lg = read("volt.csv", "# pressure_reference: gauge\nTime (s),Pressure (kPa),Pressure (V),Angle (deg)\n"
+              + _rows(T, P_KPA, P_KPA / 15.0, A))
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    assert "Pressure (V)" in lg.reading["ignored_columns"]
+    with pytest.raises(InputError, match="raw signal"):
+        read("volt_only.csv", "# pressure_reference: gauge\nTime (s),Pressure (V),Angle (deg)\n"
+             + _rows(T, P_KPA / 15.0, A))
+    amb_bad = "Time (s),Pressure (kPa {ref}),Ambient pressure (inHg),Angle (deg)\n" + _rows(T, P_KPA, P_KPA, A)
+    lg = read("amb_gauge.csv", amb_bad.format(ref="g"))
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    with pytest.raises(InputError, match="inhg"):
+        read("amb_abs.csv", amb_bad.format(ref="a"))
+    lg = read("atm.csv", "# pressure_reference: absolute\nAtmosphere: air, 45 %RH\nAir pressure: 0.8 bar\n"
+              "Luftdruck: 986 hPa\ntime_s,pressure_kpa,angle_deg\n" + _rows(T, P_KPA + 98.6, A))
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    assert lg.reading["pressure_reference"]["atmosphere_from"].endswith("(luftdruck: 986 hPa)")
+    for name, header, row in (("de.csv", "Zeit (s);Druck (bar);Kammerdruck (bar);Winkel (deg)", None),
+                              ("suffix.csv", "time_s,supply_pressure_bar_g,chamber_pressure_bar_g,angle_deg", None),
+                              ("urow.csv", "Time,Supply pressure,Chamber pressure,Angle", "s,bar g,bar g,deg")):
+        sep = ";" if ";" in header else ","
+        with pytest.raises(InputError, match="two columns could be the pressure"):
+            read(name, f"{header}\n" + (f"{row}\n" if row else "")
+                 + _rows(T, np.full(T.size, 6.0), P_KPA / 100, A, sep=sep), pressure_reference="gauge")
+    rl = tmp_path / "relax.csv"
+    strain = np.full(T.size, 20.0)
+    rl.write_text("Strain,Stress [MPa],Time [s]\n%,MPa,s\n" + _rows(strain, np.linspace(1.0, 0.8, T.size), T))
+    np.testing.assert_allclose(read_relax_log(rl).strain, 0.2)

@@ -205,9 +205,10 @@ def _reference(table, io_cfg: IOConfig, path: Path) -> tuple[str, str]:
 
 
 #: comment keys (spaces as underscores, lower case) that state the ambient pressure, optionally with a unit suffix
-#: ('atmosphere_pa: 84000', 'Ambient pressure: 840 mbar', 'Barometric pressure (hPa): 1013')
-_AMBIENT_KEY = re.compile(r"^(?:atmosphere|atmospheric_pressure|ambient_pressure|barometric_pressure|air_pressure|"
-                          r"luftdruck|umgebungsdruck)(?:_?\(?([a-z]+)\)?)?$")
+#: ('atmosphere_pa: 84000', 'Ambient pressure: 840 mbar', 'Barometric pressure (hPa): 1013', 'Luftdruck: 986 hPa');
+#: not 'air pressure', which on a pneumatic rig is as often the supply
+_AMBIENT_KEY = re.compile(r"^(atmosphere|atmospheric_pressure|ambient_pressure|barometric_pressure|"
+                          r"umgebungsdruck|luftdruck)(?:_?\(?([a-z]+)\)?)?$")
 _VALUE_UNIT = re.compile(r"^\s*([+-]?(?:\d+[.,]?\d*|[.,]\d+)(?:[eE][+-]?\d+)?)\s*\(?([A-Za-z]*)\)?\s*$")
 
 
@@ -220,18 +221,22 @@ def _atmosphere(table, io_cfg: IOConfig) -> tuple[float | np.ndarray, str]:
     cfg_src = io_cfg.stated_by.get("atmosphere_pa") or (
         "io.atmosphere_pa (config)" if io_cfg.atmosphere_pa != ATMOSPHERE_PA else None)
     found: list[tuple[float | np.ndarray, str, int | None]] = []
+    if "ambient" in table.deferred:
+        raise table.deferred["ambient"]   # the log's ambient-pressure column, needed now, cannot be read
     if "ambient" in table.columns:
         col = np.asarray(table.columns["ambient"], float)
         found.append((col, f"the column {table.headers['ambient']!r}", None))
     for k, v in table.meta.items():
         m = _AMBIENT_KEY.match(k)
-        if not m or (m.group(1) and split_unit("pressure", m.group(1))[0] is None) \
+        if not m or (m.group(2) and split_unit("pressure", m.group(2))[0] is None) \
                 or not re.search(r"\d", str(v)):
             continue   # another key ('atmosphere_type'), or no number ('atmosphere: nitrogen')
         line = table.meta_lines.get(k)
         vm = _VALUE_UNIT.match(str(v))
-        unit = (vm.group(2) if vm and vm.group(2) else None) or m.group(1)
+        unit = (vm.group(2) if vm and vm.group(2) else None) or m.group(2)
         u = split_unit("pressure", unit)[0] if unit else None
+        if vm is None and m.group(1) == "atmosphere" and not m.group(2):
+            continue   # 'Atmosphere: air, 45 %RH': a bare 'atmosphere' is read only when it is a number
         if vm is None or u is None:
             raise InputError(f"the line '{k}: {v}' states the ambient pressure, but bpmid cannot read it as a number "
                              f"with a pressure unit ({', '.join(sorted(x for x in UNITS['pressure']))}); write it so, "

@@ -91,9 +91,9 @@ ALIASES = {
     "pressure": "pressure", "p": "pressure", "druck": "pressure", "supply pressure": "pressure",
     "angle": "angle", "beta": "angle", "bending angle": "angle", "theta": "angle", "bend angle": "angle",
     "winkel": "angle", "biegewinkel": "angle",
+    # not 'air pressure': on a pneumatic rig that is as often the supply
     "ambient pressure": "ambient", "atmospheric pressure": "ambient", "barometric pressure": "ambient",
-    "air pressure": "ambient", "p amb": "ambient", "p atm": "ambient", "p ambient": "ambient", "p baro": "ambient",
-    "luftdruck": "ambient", "umgebungsdruck": "ambient",
+    "p amb": "ambient", "p atm": "ambient", "p ambient": "ambient", "p baro": "ambient", "umgebungsdruck": "ambient",
 }
 
 #: header base names whose unit 'grad' is the German for degree (elsewhere 'grad' may be the gradian: refused)
@@ -114,7 +114,8 @@ BPMID_NAME = {"time": "time_s", "pressure": "pressure_kpa", "angle": "angle_deg"
 #: words in a column name that mark it as derived from a quantity, not the quantity itself
 #: (bpmid's own outputs: ``angle_pred_deg``, ``angle_ref_deg``; rigs: ``pressure_setpoint_bar``)
 DERIVED_WORDS = {"pred", "predicted", "model", "sim", "simulated", "ref", "reference", "cmd", "command",
-                 "setpoint", "set", "target", "residual", "error", "err", "fit", "filtered", "std", "sd"}
+                 "setpoint", "set", "target", "residual", "error", "err", "fit", "filtered", "std", "sd",
+                 "commanded", "demand", "desired", "requested", "request", "sp", "soll", "sollwert"}
 
 _PAREN = re.compile(r"^(.*?)\s*[\(\[\{]\s*([^\)\]\}]*)\s*[\)\]\}]\s*$")
 _SLASH = re.compile(r"^(.*?\S)\s+(?:/|in)\s+(\S+)$")
@@ -170,6 +171,9 @@ class Table:
     map_note: str = ""
     #: metadata key -> the file line (sheet row) it was read from
     meta_lines: dict = dataclasses.field(default_factory=dict)
+    #: quantity -> why its column could not be read, for a quantity only some readers need (the ambient pressure:
+    #: an absolute log's); the column is listed as ignored, and the reader that needs it raises this
+    deferred: dict = dataclasses.field(default_factory=dict)
 
     def has(self, quantity: str) -> bool:
         return quantity in self.columns
@@ -300,7 +304,7 @@ def _parse(name: str, unit_row: str | None = None):
             if u is not None:
                 if unit is not None:  # 'pressure_kpa (bar)': the name and the parentheses disagree or repeat
                     u2, ref2 = _unit_ref(q, unit)
-                    if u2 != u:
+                    if u2 not in UNITS[q] or UNITS[q][u2] != UNITS[q][u]:   # 's' and 'sec' agree
                         return q, f"conflict:{suffix}|{unit}|{said}", None, False
                 return q, u, ref, False
     # derived columns: angle_pred_deg, pressure_setpoint_bar (named by a quantity plus a qualifier word)
@@ -315,14 +319,15 @@ def _parse(name: str, unit_row: str | None = None):
 
 def _against_row(q: str, u: str | None, ref: str | None, written: str | None, row: str | None):
     """(quantity, unit, reference) of a header that states its unit in brackets, checked against the units row
-    under it (``row``, None when the header alone states it): a known unit there that differs, or a reference
-    that differs, is a conflict (never one of them silently dropped); the row may add the reference."""
+    under it (``row``, None when the header alone states it): a known unit there of another size (``s`` over
+    ``ms``; ``s`` over ``sec`` is the same), or a reference that differs, is a conflict (never one of them silently
+    dropped); the row may add the reference."""
     if row is None or u is None or u.startswith("conflict:") or u not in UNITS[q]:
         return q, u, ref
     ru, rref = split_unit(q, row)
     if ru is None:
         return q, u, ref
-    if ru != u or (rref is not None and ref is not None and rref != ref):
+    if UNITS[q][ru] != UNITS[q][u] or (rref is not None and ref is not None and rref != ref):
         return q, f"conflict:{written}|{row}|units row", None
     return q, u, ref if ref is not None else rref
 
@@ -556,6 +561,11 @@ def _text_grid(data: bytes, where: str) -> Grid:
             header[0] = "time (s)"
         if header and header[-1].lower() == "comment" and body and len(split(body[0][1])) == len(header) - 1:
             header = header[:-1]
+    nxt = next(((k + 1, ln) for k, ln in enumerate(lines[i + 1:], start=i + 1) if ln.strip()), None)
+    if nxt is not None and nxt[1].lstrip().startswith("%") and (not body or body[0][0] > nxt[0]):
+        cells = [c.strip() for c in split(nxt[1])]
+        if len(cells) == len(header) and _units_row(cells):
+            body.insert(0, nxt)   # a units row under the header that starts with '%' (strain in %): not a comment
     if not any(header):
         raise InputError("the header row is empty", path=where, line=header_line)
     if all(_is_number(h) for h in header if h):
@@ -613,9 +623,10 @@ def _fields(line: str, delim: str | None) -> list[str]:
 
 def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int = 200) -> int:
     """The header's index: the first line (from ``start``, within ``look`` lines) whose next lines have its number
-    of fields, at least two, with a number among them, and whose next line holds a number or is a units row (a
-    key and its value padded to the table's width, 'Operator,J. Doe,', is neither). ``start`` when none does (its
-    errors are then reported)."""
+    of fields, at least two, with a number among them, and whose next line holds a number, is a units row, or names
+    fewer quantities bpmid knows than it does (a description or channel row under a header; a key and its value
+    padded to the table's width, 'Operator,J. Doe,', above the header names none, and the line below it, the
+    header or another such row, as many or more). ``start`` when none does (its errors are then reported)."""
     cand = [k for k in range(start, min(len(lines), start + look)) if lines[k].strip() and not _is_comment(lines[k])
             and not _EMPTY_ROW.match(lines[k])]
     for n, k in enumerate(cand):
@@ -633,10 +644,20 @@ def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int
             continue  # a header names its columns: no numbers, no timestamps
         rows = [_fields(ln, delim) for ln in nxt]
         if all(len(r) == width for r in rows) and any(_is_number(c) for r in rows for c in r if c.strip()) \
-                and (any(_is_number(c) for c in rows[0] if c.strip()) or _units_row(rows[0])):
+                and (any(_is_number(c) for c in rows[0] if c.strip()) or _units_row(rows[0])
+                     or _known_names(rows[0]) < _known_names(head)):
             return k
     return start
 
+
+def _known_names(cells: Sequence[str]) -> int:
+    """How many of ``cells`` name a quantity bpmid knows (``Time (s)``, ``pressure_kpa``, ``Winkel``): a header's
+    row names more of them than a key and its value above it, a description or channel row under it fewer."""
+    return sum(1 for c in cells if str(c).strip() and _parse(str(c))[0] is not None)
+
+
+#: units of a raw transducer signal, not of any quantity bpmid reads ('Pressure (V)')
+_SIGNAL_UNITS = {"v", "mv", "ma", "counts", "cts", "digits", "lsb", "adc"}
 
 #: a line of separators only (a spreadsheet's empty row: ',,', ';;'): a blank line
 _EMPTY_ROW = re.compile(r"^[\s,;|]*$")
@@ -982,6 +1003,13 @@ def _resolve(grid: Grid, cmap: dict[str, tuple[str, str]], units: Mapping[str, s
         found.setdefault(q, []).append([j, unit, h, unit_from, ref])
         if mapped is not None:
             mapped_js.add(j)
+    # a raw signal beside the calibrated column of the same quantity ('Pressure (V)' beside 'Pressure (kPa)'): set
+    # aside; alone, it is refused with what to do (_unknown_unit_hint)
+    for q, ents in found.items():
+        raw_sig = [e for e in ents if e[1] in _SIGNAL_UNITS and e[0] not in mapped_js]
+        if raw_sig and len(raw_sig) < len(ents):
+            ignored.extend(e[2] for e in raw_sig)
+            found[q] = [e for e in ents if e not in raw_sig]
     # a quantity the user mapped a column to is that column: others bpmid would take by their names are set aside
     for q, ents in found.items():
         if any(e[0] in mapped_js for e in ents) and not all(e[0] in mapped_js for e in ents):
@@ -1176,8 +1204,11 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
                              path=where)
     if n_rows == 0 and found:
         raise InputError(f"empty {kind}: a header but no data rows", path=where, line=hline)
+    # the ambient pressure matters only to an absolute pressure: a column of it that cannot be read is set aside
+    # here, and its error raised by the reader that needs it (bpmid.io.motion_logs._atmosphere)
+    deferred: dict[str, InputError] = {}
     unstated = [(q, ents[0][2]) for q, ents in found.items()
-                if ents[0][1] is None and q not in units and f"{q}_unit" not in meta and q != "strain"
+                if ents[0][1] is None and q not in units and f"{q}_unit" not in meta and q not in ("strain", "ambient")
                 and not (q == "time" and _time_is_text(grid.cols[ents[0][0]]))]
     if len(unstated) > 1:  # say every missing unit at once, not one per run
         cols_txt = ", ".join(f"{h!r} ({q})" for q, h in unstated)
@@ -1189,97 +1220,16 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
                          path=where, line=hline, key=unstated[0][1])
     columns, units_in_file, headers, refs, col_info = {}, {}, {}, {}, {}
     for q, ents in found.items():
-        arrays = []
-        for ent in ents:
-            j, unit, h, unit_from, ref = ent
-            vals = grid.cols[j]
-            stated = units.get(q)
-            stated_u, stated_ref = (split_unit(q, stated) if stated is not None else (None, None))
-            src = unit_sources.get(q, f"io.units.{q}")
-            if stated is not None and stated_u is None:
-                raise InputError(f"unknown unit {stated!r} for {q} (known: {', '.join(_known(q))})", key=src)
-            meta_unit = meta.get(f"{q}_unit")
-            if unit is not None and unit.startswith("conflict:"):
-                u1, u2, said = unit[len("conflict:"):].split("|", 2)
-                if said == "units row":
-                    row = grid.unit_row_line
-                    raise InputError(f"the name of column {h!r} says {u1} and the units row under the header "
-                                     f"says {u2}; make them agree: correct the "
-                                     f"units row, or if the values are in {u2}, rename the column "
-                                     f"{_column_name(q, split_unit(q, u2)[0] or u2.lower())}", path=where,
-                                     line=row or hline, key=h)
-                _raw, written = _unit_part(h)
-                part = f"its brackets say {u2}" if _PAREN.match(str(h).strip().strip('"').strip()) else \
-                    f"the unit written after the name says {written}"
-                raise InputError(f"the name of column {h!r} says {u1} and {part}; make them agree", path=where,
-                                 line=hline, key=h)
-            if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None:
-                in_row = unit_from == "units row"
-                raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})"
-                                 f"{_unknown_unit_hint(q, h, unit, unit_from)}{grid.info.get('map_note', '')}",
-                                 path=where,
-                                 line=(grid.unit_row_line or hline) if in_row else hline, key=h)
-            if unit is not None and stated_u is not None and stated_u != unit:
-                raise InputError(f"the file says the unit of {h!r} is {unit}, {src} says {stated}; drop one or make "
-                                 f"them agree", path=where, line=hline, key=h)
-            if meta_unit is not None and unit is not None and unit_from in ("header", "units row"):
-                ref = _check_meta_unit(grid, q, h, unit, ref, unit_from, meta_unit)
-            if unit is None and stated_u is not None and meta_unit is not None:
-                # the file's '# <q>_unit:' line and a flag (or io.units) both state the unit: they must agree too
-                mu, mref = split_unit(q, meta_unit)
-                if mu is not None and (mu != stated_u or (mref is not None and stated_ref is not None
-                                                          and mref != stated_ref)):
-                    raise InputError(f"the line '# {q}_unit: {meta_unit}' says {q} is in {meta_unit}, {src} says "
-                                     f"{stated}; a unit stated twice must agree: drop {src} (the file states it) "
-                                     f"or correct the line", path=where, line=grid.meta_lines.get(f"{q}_unit"),
-                                     key=h)
-            if unit is None and stated_u is not None:
-                unit, ref, unit_from = stated_u, stated_ref, src
-            if unit is None and meta_unit is not None:
-                mu, mref = split_unit(q, meta_unit)
-                if mu is None:
-                    raise InputError(f"unknown unit {meta_unit!r} for {q} (known: {', '.join(_known(q))})",
-                                     path=where, key=f"{q}_unit")
-                unit, ref, unit_from = mu, mref, f"'# {q}_unit:' line"
-            is_time_text = q == "time" and _time_is_text(vals)
-            if unit is None and q == "strain":
-                unit, unit_from = "1", "dimensionless by its name"
-            if unit is None and is_time_text:
-                unit, unit_from = "iso8601", "timestamps"
-            if unit is None:
-                what = "" if _norm(h) == q else f" ({q})"
-                raise InputError(f"the unit of column {h!r}{what} is stated nowhere and bpmid never guesses one; "
-                                 f"state it: {unit_hint(q, h)}{grid.info.get('map_note', '')}", path=where,
-                                 line=hline, key=h)
-            if is_time_text:
-                arr, origin = _parse_times(vals, where, h, lines)
-                col_info_extra = {"time_origin": origin, "timestamps": "ISO-8601 or clock times, seconds since the "
-                                                                       "first"}
-                unit = "iso8601"
-            else:
-                arr = _numbers(vals, where, h, lines) * UNITS[q][unit]
-                col_info_extra = {}
-                if unit in EPOCH_UNITS:
-                    import datetime as _dt
-                    origin = _dt.datetime.fromtimestamp(float(arr[0]), _dt.timezone.utc).isoformat() \
-                        if abs(arr[0]) < 1e11 else f"{arr[0]:.6f} s"
-                    arr = arr - arr[0]
-                    col_info_extra = {"time_origin": origin, "timestamps": f"epoch ({unit}), seconds since the first"}
-            arrays.append((arr, unit, h, unit_from, ref, col_info_extra))
-        arr, unit, h, unit_from, ref, extra = arrays[0]
-        for arr2, _u2, h2, *_rest in arrays[1:]:
-            if arr2.shape != arr.shape or not np.allclose(arr2, arr, rtol=1e-5, atol=1e-9 * max(1.0, float(np.max(
-                    np.abs(arr))) if arr.size else 1.0)):
-                raise InputError(f"two columns give {q}: {h!r} and {h2!r}, and they disagree; map the one to use with "
-                                 f"--columns {q}=<column>", path=where, line=hline, key=h2)
-            ignored.append(h2)
-        columns[q] = arr
-        units_in_file[q] = unit
-        headers[q] = h
-        if ref is not None:
-            refs[q] = ref
-        col_info[q] = {"column": h, "unit": unit, "unit_from": unit_from, **({"reference": ref} if ref else {}),
-                       **extra}
+        if q == "ambient":
+            try:
+                _one_quantity(grid, q, ents, units, unit_sources, meta, lines, ignored, columns, units_in_file,
+                              headers, refs, col_info)
+            except InputError as err:
+                deferred[q] = err
+                ignored.extend(e[2] for e in ents)
+            continue
+        _one_quantity(grid, q, ents, units, unit_sources, meta, lines, ignored, columns, units_in_file, headers,
+                      refs, col_info)
     _check_rivals(grid, columns, headers, units_in_file, unknown, ignored, lines)
     first = lines[0] if lines else (grid.header_line + 1)
     reading = {k: v for k, v in grid.info.items() if k not in ("map_note", "mapped_quantities")
@@ -1291,13 +1241,113 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
              f"before them; check that its last row (line {lines[n_rows - 1]}) is complete"] \
         if grid.info.get("nul_bytes_at_end") and n_rows else []
     table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
-                  reading, warns, where, grid.info.get("map_note", ""), dict(grid.meta_lines or {}))
+                  reading, warns, where, grid.info.get("map_note", ""), dict(grid.meta_lines or {}), deferred)
     return table
 
 
 #: the quantities a log may hold a second column of under another name ('Chamber pressure' beside 'Supply pressure')
 _RIVAL_QUANTITIES = ("pressure", "angle")
+#: the German word a compound name of the quantity ends with (Kammerdruck, Biegewinkel)
+_GERMAN_WORD = {"pressure": "druck", "angle": "winkel"}
 
+
+def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lines, ignored, columns,
+                  units_in_file, headers, refs, col_info) -> None:
+    """Read the column(s) of one quantity into ``columns`` (canonical unit) with its unit, header, reference and
+    how it was read (several columns of it must agree)."""
+    where = grid.where
+    hline = grid.header_line or None
+    arrays = []
+    for ent in ents:
+        j, unit, h, unit_from, ref = ent
+        vals = grid.cols[j]
+        stated = units.get(q)
+        stated_u, stated_ref = (split_unit(q, stated) if stated is not None else (None, None))
+        src = unit_sources.get(q, f"io.units.{q}")
+        if stated is not None and stated_u is None:
+            raise InputError(f"unknown unit {stated!r} for {q} (known: {', '.join(_known(q))})", key=src)
+        meta_unit = meta.get(f"{q}_unit")
+        if unit is not None and unit.startswith("conflict:"):
+            u1, u2, said = unit[len("conflict:"):].split("|", 2)
+            if said == "units row":
+                row = grid.unit_row_line
+                raise InputError(f"the name of column {h!r} says {u1} and the units row under the header "
+                                 f"says {u2}; make them agree: correct the "
+                                 f"units row, or if the values are in {u2}, rename the column "
+                                 f"{_column_name(q, split_unit(q, u2)[0] or u2.lower())}", path=where,
+                                 line=row or hline, key=h)
+            _raw, written = _unit_part(h)
+            part = f"its brackets say {u2}" if _PAREN.match(str(h).strip().strip('"').strip()) else \
+                f"the unit written after the name says {written}"
+            raise InputError(f"the name of column {h!r} says {u1} and {part}; make them agree", path=where,
+                             line=hline, key=h)
+        if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None:
+            in_row = unit_from == "units row"
+            raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})"
+                             f"{_unknown_unit_hint(q, h, unit, unit_from)}{grid.info.get('map_note', '')}",
+                             path=where,
+                             line=(grid.unit_row_line or hline) if in_row else hline, key=h)
+        if unit is not None and stated_u is not None and stated_u != unit:
+            raise InputError(f"the file says the unit of {h!r} is {unit}, {src} says {stated}; drop one or make "
+                             f"them agree", path=where, line=hline, key=h)
+        if meta_unit is not None and unit is not None and unit_from in ("header", "units row"):
+            ref = _check_meta_unit(grid, q, h, unit, ref, unit_from, meta_unit)
+        if unit is None and stated_u is not None and meta_unit is not None:
+            # the file's '# <q>_unit:' line and a flag (or io.units) both state the unit: they must agree too
+            mu, mref = split_unit(q, meta_unit)
+            if mu is not None and (mu != stated_u or (mref is not None and stated_ref is not None
+                                                      and mref != stated_ref)):
+                raise InputError(f"the line '# {q}_unit: {meta_unit}' says {q} is in {meta_unit}, {src} says "
+                                 f"{stated}; a unit stated twice must agree: drop {src} (the file states it) "
+                                 f"or correct the line", path=where, line=grid.meta_lines.get(f"{q}_unit"),
+                                 key=h)
+        if unit is None and stated_u is not None:
+            unit, ref, unit_from = stated_u, stated_ref, src
+        if unit is None and meta_unit is not None:
+            mu, mref = split_unit(q, meta_unit)
+            if mu is None:
+                raise InputError(f"unknown unit {meta_unit!r} for {q} (known: {', '.join(_known(q))})",
+                                 path=where, key=f"{q}_unit")
+            unit, ref, unit_from = mu, mref, f"'# {q}_unit:' line"
+        is_time_text = q == "time" and _time_is_text(vals)
+        if unit is None and q == "strain":
+            unit, unit_from = "1", "dimensionless by its name"
+        if unit is None and is_time_text:
+            unit, unit_from = "iso8601", "timestamps"
+        if unit is None:
+            what = "" if _norm(h) == q else f" ({q})"
+            raise InputError(f"the unit of column {h!r}{what} is stated nowhere and bpmid never guesses one; "
+                             f"state it: {unit_hint(q, h)}{grid.info.get('map_note', '')}", path=where,
+                             line=hline, key=h)
+        if is_time_text:
+            arr, origin = _parse_times(vals, where, h, lines)
+            col_info_extra = {"time_origin": origin, "timestamps": "ISO-8601 or clock times, seconds since the "
+                                                                   "first"}
+            unit = "iso8601"
+        else:
+            arr = _numbers(vals, where, h, lines) * UNITS[q][unit]
+            col_info_extra = {}
+            if unit in EPOCH_UNITS:
+                import datetime as _dt
+                origin = _dt.datetime.fromtimestamp(float(arr[0]), _dt.timezone.utc).isoformat() \
+                    if abs(arr[0]) < 1e11 else f"{arr[0]:.6f} s"
+                arr = arr - arr[0]
+                col_info_extra = {"time_origin": origin, "timestamps": f"epoch ({unit}), seconds since the first"}
+        arrays.append((arr, unit, h, unit_from, ref, col_info_extra))
+    arr, unit, h, unit_from, ref, extra = arrays[0]
+    for arr2, _u2, h2, *_rest in arrays[1:]:
+        if arr2.shape != arr.shape or not np.allclose(arr2, arr, rtol=1e-5, atol=1e-9 * max(1.0, float(np.max(
+                np.abs(arr))) if arr.size else 1.0)):
+            raise InputError(f"two columns give {q}: {h!r} and {h2!r}, and they disagree; map the one to use with "
+                             f"--columns {q}=<column>", path=where, line=hline, key=h2)
+        ignored.append(h2)
+    columns[q] = arr
+    units_in_file[q] = unit
+    headers[q] = h
+    if ref is not None:
+        refs[q] = ref
+    col_info[q] = {"column": h, "unit": unit, "unit_from": unit_from, **({"reference": ref} if ref else {}),
+                   **extra}
 
 def _check_rivals(grid: Grid, columns: dict, headers: dict, units_in_file: dict, unknown: list, ignored: list,
                   lines: list) -> None:
@@ -1312,19 +1362,23 @@ def _check_rivals(grid: Grid, columns: dict, headers: dict, units_in_file: dict,
             continue
         words_q = {w for w, qq in ALIASES.items() if qq == q and " " not in w}
         for h2 in list(unknown):
+            if h2 not in grid.header:
+                continue
+            j = grid.header.index(h2)
             raw, unit = _unit_part(h2)
             words = _norm(raw).split(" ")
-            if unit is None:
-                if len(words) < 2:
-                    continue
-                unit, words = words[-1], words[:-1]
-            if not (set(words) & words_q) or set(words) & DERIVED_WORDS:
-                continue
-            u, _ref = split_unit(q, unit)
-            if u is None or h2 not in grid.header:
+            row = grid.unit_row[j] if grid.unit_row is not None and j < len(grid.unit_row) else None
+            u = split_unit(q, unit)[0] if unit is not None else None
+            if unit is None and row is not None and str(row).strip():
+                u = split_unit(q, str(row))[0]   # the unit in the units row under the header
+            for cut in (2, 1):   # a unit in the name's last words: chamber_pressure_bar_g, p_supply_kpa
+                if u is None and unit is None and len(words) > cut and split_unit(q, " ".join(words[-cut:]))[0]:
+                    u, words = split_unit(q, " ".join(words[-cut:]))[0], words[:-cut]
+            named = bool(set(words) & words_q) or any(w.endswith(_GERMAN_WORD[q]) for w in words)
+            if u is None or not named or set(words) & DERIVED_WORDS:
                 continue
             try:
-                vals = _numbers(grid.cols[grid.header.index(h2)], grid.where, h2, lines) * UNITS[q][u]
+                vals = _numbers(grid.cols[j], grid.where, h2, lines) * UNITS[q][u]
             except InputError:
                 continue
             a = columns[q]
@@ -1393,6 +1447,9 @@ def _unknown_unit_hint(q: str, h: str, unit: str, unit_from: str | None) -> str:
     if ref is not None:
         out += (f"; {unit!r} reads as the pressure reference ({ref}), which a name carries only after a unit "
                 f"(pressure_{ex.lower()}_{unit})")
+    if unit in _SIGNAL_UNITS:
+        return (f"; {unit!r} is a raw signal, not {'an' if q[0] in 'aeiou' else 'a'} {q}: log the calibrated {q} "
+                f"(in {EXAMPLE_UNIT[q]}, say), or convert the signal with its sensor's calibration first")
     if q == "angle" and unit == "grad":
         out += ("; 'grad' is the degree in German but the gradian (400 to a turn) in English, so bpmid does not "
                 "read it either way: write deg or gon")
