@@ -310,8 +310,8 @@ def _read_motion_log(path: Path, io_cfg: IOConfig, require_angle: bool) -> Motio
     reading["pressure_reference"] = {"reference": ref, "from": ref_from}
     atm_mean = float(np.mean(atm))
     if ref == "absolute":
-        reading["pressure_reference"]["atmosphere_pa"] = round(atm_mean, 3)
-        if atm_from != "io.atmosphere_pa (config)" and not atm_from.startswith("io.atmosphere_pa (the"):
+        reading["pressure_reference"]["atmosphere_pa"] = atm_mean
+        if not atm_from.startswith("io.atmosphere_pa"):   # the log stated it (a column or a line)
             reading["pressure_reference"]["atmosphere_from"] = atm_from
     warnings = list(table.warnings)
     return MotionLog(name=path.stem, time_s=t, pressure_pa=gauge, angle_deg=angle, pressure_reference=ref,
