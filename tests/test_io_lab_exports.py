@@ -222,3 +222,21 @@ def test_second_round_what_the_new_rules_must_not_refuse_or_misread(tmp_path):
     strain = np.full(T.size, 20.0)
     rl.write_text("Strain,Stress [MPa],Time [s]\n%,MPa,s\n" + _rows(strain, np.linspace(1.0, 0.8, T.size), T))
     np.testing.assert_allclose(read_relax_log(rl).strain, 0.2)
+
+
+@pytest.mark.parametrize("text", [
+    # an instrument's text export: columns apart by runs of spaces, names with single spaces inside
+    "# pressure_reference: gauge\nElapsed Time (s)   Pressure (kPa)   Bending angle (deg)\n{ws}",
+    "Time (s)    Pressure (kPa g)    Angle (deg)\n{ws}",
+    # the unit after a comma in the name, in a ';' file with decimal commas
+    "# pressure_reference: gauge\nTime, s;Pressure, kPa;Angle, deg\n{semi}",
+])
+def test_names_with_spaces_or_a_comma_before_the_unit(tmp_path, text):
+    ws = "".join(f"{t:<12.12g}{p:<20.12g}{a:.12g}\n" for t, p, a in zip(T, P_KPA, A))
+    semi = _rows(T, P_KPA, A, sep=";").replace(".", ",")
+    f = tmp_path / "x.txt"
+    f.write_text(text.format(ws=ws, semi=semi))
+    lg = read_motion_log(f)
+    np.testing.assert_allclose(lg.time_s, T, atol=1e-12)
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    np.testing.assert_allclose(lg.angle_deg, A)

@@ -119,6 +119,7 @@ DERIVED_WORDS = {"pred", "predicted", "model", "sim", "simulated", "ref", "refer
 
 _PAREN = re.compile(r"^(.*?)\s*[\(\[\{]\s*([^\)\]\}]*)\s*[\)\]\}]\s*$")
 _SLASH = re.compile(r"^(.*?\S)\s+(?:/|in)\s+(\S+)$")
+_COMMA_UNIT = re.compile(r"^(.*?\S),\s+(\S+)$")
 _PRESSURE_REF = re.compile(r"^(pa|hpa|kpa|mpa|mbar|bar|psi)(a|abs|absolute|g|gauge|gage|rel|relative)?$")
 _REF_WORDS = {"a": "absolute", "abs": "absolute", "absolute": "absolute", "g": "gauge", "gauge": "gauge",
               "gage": "gauge", "rel": "gauge", "relative": "gauge"}
@@ -257,6 +258,9 @@ def _unit_part(name: str) -> tuple[str, str | None]:
         return m.group(1), m.group(2).strip()
     m = _SLASH.match(raw)
     if m:
+        return m.group(1), m.group(2).strip()
+    m = _COMMA_UNIT.match(raw)   # 'Time, s' in a ';' or tab file: only a unit bpmid knows after the comma
+    if m and any(split_unit(q, m.group(2))[0] is not None for q in UNITS):
         return m.group(1), m.group(2).strip()
     return raw, None
 
@@ -415,6 +419,17 @@ def _decode(data: bytes, where: str) -> tuple[str, str]:
         return data.decode("latin-1"), "latin-1"
 
 
+def _split_ws_header(line: str, width: int) -> list[str]:
+    """A whitespace table's header: split on its spaces (``_split_ws``), or, when that does not give the rows'
+    ``width`` fields and runs of two or more spaces do, on those ('Elapsed Time (s)   Pressure (bar a)')."""
+    fields = _split_ws(line)
+    if len(fields) != width:
+        wide = [c for c in re.split(r"\s{2,}|\t", line.strip()) if c]
+        if len(wide) == width:
+            return wide
+    return fields
+
+
 def _split_ws(line: str) -> list[str]:
     toks = line.split()
     out: list[str] = []
@@ -432,6 +447,11 @@ def _choose_delimiter(header: str, sample: Sequence[str]) -> str | None:
     best = max(counts, key=lambda d: counts[d])
     if counts[best] == 0:
         return None
+    if sample and best in (",", "|") and not all(r.count(best) == counts[best] for r in sample):
+        # 'Time, s;Pressure, kPa': commas inside the names; the separator the rows repeat as often is the one
+        other = [d for d in ("\t", ";") if counts[d] and all(r.count(d) == counts[d] for r in sample)]
+        if other:
+            return other[0]
     if best == "," and counts[";"] == 0 and counts["\t"] == 0:
         return ","
     # a tie ("a;b,c"): prefer the one the data rows repeat as often as the header
@@ -551,7 +571,8 @@ def _text_grid(data: bytes, where: str) -> Grid:
             except (csv.Error, StopIteration):
                 return line.split(_d)
         info_delim = {"\t": "tab", ",": "comma", ";": "semicolon", "|": "pipe"}.get(delim, repr(delim))
-    header = [h.strip().strip('"').strip() for h in split(header_text)]
+    header = [h.strip().strip('"').strip() for h in (split(header_text) if delim is not None or not body else
+                                                     _split_ws_header(header_text, len(split(body[0][1]))))]
     while len(header) > 1 and not header[-1]:
         header.pop()   # 'time_s,pressure_kpa,angle_deg,': a separator at the end of the header
     if labview:
@@ -639,6 +660,8 @@ def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int
             # share a tab, ';' or '|': a 'key: value' line, never the header of a table split otherwise
             continue
         head = _fields(lines[k], delim)
+        if delim is None and nxt:
+            head = _split_ws_header(lines[k], len(_split_ws(nxt[0])))
         width = len(head)
         if width < 2 or any(_is_number(c) for c in head if c.strip()) or _looks_like_time(head):
             continue  # a header names its columns: no numbers, no timestamps
