@@ -240,3 +240,19 @@ def test_names_with_spaces_or_a_comma_before_the_unit(tmp_path, text):
     np.testing.assert_allclose(lg.time_s, T, atol=1e-12)
     np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
     np.testing.assert_allclose(lg.angle_deg, A)
+
+
+def test_a_sheets_title_row_of_several_cells_above_its_header_is_metadata(tmp_path):
+    import openpyxl
+
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    for row in (["Test", "Run 3", "2024-05-01"], ["Pressure Reference", "Gauge"],
+                ["Time (s)", "Pressure (kPa)", "Angle (deg)", "Note"]):
+        ws.append(row)
+    for t, p, a in zip(T, P_KPA, A):
+        ws.append([float(t), float(p), float(a)])
+    wb.save(tmp_path / "t.xlsx")
+    lg = read_motion_log(tmp_path / "t.xlsx")
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    assert lg.meta["test"] == "Run 3 2024-05-01" and lg.pressure_reference == "gauge"

@@ -744,6 +744,17 @@ def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
                 _meta_from_line(f"{vals[0].strip()}: {str(vals[1]).strip()}", meta, meta_lines, k + 1)
                 k += 1
                 continue
+        if _known_names([str(v) for v in vals]) == 0:
+            # a row of several cells that names no quantity, a few rows above one that names two or more
+            # ('Test' | 'Run 3' | '2024-05-01' over 'Time (s)' | 'Pressure (kPa)' | ...): metadata, not the header
+            if any(_known_names([str(v) for v in r if v is not None]) >= 2 for r in rows[k + 1:k + 4]):
+                if isinstance(vals[0], str) and _META_KEY.match(vals[0].strip()):
+                    rest = " ".join(str(v).strip() for v in vals[1:])
+                    _meta_from_line(f"{vals[0].strip()}: {rest}", meta, meta_lines, k + 1)
+                else:
+                    meta.setdefault("title", " ".join(str(v).strip() for v in vals))
+                k += 1
+                continue
         break
     if k >= len(rows):
         raise InputError("empty sheet: no header row", path=where)
