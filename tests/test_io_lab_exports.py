@@ -256,3 +256,59 @@ def test_a_sheets_title_row_of_several_cells_above_its_header_is_metadata(tmp_pa
     lg = read_motion_log(tmp_path / "t.xlsx")
     np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
     assert lg.meta["test"] == "Run 3 2024-05-01" and lg.pressure_reference == "gauge"
+
+
+def test_third_round_names_rows_setpoints_ambient_spellings_pandas_and_sheets(tmp_path):
+    """From a third adversarial look: a row that repeats the names under a header with units, German setpoint
+    compounds and statistics columns, a header's trailing separator over a column of data, the ambient pressure in
+    the spellings labs write, pandas' to_string with its index, 'Time, s' with decimal commas, a sheet's header
+    below a title, a date, an operator and blank rows."""
+    import openpyxl
+
+    def read(name, text, **kw):
+        f = tmp_path / name
+        f.write_text(text)
+        return read_motion_log(f, IOConfig(**kw))
+
+    rows = _rows(T, P_KPA, A)
+    for second in ("time,pressure,angle", "Zeit,Druck,Winkel", "elapsed time,chamber pressure,bending angle"):
+        lg = read("names.csv", f"Time (s),Pressure (kPa g),Angle (deg)\n{second}\n" + rows)
+        np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+        assert lg.reading["name_rows_skipped"] == [2]
+    lg = read("soll.csv", "Zeit [s];Solldruck [kPa];Druck [kPa];Pressure max [kPa];Winkel [deg]\n"
+              + _rows(T, np.full(T.size, 30.0), P_KPA, np.full(T.size, 40.0), A, sep=";"), pressure_reference="gauge")
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    lg = read("trail.csv", "time_s,pressure_kpa,angle_deg,\n" + _rows(T, P_KPA, A, np.ones(T.size)),
+              pressure_reference="gauge")
+    np.testing.assert_allclose(lg.angle_deg, A)
+    p_abs = P_KPA + 98.2
+    for line in ("# Ambient pressure [kPa]: 98.2", "# Umgebungsdruck [hPa]: 982", "# Barometer reading: 982 hPa",
+                 "# p_amb: 98.2 kPa", "Ambient pressure,98.2,kPa", "Barometer,982 hPa,"):
+        lg = read("amb.csv", f"{line}\ntime_s,pressure_kpa_abs,angle_deg\n" + _rows(T, p_abs, A))
+        np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6, err_msg=line)
+    lg = read("ambient_temp.csv", "# Ambient: 21 C\n# Atmosphere: air, 45 %RH\ntime_s,pressure_kpa_abs,angle_deg\n"
+              + _rows(T, P_KPA + 101.325, A))
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    lg = read("luft.csv", "Zeit (s);Druck (kPa a);Luftdruck (hPa);Winkel (deg)\n"
+              + _rows(T, p_abs, np.full(T.size, 982.0), A, sep=";"))
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    pandas_txt = "   Time (s)  Chamber pressure (kPa)  Angle (deg)\n" + "".join(
+        f"{k:<3d} {t:>8.3f} {p:>22.4f} {a:>12.4f}\n" for k, (t, p, a) in enumerate(zip(T, P_KPA, A)))
+    lg = read("pandas.txt", pandas_txt, columns={"Chamber pressure (kPa)": "pressure"}, pressure_reference="gauge")
+    np.testing.assert_allclose(lg.time_s, T, atol=1e-9)
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=0.1)
+    assert "index" in lg.reading["index_column"]
+    semi = _rows(T, P_KPA, A, sep=";").replace(".", ",")
+    lg = read("dc.csv", "# pressure_reference: gauge\nTime, s;Pressure, kPa;Angle, deg\n" + semi)
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    for row in (["Cycle test", "Muscle A", None], ["Date", "2026-03-01", "10:00"], ["Operator", "J. Doe", "lab 2"],
+                [], [], ["Pressure Reference", "Gauge"], [], [], []):
+        ws.append(row)
+    ws.append(["Time (s)", "Pressure (kPa)", "Angle (deg)"])
+    for t, p, a in zip(T, P_KPA, A):
+        ws.append([float(t), float(p), float(a)])
+    wb.save(tmp_path / "row10.xlsx")
+    lg = read_motion_log(tmp_path / "row10.xlsx")
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)

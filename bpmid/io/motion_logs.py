@@ -207,8 +207,14 @@ def _reference(table, io_cfg: IOConfig, path: Path) -> tuple[str, str]:
 #: comment keys (spaces as underscores, lower case) that state the ambient pressure, optionally with a unit suffix
 #: ('atmosphere_pa: 84000', 'Ambient pressure: 840 mbar', 'Barometric pressure (hPa): 1013', 'Luftdruck: 986 hPa');
 #: not 'air pressure', which on a pneumatic rig is as often the supply
-_AMBIENT_KEY = re.compile(r"^(atmosphere|atmospheric_pressure|ambient_pressure|barometric_pressure|"
-                          r"umgebungsdruck|luftdruck)(?:_?\(?([a-z]+)\)?)?$")
+_AMBIENT_KEYS = ("atmosphere", "atmospheric_pressure", "ambient_pressure", "barometric_pressure", "umgebungsdruck",
+                 "luftdruck", "ambient", "barometer", "barometer_reading", "room_pressure", "lab_pressure", "p_amb",
+                 "p_atm", "p_ambient", "p_baro", "atm")
+_AMBIENT_KEY = re.compile(r"^(" + "|".join(sorted(_AMBIENT_KEYS, key=len, reverse=True))   # the longest first
+                          + r")(?:_?[\(\[]?([a-z]+)[\)\]]?)?$")
+#: keys that may state something else ('Ambient: 21 C', 'Atmosphere: air, 45 %RH'): read as a number with a pressure
+#: unit (in the value or the key); text, another unit, or a bare 'Ambient: 23' is left alone
+_SOFT_AMBIENT = {"atmosphere", "ambient", "barometer", "barometer_reading", "room_pressure", "lab_pressure", "atm"}
 _VALUE_UNIT = re.compile(r"^\s*([+-]?(?:\d+[.,]?\d*|[.,]\d+)(?:[eE][+-]?\d+)?)\s*\(?([A-Za-z]*)\)?\s*$")
 
 
@@ -235,8 +241,9 @@ def _atmosphere(table, io_cfg: IOConfig) -> tuple[float | np.ndarray, str]:
         vm = _VALUE_UNIT.match(str(v))
         unit = (vm.group(2) if vm and vm.group(2) else None) or m.group(2)
         u = split_unit("pressure", unit)[0] if unit else None
-        if vm is None and m.group(1) == "atmosphere" and not m.group(2):
-            continue   # 'Atmosphere: air, 45 %RH': a bare 'atmosphere' is read only when it is a number
+        if m.group(1) in _SOFT_AMBIENT and (vm is None or (vm.group(2) and u is None)
+                                            or (m.group(1) == "ambient" and u is None)):
+            continue   # 'Atmosphere: air, 45 %RH', 'Ambient: 21 C': not a pressure (a bare number is asked its unit)
         if vm is None or u is None:
             raise InputError(f"the line '{k}: {v}' states the ambient pressure, but bpmid cannot read it as a number "
                              f"with a pressure unit ({', '.join(sorted(x for x in UNITS['pressure']))}); write it so, "

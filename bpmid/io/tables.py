@@ -94,6 +94,7 @@ ALIASES = {
     # not 'air pressure': on a pneumatic rig that is as often the supply
     "ambient pressure": "ambient", "atmospheric pressure": "ambient", "barometric pressure": "ambient",
     "p amb": "ambient", "p atm": "ambient", "p ambient": "ambient", "p baro": "ambient", "umgebungsdruck": "ambient",
+    "luftdruck": "ambient", "ambient": "ambient", "barometer": "ambient",
 }
 
 #: header base names whose unit 'grad' is the German for degree (elsewhere 'grad' may be the gradian: refused)
@@ -115,7 +116,10 @@ BPMID_NAME = {"time": "time_s", "pressure": "pressure_kpa", "angle": "angle_deg"
 #: (bpmid's own outputs: ``angle_pred_deg``, ``angle_ref_deg``; rigs: ``pressure_setpoint_bar``)
 DERIVED_WORDS = {"pred", "predicted", "model", "sim", "simulated", "ref", "reference", "cmd", "command",
                  "setpoint", "set", "target", "residual", "error", "err", "fit", "filtered", "std", "sd",
-                 "commanded", "demand", "desired", "requested", "request", "sp", "soll", "sollwert"}
+                 "commanded", "demand", "desired", "requested", "request", "sp", "soll", "sollwert",
+                 "max", "min", "mean", "avg", "average", "peak", "drop", "delta", "rate", "rms"}
+#: the start of a German compound that names a setpoint (Solldruck, Sollwinkel): derived, like DERIVED_WORDS
+_DERIVED_PREFIXES = ("soll",)
 
 _PAREN = re.compile(r"^(.*?)\s*[\(\[\{]\s*([^\)\]\}]*)\s*[\)\]\}]\s*$")
 _SLASH = re.compile(r"^(.*?\S)\s+(?:/|in)\s+(\S+)$")
@@ -129,9 +133,9 @@ _CLOCK = re.compile(r"^\s*\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?\s*$")
 #: an elapsed time as minutes:seconds with a fraction (Excel's 'mm:ss.0': '01:05.3'); a fraction rules out hh:mm
 _MMSS = re.compile(r"^\s*(\d{1,4}):(\d{2}[.,]\d+)\s*$")
 _SEP_LINE = re.compile(r'^\s*"?sep=(.)"?\s*$', re.IGNORECASE)
-_META = re.compile(r"^\s*([A-Za-z][\w \-./()]*?)\s*[:=]\s*(.*)$")
+_META = re.compile(r"^\s*([A-Za-z][\w \-./()\[\]]*?)\s*[:=]\s*(.*)$")
 #: a metadata key standing in a cell of its own ('Pressure Reference' | 'Gauge'): the key of :data:`_META`
-_META_KEY = re.compile(r"^[A-Za-z][\w \-./()]*$")
+_META_KEY = re.compile(r"^[A-Za-z][\w \-./()\[\]]*$")
 _MAGIC_XLSX = b"PK\x03\x04"
 _MAGIC_OLE = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"
 _MAGIC_HDF5 = b"\x89HDF\r\n\x1a\n"
@@ -290,8 +294,11 @@ def _parse(name: str, unit_row: str | None = None):
         unit, said, row = row, "units row", None
     if base in ALIASES:
         q = ALIASES[base]
-        if len(base) == 1 and unit is not None and _norm(unit).replace(" ", "") in TEMPERATURE_UNITS:
-            return None, None, None, False  # 'T (K)', 'T [°C]': a temperature beside the log, not the time
+        if (len(base) == 1 or q == "ambient") and unit is not None \
+                and _norm(unit).replace(" ", "") in TEMPERATURE_UNITS:
+            return None, None, None, False  # 'T (K)', 'Ambient [°C]': a temperature beside the log
+        if base in ("ambient", "barometer") and (unit is None or split_unit(q, unit)[0] is None):
+            return None, None, None, False  # 'Ambient' alone names the pressure only with a pressure unit
         if q == "angle" and base in GERMAN_ANGLE and unit is not None and _clean_unit(unit) == "grad":
             unit = "deg"   # 'Winkel [Grad]': German for degree
         u, ref = _unit_ref(q, unit)
@@ -430,6 +437,23 @@ def _split_ws_header(line: str, width: int) -> list[str]:
     return fields
 
 
+def _pandas_index(header: str, rows: list[list[str]]) -> bool:
+    """Whether a whitespace table's rows start with an unnamed index (pandas' ``to_string``): every row one field
+    more than the header has names (split on spaces, or on runs of two or more), the first field counting 0, 1, 2,
+    ... (or from 1)."""
+    if not rows or len({len(r) for r in rows}) != 1:
+        return False
+    n = len(rows[0])
+    names = {len(_split_ws(header)), len([c for c in re.split(r"\s{2,}|\t", header.strip()) if c])}
+    if n - 1 not in names or n < 3:
+        return False
+    first = [r[0] for r in rows]
+    if not all(re.fullmatch(r"\d+", x) for x in first):
+        return False
+    start = int(first[0])
+    return start in (0, 1) and [int(x) for x in first] == list(range(start, start + len(first)))
+
+
 def _split_ws(line: str) -> list[str]:
     toks = line.split()
     out: list[str] = []
@@ -447,8 +471,9 @@ def _choose_delimiter(header: str, sample: Sequence[str]) -> str | None:
     best = max(counts, key=lambda d: counts[d])
     if counts[best] == 0:
         return None
-    if sample and best in (",", "|") and not all(r.count(best) == counts[best] for r in sample):
-        # 'Time, s;Pressure, kPa': commas inside the names; the separator the rows repeat as often is the one
+    if sample and best in (",", "|"):
+        # 'Time, s;Pressure, kPa': commas inside the names (and decimal commas in the rows): a tab or ';' that
+        # every row repeats as often as the header is the separator
         other = [d for d in ("\t", ";") if counts[d] and all(r.count(d) == counts[d] for r in sample)]
         if other:
             return other[0]
@@ -548,6 +573,10 @@ def _text_grid(data: bytes, where: str) -> Grid:
                 elif len(pair) == 2 and _META_KEY.match(pair[0]):
                     # 'Pressure Reference;Gauge': a key and its value in two cells of the table's separator
                     _meta_from_line(f"{pair[0]}: {pair[1]}", meta, meta_lines, k)
+                elif len(pair) == 3 and _META_KEY.match(pair[0]) and _is_number(pair[1].replace(",", ".")) \
+                        and _is_unit(pair[2]):
+                    # 'Ambient pressure,98.2,kPa': a key, its value and the value's unit
+                    _meta_from_line(f"{pair[0]}: {pair[1]} {pair[2]}", meta, meta_lines, k)
                 else:
                     meta.setdefault("title", t)
             i = h
@@ -571,10 +600,20 @@ def _text_grid(data: bytes, where: str) -> Grid:
             except (csv.Error, StopIteration):
                 return line.split(_d)
         info_delim = {"\t": "tab", ",": "comma", ";": "semicolon", "|": "pipe"}.get(delim, repr(delim))
-    header = [h.strip().strip('"').strip() for h in (split(header_text) if delim is not None or not body else
-                                                     _split_ws_header(header_text, len(split(body[0][1]))))]
-    while len(header) > 1 and not header[-1]:
-        header.pop()   # 'time_s,pressure_kpa,angle_deg,': a separator at the end of the header
+    index_col = delim is None and _pandas_index(header_text, [split(ln) for _, ln in body[:50]])
+    if index_col:   # pandas' to_string: an unnamed index column before the named ones
+        width_ws = len(split(body[0][1])) - 1
+        single = _split_ws(header_text)
+        header_cells = single if len(single) == width_ws else [c for c in re.split(r"\s{2,}|\t", header_text.strip())
+                                                                 if c]
+        split = (lambda line, _s=split: _s(line)[1:])
+    else:
+        header_cells = split(header_text) if delim is not None or not body else \
+            _split_ws_header(header_text, len(split(body[0][1])))
+    header = [h.strip().strip('"').strip() for h in header_cells]
+    width_rows = len(split(body[0][1])) if body else len(header)
+    while len(header) > 1 and not header[-1] and len(header) > width_rows:
+        header.pop()   # 'time_s,pressure_kpa,angle_deg,' over rows of three: a separator at the end of the header
     if labview:
         # LabVIEW's x column is the time when its X_Dimension says so (in s); its 'Comment' column is often left
         # off the rows
@@ -610,6 +649,8 @@ def _text_grid(data: bytes, where: str) -> Grid:
         rows.append(cells)
         row_lines.append(ln_no)
     unit_row = unit_row_line = None
+    info_rows: list = []
+    rows, row_lines = _drop_name_rows(rows, row_lines, info_rows)
     if rows and not any(_is_number(c) for c in rows[0] if c) and any(rows[0]) and not _looks_like_time(rows[0]):
         unit_row, unit_row_line = rows[0], row_lines[0]
         rows, row_lines = rows[1:], row_lines[1:]
@@ -628,6 +669,10 @@ def _text_grid(data: bytes, where: str) -> Grid:
     cols = [list(c) for c in zip(*rows)] if rows else [[] for _ in header]
     info = {"format": "text", "encoding": enc, "delimiter": info_delim, "decimal": "comma" if decimal == "," else
             "point"}
+    if info_rows:
+        info["name_rows_skipped"] = info_rows
+    if index_col:
+        info["index_column"] = "an unnamed first column counting the rows (pandas' index): not read"
     if nul_tail:
         info["nul_bytes_at_end"] = nul_tail
     return Grid(header, unit_row, cols, row_lines, meta, where, header_line, info, meta_lines, unit_row_line)
@@ -668,9 +713,26 @@ def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int
         rows = [_fields(ln, delim) for ln in nxt]
         if all(len(r) == width for r in rows) and any(_is_number(c) for r in rows for c in r if c.strip()) \
                 and (any(_is_number(c) for c in rows[0] if c.strip()) or _units_row(rows[0])
-                     or _known_names(rows[0]) < _known_names(head)):
+                     or _known_names(rows[0]) < _known_names(head) or _units_stated(rows[0]) < _units_stated(head)):
             return k
     return start
+
+
+def _drop_name_rows(rows: list, lines: list, skipped: list) -> tuple[list, list]:
+    """Rows right under the header that name quantities again instead of holding numbers or units (a second
+    language, variable names, a description: 'Zeit;Druck;Winkel', 'elapsed time, chamber pressure, ...'): not a
+    units row, skipped (their lines in ``skipped``). A units row is never skipped."""
+    while rows and not any(_is_number(c) for c in rows[0] if str(c).strip()) \
+            and not _looks_like_time([str(c) for c in rows[0]]) and not _units_row([str(c) for c in rows[0]]) \
+            and _known_names([str(c) for c in rows[0] if c is not None]) >= 1:
+        skipped.append(lines[0])
+        rows, lines = rows[1:], lines[1:]
+    return rows, lines
+
+
+def _units_stated(cells: Sequence[str]) -> int:
+    """How many of ``cells`` state a unit beside a quantity's name (``Time (s)``, ``pressure_kpa``)."""
+    return sum(1 for c in cells if str(c).strip() and _parse(str(c))[0] is not None and _parse(str(c))[1])
 
 
 def _known_names(cells: Sequence[str]) -> int:
@@ -689,17 +751,17 @@ _EMPTY_ROW = re.compile(r"^[\s,;|]*$")
 _OTHER_UNITS = {"v", "mv", "ma", "a", "hz", "%", "-", "1", "n", "w", "rpm", "l/min", "slpm", "sccm"}
 
 
+def _is_unit(c: str) -> bool:
+    """Whether a cell is a unit spelling (of a quantity bpmid reads, a temperature or a common channel)."""
+    u = _clean_unit(c)
+    return (u in _OTHER_UNITS or _norm(u).replace(" ", "") in TEMPERATURE_UNITS
+            or any(split_unit(q, c)[0] is not None for q in UNITS))
+
+
 def _units_row(cells: Sequence[str]) -> bool:
     """Whether a row under a candidate header reads as units: at least half its filled cells a unit spelling."""
     filled = [c for c in cells if str(c).strip()]
-    if not filled:
-        return False
-
-    def is_unit(c: str) -> bool:
-        u = _clean_unit(c)
-        return (u in _OTHER_UNITS or _norm(u).replace(" ", "") in TEMPERATURE_UNITS
-                or any(split_unit(q, c)[0] is not None for q in UNITS))
-    return sum(is_unit(c) for c in filled) * 2 >= len(filled)
+    return bool(filled) and sum(_is_unit(c) for c in filled) * 2 >= len(filled)
 
 
 def _rows_delimited(rows: Sequence[str]) -> bool:
@@ -744,10 +806,16 @@ def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
                 _meta_from_line(f"{vals[0].strip()}: {str(vals[1]).strip()}", meta, meta_lines, k + 1)
                 k += 1
                 continue
+        if len(vals) == 3 and isinstance(vals[0], str) and _META_KEY.match(vals[0].strip()) \
+                and _is_number(vals[1]) and isinstance(vals[2], str) and _is_unit(vals[2]):
+            # 'Ambient pressure' | 98.2 | 'kPa': a key, its value and the value's unit
+            _meta_from_line(f"{vals[0].strip()}: {vals[1]} {vals[2].strip()}", meta, meta_lines, k + 1)
+            k += 1
+            continue
         if _known_names([str(v) for v in vals]) == 0:
-            # a row of several cells that names no quantity, a few rows above one that names two or more
+            # a row of several cells that names no quantity, some rows above one that names two or more
             # ('Test' | 'Run 3' | '2024-05-01' over 'Time (s)' | 'Pressure (kPa)' | ...): metadata, not the header
-            if any(_known_names([str(v) for v in r if v is not None]) >= 2 for r in rows[k + 1:k + 4]):
+            if any(_known_names([str(v) for v in r if v is not None]) >= 2 for r in rows[k + 1:k + 12]):
                 if isinstance(vals[0], str) and _META_KEY.match(vals[0].strip()):
                     rest = " ".join(str(v).strip() for v in vals[1:])
                     _meta_from_line(f"{vals[0].strip()}: {rest}", meta, meta_lines, k + 1)
@@ -782,6 +850,10 @@ def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
         data.append(["" if v is None else (v.strip() if isinstance(v, str) else v) for v in row])
         lines.append(r + 1)
     unit_row = unit_row_line = None
+    info_rows: list = []
+    data, lines = _drop_name_rows(data, lines, info_rows)
+    if info_rows:
+        info["name_rows_skipped"] = info_rows
     if data and all(isinstance(v, str) for v in data[0]) and not any(_is_number(v) for v in data[0] if v) \
             and any(data[0]) and not _looks_like_time(data[0]):
         unit_row, unit_row_line = [str(v) for v in data[0]], lines[0]
@@ -1409,7 +1481,8 @@ def _check_rivals(grid: Grid, columns: dict, headers: dict, units_in_file: dict,
                 if u is None and unit is None and len(words) > cut and split_unit(q, " ".join(words[-cut:]))[0]:
                     u, words = split_unit(q, " ".join(words[-cut:]))[0], words[:-cut]
             named = bool(set(words) & words_q) or any(w.endswith(_GERMAN_WORD[q]) for w in words)
-            if u is None or not named or set(words) & DERIVED_WORDS:
+            if u is None or not named or set(words) & DERIVED_WORDS or any(w.startswith(_DERIVED_PREFIXES)
+                                                                           for w in words):
                 continue
             try:
                 vals = _numbers(grid.cols[j], grid.where, h2, lines) * UNITS[q][u]
