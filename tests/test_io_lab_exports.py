@@ -86,11 +86,14 @@ def test_the_ambient_pressure_a_file_states_turns_absolute_into_gauge(tmp_path):
     np.testing.assert_allclose(read_motion_log(f, IOConfig(atmosphere_pa=84000.0)).pressure_pa, P_KPA * 1e3,
                                atol=1e-6)
     bad = tmp_path / "bad.csv"
-    bad.write_text("# pressure_reference: absolute\n# atmosphere: 84\ntime_s,pressure_bar,angle_deg\n"
+    bad.write_text("# pressure_reference: absolute\n# ambient_pressure: 84\ntime_s,pressure_bar,angle_deg\n"
                    + _rows(T, p_abs_bar, A))
     with pytest.raises(InputError, match="cannot read it as a number with a pressure unit") as e:
         read_motion_log(bad)
     assert e.value.line == 2
+    soft = tmp_path / "soft.csv"   # 'atmosphere' may mean something else: a bare number is not read, but said
+    soft.write_text(bad.read_text().replace("ambient_pressure: 84", "atmosphere: 84"))
+    assert any("may state the ambient pressure" in w and ":2:" in w for w in read_motion_log(soft).warnings)
     gauge = tmp_path / "gauge.csv"   # a gauge log: the ambient pressure is not needed, and not asked
     gauge.write_text("# pressure_reference: gauge\n# atmosphere: 84\ntime_s,pressure_kpa,angle_deg\n"
                      + _rows(T, P_KPA, A))
@@ -207,10 +210,14 @@ def test_second_round_what_the_new_rules_must_not_refuse_or_misread(tmp_path):
     np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
     with pytest.raises(InputError, match="inhg"):
         read("amb_abs.csv", amb_bad.format(ref="a"))
-    lg = read("atm.csv", "# pressure_reference: absolute\nAtmosphere: air, 45 %RH\nAir pressure: 0.8 bar\n"
-              "Luftdruck: 986 hPa\ntime_s,pressure_kpa,angle_deg\n" + _rows(T, P_KPA + 98.6, A))
+    atm = ("# pressure_reference: absolute\nAtmosphere: air, 45 %RH\nAir pressure: 6 bar\n{line}\n"
+           "time_s,pressure_kpa,angle_deg\n" + _rows(T, P_KPA + 98.6, A))
+    lg = read("atm.csv", atm.format(line="Ambient pressure: 986 hPa"))   # 'Air pressure: 6 bar' is the supply
     np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
-    assert lg.reading["pressure_reference"]["atmosphere_from"].endswith("(luftdruck: 986 hPa)")
+    assert lg.reading["pressure_reference"]["atmosphere_from"].endswith("(ambient_pressure: 986 hPa)")
+    with pytest.raises(InputError, match="may be the ambient pressure or the supply") as e:
+        read("atm2.csv", atm.format(line="Luftdruck: 986 hPa"))   # ambient or supply? asked, never guessed
+    assert e.value.line == 4
     for name, header, row in (("de.csv", "Zeit (s);Druck (bar);Kammerdruck (bar);Winkel (deg)", None),
                               ("suffix.csv", "time_s,supply_pressure_bar_g,chamber_pressure_bar_g,angle_deg", None),
                               ("urow.csv", "Time,Supply pressure,Chamber pressure,Angle", "s,bar g,bar g,deg")):
@@ -289,9 +296,11 @@ def test_third_round_names_rows_setpoints_ambient_spellings_pandas_and_sheets(tm
     lg = read("ambient_temp.csv", "# Ambient: 21 C\n# Atmosphere: air, 45 %RH\ntime_s,pressure_kpa_abs,angle_deg\n"
               + _rows(T, P_KPA + 101.325, A))
     np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
-    lg = read("luft.csv", "Zeit (s);Druck (kPa a);Luftdruck (hPa);Winkel (deg)\n"
-              + _rows(T, p_abs, np.full(T.size, 982.0), A, sep=";"))
-    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    with pytest.raises(InputError, match="two columns could be the pressure"):   # Luftdruck: ambient or supply?
+        read("luft.csv", "Zeit (s);Druck (kPa a);Luftdruck (hPa);Winkel (deg)\n"
+             + _rows(T, p_abs, np.full(T.size, 982.0), A, sep=";"))
+    lg = read("unread.csv", "# Atm. pressure: 982 hPa\ntime_s,pressure_kpa_abs,angle_deg\n" + _rows(T, p_abs, A))
+    assert any("may state the ambient pressure" in w for w in lg.warnings)   # a spelling not read: said
     pandas_txt = "   Time (s)  Chamber pressure (kPa)  Angle (deg)\n" + "".join(
         f"{k:<3d} {t:>8.3f} {p:>22.4f} {a:>12.4f}\n" for k, (t, p, a) in enumerate(zip(T, P_KPA, A)))
     lg = read("pandas.txt", pandas_txt, columns={"Chamber pressure (kPa)": "pressure"}, pressure_reference="gauge")
@@ -311,4 +320,38 @@ def test_third_round_names_rows_setpoints_ambient_spellings_pandas_and_sheets(tm
         ws.append([float(t), float(p), float(a)])
     wb.save(tmp_path / "row10.xlsx")
     lg = read_motion_log(tmp_path / "row10.xlsx")
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+
+
+def test_fourth_round_stacked_headers_counters_maps_and_ambient_lookalikes(tmp_path):
+    """From a fourth adversarial look: a second header row whose units differ is refused (the first row was read
+    before, the second after an earlier mend); a whitespace table's named counter is no pandas index; a comma file
+    with a tab at the end of each line stays a comma file; a mapped channel header keeps its map over a
+    description row with other units; an ambient temperature column does not block an absolute log."""
+    def read(name, text, **kw):
+        f = tmp_path / name
+        f.write_text(text)
+        return read_motion_log(f, IOConfig(**kw))
+
+    rows = _rows(T, P_KPA, A)
+    for second in ("Time (ms),Pressure (kPa g),Angle (deg)", "Zeit,Druck (bar),Winkel"):
+        with pytest.raises(InputError, match="units row under the header says") as e:
+            read("stack.csv", f"Time (s),Pressure (kPa g),Angle (deg)\n{second}\n" + rows)
+        assert e.value.line == 2
+    counter = "n time_s pressure_kpa angle_deg\n" + "".join(
+        f"{k + 1} {t:.12g} {p:.12g} {a:.12g}\n" for k, (t, p, a) in enumerate(zip(T, P_KPA, A)))
+    lg = read("counter.txt", counter, pressure_reference="gauge")
+    np.testing.assert_allclose(lg.time_s, T, atol=1e-12)
+    lg = read("tab_end.csv", "# pressure_reference: gauge\ntime_s,pressure_kpa,angle_deg\t\n" + _rows(T, P_KPA, A,
+                                                                                                     end="\t"))
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    lg = read("kanal.csv", "Kanal 1;Kanal 2;Kanal 3\nZeit (ms);Druck (bar);Winkel (rad)\n" + _rows(T, P_KPA, A, sep=";"),
+              columns={"Kanal 1": "time_s", "Kanal 2": "pressure_kpa", "Kanal 3": "angle_deg"},
+              pressure_reference="gauge")
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    lg = read("amb_t.csv", "Time (s),Pressure (kPa a),Ambient temperature (C),Angle (deg)\n"
+              + _rows(T, P_KPA + 101.325, np.full(T.size, 21.0), A))
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    lg = read("padded_3cell.csv", "Operator,J. Doe,\nAmbient pressure,98.2,kPa\ntime_s,pressure_kpa_abs,angle_deg\n"
+              + _rows(T, P_KPA + 98.2, A))
     np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)

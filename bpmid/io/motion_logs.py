@@ -208,13 +208,24 @@ def _reference(table, io_cfg: IOConfig, path: Path) -> tuple[str, str]:
 #: ('atmosphere_pa: 84000', 'Ambient pressure: 840 mbar', 'Barometric pressure (hPa): 1013', 'Luftdruck: 986 hPa');
 #: not 'air pressure', which on a pneumatic rig is as often the supply
 _AMBIENT_KEYS = ("atmosphere", "atmospheric_pressure", "ambient_pressure", "barometric_pressure", "umgebungsdruck",
-                 "luftdruck", "ambient", "barometer", "barometer_reading", "room_pressure", "lab_pressure", "p_amb",
-                 "p_atm", "p_ambient", "p_baro", "atm")
+                 "ambient", "barometer", "barometer_reading", "p_amb", "p_atm", "p_ambient", "p_baro", "atm",
+                 "room_pressure", "lab_pressure")
+#: keys that may be the ambient pressure or the supply ('Luftdruck', 'Air pressure'): in an absolute log whose
+#: ambient pressure nothing else states, a value an ambient pressure could have is refused with the question (never
+#: guessed either way); a value no ambient pressure has (6 bar) is the supply's, and left alone
+_AMBIGUOUS_AMBIENT = re.compile(r"^(?:luftdruck|air_pressure)(?:_?[\(\[]?[a-z]+[\)\]]?)?$")
+#: a key that mentions the ambient pressure in a spelling bpmid does not read: a warning, never silence
+_AMBIENT_WORDS = re.compile(r"atmos|ambient|umgebung|baro|luftdruck|p_?amb|p_?atm|(?:^|_)atm(?:$|_|\.)|"
+                            r"room_pressure|lab_pressure", re.IGNORECASE)
+#: a value that reads as a pressure: a number with a pressure unit (bpmid's or another), or a bare number
+_PRESSURE_VALUE = re.compile(r"^[^A-Za-z]*\d[^A-Za-z]*$|\d\s*(?:pa|hpa|kpa|mpa|mbar|bar|psi|inhg|mmhg|torr|atm)\b",
+                             re.IGNORECASE)
 _AMBIENT_KEY = re.compile(r"^(" + "|".join(sorted(_AMBIENT_KEYS, key=len, reverse=True))   # the longest first
                           + r")(?:_?[\(\[]?([a-z]+)[\)\]]?)?$")
-#: keys that may state something else ('Ambient: 21 C', 'Atmosphere: air, 45 %RH'): read as a number with a pressure
-#: unit (in the value or the key); text, another unit, or a bare 'Ambient: 23' is left alone
-_SOFT_AMBIENT = {"atmosphere", "ambient", "barometer", "barometer_reading", "room_pressure", "lab_pressure", "atm"}
+#: keys that may state something else ('Ambient: 21 C', 'Atmosphere: air, 45 %RH', 'Room pressure: +5 Pa'): read
+#: only as a number with a pressure unit (in the value or the key) that an ambient pressure can have (50-120 kPa);
+#: anything else is left alone, with a warning when it reads like a pressure
+_SOFT_AMBIENT = {"atmosphere", "ambient", "barometer", "barometer_reading", "atm", "room_pressure", "lab_pressure"}
 _VALUE_UNIT = re.compile(r"^\s*([+-]?(?:\d+[.,]?\d*|[.,]\d+)(?:[eE][+-]?\d+)?)\s*\(?([A-Za-z]*)\)?\s*$")
 
 
@@ -241,9 +252,10 @@ def _atmosphere(table, io_cfg: IOConfig) -> tuple[float | np.ndarray, str]:
         vm = _VALUE_UNIT.match(str(v))
         unit = (vm.group(2) if vm and vm.group(2) else None) or m.group(2)
         u = split_unit("pressure", unit)[0] if unit else None
-        if m.group(1) in _SOFT_AMBIENT and (vm is None or (vm.group(2) and u is None)
-                                            or (m.group(1) == "ambient" and u is None)):
-            continue   # 'Atmosphere: air, 45 %RH', 'Ambient: 21 C': not a pressure (a bare number is asked its unit)
+        if m.group(1) in _SOFT_AMBIENT and (vm is None or u is None or not 50e3 <= float(
+                vm.group(1).replace(",", ".")) * UNITS["pressure"][u] <= 120e3):
+            continue   # 'Atmosphere: air, 45 %RH', 'Ambient: 21 C', 'Room pressure: +5 Pa' (an overpressure): not
+            # the ambient pressure as such; the reader warns that the line may state it (_read_motion_log)
         if vm is None or u is None:
             raise InputError(f"the line '{k}: {v}' states the ambient pressure, but bpmid cannot read it as a number "
                              f"with a pressure unit ({', '.join(sorted(x for x in UNITS['pressure']))}); write it so, "
@@ -262,6 +274,16 @@ def _atmosphere(table, io_cfg: IOConfig) -> tuple[float | np.ndarray, str]:
     if cfg_src is not None:
         found.append((io_cfg.atmosphere_pa, cfg_src, None))
     if not found:
+        for k, v in table.meta.items():
+            vm = _VALUE_UNIT.match(str(v)) if _AMBIGUOUS_AMBIENT.match(k) else None
+            u = split_unit("pressure", vm.group(2))[0] if vm and vm.group(2) else None
+            if u is not None and 50e3 <= float(vm.group(1).replace(",", ".")) * UNITS["pressure"][u] <= 120e3:
+                # a value an ambient pressure could have ('Luftdruck: 986 hPa'); '6 bar' is the supply's
+                line = table.meta_lines.get(k)
+                raise InputError(f"the line '{k}: {v}' may be the ambient pressure or the supply, and this absolute "
+                                 f"log needs the ambient pressure: if it is the ambient pressure, write the line "
+                                 f"'ambient_pressure: {v}'; if not, give the ambient pressure with io.atmosphere_pa "
+                                 f"(Pa) in the config", path=table.name, line=line, key=k)
         return io_cfg.atmosphere_pa, "io.atmosphere_pa (the standard atmosphere; set it for your lab)"
     first, first_src, _ = found[0]
     for val, src, _ in found[1:]:
@@ -321,6 +343,15 @@ def _read_motion_log(path: Path, io_cfg: IOConfig, require_angle: bool) -> Motio
         if not atm_from.startswith("io.atmosphere_pa"):   # the log stated it (a column or a line)
             reading["pressure_reference"]["atmosphere_from"] = atm_from
     warnings = list(table.warnings)
+    if ref == "absolute" and atm_from.startswith("io.atmosphere_pa"):
+        unread = [k for k, v in table.meta.items() if _AMBIENT_WORDS.search(k) and _PRESSURE_VALUE.search(str(v))]
+        if unread:
+            k = unread[0]
+            ln = table.meta_lines.get(k)
+            warnings.append(f"{table.name}{f':{ln}' if ln else ''}: the line '{k}: {table.meta[k]}' may state the "
+                            f"ambient pressure, which bpmid does not read in that form: the absolute pressure was "
+                            f"turned into gauge with {io_cfg.atmosphere_pa:g} Pa; if the line is the ambient pressure, "
+                            f"write it 'ambient_pressure: 98.2 kPa' (its value and unit) or set io.atmosphere_pa")
     return MotionLog(name=path.stem, time_s=t, pressure_pa=gauge, angle_deg=angle, pressure_reference=ref,
                      pressure_unit=unit, pressure_as_given=given, atmosphere_pa=atm_mean,
                      path=path, meta=dict(table.meta), reading=reading, warnings=warnings)

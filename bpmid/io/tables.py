@@ -94,7 +94,6 @@ ALIASES = {
     # not 'air pressure': on a pneumatic rig that is as often the supply
     "ambient pressure": "ambient", "atmospheric pressure": "ambient", "barometric pressure": "ambient",
     "p amb": "ambient", "p atm": "ambient", "p ambient": "ambient", "p baro": "ambient", "umgebungsdruck": "ambient",
-    "luftdruck": "ambient", "ambient": "ambient", "barometer": "ambient",
 }
 
 #: header base names whose unit 'grad' is the German for degree (elsewhere 'grad' may be the gradian: refused)
@@ -297,8 +296,6 @@ def _parse(name: str, unit_row: str | None = None):
         if (len(base) == 1 or q == "ambient") and unit is not None \
                 and _norm(unit).replace(" ", "") in TEMPERATURE_UNITS:
             return None, None, None, False  # 'T (K)', 'Ambient [°C]': a temperature beside the log
-        if base in ("ambient", "barometer") and (unit is None or split_unit(q, unit)[0] is None):
-            return None, None, None, False  # 'Ambient' alone names the pressure only with a pressure unit
         if q == "angle" and base in GERMAN_ANGLE and unit is not None and _clean_unit(unit) == "grad":
             unit = "deg"   # 'Winkel [Grad]': German for degree
         u, ref = _unit_ref(q, unit)
@@ -336,6 +333,10 @@ def _against_row(q: str, u: str | None, ref: str | None, written: str | None, ro
     if row is None or u is None or u.startswith("conflict:") or u not in UNITS[q]:
         return q, u, ref
     ru, rref = split_unit(q, row)
+    if ru is None:   # 'Druck (bar)' in the row under 'Pressure (kPa g)': the unit it names
+        rq, rus, rrf, _d = _parse(row)
+        if rq == q and rus in UNITS[q]:
+            ru, rref = rus, rrf
     if ru is None:
         return q, u, ref
     if UNITS[q][ru] != UNITS[q][u] or (rref is not None and ref is not None and rref != ref):
@@ -438,11 +439,11 @@ def _split_ws_header(line: str, width: int) -> list[str]:
 
 
 def _pandas_index(header: str, rows: list[list[str]]) -> bool:
-    """Whether a whitespace table's rows start with an unnamed index (pandas' ``to_string``): every row one field
-    more than the header has names (split on spaces, or on runs of two or more), the first field counting 0, 1, 2,
-    ... (or from 1)."""
-    if not rows or len({len(r) for r in rows}) != 1:
-        return False
+    """Whether a whitespace table's rows start with an unnamed index (pandas' ``to_string``): the header line starts
+    with blanks, every row has one field more than the header has names (split on spaces, or on runs of two or
+    more), and the first field counts 0, 1, 2, ... (or from 1)."""
+    if not rows or len({len(r) for r in rows}) != 1 or not header[:1].isspace():
+        return False   # pandas writes the index's name as blanks: its header line starts with spaces
     n = len(rows[0])
     names = {len(_split_ws(header)), len([c for c in re.split(r"\s{2,}|\t", header.strip()) if c])}
     if n - 1 not in names or n < 3:
@@ -472,11 +473,13 @@ def _choose_delimiter(header: str, sample: Sequence[str]) -> str | None:
     if counts[best] == 0:
         return None
     if sample and best in (",", "|"):
-        # 'Time, s;Pressure, kPa': commas inside the names (and decimal commas in the rows): a tab or ';' that
-        # every row repeats as often as the header is the separator
-        other = [d for d in ("\t", ";") if counts[d] and all(r.count(d) == counts[d] for r in sample)]
-        if other:
-            return other[0]
+        # 'Time, s;Pressure, kPa': a unit after a comma inside the names (and decimal commas in the rows): a tab
+        # or ';' that every row repeats as often as the header, and that splits the header into such names
+        for d in ("\t", ";"):
+            names = [c.strip().strip('"') for c in header.split(d) if c.strip()]
+            if counts[d] and len(names) >= 2 and all(r.count(d) == counts[d] for r in sample) \
+                    and any(_unit_part(c)[1] is not None and _COMMA_UNIT.match(c) for c in names):
+                return d
     if best == "," and counts[";"] == 0 and counts["\t"] == 0:
         return ","
     # a tie ("a;b,c"): prefer the one the data rows repeat as often as the header
@@ -528,7 +531,7 @@ def _labview_header(lines: list[str], where: str, meta: dict, meta_lines: dict) 
     return ends[-1] + 1, sep
 
 
-def _text_grid(data: bytes, where: str) -> Grid:
+def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset()) -> Grid:
     body_bytes = data.rstrip(b"\x00")
     nul_tail = len(data) - len(body_bytes)
     if nul_tail and b"\x00" not in body_bytes:
@@ -555,7 +558,7 @@ def _text_grid(data: bytes, where: str) -> Grid:
             _meta_from_line(s.lstrip("#%/ ").strip(), meta, meta_lines, i + 1)
             i += 1
             continue
-        h = _find_header(lines, i, delim_hint)
+        h = _find_header(lines, i, delim_hint, map_keys=map_keys)
         if h > i:
             # title or 'key: value' lines above the header (instrument exports): metadata
             table_delim = delim_hint if delim_hint is not None else _choose_delimiter(
@@ -687,7 +690,8 @@ def _fields(line: str, delim: str | None) -> list[str]:
         return line.split(delim)
 
 
-def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int = 200) -> int:
+def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int = 200,
+                 map_keys: frozenset | set = frozenset()) -> int:
     """The header's index: the first line (from ``start``, within ``look`` lines) whose next lines have its number
     of fields, at least two, with a number among them, and whose next line holds a number, is a units row, or names
     fewer quantities bpmid knows than it does (a description or channel row under a header; a key and its value
@@ -710,20 +714,34 @@ def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int
         width = len(head)
         if width < 2 or any(_is_number(c) for c in head if c.strip()) or _looks_like_time(head):
             continue  # a header names its columns: no numbers, no timestamps
+        filled = [c for c in head if c.strip()]
+        if len(filled) <= 2 and len(filled) < width and not _known_names(filled) \
+                and not _names_mapped(filled, map_keys):
+            continue  # 'Operator,J. Doe,': a key and its value padded to the table's width
         rows = [_fields(ln, delim) for ln in nxt]
         if all(len(r) == width for r in rows) and any(_is_number(c) for r in rows for c in r if c.strip()) \
                 and (any(_is_number(c) for c in rows[0] if c.strip()) or _units_row(rows[0])
-                     or _known_names(rows[0]) < _known_names(head) or _units_stated(rows[0]) < _units_stated(head)):
+                     or _known_names(rows[0]) < _known_names(head) or _units_stated(head) >= 1
+                     or _names_mapped(head, map_keys)):
             return k
     return start
 
 
+def _names_mapped(cells, map_keys) -> bool:
+    """Whether a row names a column the user's column map names (the map's keys, folded): then it is the header."""
+    return bool(map_keys) and any(c is not None and str(c).strip() and (
+        _norm(str(c)) in map_keys or _norm(_unit_part(str(c))[0]) in map_keys) for c in cells)
+
+
 def _drop_name_rows(rows: list, lines: list, skipped: list) -> tuple[list, list]:
-    """Rows right under the header that name quantities again instead of holding numbers or units (a second
-    language, variable names, a description: 'Zeit;Druck;Winkel', 'elapsed time, chamber pressure, ...'): not a
-    units row, skipped (their lines in ``skipped``). A units row is never skipped."""
+    """Rows right under the header that name quantities again, with no unit anywhere (a second language, variable
+    names, a description: 'Zeit;Druck;Winkel', 'elapsed time, chamber pressure, ...'): not a units row, skipped
+    (their lines in ``skipped``). A row with a unit in it (a units row, or 'Zeit;Druck (bar);Winkel') is never
+    skipped: it is read as the units row and checked against the header."""
     while rows and not any(_is_number(c) for c in rows[0] if str(c).strip()) \
-            and not _looks_like_time([str(c) for c in rows[0]]) and not _units_row([str(c) for c in rows[0]]) \
+            and not _looks_like_time([str(c) for c in rows[0]]) \
+            and not any(_is_unit(str(c)) for c in rows[0] if c is not None and str(c).strip()) \
+            and not _units_stated([str(c) for c in rows[0] if c is not None]) \
             and _known_names([str(c) for c in rows[0] if c is not None]) >= 1:
         skipped.append(lines[0])
         rows, lines = rows[1:], lines[1:]
@@ -774,7 +792,7 @@ def _looks_like_time(row: Sequence[str]) -> bool:
     return any(re.match(r"^\d{4}-\d{2}-\d{2}", str(c)) or _CLOCK.match(str(c)) for c in row)
 
 
-def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
+def _sheet_grid(rows: list[list], where: str, info: dict, map_keys: frozenset | set = frozenset()) -> Grid:
     """A grid from spreadsheet rows (values: str, float, int, datetime, None); row numbers are 1-based."""
     meta: dict[str, str] = {}
     meta_lines: dict[str, int] = {}
@@ -812,8 +830,9 @@ def _sheet_grid(rows: list[list], where: str, info: dict) -> Grid:
             _meta_from_line(f"{vals[0].strip()}: {vals[1]} {vals[2].strip()}", meta, meta_lines, k + 1)
             k += 1
             continue
-        if _known_names([str(v) for v in vals]) == 0:
-            # a row of several cells that names no quantity, some rows above one that names two or more
+        if _known_names([str(v) for v in vals]) == 0 and not _names_mapped(vals, map_keys):
+            # a row of several cells that names no quantity (nor a column the user mapped), some rows above one that
+            # names two or more
             # ('Test' | 'Run 3' | '2024-05-01' over 'Time (s)' | 'Pressure (kPa)' | ...): metadata, not the header
             if any(_known_names([str(v) for v in r if v is not None]) >= 2 for r in rows[k + 1:k + 12]):
                 if isinstance(vals[0], str) and _META_KEY.match(vals[0].strip()):
@@ -1254,7 +1273,7 @@ def read_table(path: str | Path, *, column_map: Mapping[str, str] | None = None,
         for name in names:
             where = f"{path}[{name}]"
             try:
-                grid = _sheet_grid(sheets[name], where, dict(info, sheet=name))
+                grid = _sheet_grid(sheets[name], where, dict(info, sheet=name), set(cmap))
                 table = _build(path, grid, cmap, units, unit_sources, required, optional, kind)
             except InputError as exc:
                 if len(names) == 1:
@@ -1271,7 +1290,7 @@ def read_table(path: str | Path, *, column_map: Mapping[str, str] | None = None,
                              f"choose one with --sheet NAME (config io.sheet)", path=path, key="--sheet")
         return candidates[0]
     # a sheet name means nothing for a text or MATLAB file: not an error (one --sheet serves a batch of files)
-    grid = _mat_grid(path, data, kind) if fkind == "mat" else _text_grid(data, str(path))
+    grid = _mat_grid(path, data, kind) if fkind == "mat" else _text_grid(data, str(path), set(cmap))
     return _build(path, grid, cmap, units, unit_sources, required, optional, kind)
 
 
