@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from bpmid.io.atomic import staged_dir
-from bpmid.io.motion_logs import MotionLog, pressure_column_name
+from bpmid.io.motion_logs import MotionLog, atmosphere_line, pressure_column_name
 from bpmid.io.tables import UNITS
 from bpmid.models.vbmm import VBMM
 from bpmid.models.vbmm.fit import check_pressure_range, log_metrics
@@ -104,7 +104,8 @@ def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov:
         for p in preds:
             name = f"{p.log.name}.csv"
             # the reference line and unit-suffixed columns let bpmid (and anyone) read the file back unambiguously
-            head = f"# pressure_reference: {p.log.pressure_reference}\n# angle_pred_deg: bpmid predict output\n"
+            head = f"# pressure_reference: {p.log.pressure_reference}\n" + atmosphere_line(p.log) \
+                + "# angle_pred_deg: bpmid predict output\n"
             (tmp / name).write_text(head + p.frame().to_csv(index=False, lineterminator="\n"), encoding="utf-8")
             names.append(out_dir / name)
         if prov is not None:

@@ -215,9 +215,11 @@ def test_second_round_what_the_new_rules_must_not_refuse_or_misread(tmp_path):
     lg = read("atm.csv", atm.format(line="Ambient pressure: 986 hPa"))   # 'Air pressure: 6 bar' is the supply
     np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
     assert lg.reading["pressure_reference"]["atmosphere_from"].endswith("(ambient_pressure: 986 hPa)")
+    lg = read("atm2.csv", atm.format(line="Luftdruck: 986 hPa"))   # in German, the weather's (in 50-120 kPa)
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
     with pytest.raises(InputError, match="may be the ambient pressure or the supply") as e:
-        read("atm2.csv", atm.format(line="Luftdruck: 986 hPa"))   # ambient or supply? asked, never guessed
-    assert e.value.line == 4
+        read("atm3.csv", atm.format(line="Air pressure: 98.6 kPa").replace("Air pressure: 6 bar\n", ""))
+    assert e.value.line == 3   # 'Air pressure' in the ambient range: ambient or supply? asked, never guessed
     for name, header, row in (("de.csv", "Zeit (s);Druck (bar);Kammerdruck (bar);Winkel (deg)", None),
                               ("suffix.csv", "time_s,supply_pressure_bar_g,chamber_pressure_bar_g,angle_deg", None),
                               ("urow.csv", "Time,Supply pressure,Chamber pressure,Angle", "s,bar g,bar g,deg")):
@@ -355,3 +357,51 @@ def test_fourth_round_stacked_headers_counters_maps_and_ambient_lookalikes(tmp_p
     lg = read("padded_3cell.csv", "Operator,J. Doe,\nAmbient pressure,98.2,kPa\ntime_s,pressure_kpa_abs,angle_deg\n"
               + _rows(T, P_KPA + 98.2, A))
     np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+
+
+def test_fifth_round_ordinary_exports(tmp_path):
+    """Ordinary files that read wrong or were refused: an Arduino log's raw channel beside its calibrated one, a
+    supply or tank channel and an IMU angle beside bpmid's plain names, numpy's savetxt header, an instrument's
+    'Time Units: ms' / 'Pressure Units: psi' lines, MATLAB's datetime text, a materials tester's metadata block with
+    value-and-unit rows; and a predict output of an absolute log read against 98.5 kPa reads back the same."""
+    from bpmid.io.motion_logs import write_motion_log
+    from bpmid.io.relax_logs import read_relax_log
+
+    def read(name, text, **kw):
+        f = tmp_path / name
+        f.write_text(text)
+        return read_motion_log(f, IOConfig(**kw))
+
+    lg = read("arduino.csv", "millis,pressure_raw,pressure_kpa,angle_deg\n"
+              + "".join(f"{int(t * 1000)},{int(p * 40)},{p:.12g},{a:.12g}\n" for t, p, a in zip(T, P_KPA, A)),
+              columns={"millis": "time_ms"}, pressure_reference="gauge")
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    assert "pressure_raw" in lg.reading["ignored_columns"]
+    lg = read("supply.csv", "time_s,pressure_kpa,p_supply_kpa,tank_pressure_kpa,angle_deg,angle_imu_deg\n"
+              + _rows(T, P_KPA, np.full(T.size, 600.0), np.full(T.size, 800.0), A, A + 0.5), pressure_reference="gauge")
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    np.testing.assert_allclose(lg.angle_deg, A)
+    with pytest.raises(InputError, match="two columns could be the pressure"):   # the muscle's own: asked
+        read("chamber.csv", "time_s,pressure_kpa,chamber_pressure_kpa,angle_deg\n"
+             + _rows(T, np.full(T.size, 600.0), P_KPA, A), pressure_reference="gauge")
+    lg = read("savetxt.txt", "# time_s pressure_kpa angle_deg\n"
+              + "".join(f"{t:.18e} {p:.18e} {a:.18e}\n" for t, p, a in zip(T, P_KPA, A)), pressure_reference="gauge")
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    psi = 6894.757293168
+    lg = read("instr.txt", "Instrument: XYZ-100\nSample Rate: 10 Hz\nPressure Reference: Gauge\nTime Units: ms\n"
+              "Pressure Units: psi\nAngle Units: deg\nTime\tPressure\tAngle\n"
+              + _rows(T * 1000, P_KPA * 1e3 / psi, A, sep="\t"))
+    np.testing.assert_allclose(lg.time_s, T, atol=1e-9)
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
+    stamps = [f"01-Mar-2026 10:00:{t:06.3f}" for t in T]
+    lg = read("matlab.csv", "Timestamp,pressure_kpa,angle_deg\n"
+              + "".join(f"{s},{p:.12g},{a:.12g}\n" for s, p, a in zip(stamps, P_KPA, A)), pressure_reference="gauge")
+    np.testing.assert_allclose(lg.time_s, T, atol=1e-6)
+    rl = tmp_path / "bluehill.csv"
+    rl.write_text('"Results Table 1"\n"Sample ID","S-03"\n"Specimen label","1"\n"Gauge length","50","mm"\n'
+                  '"Width","4","mm"\n\n"Time","Strain","Stress"\n"(s)","(%)","(MPa)"\n'
+                  + "".join(f'"{t:.3f}","20","{1.0 - 0.01 * k:.4f}"\n' for k, t in enumerate(T)))
+    np.testing.assert_allclose(read_relax_log(rl).strain, 0.2)
+    lg = read("abs.csv", "# atmosphere_pa: 98500\ntime_s,pressure_kpa_abs,angle_deg\n" + _rows(T, P_KPA + 98.5, A))
+    back = read_motion_log(write_motion_log(tmp_path / "back.csv", lg, unit="kpa"))
+    np.testing.assert_allclose(back.pressure_pa, P_KPA * 1e3, atol=1e-6)

@@ -208,12 +208,13 @@ def _reference(table, io_cfg: IOConfig, path: Path) -> tuple[str, str]:
 #: ('atmosphere_pa: 84000', 'Ambient pressure: 840 mbar', 'Barometric pressure (hPa): 1013', 'Luftdruck: 986 hPa');
 #: not 'air pressure', which on a pneumatic rig is as often the supply
 _AMBIENT_KEYS = ("atmosphere", "atmospheric_pressure", "ambient_pressure", "barometric_pressure", "umgebungsdruck",
+                 "luftdruck",
                  "ambient", "barometer", "barometer_reading", "p_amb", "p_atm", "p_ambient", "p_baro", "atm",
                  "room_pressure", "lab_pressure")
 #: keys that may be the ambient pressure or the supply ('Luftdruck', 'Air pressure'): in an absolute log whose
 #: ambient pressure nothing else states, a value an ambient pressure could have is refused with the question (never
 #: guessed either way); a value no ambient pressure has (6 bar) is the supply's, and left alone
-_AMBIGUOUS_AMBIENT = re.compile(r"^(?:luftdruck|air_pressure)(?:_?[\(\[]?[a-z]+[\)\]]?)?$")
+_AMBIGUOUS_AMBIENT = re.compile(r"^(?:air_pressure)(?:_?[\(\[]?[a-z]+[\)\]]?)?$")
 #: a key that mentions the ambient pressure in a spelling bpmid does not read: a warning, never silence
 _AMBIENT_WORDS = re.compile(r"atmos|ambient|umgebung|baro|luftdruck|p_?amb|p_?atm|(?:^|_)atm(?:$|_|\.)|"
                             r"room_pressure|lab_pressure", re.IGNORECASE)
@@ -225,7 +226,8 @@ _AMBIENT_KEY = re.compile(r"^(" + "|".join(sorted(_AMBIENT_KEYS, key=len, revers
 #: keys that may state something else ('Ambient: 21 C', 'Atmosphere: air, 45 %RH', 'Room pressure: +5 Pa'): read
 #: only as a number with a pressure unit (in the value or the key) that an ambient pressure can have (50-120 kPa);
 #: anything else is left alone, with a warning when it reads like a pressure
-_SOFT_AMBIENT = {"atmosphere", "ambient", "barometer", "barometer_reading", "atm", "room_pressure", "lab_pressure"}
+_SOFT_AMBIENT = {"atmosphere", "ambient", "barometer", "barometer_reading", "atm", "room_pressure", "lab_pressure",
+                 "luftdruck"}
 _VALUE_UNIT = re.compile(r"^\s*([+-]?(?:\d+[.,]?\d*|[.,]\d+)(?:[eE][+-]?\d+)?)\s*\(?([A-Za-z]*)\)?\s*$")
 
 
@@ -410,13 +412,22 @@ def motion_frame(log: MotionLog, *, angle_deg: np.ndarray | None = None, unit: s
     return df
 
 
+def atmosphere_line(log: MotionLog) -> str:
+    """``'# atmosphere_pa: 98500\n'`` for an absolute log read against another ambient pressure than the standard
+    one (its file, column or config said so), so that a file written from it reads back the same; else ``''``."""
+    if log.pressure_reference != "absolute" or abs(float(log.atmosphere_pa) - ATMOSPHERE_PA) < 1e-9:
+        return ""
+    return f"# atmosphere_pa: {float(log.atmosphere_pa):.10g}\n"
+
+
 def write_motion_log(path: str | Path, log: MotionLog, *, unit: str = "bar", reference: str | None = None,
                      comments: Mapping[str, str] | None = None, decimals: int = 6) -> Path:
     """Write a motion log atomically, with its ``# pressure_reference:`` line and any other comments."""
     from bpmid.io.atomic import write_text
 
     reference = reference or log.pressure_reference
-    head = [f"# pressure_reference: {reference}"]
+    head = [f"# pressure_reference: {reference}"] + ([atmosphere_line(log).rstrip("\n")] if reference == "absolute"
+                                                     and atmosphere_line(log) else [])
     for k, v in (comments or {}).items():
         head.append(f"# {k}: {v}")
     df = motion_frame(log, unit=unit, reference=reference, decimals=decimals)

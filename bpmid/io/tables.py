@@ -130,6 +130,8 @@ _COMMA_NUM = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
 _DOT_NUM = re.compile(r"^[+-]?\d*\.\d+(?:[eE][+-]?\d+)?$")
 _CLOCK = re.compile(r"^\s*\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?\s*$")
 #: an elapsed time as minutes:seconds with a fraction (Excel's 'mm:ss.0': '01:05.3'); a fraction rules out hh:mm
+#: MATLAB's default datetime text ('01-Mar-2026 10:00:00.125')
+_MATLAB_DATE = re.compile(r"^\s*\d{1,2}-[A-Za-z]{3}-\d{4}(?:\s+\d{1,2}:\d{2}:\d{2}(?:\.\d+)?)?\s*$")
 _MMSS = re.compile(r"^\s*(\d{1,4}):(\d{2}[.,]\d+)\s*$")
 _SEP_LINE = re.compile(r'^\s*"?sep=(.)"?\s*$', re.IGNORECASE)
 _META = re.compile(r"^\s*([A-Za-z][\w \-./()\[\]]*?)\s*[:=]\s*(.*)$")
@@ -500,6 +502,8 @@ def _meta_from_line(body: str, meta: dict, lines: dict | None = None, line: int 
     m = _META.match(body)
     if m:
         key = meta_key(m.group(1))
+        if key.endswith("_units") and key[:-6] in UNITS:
+            key = key[:-1]   # 'Pressure Units: psi' states the unit as 'pressure_unit' does
         meta[key] = m.group(2).strip()
         if lines is not None and line is not None:
             lines[key] = line
@@ -544,6 +548,7 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
     meta_lines: dict[str, int] = {}
     i, delim_hint = _labview_header(lines, where, meta, meta_lines)
     labview = i > 0
+    last_comment = None
     while i < len(lines):
         s = lines[i].strip().lstrip("\ufeff")
         if not s:
@@ -556,6 +561,7 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
             continue
         if _is_comment(s):
             _meta_from_line(s.lstrip("#%/ ").strip(), meta, meta_lines, i + 1)
+            last_comment = i
             i += 1
             continue
         h = _find_header(lines, i, delim_hint, map_keys=map_keys)
@@ -588,7 +594,15 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
         raise InputError("empty log: no header row (expected column names such as time_s)", path=where)
     header_line = i + 1
     header_text = lines[i].lstrip("\ufeff")
-    body = [(k + 1, ln) for k, ln in enumerate(lines[i + 1:], start=i + 1)
+    first_body = i + 1
+    if last_comment is not None and all(not lines[k].strip() for k in range(last_comment + 1, i)):
+        # numpy's savetxt: '# time_s pressure_kpa angle_deg' right above the numbers is the header
+        named = lines[last_comment].strip().lstrip("#%/").strip()
+        d0 = delim_hint if delim_hint is not None else _choose_delimiter(named, [header_text])
+        cells, row = _fields(named, d0), _fields(header_text, d0)
+        if all(_is_number(c) for c in row if c.strip()) and len(cells) == len(row) >= 2 and _known_names(cells) >= 2:
+            header_line, header_text, first_body = last_comment + 1, named, i
+    body = [(k + 1, ln) for k, ln in enumerate(lines[first_body:], start=first_body)
             if ln.strip() and not _is_comment(ln) and not _EMPTY_ROW.match(ln)]
     delim = delim_hint if delim_hint is not None else _choose_delimiter(header_text, [ln for _, ln in body[:5]])
     if delim is None:
@@ -718,6 +732,10 @@ def _find_header(lines: list[str], start: int, delim_hint: str | None, look: int
         if len(filled) <= 2 and len(filled) < width and not _known_names(filled) \
                 and not _names_mapped(filled, map_keys):
             continue  # 'Operator,J. Doe,': a key and its value padded to the table's width
+        if not _known_names(head) and not _names_mapped(head, map_keys) and any(
+                _known_names(_fields(lines[j], delim_hint if delim_hint is not None else _choose_delimiter(lines[j], [])))
+                >= 2 for j in cand[n + 1:n + 40]):
+            continue  # 'Sample ID,S-03' above 'Time,Extension,Load': metadata rows, the header is further down
         rows = [_fields(ln, delim) for ln in nxt]
         if all(len(r) == width for r in rows) and any(_is_number(c) for r in rows for c in r if c.strip()) \
                 and (any(_is_number(c) for c in rows[0] if c.strip()) or _units_row(rows[0])
@@ -760,7 +778,7 @@ def _known_names(cells: Sequence[str]) -> int:
 
 
 #: units of a raw transducer signal, not of any quantity bpmid reads ('Pressure (V)')
-_SIGNAL_UNITS = {"v", "mv", "ma", "counts", "cts", "digits", "lsb", "adc"}
+_SIGNAL_UNITS = {"v", "mv", "ma", "counts", "cts", "digits", "lsb", "adc", "raw", "volt", "volts", "bits"}
 
 #: a line of separators only (a spreadsheet's empty row: ',,', ';;'): a blank line
 _EMPTY_ROW = re.compile(r"^[\s,;|]*$")
@@ -1179,7 +1197,12 @@ def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tup
         secs = secs + 86400.0 * np.concatenate([[0], np.cumsum(np.diff(secs) < -43200.0)])
         return secs - secs[0], f"clock time {texts[0]}"
     try:
-        ts = pd.to_datetime(pd.Series(texts), format="ISO8601", utc=True, errors="coerce")
+        if texts and all(_MATLAB_DATE.match(x) for x in texts):
+            fmt = "%d-%b-%Y %H:%M:%S.%f" if "." in texts[0] else ("%d-%b-%Y %H:%M:%S" if ":" in texts[0] else
+                                                                   "%d-%b-%Y")
+            ts = pd.to_datetime(pd.Series(texts), format=fmt, utc=True, errors="coerce")
+        else:
+            ts = pd.to_datetime(pd.Series(texts), format="ISO8601", utc=True, errors="coerce")
     except (ValueError, TypeError):
         ts = pd.to_datetime(pd.Series(texts), utc=True, errors="coerce")
     bad = np.flatnonzero(ts.isna().to_numpy())
@@ -1374,6 +1397,16 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
 _RIVAL_QUANTITIES = ("pressure", "angle")
 #: the German word a compound name of the quantity ends with (Kammerdruck, Biegewinkel)
 _GERMAN_WORD = {"pressure": "druck", "angle": "winkel"}
+#: words that make a second column the muscle's own measurement ('Chamber pressure', 'Pressure sensor'): beside any
+#: other column of the quantity, bpmid asks which to use; without them, bpmid's plain name is the log's
+_MEASURED_WORDS = {"chamber", "muscle", "measured", "actual", "sensor", "internal", "inner", "bladder", "actuator",
+                   "bpm", "ist", "kammer", "muskel", "gemessen", "real", "true"}
+_MEASURED_PREFIXES = ("kammer", "muskel", "ist")
+#: names that may be the ambient pressure or the supply: always asked
+_AMBIGUOUS_AIR = re.compile(r"luftdruck|air[\s_]*pressure", re.IGNORECASE)
+#: words of a name that are units or references, not qualifiers ('pressure kpa g')
+_UNIT_WORDS = {"s", "ms", "pa", "kpa", "hpa", "mpa", "bar", "mbar", "psi", "psig", "psia", "barg", "bara", "deg",
+               "rad", "g", "a", "abs", "gauge", "absolute", "degrees", "degree"}
 
 
 def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lines, ignored, columns,
@@ -1503,6 +1536,15 @@ def _check_rivals(grid: Grid, columns: dict, headers: dict, units_in_file: dict,
             if u is None or not named or set(words) & DERIVED_WORDS or any(w.startswith(_DERIVED_PREFIXES)
                                                                            for w in words):
                 continue
+            chosen_words = set(_norm(_unit_part(headers[q])[0]).split(" "))
+            if not (chosen_words - words_q - _UNIT_WORDS) and not (set(words) & _MEASURED_WORDS or any(
+                    w.startswith(_MEASURED_PREFIXES) for w in words)) and not _AMBIGUOUS_AIR.search(h2):
+                # bpmid's plain name ('Pressure (kPa)', 'pressure_kpa') beside a qualified channel that is not the
+                # muscle's ('p_supply_kpa', 'Tank pressure', 'angle_imu'): the plain one is the log's, the other is
+                # set aside and listed
+                unknown.remove(h2)
+                ignored.append(h2)
+                continue
             try:
                 vals = _numbers(grid.cols[j], grid.where, h2, lines) * UNITS[q][u]
             except InputError:
@@ -1605,7 +1647,8 @@ def _time_is_text(vals: list) -> bool:
             return True
         if isinstance(v, str) and (_CLOCK.match(v) or _MMSS.match(v)):
             return True
-        if isinstance(v, str) and v.strip() and not _is_number(v) and re.match(r"^\s*\d{4}-\d{2}-\d{2}", v):
+        if isinstance(v, str) and v.strip() and not _is_number(v) and (
+                re.match(r"^\s*\d{4}-\d{2}-\d{2}", v) or _MATLAB_DATE.match(v)):
             return True
     return False
 
