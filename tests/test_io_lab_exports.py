@@ -381,6 +381,11 @@ def test_fifth_round_ordinary_exports(tmp_path):
               + _rows(T, P_KPA, np.full(T.size, 600.0), np.full(T.size, 800.0), A, A + 0.5), pressure_reference="gauge")
     np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e3, atol=1e-6)
     np.testing.assert_allclose(lg.angle_deg, A)
+    assert sum("set aside" in w for w in lg.warnings) == 3   # never in silence: each named, with its --columns
+    for other in ("p_meas_kpa", "pressure2_kpa", "p_out_kpa"):   # bpmid's plain name holds a constant supply
+        with pytest.raises(InputError, match="barely moves"):
+            read("held.csv", f"time_s,pressure_kpa,{other},angle_deg\n" + _rows(T, 600.0 + 0.01 * T, P_KPA, A),
+                 pressure_reference="gauge")
     with pytest.raises(InputError, match="two columns could be the pressure"):   # the muscle's own: asked
         read("chamber.csv", "time_s,pressure_kpa,chamber_pressure_kpa,angle_deg\n"
              + _rows(T, np.full(T.size, 600.0), P_KPA, A), pressure_reference="gauge")

@@ -1378,16 +1378,16 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
             continue
         _one_quantity(grid, q, ents, units, unit_sources, meta, lines, ignored, columns, units_in_file, headers,
                       refs, col_info)
-    _check_rivals(grid, columns, headers, units_in_file, unknown, ignored, lines)
+    rival_warns = _check_rivals(grid, columns, headers, units_in_file, unknown, ignored, lines)
     first = lines[0] if lines else (grid.header_line + 1)
     reading = {k: v for k, v in grid.info.items() if k not in ("map_note", "mapped_quantities")
                and (k != "unmatched_map" or v)}
     reading["columns"] = col_info
     if ignored or unknown:
         reading["ignored_columns"] = list(ignored) + list(unknown)
-    warns = [f"the file ends in {grid.info['nul_bytes_at_end']} NUL bytes (a logger that lost power?): read the rows "
-             f"before them; check that its last row (line {lines[n_rows - 1]}) is complete"] \
-        if grid.info.get("nul_bytes_at_end") and n_rows else []
+    warns = rival_warns + ([f"the file ends in {grid.info['nul_bytes_at_end']} NUL bytes (a logger that lost power?): "
+                            f"read the rows before them; check that its last row (line {lines[n_rows - 1]}) is "
+                            f"complete"] if grid.info.get("nul_bytes_at_end") and n_rows else [])
     table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
                   reading, warns, where, grid.info.get("map_note", ""), dict(grid.meta_lines or {}), deferred)
     return table
@@ -1508,12 +1508,19 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
                    **extra}
 
 def _check_rivals(grid: Grid, columns: dict, headers: dict, units_in_file: dict, unknown: list, ignored: list,
-                  lines: list) -> None:
-    """A column bpmid took by its name for the pressure or the angle, beside another whose name holds the same
-    word ('pressure', 'p', 'angle', 'winkel') and whose unit is one of that quantity ('Supply pressure (bar g)' and
-    'Chamber pressure (bar g)'; 'Pressure (bar g)' and 'Pressure sensor (bar g)'): when their values differ, bpmid
-    does not choose (one is often the supply or the setpoint) and asks for the column to use. Columns named as
-    derived (setpoint, command, reference, ...) are not rivals; equal values are one channel logged twice."""
+                  lines: list) -> list[str]:
+    """A column bpmid took by its name for the pressure or the angle, beside another whose unit is one of that
+    quantity (in its brackets, the units row or its name's last words) and whose values differ. Returns warnings.
+
+    - Asked (refused, with both ``--columns`` to choose): when the other is named as the muscle's own measurement
+      ('Chamber pressure', 'Pressure sensor', 'Kammerdruck'), may be the supply or the ambient pressure ('Air
+      pressure', 'Luftdruck'), or the name bpmid took is itself qualified ('Supply pressure'); and whenever the
+      column bpmid took barely moves beside the other (a supply or a setpoint held while the muscle's pressure runs).
+    - Otherwise bpmid's plain name ('pressure_kpa', 'Pressure (kPa)') is the log's; the other ('p_supply_kpa',
+      'angle_imu_deg', 'pmuscle_kpa') is set aside, listed as ignored, and named in a warning with the ``--columns``
+      that would take it instead: never in silence.
+    Columns named as derived (setpoint, command, max, ...) are no rivals; equal values are one channel logged twice."""
+    warns: list[str] = []
     mapped = set(grid.info.get("mapped_quantities", ()))
     for q in _RIVAL_QUANTITIES:
         if q not in columns or q in mapped:
@@ -1532,40 +1539,40 @@ def _check_rivals(grid: Grid, columns: dict, headers: dict, units_in_file: dict,
             for cut in (2, 1):   # a unit in the name's last words: chamber_pressure_bar_g, p_supply_kpa
                 if u is None and unit is None and len(words) > cut and split_unit(q, " ".join(words[-cut:]))[0]:
                     u, words = split_unit(q, " ".join(words[-cut:]))[0], words[:-cut]
-            named = bool(set(words) & words_q) or any(w.endswith(_GERMAN_WORD[q]) for w in words)
-            if u is None or not named or set(words) & DERIVED_WORDS or any(w.startswith(_DERIVED_PREFIXES)
-                                                                           for w in words):
-                continue
-            chosen_words = set(_norm(_unit_part(headers[q])[0]).split(" "))
-            if not (chosen_words - words_q - _UNIT_WORDS) and not (set(words) & _MEASURED_WORDS or any(
-                    w.startswith(_MEASURED_PREFIXES) for w in words)) and not _AMBIGUOUS_AIR.search(h2):
-                # bpmid's plain name ('Pressure (kPa)', 'pressure_kpa') beside a qualified channel that is not the
-                # muscle's ('p_supply_kpa', 'Tank pressure', 'angle_imu'): the plain one is the log's, the other is
-                # set aside and listed
-                unknown.remove(h2)
-                ignored.append(h2)
+            if u is None or set(words) & DERIVED_WORDS or any(w.startswith(_DERIVED_PREFIXES) for w in words):
                 continue
             try:
                 vals = _numbers(grid.cols[j], grid.where, h2, lines) * UNITS[q][u]
             except InputError:
                 continue
             a = columns[q]
-            if vals.shape == a.shape:
-                d = np.abs(vals - a)
-                d = d[np.isfinite(d)]
-                scale = float(np.nanmax(np.abs(a))) if a.size else 1.0
-                if d.size == 0 or float(np.max(d)) <= 1e-3 * max(scale, 1e-12):
-                    unknown.remove(h2)
-                    ignored.append(h2)
-                    continue
+            if vals.shape != a.shape:
+                continue
+            d = np.abs(vals - a)
+            d = d[np.isfinite(d)]
+            scale = float(np.nanmax(np.abs(a))) if a.size else 1.0
+            unknown.remove(h2)
+            ignored.append(h2)
+            if d.size == 0 or float(np.max(d)) <= 1e-3 * max(scale, 1e-12):
+                continue   # one channel logged twice
             h = headers[q]
-            canon = CANONICAL[q]
-            diff = f" (by up to {float(np.max(d)):.4g} {canon})" if vals.shape == a.shape and d.size else ""
-            raise InputError(f"two columns could be the {q}: {h!r}, by its name, and {h2!r}, by its name and unit, "
-                             f"and their values differ{diff}; one is often the supply or the setpoint, so bpmid does "
-                             f"not choose: name the measured {q} with {columns_arg(f'{q}={h2}')} or "
-                             f"{columns_arg(f'{q}={h}')} (config io.columns: {{'<column>': {q}}})",
-                             path=grid.where, line=grid.header_line or None, key=h2)
+            named = bool(set(words) & words_q) or any(w.endswith(_GERMAN_WORD[q]) for w in words)
+            measured = bool(set(words) & _MEASURED_WORDS) or any(w.startswith(_MEASURED_PREFIXES) for w in words)
+            chosen_words = set(_norm(_unit_part(h)[0]).split(" "))
+            qualified = bool(chosen_words - words_q - _UNIT_WORDS)
+            still = float(np.ptp(a)) < 0.2 * float(np.ptp(vals))   # the one taken barely moves beside the other
+            if (named and (measured or qualified)) or _AMBIGUOUS_AIR.search(h2) or still:
+                why = ("the one taken by its name barely moves beside the other (a supply or a setpoint?)" if still
+                       else "one is often the supply or the setpoint")
+                raise InputError(f"two columns could be the {q}: {h!r}, by its name, and {h2!r}, by its unit, and "
+                                 f"their values differ (by up to {float(np.max(d)):.4g} {CANONICAL[q]}); {why}, so "
+                                 f"bpmid does not choose: name the measured {q} with {columns_arg(f'{q}={h2}')} or "
+                                 f"{columns_arg(f'{q}={h}')} (config io.columns: {{'<column>': {q}}})",
+                                 path=grid.where, line=grid.header_line or None, key=h2)
+            warns.append(f"{grid.where}: took {h!r} as the {q} (bpmid's name for it) and set aside {h2!r}, whose values "
+                         f"differ by up to {float(np.max(d)):.4g} {CANONICAL[q]}; if {h2!r} is the muscle's, take it "
+                         f"with {columns_arg(f'{q}={h2}')}")
+    return warns
 
 
 def _column_name(q: str, unit: str) -> str:
