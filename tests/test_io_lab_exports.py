@@ -410,3 +410,24 @@ def test_fifth_round_ordinary_exports(tmp_path):
     lg = read("abs.csv", "# atmosphere_pa: 98500\ntime_s,pressure_kpa_abs,angle_deg\n" + _rows(T, P_KPA + 98.5, A))
     back = read_motion_log(write_motion_log(tmp_path / "back.csv", lg, unit="kpa"))
     np.testing.assert_allclose(back.pressure_pa, P_KPA * 1e3, atol=1e-6)
+
+
+def test_seventh_round_creep_tests_and_one_channel_in_two_rounded_units(tmp_path):
+    """A creep test holds the muscle's pressure while the supply or a tank moves: bpmid's plain name is still the
+    log's (set aside with a warning, not refused); one channel exported in two units, each rounded, is one channel."""
+    def read(name, text, **kw):
+        f = tmp_path / name
+        f.write_text(text)
+        return read_motion_log(f, IOConfig(**kw))
+
+    held = np.full(T.size, 300.0)
+    for other in ("p_supply_kpa", "tank_pressure_kpa", "vacuum_kpa"):
+        lg = read("creep.csv", f"time_s,pressure_kpa,{other},angle_deg\n"
+                  + _rows(T, held, 600.0 - 400.0 * T, A), pressure_reference="gauge")
+        np.testing.assert_allclose(lg.pressure_pa, 300e3)
+        assert any("set aside" in w and other in w for w in lg.warnings)
+    psi = 6894.757293168
+    lg = read("two_units.csv", "time_s,pressure_kpa,pressure_psi,angle_deg,angle_rad\n" + "".join(
+        f"{t:.12g},{p:.12g},{p * 1e3 / psi:.2f},{a:.12g},{np.radians(a):.4f}\n" for t, p, a in zip(T, P_KPA * 10, A)),
+        pressure_reference="gauge")
+    np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e4, atol=1e-6)

@@ -1402,6 +1402,10 @@ _GERMAN_WORD = {"pressure": "druck", "angle": "winkel"}
 _MEASURED_WORDS = {"chamber", "muscle", "measured", "actual", "sensor", "internal", "inner", "bladder", "actuator",
                    "bpm", "ist", "kammer", "muskel", "gemessen", "real", "true"}
 _MEASURED_PREFIXES = ("kammer", "muskel", "ist")
+#: words that name another channel of the rig, never the muscle's own (a supply, a tank, a second segment)
+_OTHER_CHANNEL_WORDS = {"line", "source", "dp", "diff", "differential", "orifice", "flow"}
+_OTHER_CHANNEL_PREFIXES = ("supply", "tank", "vac", "pilot", "reservoir", "regulator", "inlet", "compressor",
+                           "versorg", "vordruck", "seg", "tip", "base", "accumulator", "main", "upstream")
 #: names that may be the ambient pressure or the supply: always asked
 _AMBIGUOUS_AIR = re.compile(r"luftdruck|air[\s_]*pressure", re.IGNORECASE)
 #: words of a name that are units or references, not qualifiers ('pressure kpa g')
@@ -1494,8 +1498,11 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
         arrays.append((arr, unit, h, unit_from, ref, col_info_extra))
     arr, unit, h, unit_from, ref, extra = arrays[0]
     for arr2, _u2, h2, *_rest in arrays[1:]:
-        if arr2.shape != arr.shape or not np.allclose(arr2, arr, rtol=1e-5, atol=1e-9 * max(1.0, float(np.max(
-                np.abs(arr))) if arr.size else 1.0)):
+        # one channel written twice, in two units each rounded as exports round (a psi copy to 0.01, a bar copy to
+        # 0.001): equal within 0.2 % of the channel's range
+        if arr2.shape != arr.shape or not (np.allclose(arr2, arr, rtol=1e-5, atol=1e-9 * max(1.0, float(np.max(
+                np.abs(arr))) if arr.size else 1.0)) or (arr.size and float(np.max(np.abs(arr2 - arr)))
+                                                         <= 2e-3 * float(np.ptp(arr)))):
             raise InputError(f"two columns give {q}: {h!r} and {h2!r}, and they disagree; map the one to use with "
                              f"--columns {q}=<column>", path=where, line=hline, key=h2)
         ignored.append(h2)
@@ -1560,7 +1567,10 @@ def _check_rivals(grid: Grid, columns: dict, headers: dict, units_in_file: dict,
             measured = bool(set(words) & _MEASURED_WORDS) or any(w.startswith(_MEASURED_PREFIXES) for w in words)
             chosen_words = set(_norm(_unit_part(h)[0]).split(" "))
             qualified = bool(chosen_words - words_q - _UNIT_WORDS)
-            still = float(np.ptp(a)) < 0.2 * float(np.ptp(vals))   # the one taken barely moves beside the other
+            # the one taken barely moves beside the other, which is not named as another channel of the rig (a
+            # creep test holds the muscle while the supply or a tank moves)
+            still = float(np.ptp(a)) < 0.2 * float(np.ptp(vals)) and not (
+                set(words) & _OTHER_CHANNEL_WORDS or any(w.startswith(_OTHER_CHANNEL_PREFIXES) for w in words))
             if (named and (measured or qualified)) or _AMBIGUOUS_AIR.search(h2) or still:
                 why = ("the one taken by its name barely moves beside the other (a supply or a setpoint?)" if still
                        else "one is often the supply or the setpoint")
