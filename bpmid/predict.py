@@ -14,7 +14,8 @@ import numpy as np
 import pandas as pd
 
 from bpmid.io.atomic import staged_dir
-from bpmid.io.motion_logs import MotionLog, atmosphere_line, pressure_column_name
+from bpmid.io.ambient import atmosphere_line
+from bpmid.io.motion_logs import MotionLog, pressure_column_name
 from bpmid.io.tables import UNITS
 from bpmid.models.vbmm import VBMM
 from bpmid.models.vbmm.fit import check_pressure_range, log_metrics

@@ -11,13 +11,13 @@ Gaps in the time column are read with a warning (``io.max_gap_s`` refuses them).
 from __future__ import annotations
 
 import dataclasses
-import re
 from pathlib import Path
 from typing import Literal, Mapping, Optional, Sequence
 
 import numpy as np
 
 from bpmid.errors import InputError
+from bpmid.io.ambient import AMBIENT_RANGE_PA, ambient_pressure, atmosphere_line, unread_ambient_lines
 from bpmid.io.tables import UNITS, check_time, read_table, split_unit
 
 from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR  # noqa: E402  (the one home of unit factors)
@@ -65,7 +65,7 @@ class IOConfig:
         if self.min_gauge_pa > 0:
             raise InputError(f"min_gauge_pa must be 0 or below, found {self.min_gauge_pa:g} Pa", path=path,
                              key=f"{where}.min_gauge_pa")
-        if not (50e3 <= self.atmosphere_pa <= 120e3):
+        if not (AMBIENT_RANGE_PA[0] <= self.atmosphere_pa <= AMBIENT_RANGE_PA[1]):
             raise InputError(f"atmosphere_pa {self.atmosphere_pa:g} Pa is not an ambient pressure",
                              path=path, key=f"{where}.atmosphere_pa")
         for q, u in self.units.items():
@@ -204,98 +204,6 @@ def _reference(table, io_cfg: IOConfig, path: Path) -> tuple[str, str]:
     return stated[0]
 
 
-#: comment keys (spaces as underscores, lower case) that state the ambient pressure, optionally with a unit suffix
-#: ('atmosphere_pa: 84000', 'Ambient pressure: 840 mbar', 'Barometric pressure (hPa): 1013', 'Luftdruck: 986 hPa');
-#: not 'air pressure', which on a pneumatic rig is as often the supply
-_AMBIENT_KEYS = ("atmosphere", "atmospheric_pressure", "ambient_pressure", "barometric_pressure", "umgebungsdruck",
-                 "luftdruck",
-                 "ambient", "barometer", "barometer_reading", "p_amb", "p_atm", "p_ambient", "p_baro", "atm",
-                 "room_pressure", "lab_pressure")
-#: keys that may be the ambient pressure or the supply ('Luftdruck', 'Air pressure'): in an absolute log whose
-#: ambient pressure nothing else states, a value an ambient pressure could have is refused with the question (never
-#: guessed either way); a value no ambient pressure has (6 bar) is the supply's, and left alone
-_AMBIGUOUS_AMBIENT = re.compile(r"^(?:air_pressure)(?:_?[\(\[]?[a-z]+[\)\]]?)?$")
-#: a key that mentions the ambient pressure in a spelling bpmid does not read: a warning, never silence
-_AMBIENT_WORDS = re.compile(r"atmos|ambient|umgebung|baro|luftdruck|p_?amb|p_?atm|(?:^|_)atm(?:$|_|\.)|"
-                            r"room_pressure|lab_pressure", re.IGNORECASE)
-#: a value that reads as a pressure: a number with a pressure unit (bpmid's or another), or a bare number
-_PRESSURE_VALUE = re.compile(r"^[^A-Za-z]*\d[^A-Za-z]*$|\d\s*(?:pa|hpa|kpa|mpa|mbar|bar|psi|inhg|mmhg|torr|atm)\b",
-                             re.IGNORECASE)
-_AMBIENT_KEY = re.compile(r"^(" + "|".join(sorted(_AMBIENT_KEYS, key=len, reverse=True))   # the longest first
-                          + r")(?:_?[\(\[]?([a-z]+)[\)\]]?)?$")
-#: keys that may state something else ('Ambient: 21 C', 'Atmosphere: air, 45 %RH', 'Room pressure: +5 Pa'): read
-#: only as a number with a pressure unit (in the value or the key) that an ambient pressure can have (50-120 kPa);
-#: anything else is left alone, with a warning when it reads like a pressure
-_SOFT_AMBIENT = {"atmosphere", "ambient", "barometer", "barometer_reading", "atm", "room_pressure", "lab_pressure",
-                 "luftdruck"}
-_VALUE_UNIT = re.compile(r"^\s*([+-]?(?:\d+[.,]?\d*|[.,]\d+)(?:[eE][+-]?\d+)?)\s*\(?([A-Za-z]*)\)?\s*$")
-
-
-def _atmosphere(table, io_cfg: IOConfig) -> tuple[float | np.ndarray, str]:
-    """The ambient pressure an absolute pressure is turned into gauge with (Pa; an array when the log has a column
-    of it) and where it came from: a column of the log ('Ambient pressure (kPa)'), else a line of the file
-    ('# atmosphere_pa: 84000', 'Ambient pressure: 840 mbar'), else ``io.atmosphere_pa``. A file's statement and a
-    configured value (other than the standard atmosphere) must agree within 0.1 kPa; a value outside 50-120 kPa, or
-    one without a unit where the key carries none, is refused with its line."""
-    cfg_src = io_cfg.stated_by.get("atmosphere_pa") or (
-        "io.atmosphere_pa (config)" if io_cfg.atmosphere_pa != ATMOSPHERE_PA else None)
-    found: list[tuple[float | np.ndarray, str, int | None]] = []
-    if "ambient" in table.deferred:
-        raise table.deferred["ambient"]   # the log's ambient-pressure column, needed now, cannot be read
-    if "ambient" in table.columns:
-        col = np.asarray(table.columns["ambient"], float)
-        found.append((col, f"the column {table.headers['ambient']!r}", None))
-    for k, v in table.meta.items():
-        m = _AMBIENT_KEY.match(k)
-        if not m or (m.group(2) and split_unit("pressure", m.group(2))[0] is None) \
-                or not re.search(r"\d", str(v)):
-            continue   # another key ('atmosphere_type'), or no number ('atmosphere: nitrogen')
-        line = table.meta_lines.get(k)
-        vm = _VALUE_UNIT.match(str(v))
-        unit = (vm.group(2) if vm and vm.group(2) else None) or m.group(2)
-        u = split_unit("pressure", unit)[0] if unit else None
-        if m.group(1) in _SOFT_AMBIENT and (vm is None or u is None or not 50e3 <= float(
-                vm.group(1).replace(",", ".")) * UNITS["pressure"][u] <= 120e3):
-            continue   # 'Atmosphere: air, 45 %RH', 'Ambient: 21 C', 'Room pressure: +5 Pa' (an overpressure): not
-            # the ambient pressure as such; the reader warns that the line may state it (_read_motion_log)
-        if vm is None or u is None:
-            raise InputError(f"the line '{k}: {v}' states the ambient pressure, but bpmid cannot read it as a number "
-                             f"with a pressure unit ({', '.join(sorted(x for x in UNITS['pressure']))}); write it so, "
-                             f"as in 'atmosphere_pa: 101325' or 'ambient_pressure: 1013 mbar'", path=table.name,
-                             line=line, key=k)
-        found.append((float(vm.group(1).replace(",", ".")) * UNITS["pressure"][u], f"line {line} ({k}: {v})"
-                      if line else f"the line '{k}: {v}'", line))
-    for val, src, line in found:
-        arr = np.atleast_1d(val)
-        bad = np.flatnonzero(~((arr >= 50e3) & (arr <= 120e3)))
-        if bad.size:
-            k = int(bad[0])
-            raise InputError(f"{src} gives an ambient pressure of {arr[k]:g} Pa, which is not an ambient pressure "
-                             f"(50-120 kPa): check its unit", path=table.name,
-                             line=line if line is not None else table.line_of(k), key="atmosphere_pa")
-    if cfg_src is not None:
-        found.append((io_cfg.atmosphere_pa, cfg_src, None))
-    if not found:
-        for k, v in table.meta.items():
-            vm = _VALUE_UNIT.match(str(v)) if _AMBIGUOUS_AMBIENT.match(k) else None
-            u = split_unit("pressure", vm.group(2))[0] if vm and vm.group(2) else None
-            if u is not None and 50e3 <= float(vm.group(1).replace(",", ".")) * UNITS["pressure"][u] <= 120e3:
-                # a value an ambient pressure could have ('Luftdruck: 986 hPa'); '6 bar' is the supply's
-                line = table.meta_lines.get(k)
-                raise InputError(f"the line '{k}: {v}' may be the ambient pressure or the supply, and this absolute "
-                                 f"log needs the ambient pressure: if it is the ambient pressure, write the line "
-                                 f"'ambient_pressure: {v}'; if not, give the ambient pressure with io.atmosphere_pa "
-                                 f"(Pa) in the config", path=table.name, line=line, key=k)
-        return io_cfg.atmosphere_pa, "io.atmosphere_pa (the standard atmosphere; set it for your lab)"
-    first, first_src, _ = found[0]
-    for val, src, _ in found[1:]:
-        if np.max(np.abs(np.asarray(first, float) - np.asarray(val, float))) > 100.0:
-            raise InputError(f"the ambient pressure is stated twice and disagrees: {first_src} gives "
-                             f"{np.mean(first):.6g} Pa, {src} gives {np.mean(val):.6g} Pa; drop or correct one",
-                             path=table.name, key="atmosphere_pa")
-    return first, first_src
-
-
 def read_motion_log(path: str | Path, io_cfg: IOConfig | None = None, *, require_angle: bool = False) -> MotionLog:
     """Read one motion log (see module docstring). Errors name the file and line."""
     from bpmid.io.read_once import read_once
@@ -316,7 +224,8 @@ def _read_motion_log(path: Path, io_cfg: IOConfig, require_angle: bool) -> Motio
     unit = table.units_in_file["pressure"]
     p_pa = table.columns["pressure"]
     given = p_pa / UNITS["pressure"][unit]
-    atm, atm_from = _atmosphere(table, io_cfg) if ref == "absolute" else (io_cfg.atmosphere_pa, None)
+    atm, atm_from = ambient_pressure(table, io_cfg.atmosphere_pa, io_cfg.stated_by.get("atmosphere_pa")) \
+        if ref == "absolute" else (io_cfg.atmosphere_pa, None)
     gauge = p_pa - atm if ref == "absolute" else p_pa
     low = np.flatnonzero(gauge < io_cfg.min_gauge_pa)
     if low.size:
@@ -346,14 +255,7 @@ def _read_motion_log(path: Path, io_cfg: IOConfig, require_angle: bool) -> Motio
             reading["pressure_reference"]["atmosphere_from"] = atm_from
     warnings = list(table.warnings)
     if ref == "absolute" and atm_from.startswith("io.atmosphere_pa"):
-        unread = [k for k, v in table.meta.items() if _AMBIENT_WORDS.search(k) and _PRESSURE_VALUE.search(str(v))]
-        if unread:
-            k = unread[0]
-            ln = table.meta_lines.get(k)
-            warnings.append(f"{table.name}{f':{ln}' if ln else ''}: the line '{k}: {table.meta[k]}' may state the "
-                            f"ambient pressure, which bpmid does not read in that form: the absolute pressure was "
-                            f"turned into gauge with {io_cfg.atmosphere_pa:g} Pa; if the line is the ambient pressure, "
-                            f"write it 'ambient_pressure: 98.2 kPa' (its value and unit) or set io.atmosphere_pa")
+        warnings += unread_ambient_lines(table, io_cfg.atmosphere_pa)
     return MotionLog(name=path.stem, time_s=t, pressure_pa=gauge, angle_deg=angle, pressure_reference=ref,
                      pressure_unit=unit, pressure_as_given=given, atmosphere_pa=atm_mean,
                      path=path, meta=dict(table.meta), reading=reading, warnings=warnings)
@@ -412,22 +314,14 @@ def motion_frame(log: MotionLog, *, angle_deg: np.ndarray | None = None, unit: s
     return df
 
 
-def atmosphere_line(log: MotionLog) -> str:
-    """``'# atmosphere_pa: 98500\n'`` for an absolute log read against another ambient pressure than the standard
-    one (its file, column or config said so), so that a file written from it reads back the same; else ``''``."""
-    if log.pressure_reference != "absolute" or abs(float(log.atmosphere_pa) - ATMOSPHERE_PA) < 1e-9:
-        return ""
-    return f"# atmosphere_pa: {float(log.atmosphere_pa):.10g}\n"
-
-
 def write_motion_log(path: str | Path, log: MotionLog, *, unit: str = "bar", reference: str | None = None,
                      comments: Mapping[str, str] | None = None, decimals: int = 6) -> Path:
     """Write a motion log atomically, with its ``# pressure_reference:`` line and any other comments."""
     from bpmid.io.atomic import write_text
 
     reference = reference or log.pressure_reference
-    head = [f"# pressure_reference: {reference}"] + ([atmosphere_line(log).rstrip("\n")] if reference == "absolute"
-                                                     and atmosphere_line(log) else [])
+    atm = atmosphere_line(log) if reference == "absolute" else ""
+    head = [f"# pressure_reference: {reference}"] + ([atm.rstrip("\n")] if atm else [])
     for k, v in (comments or {}).items():
         head.append(f"# {k}: {v}")
     df = motion_frame(log, unit=unit, reference=reference, decimals=decimals)

@@ -768,7 +768,8 @@ def _drop_name_rows(rows: list, lines: list, skipped: list) -> tuple[list, list]
 
 def _units_stated(cells: Sequence[str]) -> int:
     """How many of ``cells`` state a unit beside a quantity's name (``Time (s)``, ``pressure_kpa``)."""
-    return sum(1 for c in cells if str(c).strip() and _parse(str(c))[0] is not None and _parse(str(c))[1])
+    parsed = [_parse(str(c)) for c in cells if str(c).strip()]
+    return sum(1 for q, unit, _ref, _derived in parsed if q is not None and unit)
 
 
 def _known_names(cells: Sequence[str]) -> int:
@@ -1353,7 +1354,7 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     if n_rows == 0 and found:
         raise InputError(f"empty {kind}: a header but no data rows", path=where, line=hline)
     # the ambient pressure matters only to an absolute pressure: a column of it that cannot be read is set aside
-    # here, and its error raised by the reader that needs it (bpmid.io.motion_logs._atmosphere)
+    # here, and its error raised by the reader that needs it (bpmid.io.ambient.ambient_pressure)
     deferred: dict[str, InputError] = {}
     unstated = [(q, ents[0][2]) for q, ents in found.items()
                 if ents[0][1] is None and q not in units and f"{q}_unit" not in meta and q not in ("strain", "ambient")
