@@ -223,9 +223,12 @@ _MAT_UNITS = {
     "omega": {"rad/s": 1.0 / (2 * np.pi), "1/s": 1.0 / (2 * np.pi), "": 1.0 / (2 * np.pi)},
     "t": {"s": 1.0, "sec": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0, "": 1.0},
     "modulus": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3, "": 1.0},
-    "T": {"c": 0.0, "°c": 0.0, "degc": 0.0, "deg c": 0.0, "celsius": 0.0, "k": -273.15, "": 0.0},
+    "T": {"c": 0.0, "°c": 0.0, "degc": 0.0, "deg c": 0.0, "celsius": 0.0, "k": -273.15, "": 0.0},  # offsets added: C = K - 273.15
     "set": {"-": 1.0, "": 1.0, "1": 1.0},
 }
+#: a temperature column without a stated unit whose every value is at least this is refused (kelvin, or a mistake):
+#: no DMA or relaxation test of a polymer runs entirely above 200 C
+UNITLESS_KELVIN_C = 200.0
 #: role -> unit family
 _ROLE_UNIT = {"f": "f", "omega": "omega", "t": "t", "storage": "modulus", "loss": "modulus", "storage_g": "modulus",
               "loss_g": "modulus", "relax": "modulus", "relax_g": "modulus", "T": "T", "set": "set"}
@@ -495,7 +498,14 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
             vals[r] = v
         fam = _ROLE_UNIT[role]
         if fam == "T":
-            return vals - _MAT_UNITS["T"][unit]  # K -> C (offset), C unchanged
+            if unit == "" and vals.size and float(vals.min()) >= UNITLESS_KELVIN_C:
+                i = int(np.argmin(vals))
+                raise InputError(f"column {header[j]!r} has no unit and every temperature is at least "
+                                 f"{UNITLESS_KELVIN_C:g} (the lowest {vals[i]:g}): that is almost surely kelvin "
+                                 f"(or a mistake); state the unit: name the column 'T (C)' or 'T (K)', or add a "
+                                 "units row (C or K) under the header", path=path, line=int(rows[i][0]),
+                                 key=header[j])
+            return vals + _MAT_UNITS["T"][unit]  # K -> C: T - 273.15; C unchanged
         return vals * _MAT_UNITS[fam][unit]
 
     if not rows:

@@ -1,0 +1,64 @@
+"""Material data reviewed against independently generated data with known truth: temperature and modulus units,
+decimal commas, rad/s, the order of master curves and sweeps, small sets, a single set with --ref-temp, shift
+factors the data do not determine, and the term criterion of time-domain master curves."""
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+from bpmid.errors import InputError
+from bpmid.io.relax_logs import read_material_file
+from bpmid.relax import tts
+from bpmid.relax.freq import complex_modulus
+
+runner = CliRunner()
+
+# truth: a broad Prony series (MPa, s) at T_REF and WLF shifts
+TAU = 10.0 ** np.arange(-11.0, 4.0, 2.0)
+E_TERMS = np.array([200.0, 300.0, 400.0, 500.0, 400.0, 200.0, 40.0, 8.0])
+E_INF = 3.0
+C1, C2, T_REF = 11.0, 95.0, 40.0
+
+
+def sweeps(Ts, f, *, noise=0.005, seed=3):
+    """[(f, E', E'', T, set)] rows of isothermal sweeps at temperatures Ts (C)."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for k, T in enumerate(Ts):
+        s, l = complex_modulus(f * 10.0 ** tts.wlf(T, T_REF, C1, C2), E_INF, E_TERMS, TAU)
+        s = s * (1 + noise * rng.standard_normal(s.size))
+        l = l * (1 + noise * rng.standard_normal(l.size))
+        rows += [(f[i], s[i], l[i], T + 0.05 * rng.standard_normal(), k) for i in range(f.size)]
+    return rows
+
+
+def write(path, header, rows, units=None, delim=","):
+    text = delim.join(header) + "\n" + (delim.join(units) + "\n" if units else "")
+    text += "".join(delim.join(repr(float(v)) for v in r) + "\n" for r in rows)
+    path.write_text(text)
+    return path
+
+
+def fit(tmp_path, *args):
+    out = tmp_path / "o.yaml"
+    res = runner.invoke(app, ["fit", "relax", *map(str, args), "--no-figure", "--out", str(out)])
+    return res, out
+
+
+# ---- 1: temperatures in K, and temperatures without a unit --------------------------------------------------------
+def test_kelvin_is_converted_to_celsius_and_unitless_kelvin_is_refused(tmp_path):
+    rows = [(a, b, c, d + 273.15, e) for a, b, c, d, e in sweeps([20.0, 30.0, 40.0], np.logspace(-1, 1, 6))]
+    d = read_material_file(write(tmp_path / "k.csv", ["f", "E_stor", "E_loss", "T", "Set"], rows,
+                                 ["Hz", "MPa", "MPa", "K", "-"]))
+    assert [T for T, _ in d.sets()] == [20.0, 30.0, 40.0]
+    bare = write(tmp_path / "bare.csv", ["f", "E_stor", "E_loss", "T", "Set"], rows)
+    with pytest.raises(InputError) as e:
+        read_material_file(bare)
+    msg = str(e.value)
+    assert "bare.csv:" in msg and "'T'" in msg and "kelvin" in msg and "T (C)" in msg and "T (K)" in msg
+    assert e.value.line is not None and e.value.line >= 2
+    # below 200 without a unit: still degrees C
+    cold = [(a, b, c, d - 273.15 + 150.0, e) for a, b, c, d, e in rows]
+    d = read_material_file(write(tmp_path / "c.csv", ["f", "E_stor", "E_loss", "T", "Set"], cold))
+    assert [T for T, _ in d.sets()] == [170.0, 180.0, 190.0]
