@@ -62,3 +62,35 @@ def test_kelvin_is_converted_to_celsius_and_unitless_kelvin_is_refused(tmp_path)
     cold = [(a, b, c, d - 273.15 + 150.0, e) for a, b, c, d, e in rows]
     d = read_material_file(write(tmp_path / "c.csv", ["f", "E_stor", "E_loss", "T", "Set"], cold))
     assert [T for T, _ in d.sets()] == [170.0, 180.0, 190.0]
+
+
+# ---- 2: moduli in Pa under a header without a unit ---------------------------------------------------------------
+def master_rows(f=None, scale=1.0, noise=0.005, seed=4):
+    f = np.logspace(-5, 8, 105) if f is None else f
+    rng = np.random.default_rng(seed)
+    s, l = complex_modulus(f, E_INF, E_TERMS, TAU)
+    return [(f[i], scale * s[i] * (1 + noise * rng.standard_normal()), scale * l[i] * (1 + noise * rng.standard_normal()))
+            for i in range(f.size)]
+
+
+def test_unitless_moduli_in_pa_are_refused_and_stated_implausible_units_warned(tmp_path):
+    rows = master_rows(scale=1e6)
+    p = write(tmp_path / "pa.csv", ["f", "E_stor", "E_loss"], rows)
+    with pytest.raises(InputError) as e:
+        read_material_file(p)
+    top = int(np.argmax([r[1] for r in rows]))
+    assert e.value.line == 2 + top and "'E_stor'" in str(e.value) and "Pa" in str(e.value)
+    assert "(Pa)" in str(e.value) and "units row" in str(e.value)
+    res, out = fit(tmp_path, p)
+    assert res.exit_code == 2 and "pa.csv:" in res.output and not out.exists()
+    # the same values under a stated MPa: read, warned, refused by --strict
+    q = write(tmp_path / "mpa.csv", ["f", "E_stor", "E_loss"], rows, ["Hz", "MPa", "MPa"])
+    res, out = fit(tmp_path, q, "--terms", "8")
+    assert res.exit_code == 0 and "warning: mpa.csv:" in res.output and "stiffer than any polymer" in res.output
+    assert any("stiffer than any polymer" in w for w in yaml.safe_load(out.read_text())["warnings"])
+    out.unlink()
+    res, out = fit(tmp_path, q, "--terms", "8", "--strict")
+    assert res.exit_code == 2 and "--strict" in res.output and not out.exists()
+    # plain MPa values without a unit stay MPa
+    ok = read_material_file(write(tmp_path / "ok.csv", ["f", "E_stor", "E_loss"], master_rows()))
+    assert ok.storage.max() < 3000 and not ok.warnings

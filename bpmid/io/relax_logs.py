@@ -229,6 +229,8 @@ _MAT_UNITS = {
 #: a temperature column without a stated unit whose every value is at least this is refused (kelvin, or a mistake):
 #: no DMA or relaxation test of a polymer runs entirely above 200 C
 UNITLESS_KELVIN_C = 200.0
+#: a modulus above this (MPa; 100 GPa) is stiffer than any polymer: refused without a stated unit, warned with one
+MAX_PLAUSIBLE_MPA = 1e5
 #: role -> unit family
 _ROLE_UNIT = {"f": "f", "omega": "omega", "t": "t", "storage": "modulus", "loss": "modulus", "storage_g": "modulus",
               "loss_g": "modulus", "relax": "modulus", "relax_g": "modulus", "T": "T", "set": "set"}
@@ -378,6 +380,8 @@ class MaterialData:
     set_id : (N,) integer set of each sample (one isothermal sweep each) or None
     lines : (N,) file line (CSV) or sheet row (Excel) of each sample
     sheet : sheet name of an Excel source, else None
+    units_in_file : role -> the unit the file states ('' where it states none)
+    warnings : implausible values under a stated unit (``fit relax`` prints them; ``--strict`` refuses them)
     """
 
     name: str
@@ -392,6 +396,7 @@ class MaterialData:
     lines: np.ndarray | None = None
     sheet: str | None = None
     units_in_file: dict = dataclasses.field(default_factory=dict)
+    warnings: list = dataclasses.field(default_factory=list)
 
     @property
     def n(self) -> int:
@@ -483,6 +488,8 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
         raise InputError("a raw set without temperatures: the file has a Set column but no temperature column T "
                          "(C); add the test temperature of every row", path=path, line=header_line, key="T")
 
+    warnings: list[str] = []
+
     def column(role: str) -> np.ndarray:
         j, unit = index[role]
         vals = np.empty(len(rows))
@@ -506,7 +513,20 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                                  "units row (C or K) under the header", path=path, line=int(rows[i][0]),
                                  key=header[j])
             return vals + _MAT_UNITS["T"][unit]  # K -> C: T - 273.15; C unchanged
-        return vals * _MAT_UNITS[fam][unit]
+        out = vals * _MAT_UNITS[fam][unit]
+        if fam == "modulus" and out.size and float(out.max()) > MAX_PLAUSIBLE_MPA:
+            i = int(np.argmax(out))
+            if unit == "":
+                raise InputError(f"column {header[j]!r} has no unit, and read as MPa (the default) its largest value "
+                                 f"{vals[i]:g} would be {out[i] / 1e3:g} GPa, stiffer than any polymer: the values "
+                                 "look like Pa (or kPa); state the unit: name the column with it, e.g. "
+                                 f"'{header[j]} (Pa)', or add a units row (Pa, kPa, MPa or GPa) under the header",
+                                 path=path, line=int(rows[i][0]), key=header[j])
+            where = f"{path.name}:{int(rows[i][0])}" if path is not None else f"line {int(rows[i][0])}"
+            warnings.append(f"{where}: column {header[j]!r} reaches {out[i]:.4g} MPa ({vals[i]:g} {unit}), above "
+                            f"{MAX_PLAUSIBLE_MPA:g} MPa (100 GPa), stiffer than any polymer: check the unit "
+                            f"({unit!r} stated)")
+        return out
 
     if not rows:
         raise InputError("a header but no data rows", path=path, line=header_line)
@@ -553,7 +573,7 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                              "sets, which need a temperature column T (C) to be shifted into a master curve",
                              path=path, line=int(lines[i]), key="T")
     out = MaterialData(path.stem, path, domain, modulus, x, stor, loss, T, sid, lines, sheet,
-                       {r: u for r, (_, u) in index.items()})
+                       {r: u for r, (_, u) in index.items()}, warnings)
     if sid is not None:
         for Tset, idx in out.sets():
             xs = x[idx]

@@ -336,8 +336,17 @@ def _fit_material(paths, material, config, *, terms, mode, poisson, max_error_pc
         max_error_pct = cfg.max_error_pct
     mf = fit_material(datas, terms=_terms_option(terms, cfg, flags), max_error_pct=max_error_pct,
                       ref_temp=ref_temp, shift_file=shift, config=cfg)
+    from bpmid.io import plausibility as plaus
+
+    # implausible values under a stated unit, shift factors the data do not determine: --strict refuses them
+    checks = [w for d in datas for w in d.warnings] + list(getattr(mf, "checks", []))
+    if checks and config.section("io").strict:
+        plaus.emit(checks, strict=True, what="the relaxation fit")
+    mf.fit.warnings = list(mf.fit.warnings) + [w for w in checks if w not in mf.fit.warnings]
     inputs = paths + ([Path(shift)] if shift is not None else [])
-    return RelaxRun(mf, material_fit_body(mf, nu), provenance(inputs, config=config))
+    prov = provenance(inputs, config=config)
+    prov["warnings"] = list(checks)
+    return RelaxRun(mf, material_fit_body(mf, nu), prov)
 
 
 def fit_relax_files(logs: Sequence[str | Path], *, terms: str | int | None = None, mode: str | None = None,
