@@ -94,3 +94,32 @@ def test_unitless_moduli_in_pa_are_refused_and_stated_implausible_units_warned(t
     # plain MPa values without a unit stay MPa
     ok = read_material_file(write(tmp_path / "ok.csv", ["f", "E_stor", "E_loss"], master_rows()))
     assert ok.storage.max() < 3000 and not ok.warnings
+
+
+# ---- 3, 4: decimal commas; rad/s under a column named f -------------------------------------------------------------
+@pytest.mark.parametrize("delim", [";", "\t"])
+def test_decimal_commas_in_semicolon_and_tab_files(tmp_path, delim):
+    rows = master_rows()
+    text = delim.join(["f", "E_stor", "E_loss"]) + "\n" + delim.join(["Hz", "MPa", "MPa"]) + "\n"
+    text += "".join(delim.join(f"{v:.6e}".replace(".", ",") for v in r) + "\n" for r in rows)
+    p = tmp_path / "comma.csv"
+    p.write_text(text)
+    d = read_material_file(p)
+    assert d.n == len(rows) and np.allclose(d.x, [r[0] for r in rows], rtol=1e-6)
+    assert np.allclose(d.storage, [r[1] for r in rows], rtol=1e-6)
+    # a decimal point in the same dialect still reads; a cell that is not a number stays refused
+    q = tmp_path / "bad.csv"
+    q.write_text(text.replace(f"{rows[3][1]:.6e}".replace(".", ","), "1,2,3"))
+    with pytest.raises(InputError, match="'1,2,3' is not a number"):
+        read_material_file(q)
+
+
+def test_rad_per_s_under_a_column_named_f(tmp_path):
+    rows = master_rows()
+    p = write(tmp_path / "w.csv", ["f", "E_stor", "E_loss"], [(2 * np.pi * a, b, c) for a, b, c in rows],
+              ["rad/s", "MPa", "MPa"])
+    d = read_material_file(p)
+    assert np.allclose(d.x, [r[0] for r in rows], rtol=1e-12) and d.units_in_file["f"] == "rad/s"
+    res, out = fit(tmp_path, p, "--terms", "8")
+    assert res.exit_code == 0, res.output
+    assert yaml.safe_load(out.read_text())["data"]["units_in_file"]["w.csv"]["f"] == "rad/s"

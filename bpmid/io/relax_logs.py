@@ -219,7 +219,7 @@ _MAT_NAMES = {
     "set": "set", "setid": "set", "sweep": "set", "segment": "set",
 }
 _MAT_UNITS = {
-    "f": {"hz": 1.0, "1/s": 1.0, "khz": 1e3, "mhz": 1e6, "": 1.0},
+    "f": {"hz": 1.0, "1/s": 1.0, "khz": 1e3, "mhz": 1e6, "rad/s": 1.0 / (2 * np.pi), "": 1.0},
     "omega": {"rad/s": 1.0 / (2 * np.pi), "1/s": 1.0 / (2 * np.pi), "": 1.0 / (2 * np.pi)},
     "t": {"s": 1.0, "sec": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0, "": 1.0},
     "modulus": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3, "": 1.0},
@@ -289,8 +289,18 @@ def _is_num(s) -> bool:
         return False
 
 
+def _decimal_comma(cell: str) -> str:
+    """``'1,5e-05'`` -> ``'1.5e-05'`` when the cell then reads as a number; any other cell unchanged."""
+    if "," in cell and not _is_num(cell):
+        alt = cell.replace(",", ".")
+        if _is_num(alt):
+            return alt
+    return cell
+
+
 def _csv_rows(path: Path) -> tuple[list[str], list[str] | None, list[tuple[int, list[str]]], int]:
-    """Header, unit row (or None), data rows with their file line numbers, header line (CSV/TSV/semicolon)."""
+    """Header, unit row (or None), data rows with their file line numbers, header line (CSV/TSV/semicolon; in a
+    semicolon- or tab-separated file a numeric cell with a decimal comma, 1,5e-05, reads as 1.5e-05)."""
     if not path.is_file():
         raise InputError("file not found", path=path)
     try:
@@ -314,6 +324,8 @@ def _csv_rows(path: Path) -> tuple[list[str], list[str] | None, list[tuple[int, 
     parsed = list(csv.reader(_io.StringIO("\n".join(lines[i:])), delimiter=delim))
     header = [h.strip().lstrip("\ufeff") for h in parsed[0]]
     rows = [(i + 1 + k, r) for k, r in enumerate(parsed) if k > 0]
+    if delim != ",":  # a decimal comma (1,5e-05) where the delimiter leaves the comma free
+        rows = [(ln, [_decimal_comma(c) for c in r]) for ln, r in rows]
     units = None
     if rows and rows[0][1] and not any(_is_num(c) for c in rows[0][1] if c.strip()):
         units = [c.strip() for c in rows[0][1]]

@@ -48,6 +48,7 @@ class MaterialFit:
     sets : the raw sets (for the figure); empty for a master curve
     modulus : ``"E"`` or ``"G"``
     sources : the files
+    units_in_file : file name -> {column role: the unit the file states ('' where none)}
     """
 
     domain: str
@@ -56,6 +57,7 @@ class MaterialFit:
     sets: list
     modulus: str
     sources: list
+    units_in_file: dict = dataclasses.field(default_factory=dict)
 
     @property
     def m(self) -> int:
@@ -186,4 +188,5 @@ def fit_material(datas: Sequence[MaterialData], *, terms="auto", max_error_pct: 
         # equal reduced times from different sets are kept (both are data); the modulus curve needs no strict order
         log = RelaxLog(name=name, time_s=x, modulus_mpa=storage, source="modulus", path=where)
         fit = fit_relaxation([log], terms=terms, mode="step", config=cfg, max_error_pct=max_error_pct)
-    return MaterialFit(domain, fit, shift, sets, datas[0].modulus, [d.path for d in datas])
+    units = {_label(d): dict(d.units_in_file) for d in datas}
+    return MaterialFit(domain, fit, shift, sets, datas[0].modulus, [d.path for d in datas], units)

@@ -152,6 +152,9 @@ def material_fit_body(mf, poisson: float) -> dict:
         if mf.modulus == "G":
             body["metrics"]["note"] = ("fitted to shear moduli G (the metrics are of G' and G''); prony holds "
                                        "E = 2 (1 + nu) G")
+    if mf.units_in_file:  # the units as the files state them ('' = none stated, the default applies)
+        body["data"]["units_in_file"] = {name: {role: (u or "(none stated)") for role, u in units.items()}
+                                         for name, units in mf.units_in_file.items()}
     if mf.shift is not None:
         body["shift"] = shift_body(mf.shift)
         body["data"]["sets"] = len(mf.sets)
