@@ -123,3 +123,47 @@ def test_rad_per_s_under_a_column_named_f(tmp_path):
     res, out = fit(tmp_path, p, "--terms", "8")
     assert res.exit_code == 0, res.output
     assert yaml.safe_load(out.read_text())["data"]["units_in_file"]["w.csv"]["f"] == "rad/s"
+
+
+# ---- 5: master curves logged high to low, or with a repeated frequency ------------------------------------------------
+def test_descending_master_curve_is_read_and_a_repeated_frequency_named(tmp_path):
+    rows = master_rows()
+    d = read_material_file(write(tmp_path / "desc.csv", ["f", "E_stor", "E_loss"], rows[::-1], ["Hz", "MPa", "MPa"]))
+    assert np.all(np.diff(d.x) > 0) and np.allclose(d.storage, [r[1] for r in rows])
+    assert d.where(0) == 2 + len(rows)  # the lowest frequency is the file's last line
+    dup = rows[:12] + [(rows[11][0], rows[11][1] * 1.01, rows[11][2])] + rows[12:]
+    with pytest.raises(InputError) as e:
+        read_material_file(write(tmp_path / "dup.csv", ["f", "E_stor", "E_loss"], dup, ["Hz", "MPa", "MPa"]))
+    assert f"the frequency {rows[11][0]:g} Hz appears on lines 14 and 15" in str(e.value)
+    assert "several sweeps" not in str(e.value)
+    # a real restart (two sweeps, no temperatures) keeps its message
+    two = rows[:50] + rows[20:70]
+    with pytest.raises(InputError, match="falls back .* several sweeps"):
+        read_material_file(write(tmp_path / "two.csv", ["f", "E_stor", "E_loss"], two, ["Hz", "MPa", "MPa"]))
+
+
+# ---- 6: raw sweeps high to low without a Set column -----------------------------------------------------------------
+def test_sets_split_where_the_sweep_direction_restarts(tmp_path):
+    rows = sweeps([20.0, 30.0, 40.0, 50.0], np.logspace(-1, 2, 10))
+    up = read_material_file(write(tmp_path / "up.csv", ["f", "E_stor", "E_loss", "T"], [r[:4] for r in rows],
+                                  ["Hz", "MPa", "MPa", "C"]))
+    assert up.set_id.tolist() == [r[4] for r in rows]  # ascending sweeps: the sets as before
+    down = [r for k in range(4) for r in [q for q in rows if q[4] == k][::-1]]
+    d = read_material_file(write(tmp_path / "down.csv", ["f", "E_stor", "E_loss", "T"], [r[:4] for r in down],
+                                 ["Hz", "MPa", "MPa", "C"]))
+    assert d.set_id.tolist() == [r[4] for r in down] and [T for T, _ in d.sets()] == [20.0, 30.0, 40.0, 50.0]
+
+
+# ---- 7: a set too small to be overlaid -----------------------------------------------------------------------------
+def test_a_set_with_too_few_samples_is_refused_at_reading_with_its_temperature(tmp_path):
+    rows = sweeps([20.0, 30.0, 40.0], np.logspace(-1, 2, 10))
+    rows = [r for r in rows if not (r[4] == 1 and r[0] > 0.15)]  # the 30 C set keeps one point
+    p = write(tmp_path / "one.csv", ["f", "E_stor", "E_loss", "T", "Set"], rows, ["Hz", "MPa", "MPa", "C", "-"])
+    with pytest.raises(InputError) as e:
+        read_material_file(p)
+    assert "one.csv:13" in str(e.value) and "set at 30 C" in str(e.value) and "at least 3" in str(e.value)
+    # the shift search names both temperatures and the file when two sets cannot be overlaid
+    with pytest.raises(InputError) as e:
+        tts.find_shift_factors([20.0, 30.0], [np.array([0.0, 1.0]), np.array([0.0, 0.1])],
+                               [np.array([1.0, 1.1]), np.array([1.0, 1.0])], 20.0, where=[("a.csv", 3), ("a.csv", 9)])
+    assert str(e.value).startswith("a.csv:9: the sets at 20 C and 30 C cannot be overlaid")

@@ -231,6 +231,9 @@ _MAT_UNITS = {
 UNITLESS_KELVIN_C = 200.0
 #: a modulus above this (MPa; 100 GPa) is stiffer than any polymer: refused without a stated unit, warned with one
 MAX_PLAUSIBLE_MPA = 1e5
+#: fewest samples of one set of raw data (bpmid.relax.tts.MIN_OVERLAP: a shift is judged on at least 3 overlapping
+#: samples, and a set's smooth curve needs 3 points to be more than a line through 2)
+MIN_SET_SAMPLES = 3
 #: role -> unit family
 _ROLE_UNIT = {"f": "f", "omega": "omega", "t": "t", "storage": "modulus", "loss": "modulus", "storage_g": "modulus",
               "loss_g": "modulus", "relax": "modulus", "relax_g": "modulus", "T": "T", "set": "set"}
@@ -574,20 +577,41 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
             raise InputError(f"Set must be a whole number, found {sid[i]:g}", path=path, line=int(lines[i]))
         sid = sid.astype(int)
     elif T is not None:
-        # consecutive sweeps: a new set starts where the frequency (time) falls back
-        sid = np.concatenate([[0], np.cumsum(np.diff(x) < 0)]).astype(int)
+        # consecutive sweeps: a new set starts where the sweep direction restarts (the dominant direction is the sign
+        # of the median step: an instrument sweeping high to low restarts where the frequency jumps back up)
+        step = np.diff(x)
+        direction = -1.0 if step.size and float(np.median(step)) < 0 else 1.0
+        sid = np.concatenate([[0], np.cumsum(direction * step < 0)]).astype(int)
     else:
         sid = None
-        restart = np.flatnonzero(np.diff(x) <= 0)
-        if restart.size:
-            i = int(restart[0]) + 1
+        step = np.diff(x)
+        unit_word = "Hz" if freq else "s"
+        if np.all(step <= 0) or np.all(step >= 0):  # monotone: a repeated value is a repeated measurement
+            same = np.flatnonzero(step == 0)
+            if same.size:
+                i = int(same[0])
+                raise InputError(f"the {what} {x[i]:g} {unit_word} appears on lines {int(lines[i])} and "
+                                 f"{int(lines[i + 1])}: a master curve takes each {what} once (drop or average the "
+                                 "repeat)", path=path, line=int(lines[i + 1]))
+            if step.size and np.all(step < 0):  # logged high to low, as many instruments do
+                o = np.arange(x.size)[::-1]
+                x, stor, lines = x[o], stor[o], lines[o]
+                loss = None if loss is None else loss[o]
+        else:
+            i = int(np.flatnonzero(step * np.sign(np.median(step) or 1.0) <= 0)[0]) + 1
             raise InputError(f"the {what} falls back ({x[i - 1]:g} then {x[i]:g}): several sweeps in one file are raw "
                              "sets, which need a temperature column T (C) to be shifted into a master curve",
                              path=path, line=int(lines[i]), key="T")
     out = MaterialData(path.stem, path, domain, modulus, x, stor, loss, T, sid, lines, sheet,
                        {r: u for r, (_, u) in index.items()}, warnings)
     if sid is not None:
-        for Tset, idx in out.sets():
+        sets = out.sets()
+        for Tset, idx in sets:
+            if len(sets) > 1 and idx.size < MIN_SET_SAMPLES:
+                raise InputError(f"the set at {Tset:g} C (from line {int(lines[idx[0]])}) has {idx.size} sample(s): a "
+                                 f"set needs at least {MIN_SET_SAMPLES} to be overlaid on its neighbours (shift factors "
+                                 f"are judged on at least {MIN_SET_SAMPLES} overlapping samples); drop it or measure "
+                                 f"more {what}s", path=path, line=int(lines[idx[0]]))
             xs = x[idx]
             if np.unique(xs).size < xs.size:
                 k = idx[int(np.flatnonzero(np.diff(np.sort(xs)) == 0)[0])]

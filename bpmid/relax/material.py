@@ -147,7 +147,8 @@ def build_master(datas: Sequence[MaterialData], *, ref_temp: float | None = None
         pair, source = None, "user"
     else:
         anchor = float(T[np.argmin(np.abs(T - ref_temp))])
-        log_aT, pair = tts.find_shift_factors(T, logx, logy, anchor, domain=domain)
+        where = [(d.path, d.where(int(idx[0]))) for _, d, idx in pooled]
+        log_aT, pair = tts.find_shift_factors(T, logx, logy, anchor, domain=domain, where=where)
         if abs(anchor - ref_temp) > 1e-9:  # re-reference between the two neighbouring sets
             o = np.argsort(T)
             log_aT = log_aT - float(np.interp(ref_temp, T[o], log_aT[o]))

@@ -252,7 +252,7 @@ def overlap_rms(logx_a: np.ndarray, logy_a: np.ndarray, logx_b: np.ndarray, logy
 
 
 def find_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: Sequence[np.ndarray], T_ref: float,
-                       *, domain: str = "freq") -> tuple[np.ndarray, np.ndarray]:
+                       *, domain: str = "freq", where: Sequence | None = None) -> tuple[np.ndarray, np.ndarray]:
     """log10 a_T of every set from the data (see the module docstring).
 
     Parameters
@@ -260,6 +260,7 @@ def find_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: Seq
     T : (K,) set temperatures (deg C); T_ref must be one of them (within 0.5 C)
     logx, logy : per set, log10 frequency (Hz) or time (s), and log10 modulus
     domain : ``"freq"`` (reduced frequency f a_T) or ``"time"`` (reduced time t / a_T)
+    where : per set, (file, line of its first sample) for error messages
 
     Returns
     -------
@@ -278,7 +279,12 @@ def find_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: Seq
         while 0 <= j < order.size:
             cur = order[j]
             ref_x = logx[prev] + sign * log_aT[prev]
-            d = pair_shift(ref_x, logy[prev], logx[cur], logy[cur])  # reduced log x = log x + d
+            try:
+                d = pair_shift(ref_x, logy[prev], logx[cur], logy[cur])  # reduced log x = log x + d
+            except InputError as exc:
+                path, line = where[cur] if where is not None else (None, None)
+                raise InputError(f"the sets at {T[prev]:g} C and {T[cur]:g} C cannot be overlaid: {exc.message}",
+                                 path=path, line=line) from None
             log_aT[cur] = sign * d
             pair[cur] = log_aT[cur] - log_aT[prev]
             prev = cur
