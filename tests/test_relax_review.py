@@ -167,3 +167,25 @@ def test_a_set_with_too_few_samples_is_refused_at_reading_with_its_temperature(t
         tts.find_shift_factors([20.0, 30.0], [np.array([0.0, 1.0]), np.array([0.0, 0.1])],
                                [np.array([1.0, 1.1]), np.array([1.0, 1.0])], 20.0, where=[("a.csv", 3), ("a.csv", 9)])
     assert str(e.value).startswith("a.csv:9: the sets at 20 C and 30 C cannot be overlaid")
+
+
+# ---- 8: --ref-temp with a single set at another temperature ---------------------------------------------------------
+def test_single_set_with_another_ref_temp_is_refused_unless_shift_factors_are_given(tmp_path):
+    rows = [(a, b, c, 62.5 + 0.01 * (-1) ** i, 0) for i, (a, b, c, _, _) in
+            enumerate(sweeps([62.5], np.logspace(-1, 2, 10)))]
+    p = write(tmp_path / "one.csv", ["f", "E_stor", "E_loss", "T", "Set"], rows, ["Hz", "MPa", "MPa", "C", "-"])
+    res, out = fit(tmp_path, p, "--ref-temp", "40", "--terms", "2")
+    assert res.exit_code == 2 and "one.csv:3" in res.output and "--shift" in res.output and not out.exists()
+    assert "62.5 C" in res.output
+    res, out = fit(tmp_path, p, "--ref-temp", "62.3", "--terms", "2")  # within 0.5 C: fine
+    assert res.exit_code == 0, res.output
+    data = yaml.safe_load(out.read_text())["data"]
+    assert data["set_temperature_c"] == 62.0 and data["mean_measured_temperature_c"] == pytest.approx(62.5, abs=0.01)
+    out.unlink()
+    sf = tmp_path / "shift.csv"
+    sf.write_text("T,log_aT\nC,-\n40,0\n62,-2.1\n")
+    res, out = fit(tmp_path, p, "--ref-temp", "40", "--shift", sf, "--terms", "2")
+    assert res.exit_code == 0, res.output
+    body = yaml.safe_load(out.read_text())
+    assert body["shift"]["source"] == "user" and body["shift"]["log_aT"] == {"62": -2.1}
+    assert body["data"]["f_min_hz"] == pytest.approx(0.1 * 10 ** -2.1)

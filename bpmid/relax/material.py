@@ -49,6 +49,8 @@ class MaterialFit:
     modulus : ``"E"`` or ``"G"``
     sources : the files
     units_in_file : file name -> {column role: the unit the file states ('' where none)}
+    set_temperature : for one set with a temperature column: {"T": set temperature (C, rounded as raw sets are
+        labelled), "mean_measured": the mean measured temperature (C)}; else None
     """
 
     domain: str
@@ -58,6 +60,7 @@ class MaterialFit:
     modulus: str
     sources: list
     units_in_file: dict = dataclasses.field(default_factory=dict)
+    set_temperature: dict | None = None
 
     @property
     def m(self) -> int:
@@ -121,12 +124,29 @@ def build_master(datas: Sequence[MaterialData], *, ref_temp: float | None = None
     raw = len(pooled) > 1
     if not raw:
         d = datas[0]
-        if shift_file is not None:
-            raise InputError("--shift applies to raw sets at several temperatures; this file holds one curve",
-                             path=d.path, key="--shift")
-        if ref_temp is not None and d.temperature_c is None:
-            note(f"--ref-temp {ref_temp:g} C ignored: {_label(d)} is a master curve without temperatures")
-        return d.x.copy(), d.storage.copy(), None if d.loss is None else d.loss.copy(), None, []
+        if d.temperature_c is None:
+            if shift_file is not None:
+                raise InputError("--shift applies to sets with a temperature column; this file holds one curve "
+                                 "without temperatures", path=d.path, key="--shift")
+            if ref_temp is not None:
+                note(f"--ref-temp {ref_temp:g} C ignored: {_label(d)} is a master curve without temperatures")
+            return d.x.copy(), d.storage.copy(), None if d.loss is None else d.loss.copy(), None, []
+        T_set, idx = d.sets()[0]
+        T_mean = float(np.mean(d.temperature_c))
+        if shift_file is None:
+            if ref_temp is not None and abs(T_mean - ref_temp) > 0.5:
+                raise InputError(f"--ref-temp {ref_temp:g} C: {_label(d)} holds one set, measured at {T_mean:.4g} C; "
+                                 "a single set cannot be moved to another temperature without shift factors: give "
+                                 "them with --shift FILE (T, log_aT), or leave out --ref-temp to fit the curve at "
+                                 f"{T_mean:.4g} C", path=d.path, line=d.where(int(idx[0])), key="--ref-temp")
+            return d.x.copy(), d.storage.copy(), None if d.loss is None else d.loss.copy(), None, []
+        # one set moved by the user's shift factor
+        pooled = [(T_set, d, idx)]
+        T = np.array([T_set])
+        ref_temp = T_set if ref_temp is None else ref_temp
+        Tu, au = tts.read_shift_file(shift_file)
+        log_aT = tts.shift_from_user(T, Tu, au, ref_temp, shift_file)
+        return _shifted(pooled, log_aT, tts.shift_result(T, log_aT, ref_temp, "user"), domain)
     T = np.array([p[0] for p in pooled])
     if np.unique(T).size < T.size:
         dup = T[np.flatnonzero(np.diff(np.sort(T)) == 0)[0]]
@@ -153,7 +173,11 @@ def build_master(datas: Sequence[MaterialData], *, ref_temp: float | None = None
             o = np.argsort(T)
             log_aT = log_aT - float(np.interp(ref_temp, T[o], log_aT[o]))
         source = "data"
-    shift = tts.shift_result(T, log_aT, ref_temp, source, pair)
+    return _shifted(pooled, log_aT, tts.shift_result(T, log_aT, ref_temp, source, pair), domain)
+
+
+def _shifted(pooled, log_aT, shift, domain):
+    """The master curve of the pooled sets moved by their shift factors (see :func:`build_master`)."""
     sign = 1.0 if domain == "freq" else -1.0
     xs, ss, ls, sets = [], [], [], []
     for (Tk, d, idx), a in zip(pooled, log_aT):
@@ -190,4 +214,7 @@ def fit_material(datas: Sequence[MaterialData], *, terms="auto", max_error_pct: 
         log = RelaxLog(name=name, time_s=x, modulus_mpa=storage, source="modulus", path=where)
         fit = fit_relaxation([log], terms=terms, mode="step", config=cfg, max_error_pct=max_error_pct)
     units = {_label(d): dict(d.units_in_file) for d in datas}
-    return MaterialFit(domain, fit, shift, sets, datas[0].modulus, [d.path for d in datas], units)
+    one = None
+    if len(datas) == 1 and not datas[0].is_raw and datas[0].temperature_c is not None:
+        one = {"T": datas[0].sets()[0][0], "mean_measured": round(float(np.mean(datas[0].temperature_c)), 4)}
+    return MaterialFit(domain, fit, shift, sets, datas[0].modulus, [d.path for d in datas], units, one)

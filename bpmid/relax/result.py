@@ -155,6 +155,9 @@ def material_fit_body(mf, poisson: float) -> dict:
     if mf.units_in_file:  # the units as the files state them ('' = none stated, the default applies)
         body["data"]["units_in_file"] = {name: {role: (u or "(none stated)") for role, u in units.items()}
                                          for name, units in mf.units_in_file.items()}
+    if getattr(mf, "set_temperature", None):  # one set at one temperature: the curve is at that temperature
+        body["data"]["set_temperature_c"] = float(mf.set_temperature["T"])
+        body["data"]["mean_measured_temperature_c"] = float(mf.set_temperature["mean_measured"])
     if mf.shift is not None:
         body["shift"] = shift_body(mf.shift)
         body["data"]["sets"] = len(mf.sets)
