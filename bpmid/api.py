@@ -252,6 +252,14 @@ def predict(logs, params, *, config=None):
     motion, paths = _motion_logs(logs, cfg)
     preds = _predict(motion, model)
     warnings = plaus.reader_warnings(motion) + plaus.prediction_warnings(preds)
+    if ppath is not None and str(ppath).endswith((".yaml", ".yml")) and Path(ppath).is_file():
+        from bpmid.io.results import read_result
+        from bpmid.models.vbmm import fitted_history_note
+
+        note = fitted_history_note(read_result(ppath, "bpmid.vbmm/").get("model"),
+                                   model.base if hasattr(model, "base") else model)
+        if note:
+            warnings.insert(0, f"{ppath}: {note}")
     body = {**predict_yaml_body(preds, params=ppath, model=model), "warnings": warnings}
     prov = plaus.attach(provenance(list(paths) + ([ppath] if ppath else []), config=cfg), motion, warnings)
     out = PredictionResult(body, prov, raw=preds)

@@ -155,30 +155,53 @@ def test_effects_forward_equals_the_augmented_model_and_inverse_is_a_right_inver
     _dd, _exe, lib = exported(tmp_path_factory, "fx", fit)
     aug = load_vbmm_fit(fit)
     assert [e.id for e in aug.effects] == [e["id"] for e in EFFECTS]
+    # without the lag (whose inverse is for a held command, tested below), the same effects in C
+    fit_nl = write_fit(d / "VBMM_nolag.yaml", VBMM(FITTED), EFFECTS[1:])
+    _dd, _exe, lib_nl = exported(tmp_path_factory, "fx_nolag", fit_nl)
+    aug_nl = load_vbmm_fit(fit_nl)
     for lg in logs[::6]:
         ref = aug.simulate_deg(lg.time_s, lg.pressure_pa)
         ang = lib.run_forward(lg.time_s, lg.pressure_pa)
         assert np.max(np.abs(ang - ref)) < 1e-6
         # the feedforward: the pressure it returns gives the wanted angle back (friction makes the pressure
         # inside a dead band free, so the pressure itself is not unique)
-        p_ff = lib.run_inverse(lg.time_s, ang)
-        assert np.max(np.abs(lib.run_forward(lg.time_s, p_ff) - ang)) < 1e-6
+        ang_nl = lib_nl.run_forward(lg.time_s, lg.pressure_pa)
+        assert np.max(np.abs(ang_nl - aug_nl.simulate_deg(lg.time_s, lg.pressure_pa))) < 1e-6
+        p_ff = lib_nl.run_inverse(lg.time_s, ang_nl)
+        assert np.max(np.abs(lib_nl.run_forward(lg.time_s, p_ff) - ang_nl)) < 1e-6
+        # with the lag in front: the command that, held over each step, drives the lag to the pressure the
+        # rest of the model needs
+        p_cmd = lib.run_inverse(lg.time_s, ang)
+        p_rest = lib_nl.run_inverse(lg.time_s, ang)
+        tau = EFFECTS[0]["parameters"]["tau"]["value"]
+        assert np.max(np.abs(held_lag(lg.time_s, p_cmd, tau) - p_rest)) < 1e-6 * np.max(np.abs(p_rest))
+
+
+def held_lag(t, u, tau):
+    """A first-order lag driven by a command held over each step (the output at sample k after the
+    command u_k was held over (t_(k-1), t_k]): y_k = a y_(k-1) + (1 - a) u_k, y_0 = u_0."""
+    y = np.empty(len(u))
+    y[0] = u[0]
+    for k in range(1, len(u)):
+        a = np.exp(-(t[k] - t[k - 1]) / tau)
+        y[k] = a * y[k - 1] + (1.0 - a) * u[k]
+    return y
 
 
 @pytest.mark.parametrize("mu, slip", [(0.02, 8000.0), (0.03, 0.0)])
 def test_general_friction_forward_equals_the_augmented_model_and_inverse_is_a_right_inverse(
         tmp_path_factory, logs, mu, slip):
     # the friction discovery names: a sliding level growing with the pressure (mu) and an elastic stick (slip),
-    # or a rigid stick whose dead band grows with the pressure (slip = 0); beside a lag, as fitted
-    fx = [EFFECTS[0], {"id": "braid_friction", "settings": {"elements": 3},
-                       "parameters": {"r": 1500.0, "mu": mu, "slip": slip}}]
+    # or a rigid stick whose dead band grows with the pressure (slip = 0); alone (a lag in front of it makes
+    # the feedforward a held command, tested with the other effects)
+    fx = [{"id": "braid_friction", "settings": {"elements": 3}, "parameters": {"r": 1500.0, "mu": mu, "slip": slip}}]
     d = tmp_path_factory.mktemp("gen_friction_fit")
     fit = write_fit(d / "VBMM.yaml", VBMM(FITTED), fx)
     dd, _exe, lib = exported(tmp_path_factory, "gen_friction", fit)
     src = (dd / "src" / "bpmid_model.c").read_text()
     assert "friction_inverse" in src and "mean of 3 friction operator(s)" in src
     aug = load_vbmm_fit(fit)
-    assert not aug.effects[1].is_play(aug.params)
+    assert not aug.effects[0].is_play(aug.params)
     for lg in logs[::8]:
         ref = aug.simulate_deg(lg.time_s, lg.pressure_pa)
         ang = lib.run_forward(lg.time_s, lg.pressure_pa)
@@ -200,13 +223,31 @@ def test_general_friction_forward_equals_the_augmented_model_and_inverse_is_a_ri
         assert np.max(np.abs(lib.run_forward(lg.time_s, p_f) - ang)) < 1e-2
 
 
-def test_lag_and_offset_inverse_gives_the_pressure_back(tmp_path_factory, logs):
+def test_lag_and_offset_inverse_gives_the_pressure_back_within_half_a_step_and_never_rings(tmp_path_factory, logs):
     d = tmp_path_factory.mktemp("lag_fit")
     fit = write_fit(d / "VBMM.yaml", VBMM(FITTED), [EFFECTS[0], EFFECTS[-1]])
     _dd, _exe, lib = exported(tmp_path_factory, "lag", fit)
-    lg = logs[0]
-    ang = lib.run_forward(lg.time_s, lg.pressure_pa)
-    assert np.max(np.abs(lib.run_inverse(lg.time_s, ang) - lg.pressure_pa)) < 1e-3  # Pa
+    for lg in logs[::5]:
+        ang = lib.run_forward(lg.time_s, lg.pressure_pa)
+        back = lib.run_inverse(lg.time_s, ang)
+        # the forward reads a logged pressure as linear between samples, the inverse returns a held command:
+        # they differ by about half of each step's change, never more than the whole change of two steps
+        dp = np.abs(np.diff(lg.pressure_pa))
+        bound = np.concatenate([[0.0], np.maximum(dp, np.concatenate([[0.0], dp[:-1]]))]) + 1e-6
+        assert np.all(np.abs(back - lg.pressure_pa) <= bound)
+    # a step in the wanted angle (a reference the model did not make): one sample above the new level, then
+    # the level; no sample-to-sample ringing (the exact inverse of the interpolated lag rings at the Nyquist
+    # rate with a growing swing: a pole near -1)
+    for hz in (10.0, 100.0):
+        t = np.arange(0.0, 4.0, 1.0 / hz)
+        want = np.where(t < 2.0, 30.0, 40.0)
+        p = lib.run_inverse(t, want)
+        k = int(np.flatnonzero(t >= 2.0)[0])
+        after = p[k + 1:]
+        assert p[k] > after.max()
+        assert np.all(np.diff(after) <= 1e-9)      # settles from above, monotone (the creep the model holds)
+        assert after.min() > p[:k].max()
+        assert lib.status == 0
 
 
 def test_asymmetric_relaxation_inverse_equals_bpmids_inverse(tmp_path_factory, logs):
@@ -271,9 +312,43 @@ def test_control_with_the_exported_feedforward_gives_the_same_rmse(tmp_path_fact
 
 def test_filter_refuses_bad_lines(plain):
     _fit, _d, exe, _lib = plain
-    for text, what in (("0,1000\nabc,2\n", "line 2"), ("0,1000\n0,2000\n", "rise strictly"), ("0;1000\n", "line 1")):
+    for text, what in (("0,1000\nabc,2\n", "line 2"), ("0,1000\n0,2000\n", "rise strictly"), ("0;1000\n", "line 1"),
+                       ("0,50000\n0.1,nan\n", "line 2: not a finite number"), ("0,50000\ninf,1\n", "line 2")):
         res = subprocess.run([str(exe)], input=text, capture_output=True, text=True)
         assert res.returncode == 2 and what in res.stderr, res.stderr
+
+
+def test_a_refused_input_leaves_the_state_and_says_so(plain):
+    """NaN, infinite, a time not after the previous one: status 3, the previous output, the state unchanged
+    (the next good sample gives what it gives without the bad one); an angle beyond the model: status 1."""
+    _fit, _d, _exe, lib = plain
+    t = np.arange(0.0, 3.0, 0.1)
+    p = 40000.0 + 20000.0 * np.sin(t)
+    clean = lib.run_forward(t, p)
+    for bad_t, bad_p in ((1.05, float("nan")), (1.05, float("inf")), (float("nan"), 5e4), (0.5, 5e4), (1.0, 5e4)):
+        lib.reset()
+        out = []
+        for k, (a, b) in enumerate(zip(t, p)):
+            out.append(lib.forward(float(a), float(b)))
+            assert lib.status == 0
+            if k == 10:
+                assert lib.forward(bad_t, bad_p) == out[-1]
+                assert lib.status == 3
+        assert np.array_equal(np.array(out), clean)
+    lib.reset()
+    assert lib.forward(0.0, float("nan")) == 0.0 and lib.status == 3
+    lib.reset()
+    ang = lib.run_forward(t, p)
+    lib.reset()
+    for a, b in zip(t[:5], ang[:5]):
+        lib.inverse(float(a), float(b))
+    good = lib.inverse(float(t[5]), 10.0)
+    assert lib.status == 0
+    assert lib.inverse(float(t[6]), float("nan")) == good and lib.status == 3
+    lib.inverse(float(t[6]), -10.0)
+    assert lib.status == 1
+    lib.inverse(float(t[7]), 1000.0)
+    assert lib.status == 1
 
 
 def test_cli_export_and_refusals(plain, tmp_path):
@@ -315,3 +390,27 @@ def test_vbmm_model_of_a_comparison_equals_its_simulate(tmp_path_factory, logs):
         assert np.max(np.abs(lib.run_forward(lg.time_s, lg.pressure_pa) - fam.simulate(params, lg))) < 1e-9
     res = CliRunner().invoke(app, ["export", str(fit), "--to", "c", "--model", "vbmm-fit", "--out", str(d / "x")])
     assert res.exit_code == 2 and "models.vbmm-fit" in res.output
+
+
+def test_a_fit_made_with_a_short_history_window_is_refused_by_export_and_flagged_by_predict(tmp_path, logs):
+    """Constants fitted with a 1 s window (2.6 times the 0.39 s branch) belong to a model that forgets the past
+    after 1 s; the C runs the exact history, so export refuses; predict says which history it ran."""
+    short = write_fit(tmp_path / "win1.yaml", VBMM(FITTED, history="window", window_s=1.0))
+    long = write_fit(tmp_path / "win20.yaml", VBMM(FITTED, history="window", window_s=20.0))
+    res = CliRunner().invoke(app, ["export", str(short), "--to", "c", "--out", str(tmp_path / "c1")])
+    assert res.exit_code == 2
+    assert "model.history" in res.output and "1 s history window" in res.output and "refit" in res.output
+    assert not (tmp_path / "c1").exists()
+    res = CliRunner().invoke(app, ["export", str(long), "--to", "c", "--out", str(tmp_path / "c20")])
+    assert res.exit_code == 0, res.output
+    log = logs[0].path
+    res = CliRunner().invoke(app, ["predict", str(log), "--params", str(short), "--out", str(tmp_path / "p1")])
+    assert res.exit_code == 0, res.output
+    body = yaml.safe_load((tmp_path / "p1" / "predict.yaml").read_text())
+    assert any("1 s history window" in w for w in body["warnings"])
+    res = CliRunner().invoke(app, ["predict", str(log), "--params", str(short), "--out", str(tmp_path / "p1s"),
+                                   "--strict"])
+    assert res.exit_code == 2 and not (tmp_path / "p1s").exists()
+    res = CliRunner().invoke(app, ["predict", str(log), "--params", str(long), "--out", str(tmp_path / "p20")])
+    body = yaml.safe_load((tmp_path / "p20" / "predict.yaml").read_text())
+    assert not any("history window" in w for w in body["warnings"])

@@ -14,8 +14,8 @@ Two model kinds:
   pressure-proportional band and an elastic stick), angle_offset, second_relaxation (one more
   branch), strain_stiffening, asymmetric_relaxation and thermal_softening. ``step_forward`` is the
   forward model of ``bpmid predict``; ``step_inverse`` is the feedforward of eq. 20 (closed form),
-  followed by the exact causal inverses of the pressure terms (lag: the discrete lag solved for its
-  input; plays: the smallest input move that gives the wanted output; friction operators: the same, by
+  followed by the causal inverses of the pressure terms (lag: the discrete lag solved for a command
+  held over the step, which never rings; plays: the smallest input move that gives the wanted output; friction operators: the same, by
   bisection on their mean output, which never falls as the input rises).
 - ``maxwell-slip`` (``--model maxwell-slip``): the Maxwell-slip model of a ``bpmid.compare/1`` file
   (pressure in bar gauge -> angle in deg; ``step_inverse`` solves it for the pressure) or the MS-PI
@@ -123,13 +123,20 @@ def causal_vbmm(aug, path=None) -> CausalVBMM:
 
 def load_vbmm_fit(path: str | Path):
     """The :class:`~bpmid.effects.base.AugmentedVBMM` of a ``bpmid.vbmm/1`` file (its ``effects`` list
-    included; recursive history)."""
+    included; recursive history). A fit made with a history window too short for its time constants is
+    refused: the C runs the exact history, a model other than the one fitted."""
     from bpmid.effects.base import AugmentedVBMM
     from bpmid.effects.fitfile import augmented_from_file
-    from bpmid.models.vbmm import load_vbmm
+    from bpmid.io.results import read_result
+    from bpmid.models.vbmm import fitted_history_note, load_vbmm
 
     aug = augmented_from_file(load_vbmm(Path(path)), path)
-    return aug if isinstance(aug, AugmentedVBMM) else AugmentedVBMM(aug)
+    aug = aug if isinstance(aug, AugmentedVBMM) else AugmentedVBMM(aug)
+    note = fitted_history_note(read_result(Path(path), "bpmid.vbmm/").get("model"), aug.model(),
+                               runs_as="the exact (recursive) history the exported C runs", window_remedy=False)
+    if note:
+        raise InputError(note, path=path, key="model.history")
+    return aug
 
 
 def load_vbmm_from_compare(path: str | Path, name: str):
@@ -310,12 +317,14 @@ def _chain_sources(chain) -> tuple[str, list[str], list[str]]:
                 f"            + (x - s->lag{i}_x) * (R(1.0) - {tau} * (R(1.0) - s->lag{i}_a) / dt);\n    }}\n"
                 f"    s->lag{i}_x = x;\n    s->lag{i}_y = y;\n    x = y;\n")
             inv.append(
-                f"    /* inverse of the lag: its input for the wanted output */\n"
+                f"    /* inverse of the lag for a command held over the step (what a controller's output does):\n"
+                f"     * y_k = a y_(k-1) + (1 - a) x solved for x. Not the inverse of the forward's input linear between\n"
+                f"     * samples: that one has a pole near -1 and rings at the Nyquist rate on any reference the model\n"
+                f"     * did not make (a step); this one is a finite combination of the last two outputs, never rings. */\n"
                 f"    if (s->k == 0) {{\n        x = y;\n    }} else {{\n"
                 f"        if (dt != s->lag{i}_dt) {{\n            s->lag{i}_a = B_EXP(-dt / {tau});\n"
                 f"            s->lag{i}_dt = dt;\n        }}\n"
-                f"        x = s->lag{i}_x + (y - s->lag{i}_a * s->lag{i}_y - (R(1.0) - s->lag{i}_a) * s->lag{i}_x)\n"
-                f"            / (R(1.0) - {tau} * (R(1.0) - s->lag{i}_a) / dt);\n    }}\n"
+                f"        x = (y - s->lag{i}_a * s->lag{i}_y) / (R(1.0) - s->lag{i}_a);\n    }}\n"
                 f"    s->lag{i}_x = x;\n    s->lag{i}_y = y;\n    y = x;\n")
         elif op == "frictions":
             ne = len(val) // 3
@@ -645,14 +654,14 @@ def _ms_sources(ms: MaxwellSlipMap, meta: dict) -> dict[str, str]:
         arrays += "    static const bpmid_real kk[1] = {R(0.0)};\n    static const bpmid_real DD[1] = {R(0.0)};\n"
     if fwd:
         forward_body = ("    const bpmid_real y = direct_map(s, (bpmid_real)(pressure_gauge_pa / 1e5), s->k == 0);\n"
-                        "    s->status = BPMID_STATUS_OK;\n    return (double)y;")
+                        "    s->status = BPMID_STATUS_OK;\n    s->out_prev = (double)y;\n    return s->out_prev;")
         inverse_body = ("    const bpmid_real x = solve_map(s, (bpmid_real)angle_deg, &s->status);\n"
-                        "    return (double)x * 1e5;")
+                        "    s->out_prev = (double)x * 1e5;\n    return s->out_prev;")
     else:
         forward_body = ("    const bpmid_real x = solve_map(s, (bpmid_real)(pressure_gauge_pa / 1e5), &s->status);\n"
-                        "    return (double)x;")
+                        "    s->out_prev = (double)x;\n    return s->out_prev;")
         inverse_body = ("    const bpmid_real y = direct_map(s, (bpmid_real)angle_deg, s->k == 0);\n"
-                        "    s->status = BPMID_STATUS_OK;\n    return (double)y * 1e5;")
+                        "    s->status = BPMID_STATUS_OK;\n    s->out_prev = (double)y * 1e5;\n    return s->out_prev;")
     subs = dict(meta, description=_comment(desc), state_fields="".join(f + "\n" for f in fields),
                 constants="\n".join(consts) + "\n", arrays=arrays, forward_body=forward_body,
                 inverse_body=inverse_body)

@@ -549,6 +549,36 @@ def _check_model_block(block, path) -> None:
                              key=f"model.{k}")
 
 
+#: a history window at least this many times the longest time constant drops under e^-5 (0.7 %) of any branch's memory
+WINDOW_TAUS_ENOUGH = 5.0
+
+
+def fitted_history_note(block, model: "VBMM", *, runs_as: str | None = None, window_remedy: bool = True) -> str | None:
+    """What to tell the user when a fit made with a short history window (its file's ``model`` block:
+    ``history: window``, ``window_s``) is run with another history: the constants were fitted to a model that
+    forgets the past after the window, so the exact history gives other angles. None when it does not matter
+    (no window, or a window of at least :data:`WINDOW_TAUS_ENOUGH` times the longest time constant, or the same
+    window). ``runs_as`` names what runs it (default: the model's own history)."""
+    if not isinstance(block, dict) or block.get("history") != "window":
+        return None
+    w = block.get("window_s", 20.0)
+    if not isinstance(w, (int, float)) or isinstance(w, bool):
+        return None
+    mat = model.material
+    taus = [float(t) for t in (*mat.tauG, *mat.tau_K) if t > 0]
+    tmax = max(taus) if taus else 0.0
+    how = runs_as or (f"a {model.window_s:g} s window" if model.history == "window" else f"the {model.history} history")
+    if model.history == "window" and runs_as is None and abs(model.window_s - w) <= 1e-9 * max(w, 1.0):
+        return None
+    if w >= WINDOW_TAUS_ENOUGH * tmax:
+        return None
+    return (f"these constants were fitted with a {w:g} s history window (model.history: window, window_s: {w:g}), "
+            f"shorter than {WINDOW_TAUS_ENOUGH:g} times the longest time constant ({tmax:.3g} s): run with {how}, "
+            f"the model forgets less of the past and its angles differ from the fit's; refit with model.history: "
+            f"recursive (exact)" + (f", or evaluate with the fit's window (a config with model: {{history: window, "
+                                    f"window_s: {w:g}}})" if window_remedy else ""))
+
+
 def load_vbmm(path: str | Path, cfg: VBMMConfig | None = None) -> VBMM:
     """A :class:`VBMM` from a ``bpmid.vbmm/1`` file (``--params``). Keys of CLI.md suffice, and are required:
     ``geometry`` and ``closure`` are constants of the fitted model, never taken from a default.
