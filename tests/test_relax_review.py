@@ -189,3 +189,60 @@ def test_single_set_with_another_ref_temp_is_refused_unless_shift_factors_are_gi
     body = yaml.safe_load(out.read_text())
     assert body["shift"]["source"] == "user" and body["shift"]["log_aT"] == {"62": -2.1}
     assert body["data"]["f_min_hz"] == pytest.approx(0.1 * 10 ** -2.1)
+
+
+# ---- 9: shift factors the data do not determine ------------------------------------------------------------------
+def _relaxation_sets(Ts, t, noise, seed=11):
+    rng = np.random.default_rng(seed)
+    rows = []
+    for k, T in enumerate(Ts):
+        tr = t / 10.0 ** tts.wlf(T, T_REF, C1, C2)
+        E = E_INF + np.exp(-tr[:, None] / TAU[None, :]) @ E_TERMS
+        E = E * (1 + noise * rng.standard_normal(E.size))
+        rows += [(t[i], E[i], T, k) for i in range(t.size)]
+    return rows
+
+
+def _truth_at(T, T_ref=T_REF):
+    return tts.wlf(T, T_REF, C1, C2) - tts.wlf(T_ref, T_REF, C1, C2)
+
+
+def test_narrow_sweeps_without_common_modulus_take_the_shift_function(tmp_path):
+    from bpmid.relax.material import build_master
+
+    Ts = np.arange(0.0, 96.0, 5.0)
+    p = write(tmp_path / "narrow.csv", ["f", "E_stor", "E_loss", "T", "Set"], sweeps(Ts, np.logspace(0, 1, 6), noise=0),
+              ["Hz", "MPa", "MPa", "C", "-"])
+    d = read_material_file(p)
+    *_, sh, _ = build_master([d], ref_temp=40.0)
+    assert np.max(np.abs(sh.log_aT - _truth_at(sh.T))) < 0.1          # was 1.9 decades off at 0 C
+    assert sorted(sh.T[sh.from_function].tolist()) == [0.0, 5.0, 10.0, 15.0, 20.0]
+    assert sh.function["kind"] == "wlf" and sh.fitted_on.min() == 25.0
+    assert tts.shift_warnings(sh) and "0, 5, 10, 15, 20 C" in tts.shift_warnings(sh)[0]
+    res, out = fit(tmp_path, p, "--ref-temp", "40", "--terms", "6")
+    assert res.exit_code == 0, res.output
+    assert "warning: the data do not determine the shift factors at 0, 5, 10, 15, 20 C" in res.output
+    block = yaml.safe_load(out.read_text())["shift"]["not_determined_by_data"]
+    assert block["from_shift_function"] == [0.0, 5.0, 10.0, 15.0, 20.0] and block["function"]["kind"] == "wlf"
+    out.unlink()
+    res, out = fit(tmp_path, p, "--ref-temp", "40", "--terms", "6", "--strict")
+    assert res.exit_code == 2 and "--strict" in res.output and not out.exists()
+
+
+def test_flat_relaxation_sets_take_the_shift_function_and_too_few_determined_are_refused(tmp_path):
+    from bpmid.relax.material import build_master
+
+    Ts = np.arange(-5.0, 101.0, 7.5)
+    p = write(tmp_path / "relax.csv", ["t", "E_relax", "T", "Set"], _relaxation_sets(Ts, np.logspace(0, 3, 13), 0.01),
+              ["s", "MPa", "C", "-"])
+    d = read_material_file(p)
+    *_, sh, _ = build_master([d], ref_temp=40.0)
+    hot = sh.T >= 85
+    assert np.all(sh.from_function[hot]) and not np.any(sh.from_function[(sh.T >= 10) & (sh.T <= 70)])
+    assert np.max(np.abs(sh.log_aT - _truth_at(sh.T))[hot]) < 0.2      # were 1.1 ... 3 decades off
+    # only the reference set and one neighbour are determined: refused, naming temperatures and --shift
+    few = [r for r in _relaxation_sets(Ts, np.logspace(0, 3, 13), 0.01) if r[2] >= 62.5]
+    q = write(tmp_path / "hot.csv", ["t", "E_relax", "T", "Set"], few, ["s", "MPa", "C", "-"])
+    res, out = fit(tmp_path, q, "--ref-temp", "70", "--terms", "3")
+    assert res.exit_code == 2 and "hot.csv:" in res.output and "--shift" in res.output and not out.exists()
+    assert "determine the shift factors of only" in res.output and "wider sweeps" in res.output

@@ -51,6 +51,7 @@ class MaterialFit:
     units_in_file : file name -> {column role: the unit the file states ('' where none)}
     set_temperature : for one set with a temperature column: {"T": set temperature (C, rounded as raw sets are
         labelled), "mean_measured": the mean measured temperature (C)}; else None
+    checks : warnings ``--strict`` refuses (shift factors the data do not determine)
     """
 
     domain: str
@@ -61,6 +62,7 @@ class MaterialFit:
     sources: list
     units_in_file: dict = dataclasses.field(default_factory=dict)
     set_temperature: dict | None = None
+    checks: list = dataclasses.field(default_factory=list)
 
     @property
     def m(self) -> int:
@@ -168,11 +170,13 @@ def build_master(datas: Sequence[MaterialData], *, ref_temp: float | None = None
     else:
         anchor = float(T[np.argmin(np.abs(T - ref_temp))])
         where = [(d.path, d.where(int(idx[0]))) for _, d, idx in pooled]
-        log_aT, pair = tts.find_shift_factors(T, logx, logy, anchor, domain=domain, where=where)
+        search = tts.search_shift_factors(T, logx, logy, anchor, domain=domain, where=where)
+        log_aT, pair = search.log_aT, search.pair
         if abs(anchor - ref_temp) > 1e-9:  # re-reference between the two neighbouring sets
             o = np.argsort(T)
             log_aT = log_aT - float(np.interp(ref_temp, T[o], log_aT[o]))
         source = "data"
+        return _shifted(pooled, log_aT, tts.shift_result(T, log_aT, ref_temp, source, pair, search), domain)
     return _shifted(pooled, log_aT, tts.shift_result(T, log_aT, ref_temp, source, pair), domain)
 
 
@@ -217,4 +221,5 @@ def fit_material(datas: Sequence[MaterialData], *, terms="auto", max_error_pct: 
     one = None
     if len(datas) == 1 and not datas[0].is_raw and datas[0].temperature_c is not None:
         one = {"T": datas[0].sets()[0][0], "mean_measured": round(float(np.mean(datas[0].temperature_c)), 4)}
-    return MaterialFit(domain, fit, shift, sets, datas[0].modulus, [d.path for d in datas], units, one)
+    checks = tts.shift_warnings(shift) if shift is not None else []
+    return MaterialFit(domain, fit, shift, sets, datas[0].modulus, [d.path for d in datas], units, one, checks)

@@ -36,6 +36,17 @@ OUTLIER_ALPHA = 0.01
 MIN_INLIERS = 5
 #: fewest overlapping samples (both ways together) a shift is judged on
 MIN_OVERLAP = 3
+#: a pair's shift is not determined when the scan's optimum is this many grid steps (of 400) or fewer from the edge of
+#: the shifts that give an overlap
+EDGE_STEPS = 2
+#: ... or when its standard error exceeds this (decades)
+MAX_SHIFT_SE = 0.1
+#: ... or when a set is flat: its smooth curve's range over its samples below this many times its robust scatter
+FLAT_SCATTER = 3.0
+#: half-width (decades) of the central difference for the overlap cost's curvature
+CURVATURE_STEP = 0.05
+#: fewest temperatures with shifts determined by the data (the WLF has 2 constants)
+MIN_DETERMINED = 3
 #: degree of the polynomial shift function (lowered to the number of temperatures - 2)
 POLY_DEGREE = 4
 
@@ -53,6 +64,10 @@ class ShiftResult:
     wlf : dict C1, C2, T_ref, se_C1, se_C2, rmse (decades), or None when the fit failed
     poly : dict degree, coefficients c0..cd (of T - T_ref, deg C), se, rmse (decades)
     pair_shifts : (K,) shift of each set relative to its inner neighbour (decades; 0 at the reference)
+    from_function : (K,) True where the data do not determine the set's shift and the shift function gave it
+    chained : (K,) True where the set is chained through determined links to such a set
+    function : that shift function (``kind`` wlf or poly, its constants), fitted to the temperatures ``fitted_on``
+    why : temperature (C) -> why the data do not determine its shift
     """
 
     T_ref: float
@@ -62,6 +77,11 @@ class ShiftResult:
     wlf: dict | None
     poly: dict | None
     pair_shifts: np.ndarray | None = None
+    from_function: np.ndarray | None = None
+    chained: np.ndarray | None = None
+    function: dict | None = None
+    fitted_on: np.ndarray | None = None
+    why: dict | None = None
 
     def wlf_log_aT(self, T) -> np.ndarray:
         T = np.asarray(T, float)
@@ -190,13 +210,58 @@ def _bridge_shift(logx_ref, logy_ref, logx, logy) -> float:
     return float(np.mean(xr - xs))
 
 
+@dataclasses.dataclass
+class PairShift:
+    """The shift of one set onto its neighbour and whether the data determine it.
+
+    Attributes
+    ----------
+    d : shift (decades of x): logx + d overlays the reference set
+    determined : False when the data do not fix d (see :func:`pair_shift_info`)
+    why : the reason when not determined ('' else)
+    se : standard error of d from the overlap cost's curvature and residual level (decades; nan when not found)
+    method : ``"overlap"`` (scan of the overlap cost) or ``"bridge"`` (extrapolated smooth curves)
+    """
+
+    d: float
+    determined: bool = True
+    why: str = ""
+    se: float = math.nan
+    method: str = "overlap"
+
+
+def flat_set(logx: np.ndarray, logy: np.ndarray) -> bool:
+    """A set whose smooth curve (:func:`_quad`) changes over its samples by less than ``FLAT_SCATTER`` times its robust
+    residual scatter: noise, not a slope, would set its shift."""
+    if logx.size < 3:
+        return True
+    c = _quad(logx, logy)
+    fit = np.polynomial.polynomial.polyval(logx, c)
+    scatter = 1.4826 * float(np.median(np.abs(logy - fit)))
+    return float(fit.max() - fit.min()) < FLAT_SCATTER * scatter
+
+
 def pair_shift(logx_ref: np.ndarray, logy_ref: np.ndarray, logx: np.ndarray, logy: np.ndarray) -> float:
-    """Shift d (decades of x) that moves the set (logx, logy) onto the reference set: logx + d overlays logx_ref.
+    """Shift d (decades of x) that moves the set (logx, logy) onto the reference set: logx + d overlays logx_ref
+    (:func:`pair_shift_info` without the verdict)."""
+    return pair_shift_info(logx_ref, logy_ref, logx, logy).d
+
+
+def pair_shift_info(logx_ref: np.ndarray, logy_ref: np.ndarray, logx: np.ndarray, logy: np.ndarray) -> PairShift:
+    """Shift d (decades of x) that moves the set (logx, logy) onto the reference set, and whether the data determine it.
 
     Each set's outliers are dropped (:func:`inliers`); d minimises the mean squared difference of log modulus over the
     overlap, measured both ways (the set interpolated at the reference's samples and the reference at the set's,
     linear in log-log): a global scan of every d that gives an overlap, then a bounded refinement. Sets whose moduli
     do not overlap at any shift are bridged by extrapolating their smooth curves (:func:`_bridge_shift`).
+
+    Not determined (``determined`` False, ``why`` says which):
+
+    - the sets share no modulus range and the bridge fails (the scan then only finds the least bad partial overlap);
+    - the scan's optimum lies within ``EDGE_STEPS`` grid steps of the edge of the shifts that give an overlap;
+    - the standard error of d, sqrt(cost_min / (n k)) for a cost ~ cost_min + k (d - d0)^2 over n overlapping samples,
+      exceeds ``MAX_SHIFT_SE`` decades;
+    - either set is flat (:func:`flat_set`).
     """
     o = np.argsort(logx_ref)
     xr, yr = logx_ref[o], logy_ref[o]
@@ -205,12 +270,18 @@ def pair_shift(logx_ref: np.ndarray, logy_ref: np.ndarray, logx: np.ndarray, log
     mr, ms = inliers(xr, yr), inliers(xs, ys)
     xr, yr, xs, ys = xr[mr], yr[mr], xs[ms], ys[ms]
     lo, hi = xr.min() - xs.max(), xr.max() - xs.min()
+    flat = [w for w, (x_, y_) in (("the reference", (xr, yr)), ("the other", (xs, ys))) if flat_set(x_, y_)]
+    flat_why = (f"{' and '.join(flat)} set {'is' if len(flat) == 1 else 'are'} flat (the modulus changes less than "
+                f"{FLAT_SCATTER:g} times its scatter)") if flat else ""
 
-    def cost(d):
+    def overlap(d):
         xx = xs + d
         k1 = (xx >= xr[0]) & (xx <= xr[-1])
         k2 = (xr >= xx[0]) & (xr <= xx[-1])
-        n = int(k1.sum() + k2.sum())
+        return xx, k1, k2, int(k1.sum() + k2.sum())
+
+    def cost(d):
+        xx, k1, k2, n = overlap(d)
         if n < MIN_OVERLAP:
             return math.inf
         r1 = np.interp(xx[k1], xr, yr) - ys[k1]
@@ -219,16 +290,37 @@ def pair_shift(logx_ref: np.ndarray, logy_ref: np.ndarray, logx: np.ndarray, log
 
     grid = np.linspace(lo, hi, 401)
     costs = np.array([cost(d) for d in grid])
-    if not np.isfinite(costs).any() or not _levels_overlap(yr, ys):
+    shared = _levels_overlap(yr, ys)
+    if not np.isfinite(costs).any() or not shared:
         d = _bridge_shift(xr, yr, xs, ys)
         if math.isfinite(d):
-            return d
+            return PairShift(d, not flat, flat_why, math.nan, "bridge")
     if not np.isfinite(costs).any():
         raise InputError("two neighbouring sets cannot be overlaid (too few samples in common at any shift)")
-    b = grid[int(np.nanargmin(costs))]
+    ib = int(np.nanargmin(costs))
+    b = grid[ib]
     step = grid[1] - grid[0]
     res = minimize_scalar(cost, bounds=(b - step, b + step), method="bounded")
-    return float(res.x) if res.fun <= costs.min() else float(b)
+    d = float(res.x) if res.fun <= costs.min() else float(b)
+    why = []
+    if not shared:
+        why.append("the two sets share no modulus range and their smooth curves cannot be extrapolated to meet")
+    feas = np.flatnonzero(np.isfinite(costs))
+    if ib - feas[0] <= EDGE_STEPS or feas[-1] - ib <= EDGE_STEPS:
+        why.append("the best overlay lies at the edge of the shifts that give any overlap")
+    c0 = cost(d)
+    h = max(CURVATURE_STEP, 2 * step)
+    cp, cm = cost(d + h), cost(d - h)
+    se = math.nan
+    if math.isfinite(cp) and math.isfinite(cm):
+        k = (cp + cm - 2.0 * c0) / (2.0 * h * h)
+        n = overlap(d)[3]
+        se = math.sqrt(max(c0, 0.0) / (n * k)) if k > 0 else math.inf
+        if se > MAX_SHIFT_SE:
+            why.append(f"its standard error is {se:.2g} decades (the overlap barely changes with the shift)")
+    if flat_why:
+        why.append(flat_why)
+    return PairShift(d, not why, "; ".join(why), se)
 
 
 def _levels_overlap(yr: np.ndarray, ys: np.ndarray) -> bool:
@@ -251,9 +343,51 @@ def overlap_rms(logx_a: np.ndarray, logy_a: np.ndarray, logx_b: np.ndarray, logy
     return float(np.sqrt(np.mean(r ** 2))), int(r.size)
 
 
+@dataclasses.dataclass
+class ShiftSearch:
+    """Shift factors found from the data, and which of them the data do not determine.
+
+    Attributes
+    ----------
+    log_aT, pair : (K,) as :func:`find_shift_factors` returns them
+    info : (K,) :class:`PairShift` of each set onto its inner neighbour (None for the reference set)
+    from_function : (K,) True where the set's shift is the shift function's value (an undetermined link)
+    chained : (K,) True where the set is chained by determined links to a set taken from the shift function
+    function : the shift function used for them (``{"kind": "wlf", ...}`` or ``{"kind": "poly", ...}``), or None
+    fitted_on : temperatures (C) the shift function was fitted to (those connected to the reference set through
+        determined links), or None
+    """
+
+    log_aT: np.ndarray
+    pair: np.ndarray
+    info: list
+    from_function: np.ndarray
+    chained: np.ndarray
+    function: dict | None = None
+    fitted_on: np.ndarray | None = None
+
+
 def find_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: Sequence[np.ndarray], T_ref: float,
                        *, domain: str = "freq", where: Sequence | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """log10 a_T of every set from the data (see the module docstring).
+    """log10 a_T of every set from the data (see the module docstring and :func:`search_shift_factors`).
+
+    Returns
+    -------
+    (log_aT, pair_shift) each (K,)
+    """
+    s = search_shift_factors(T, logx, logy, T_ref, domain=domain, where=where)
+    return s.log_aT, s.pair
+
+
+def search_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: Sequence[np.ndarray], T_ref: float,
+                         *, domain: str = "freq", where: Sequence | None = None) -> ShiftSearch:
+    """log10 a_T of every set from the data, and which shifts the data do not determine.
+
+    Neighbouring sets are shifted pairwise, walking outward from the reference set (:func:`pair_shift_info`). When
+    every link is determined by the data, that is the answer. Otherwise the WLF equation (:func:`fit_wlf`; a
+    polynomial when it does not fit) is fitted to the sets connected to the reference set through determined links
+    (at least ``MIN_DETERMINED`` temperatures), each set at an undetermined link takes the shift function's value,
+    and the chain continues from there through determined links. Fewer determined temperatures are refused.
 
     Parameters
     ----------
@@ -261,10 +395,6 @@ def find_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: Seq
     logx, logy : per set, log10 frequency (Hz) or time (s), and log10 modulus
     domain : ``"freq"`` (reduced frequency f a_T) or ``"time"`` (reduced time t / a_T)
     where : per set, (file, line of its first sample) for error messages
-
-    Returns
-    -------
-    (log_aT, pair_shift) each (K,)
     """
     T = np.asarray(T, float)
     order = np.argsort(T, kind="stable")
@@ -272,6 +402,7 @@ def find_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: Seq
     sign = 1.0 if domain == "freq" else -1.0
     log_aT = np.zeros(T.size)
     pair = np.zeros(T.size)
+    info: list = [None] * T.size
     pos = int(np.flatnonzero(order == k_ref)[0])
     for direction in (-1, 1):
         prev = order[pos]
@@ -280,16 +411,81 @@ def find_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: Seq
             cur = order[j]
             ref_x = logx[prev] + sign * log_aT[prev]
             try:
-                d = pair_shift(ref_x, logy[prev], logx[cur], logy[cur])  # reduced log x = log x + d
+                info[cur] = pair_shift_info(ref_x, logy[prev], logx[cur], logy[cur])  # reduced log x = log x + d
             except InputError as exc:
                 path, line = where[cur] if where is not None else (None, None)
                 raise InputError(f"the sets at {T[prev]:g} C and {T[cur]:g} C cannot be overlaid: {exc.message}",
                                  path=path, line=line) from None
-            log_aT[cur] = sign * d
+            log_aT[cur] = sign * info[cur].d
             pair[cur] = log_aT[cur] - log_aT[prev]
             prev = cur
             j += direction
-    return log_aT, pair
+    none = np.zeros(T.size, bool)
+    if all(p is None or p.determined for p in info):
+        return ShiftSearch(log_aT, pair, info, none, none.copy())
+    # the sets connected to the reference through determined links
+    connected = [k_ref]
+    for direction in (-1, 1):
+        j = pos + direction
+        while 0 <= j < order.size and info[order[j]].determined:
+            connected.append(order[j])
+            j += direction
+    connected = np.array(sorted(connected, key=lambda k: T[k]))
+    bad = [k for k in order if info[k] is not None and not info[k].determined]
+    words = "; ".join(f"{T[k]:g} C: {info[k].why}" for k in bad[:3]) + (" ..." if len(bad) > 3 else "")
+    if connected.size < MIN_DETERMINED:
+        path, line = where[bad[0]] if where is not None else (None, None)
+        raise InputError(f"the data determine the shift factors of only {connected.size} temperature(s) connected to "
+                         f"the reference set ({', '.join(format(T[k], 'g') for k in connected)} C; at least "
+                         f"{MIN_DETERMINED} are needed to fit a shift function to the rest): not determined at "
+                         f"{', '.join(format(T[k], 'g') for k in bad)} C ({words}); measure wider sweeps (neighbouring "
+                         "temperatures must share a range of modulus over which it changes) or give the shift factors "
+                         "with --shift FILE", path=path, line=line, key="--shift")
+    fn = fit_wlf(T[connected], log_aT[connected], T_ref)
+    if fn is not None:
+        fn = {"kind": "wlf", **fn}
+        f_of = lambda t: float(wlf(t, fn["T_ref"], fn["C1"], fn["C2"]))  # noqa: E731
+    else:
+        fn = fit_poly(T[connected], log_aT[connected], T_ref, degree=2)
+        fn = {"kind": "poly", **fn}
+        f_of = lambda t: float(np.polynomial.polynomial.polyval(t - T_ref, fn["coefficients"]))  # noqa: E731
+    new = log_aT.copy()
+    from_fn, chained = none.copy(), none.copy()
+    for direction in (-1, 1):
+        prev = order[pos]
+        j = pos + direction
+        while 0 <= j < order.size:
+            cur = order[j]
+            if info[cur].determined:
+                new[cur] = new[prev] + pair[cur]
+                chained[cur] = from_fn[prev] or chained[prev]
+            else:
+                new[cur] = f_of(T[cur])
+                from_fn[cur] = True
+            prev = cur
+            j += direction
+    pair_new = pair.copy()
+    for direction in (-1, 1):  # pair shifts of the final factors
+        for j in range(pos + direction, -1 if direction < 0 else order.size, direction):
+            pair_new[order[j]] = new[order[j]] - new[order[j - direction]]
+    return ShiftSearch(new, pair_new, info, from_fn, chained, fn, T[connected])
+
+
+def shift_warnings(sh: "ShiftResult") -> list[str]:
+    """The warning ``fit relax`` gives (and ``--strict`` refuses) when shift factors came from the shift function."""
+    if sh.from_function is None or not np.any(sh.from_function):
+        return []
+    o = np.argsort(sh.T)
+    ff = [format(t + 0.0, "g") for t in sh.T[o][sh.from_function[o]]]  # + 0.0: no "-0"
+    ch = [format(t + 0.0, "g") for t in sh.T[o][sh.chained[o]]] if sh.chained is not None else []
+    fit_on = sh.fitted_on if sh.fitted_on is not None else np.zeros(0)
+    kind = "WLF" if (sh.function or {}).get("kind") == "wlf" else "polynomial"
+    reason = next((w for w in (sh.why or {}).values() if w), "")
+    return [f"the data do not determine the shift factors at {', '.join(ff)} C ({reason}): they are the {kind} shift "
+            f"function's values, fitted to the {fit_on.size} temperatures whose shifts the data determine "
+            f"({fit_on.min():g} ... {fit_on.max():g} C)"
+            + (f"; the sets at {', '.join(ch)} C are chained to them" if ch else "")
+            + ". Wider sweeps (overlapping modulus ranges) or --shift FILE give them from data"]
 
 
 def fit_wlf(T: np.ndarray, log_aT: np.ndarray, T_ref: float) -> dict | None:
@@ -398,9 +594,15 @@ def shift_from_user(T_sets: np.ndarray, T_user: np.ndarray, a_user: np.ndarray, 
     return out - ref
 
 
-def shift_result(T: np.ndarray, log_aT: np.ndarray, T_ref: float, source: str, pair=None) -> ShiftResult:
-    return ShiftResult(float(T_ref), np.asarray(T, float), np.asarray(log_aT, float), source,
-                       fit_wlf(T, log_aT, T_ref), fit_poly(T, log_aT, T_ref), pair)
+def shift_result(T: np.ndarray, log_aT: np.ndarray, T_ref: float, source: str, pair=None,
+                 search: ShiftSearch | None = None) -> ShiftResult:
+    out = ShiftResult(float(T_ref), np.asarray(T, float), np.asarray(log_aT, float), source,
+                      fit_wlf(T, log_aT, T_ref), fit_poly(T, log_aT, T_ref), pair)
+    if search is not None and np.any(search.from_function):
+        out.from_function, out.chained = search.from_function.copy(), search.chained.copy()
+        out.function, out.fitted_on = search.function, search.fitted_on
+        out.why = {float(t): p.why for t, p in zip(out.T, search.info) if p is not None and not p.determined}
+    return out
 
 
 def shift_body(sh: ShiftResult) -> dict:
@@ -411,9 +613,16 @@ def shift_body(sh: ShiftResult) -> dict:
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
 
     order = np.argsort(sh.T)
-    return {
+    body = {
         "T_ref": sh.T_ref, "T_unit": "C", "source": sh.source,
         "convention": "f_reduced = f * a_T, t_reduced = t / a_T; log_aT is log10",
         "log_aT": {format(float(t), "g"): float(a) for t, a in zip(sh.T[order], sh.log_aT[order])},
         "wlf": clean(sh.wlf), "poly": clean(sh.poly),
     }
+    if sh.from_function is not None and np.any(sh.from_function):
+        body["not_determined_by_data"] = {
+            "from_shift_function": [float(t) + 0.0 for t in sh.T[order][sh.from_function[order]]],
+            "chained_to_them": [float(t) + 0.0 for t in sh.T[order][sh.chained[order]]],
+            "function": clean(sh.function), "fitted_on": [float(t) + 0.0 for t in np.sort(sh.fitted_on)],
+            "why": {format(t + 0.0, "g"): w for t, w in sorted(sh.why.items())}}
+    return body
