@@ -250,17 +250,27 @@ def test_lag_and_offset_inverse_gives_the_pressure_back_within_half_a_step_and_n
         assert lib.status == 0
 
 
-def test_asymmetric_relaxation_inverse_equals_bpmids_inverse(tmp_path_factory, logs):
+def test_asymmetric_relaxation_inverse_is_a_right_inverse_of_the_forward_through_reversals(tmp_path_factory, logs):
+    """The inverse reads the forward's rule for the rate backwards: the pressure it returns brings the forward, from
+    the direction it last took, to the angle asked, through every reversal (the rule of bpmid's vectorised
+    inverse, the sign of each angle step, does not: after a peak the forward keeps the rising rate while the angle
+    starts to fall, and a pressure from the falling rate then sends the two histories apart)."""
     d = tmp_path_factory.mktemp("asym_fit")
     fx = [{"id": "asymmetric_relaxation", "parameters": {"fall_ratio": 0.5}}]
     fit = write_fit(d / "VBMM.yaml", VBMM(FITTED), fx)
     _dd, _exe, lib = exported(tmp_path_factory, "asym", fit)
     aug = load_vbmm_fit(fit)
-    lg = logs[3]
-    assert np.max(np.abs(lib.run_forward(lg.time_s, lg.pressure_pa) - aug.simulate_deg(lg.time_s, lg.pressure_pa))) < 1e-6
-    beta = np.radians(lg.angle_deg)
-    p_py = aug.model().inverse(lg.time_s, beta)
-    assert np.max(np.abs(lib.run_inverse(lg.time_s, lg.angle_deg) - p_py)) < 1e-3
+    worst = 0.0
+    for lg in logs[::4]:
+        ang = lib.run_forward(lg.time_s, lg.pressure_pa)
+        assert np.max(np.abs(ang - aug.simulate_deg(lg.time_s, lg.pressure_pa))) < 1e-6
+        p_ff = lib.run_inverse(lg.time_s, ang)
+        worst = max(worst, float(np.max(np.abs(lib.run_forward(lg.time_s, p_ff) - ang))))
+        # where the forward is one to one (away from reversals) the pressure itself comes back (to a fraction of a Pa:
+        # a reversal where two pressures give one angle leaves a difference that fades with the memory)
+        moving = np.abs(np.diff(ang, prepend=ang[0])) > 0.05
+        assert np.median(np.abs(p_ff - lg.pressure_pa)[moving]) < 1.0
+    assert worst < 1e-8
 
 
 def _compare_file(path, ms: MaxwellSlipModel, params):

@@ -254,7 +254,7 @@ def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
         thermal = "    return R(1.0);\n"
     if m.fall_ratio != 1.0:
         fall_f = "    if (s->k > 0 && s->falling) {\n        r = FALL;\n    }\n"
-        fall_i = "    if (s->k > 0 && b < s->b1) {\n        r = FALL;\n    }\n"
+        fall_i = _FALL_INVERSE
         fall_c = _FALL_CHECK
     else:
         fall_f = fall_i = fall_c = ""
@@ -295,6 +295,40 @@ _FALL_CHECK = """    if (s->k > 0 && (b < s->b1) != (r != R(1.0))) {
         }
     }
     s->falling = r != R(1.0);
+"""
+
+
+#: the inverse step's choice of rate (asymmetric relaxation): the forward's rule read backwards, so that the
+#: pressure returned brings the forward step, from the direction it last took, to the angle asked. The forward
+#: solves with its last direction's rate first and keeps the other rate only when that one's angle is consistent
+#: (below b1 when falling, not below when rising); otherwise the first solve stands. A solve with rate r comes
+#: below b1 exactly when the pressure is below P_r(b1). Near a reversal the forward is not one to one (two
+#: pressures give one angle, one with each rate), as friction's dead band is not: of two pressures that both
+#: give the angle, the one nearer the last step's keeps the feedforward continuous
+_FALL_INVERSE = """    if (s->k > 0) {
+        bpmid_step_consts c1, cf;
+        bpmid_real d1, p1, pf;
+        int ok1, okf;
+        const int down = b < s->b1;
+        c1.sc = cf.sc = modulus_scale(s, t);
+        history(s, dt, R(1.0), &c1);
+        history(s, dt, FALL, &cf);
+        p1 = model_pressure(b, &c1, &d1);
+        pf = model_pressure(b, &cf, &d1);
+        if (down) {
+            okf = s->falling || pf < model_pressure(s->b1, &c1, &d1);
+            ok1 = !s->falling && p1 >= model_pressure(s->b1, &cf, &d1);
+        } else {
+            ok1 = !s->falling || p1 >= model_pressure(s->b1, &cf, &d1);
+            okf = s->falling && pf < model_pressure(s->b1, &c1, &d1);
+        }
+        if (ok1 && okf) {
+            r = B_FABS(pf - s->p_prev) < B_FABS(p1 - s->p_prev) ? FALL : R(1.0);
+        } else if (okf || (!ok1 && down)) {
+            r = FALL;   /* (neither: no pressure gives b from here; the rate of its direction is the nearest) */
+        }
+        s->falling = r != R(1.0);
+    }
 """
 
 
