@@ -651,7 +651,8 @@ def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig
                 cols[f"true_angle_deg_{r.controller}"] = r.true_angle_deg
                 cols[f"command_bar_abs_{r.controller}"] = r.command_bar_abs
                 cols[f"muscle_bar_abs_{r.controller}"] = r.muscle_bar_abs
-                cols[f"feedforward_bar_abs_{r.controller}"] = r.feedforward_bar_abs
+                if _KIND.get(r.controller) != CK.CTRL_PI:  # plain PI has no feedforward (not a column of zeros)
+                    cols[f"feedforward_bar_abs_{r.controller}"] = r.feedforward_bar_abs
             safe = "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in name)
             pd.DataFrame(cols).to_csv(tmp / "traces" / f"{safe}.csv", index=False, float_format="%.6f")
             written.append(out_dir / "traces" / f"{safe}.csv")

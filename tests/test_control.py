@@ -159,6 +159,10 @@ def test_cli_control(tmp_path):
     assert {"controller", "reference", "rmse_deg", "max_abs_err_deg", "reduction_pct"} <= set(summ.columns)
     assert set(summ.reference) == {"r", "steps", "ALL"} and (out / "control.yaml").is_file()
     assert "us per step" in res.output
+    tr = pd.read_csv(out / "traces" / "steps.csv")
+    # a feedforward column for the controller that has one; plain PI has none (no column of zeros read as vacuum)
+    assert "feedforward_bar_abs_vbmm-pi" in tr.columns and "feedforward_bar_abs_pi" not in tr.columns
+    assert tr["feedforward_bar_abs_vbmm-pi"].iloc[1:].min() > 1.0
     bad = tmp_path / "bad.csv"
     bad.write_text("time_s,angle\n0,1\n0.1,2\n")
     for args in (["--reference", str(bad)], ["--reference", "nosuch"], ["--reference", "steps", "--controller", "pid"],

@@ -383,7 +383,13 @@ def test_cli_export_and_refusals(plain, tmp_path):
     assert res.exit_code == 2 and "schema" in res.output
     res = CliRunner().invoke(app, ["export", str(fit), "--to", "fortran", "--out", str(tmp_path / "o4")])
     assert res.exit_code == 2 and "--to" in res.output
-    assert not any((tmp_path / f"o{i}").exists() for i in (2, 3, 4))
+    # a comparison or control file without --model, a material fit to C: told what to give instead
+    for schema, what in (("bpmid.compare/1", "--model (vbmm-fit, vbmm-mat or maxwell-slip)"),
+                         ("bpmid.control/1", "--model (maxwell-slip)"), ("bpmid.relax/1", "--to abaqus, ansys or comsol")):
+        (tmp_path / "other.yaml").write_text(f"schema: {schema}\n")
+        res = CliRunner().invoke(app, ["export", str(tmp_path / "other.yaml"), "--to", "c", "--out", str(tmp_path / "o5")])
+        assert res.exit_code == 2 and what in res.output and "schema" in res.output, res.output
+    assert not any((tmp_path / f"o{i}").exists() for i in (2, 3, 4, 5))
 
 
 def test_vbmm_model_of_a_comparison_equals_its_simulate(tmp_path_factory, logs):

@@ -40,6 +40,20 @@ def export(fit_path: str | Path, to: str, out_dir: str | Path, *, model: str | N
         else:
             raise InputError(f"unknown model {model!r} for --to c (known: vbmm, vbmm-fit, vbmm-mat, maxwell-slip)",
                              key="--model")
+    if to == "c" and (model is None or model == "vbmm"):
+        # say what a file of another kind needs, rather than only that it is not a motion fit
+        from bpmid.config import read_yaml
+
+        data, _sha = read_yaml(fit_path)
+        schema = str(data.get("schema", "")) if isinstance(data, dict) else ""
+        if schema.startswith(("bpmid.compare/", "bpmid.control/")):
+            which = "vbmm-fit, vbmm-mat or maxwell-slip" if schema.startswith("bpmid.compare/") else "maxwell-slip"
+            raise InputError(f"a {schema} file: say which of its models to export with --model ({which}); "
+                             "--to c without --model takes a bpmid.vbmm/1 fit (bpmid fit motion, bpmid discover)",
+                             path=fit_path, key="schema")
+        if schema.startswith("bpmid.relax/"):
+            raise InputError(f"a {schema} file is a material fit: export it with --to abaqus, ansys or comsol; "
+                             "--to c takes a motion fit (bpmid.vbmm/1)", path=fit_path, key="schema")
     read_result(fit_path, schemas)
     if to == "c":
         from bpmid.export.c import export_c
