@@ -246,3 +246,24 @@ def test_flat_relaxation_sets_take_the_shift_function_and_too_few_determined_are
     res, out = fit(tmp_path, q, "--ref-temp", "70", "--terms", "3")
     assert res.exit_code == 2 and "hot.csv:" in res.output and "--shift" in res.output and not out.exists()
     assert "determine the shift factors of only" in res.output and "wider sweeps" in res.output
+
+
+# ---- 10: a time-domain master curve over decades of modulus: the term criterion on relative residuals -------------
+def test_time_master_curve_keeps_the_slow_term(tmp_path, monkeypatch):
+    import bpmid.relax.fit as relax_fit
+
+    rng = np.random.default_rng(17)
+    t = np.logspace(-12, 5, 137)
+    E = (E_INF + np.exp(-t[:, None] / TAU[None, :]) @ E_TERMS) * (1 + 0.01 * rng.standard_normal(t.size))
+    p = write(tmp_path / "tm.csv", ["t", "E_relax"], zip(t, E), ["s", "MPa"])
+    res, out = fit(tmp_path, p)
+    assert res.exit_code == 0, res.output
+    body = yaml.safe_load(out.read_text())
+    assert body["prony"]["E_inf"]["value"] == pytest.approx(E_INF * 1e6, rel=0.05)   # was +90 %: the 1e3 s term dropped
+    taus = [term["tau"]["value"] for term in body["prony"]["terms"]]
+    assert any(300 < tau < 3000 for tau in taus) and body["metrics"]["criterion_residuals"] == "relative"
+    # absolute residuals (the old criterion) drop the slow term: that is what the relative criterion fixes
+    monkeypatch.setattr(relax_fit, "RELATIVE_SPAN", np.inf)
+    old = relax_fit.fit_relaxation([__import__("bpmid.io.relax_logs", fromlist=["RelaxLog"]).RelaxLog(
+        "tm", t, modulus_mpa=E, source="modulus")])
+    assert old.m < 8 and old.E_inf > 1.3 * E_INF

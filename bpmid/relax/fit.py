@@ -32,6 +32,12 @@ from bpmid.relax.bases import RampBasis, StepBasis
 #: MAPE of stress fits counts samples whose |stress| is above this share of the largest (a ramp starts at zero)
 MAPE_FLOOR_SHARE = 0.05
 
+#: a step-mode modulus curve whose largest value is more than this many times its smallest (it spans more than a decade
+#: of modulus, as master curves do) has its number of terms chosen on relative residuals (E_fit - E) / E, as the
+#: frequency-domain fit does: on absolute residuals the criterion sees only the glassy end and drops slow terms
+RELATIVE_SPAN = 10.0
+
+
 #: fewest samples a log (in step mode: its hold) must have: one term and E_inf are 3 constants, plus 2 to spare
 MIN_SAMPLES = 5
 
@@ -142,6 +148,8 @@ class RelaxFit:
     seconds : wall time of the fit (s)
     uncertainty_method : how the standard errors were computed
     warnings : things a reader of the constants must know (time constants outside the data's time span)
+    weighting : residuals of the term criterion: ``"absolute"`` (MPa) or ``"relative"`` ((E_fit - E)/E: a step-mode
+        modulus curve spanning more than ``RELATIVE_SPAN`` in modulus); the fit itself is on absolute residuals
     """
 
     mode: str
@@ -166,6 +174,7 @@ class RelaxFit:
     seconds: float
     uncertainty_method: str = UNCERTAINTY_METHOD
     warnings: list[str] = dataclasses.field(default_factory=list)
+    weighting: str = "absolute"
 
     @property
     def m(self) -> int:
@@ -177,11 +186,13 @@ class RelaxFit:
         return self.E_inf + np.exp(-t[:, None] / self.tau[None, :]) @ self.E
 
 
-def _criterion(name: str, n: int):
-    """Information criterion (lower is better) of a refined model with 2m+1 constants."""
+def _criterion(name: str, n: int, weights: np.ndarray | None = None):
+    """Information criterion (lower is better) of a refined model with 2m+1 constants; with ``weights`` on the
+    weighted residuals (1/y: relative residuals)."""
     def score(sol: varpro.VPSolution) -> float:
         p = 2 * sol.m + 1
-        fit = n * math.log(max(sol.sse, 1e-300) / n)
+        sse = sol.sse if weights is None else float(np.sum((sol.residual * weights) ** 2))
+        fit = n * math.log(max(sse, 1e-300) / n)
         if name == "aicc":
             return fit + 2 * p + (2 * p * (p + 1) / (n - p - 1) if n - p - 1 > 0 else math.inf)
         return fit + p * math.log(n)
@@ -323,6 +334,9 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
         quantity = "modulus"
     segments = [t.size for t in seg_t]
     n = y.size
+    # the criterion's residuals: relative for a modulus curve spanning more than a decade, else absolute
+    relative = (quantity == "modulus" and float(np.min(y)) > 0
+                and float(np.max(y)) > RELATIVE_SPAN * float(np.min(y)))
     bounds = (math.log(lo / cfg.tau_span_factor), math.log(hi * cfg.tau_span_factor))
     if max_error_pct is not None and not (np.isfinite(max_error_pct) and max_error_pct > 0):
         raise InputError(f"--max-error must be a positive percentage, found {max_error_pct!r}", key="--max-error")
@@ -333,7 +347,7 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
         if terms != "auto" and max_error_pct is None and terms > m_max:
             raise InputError(f"{terms} terms need at least {2 * terms + 3} samples, the logs have {n}", key="terms")
         m_min = min(m_min, m_max)
-    score = _criterion(crit, n) if crit else None
+    score = _criterion(crit, n, 1.0 / y if relative else None) if crit else None
     note(f"fitting {n} samples of {len(logs)} log(s) in {mode} mode, terms {terms}")
     with single_thread_blas():
         path = varpro.model_path(basis, y, bounds, per_decade=cfg.grid_per_decade, m_min=m_min, m_max=m_max,
@@ -396,7 +410,8 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
         criterion=({"bic": "BIC", "aicc": "AICc"}.get(crit) if crit else
                    ("max-error" if max_error_pct is not None else None)),
         requested_terms=terms if max_error_pct is None else "max-error",
-        logs=per_log, seconds=time.perf_counter() - t0, warnings=warn)
+        logs=per_log, seconds=time.perf_counter() - t0, warnings=warn,
+        weighting="relative" if relative else "absolute")
 
 
 def fewest_near_best(errors: dict) -> int:

@@ -70,7 +70,7 @@ def relax_fit_body(fit, poisson: float) -> dict:
         "shear": moduli(g, "G", "G_inf"),
         "bulk": moduli(k, "K", "K_inf"),
         "metrics": {"rmse": fit.rmse_mpa * MPA, "r2": fit.r2, "mape_pct": fit.mape_pct, "quantity": fit.quantity,
-                    "rmse_unit": "Pa", "n_terms": fit.m,
+                    "rmse_unit": "Pa", "n_terms": fit.m, "criterion_residuals": getattr(fit, "weighting", "absolute"),
                     "per_log_rmse": {lg.name: lg.rmse_mpa * MPA for lg in fit.logs}},
         "terms_selection": {
             "requested": fit.requested_terms, "chosen": fit.m, "criterion": fit.criterion,
