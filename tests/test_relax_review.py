@@ -1,6 +1,8 @@
 """Material data reviewed against independently generated data with known truth: temperature and modulus units,
 decimal commas, rad/s, the order of master curves and sweeps, small sets, a single set with --ref-temp, shift
 factors the data do not determine, and the term criterion of time-domain master curves."""
+import re
+
 import numpy as np
 import pytest
 import yaml
@@ -222,6 +224,8 @@ def test_narrow_sweeps_without_common_modulus_take_the_shift_function(tmp_path):
     res, out = fit(tmp_path, p, "--ref-temp", "40", "--terms", "6")
     assert res.exit_code == 0, res.output
     assert "warning: the data do not determine the shift factors at 0, 5, 10, 15, 20 C" in res.output
+    assert re.search(r" 0 C: \+[0-9.]+ \(shift function\), 5 C", res.output)
+    assert re.search(r"25 C: \+[0-9.]+, 30 C", res.output)                # a determined one is not marked
     block = yaml.safe_load(out.read_text())["shift"]["not_determined_by_data"]
     assert block["from_shift_function"] == [0.0, 5.0, 10.0, 15.0, 20.0] and block["function"]["kind"] == "wlf"
     out.unlink()
@@ -267,3 +271,11 @@ def test_time_master_curve_keeps_the_slow_term(tmp_path, monkeypatch):
     old = relax_fit.fit_relaxation([__import__("bpmid.io.relax_logs", fromlist=["RelaxLog"]).RelaxLog(
         "tm", t, modulus_mpa=E, source="modulus")])
     assert old.m < 8 and old.E_inf > 1.3 * E_INF
+
+
+def test_shear_data_are_printed_as_g(tmp_path):
+    rows = master_rows()
+    p = write(tmp_path / "g.csv", ["f", "G_stor", "G_loss"], rows, ["Hz", "MPa", "MPa"])
+    res, _out = fit(tmp_path, p, "--terms", "6")
+    assert res.exit_code == 0, res.output
+    assert "G_inf=" in res.output and " G=" in res.output and "E_inf=" not in res.output

@@ -86,18 +86,24 @@ def fit_relax(
             typer.echo(f"{c['terms']:5d}  {c['error_pct']:.3g}{'  *' if c['terms'] == inner.m else ''}")
     if shift_res is not None:
         wl = shift_res.wlf
+        fn = getattr(shift_res, "from_function", None)
+        fn = [False] * shift_res.T.size if fn is None else [bool(v) for v in fn]
         typer.echo(f"shift factors ({shift_res.source}) at T_ref {shift_res.T_ref:g} C: " + ", ".join(
-            f"{t:g} C: {a:+.2f}" for t, a in sorted(zip(shift_res.T.tolist(), shift_res.log_aT.tolist()))))
+            f"{t + 0.0:g} C: {a:+.2f}{' (shift function)' if f else ''}"
+            for t, a, f in sorted(zip(shift_res.T.tolist(), shift_res.log_aT.tolist(), fn)))
+            + ("  (shift function: not determined by the data; see the warning)" if any(fn) else ""))
         if wl is not None:
             typer.echo(f"WLF: C1 = {wl['C1']:.4g} +- {wl['se_C1']:.2g}, C2 = {wl['C2']:.4g} +- {wl['se_C2']:.2g} C, "
                        f"T_ref = {wl['T_ref']:g} C, RMSE {wl['rmse']:.3g} decades")
-    terms_txt = ", ".join(f"E={e * 1e6:.4g} Pa tau={t:.4g} s" for e, t in zip(inner.E[:4], inner.tau[:4]))
+    sym = getattr(inner, "modulus", "E")   # G for shear data: the constants are G's
+    sym = sym if sym in ("E", "G") else "E"
+    terms_txt = ", ".join(f"{sym}={e * 1e6:.4g} Pa tau={t:.4g} s" for e, t in zip(inner.E[:4], inner.tau[:4]))
     more = f" (+{inner.m - 4} more)" if inner.m > 4 else ""
     if getattr(inner, "mode", "") == "frequency":
-        typer.echo(f"frequency domain, {inner.m} term(s): E_inf={inner.E_inf * 1e6:.4g} Pa, {terms_txt}{more}; "
+        typer.echo(f"frequency domain, {inner.m} term(s): {sym}_inf={inner.E_inf * 1e6:.4g} Pa, {terms_txt}{more}; "
                    f"RMS relative error {inner.modulus}' {inner.rms_rel_storage_pct:.3g} %, {inner.modulus}'' "
                    f"{inner.rms_rel_loss_pct:.3g} %, fit {inner.seconds:.2f} s")
     else:
-        typer.echo(f"{inner.mode} mode, {inner.m} term(s): E_inf={inner.E_inf * 1e6:.4g} Pa, {terms_txt}{more}; "
+        typer.echo(f"{inner.mode} mode, {inner.m} term(s): {sym}_inf={inner.E_inf * 1e6:.4g} Pa, {terms_txt}{more}; "
                    f"RMSE {inner.rmse_mpa * 1e6:.4g} Pa, R2 {inner.r2:.5f}, fit {inner.seconds:.2f} s")
     typer.echo(f"wrote {yaml_path}" + (f" and {fig_path}" if fig_path else ""))
