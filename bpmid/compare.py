@@ -130,21 +130,31 @@ def expand_paths(patterns: Sequence[str | Path], *, base: Path | None = None, ke
     return uniq
 
 
+#: the ``set`` of a test log that is also a training log in metrics.csv (scored, left out of every summary)
+FITTED_SET = "fitted (not a test)"
+
+
 def overlap_warnings(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> list[str]:
     """Messages for test logs that are also training logs (same file, or identical content)."""
+    return list(overlapping_logs(train, test).values())
+
+
+def overlapping_logs(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> dict[str, str]:
+    """Test log name -> message, for test logs that are also training logs (same file, or identical content)."""
     def key(lg: MotionLog):
         return (lg.n, hash(np.asarray(lg.time_s).tobytes()), hash(np.asarray(lg.pressure_pa).tobytes()),
                 hash(b"" if lg.angle_deg is None else np.asarray(lg.angle_deg).tobytes()))
 
     train_paths = {Path(lg.path).resolve(): lg.name for lg in train if lg.path is not None}
     train_keys = {key(lg): lg.name for lg in train}
-    msgs = []
+    msgs = {}
+    apart = (f": its score is not a test of prediction; metrics.csv keeps it as set '{FITTED_SET}', left out of "
+             "the summaries and the ranking")
     for lg in test:
         if lg.path is not None and Path(lg.path).resolve() in train_paths:
-            msgs.append(f"test log {lg.path} is also a training log: its score is not a test of prediction")
+            msgs[lg.name] = f"test log {lg.path} is also a training log" + apart
         elif key(lg) in train_keys:
-            msgs.append(f"test log {lg.name} has the same data as training log {train_keys[key(lg)]}: "
-                        "its score is not a test of prediction")
+            msgs[lg.name] = f"test log {lg.name} has the same data as training log {train_keys[key(lg)]}" + apart
     return msgs
 
 
@@ -322,9 +332,17 @@ def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models
     check_distinct_names(test, key="--test")
     names = [lg.name for lg in test]
     sets = {k: list(v) for k, v in (sets or {"test": names}).items()}
-    warn = overlap_warnings(train, test)
+    fitted_too = overlapping_logs(train, test)
+    warn = list(fitted_too.values())
+    if fitted_too and len(fitted_too) == len(test):
+        raise InputError("every test log is also a training log (the same file or the same data): nothing would "
+                         "test prediction; give test logs the models are not fitted on", key="--test")
     for w in warn:
         warnings.warn(w, CompareWarning, stacklevel=2)
+    # a log the models were fitted on tests nothing: out of every pooled score and set (kept, marked, in metrics)
+    names = [n for n in names if n not in fitted_too]
+    sets = {k: [n for n in v if n not in fitted_too] for k, v in sets.items()}
+    sets = {k: v for k, v in sets.items() if v}
     options = options or {}
     outcomes: list[ModelOutcome] = []
     for name in models:
@@ -348,6 +366,7 @@ def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models
             for o in outcomes for lg in test]
     metrics = pd.DataFrame(rows, columns=list(COLUMNS))
     set_of = {n: s for s, ns in sets.items() for n in ns}
+    set_of.update({n: FITTED_SET for n in fitted_too})
     metrics["set"] = [set_of.get(lg, "") for lg in metrics["log"]]
     summary = pd.DataFrame(_pooled(outcomes, test, names, "ALL", timing), columns=list(COLUMNS))
     summary = summary.sort_values(["rmse_deg", "model"], kind="mergesort").reset_index(drop=True)

@@ -173,6 +173,9 @@ class FitResult:
     nfev: int
     held: dict[str, str] = dataclasses.field(default_factory=dict)
     method: str = UNCERTAINTY_METHOD
+    #: per estimated parameter, the held ones it was correlated with (|r| >= CONDITIONAL_CORR) while they were
+    #: free: its standard error is conditional on their prior values (see :func:`conditional_on_held`)
+    conditional: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
 
     @property
     def rmse(self) -> float:
@@ -198,11 +201,51 @@ def _value_space_cov(params: ParamSet, cov_x: np.ndarray) -> np.ndarray:
     return cov_x * np.outer(scale, scale)
 
 
+#: a held parameter correlated at least this much with an estimated one makes that one's standard error conditional
+CONDITIONAL_CORR = 0.9
+
+
+def correlated_with(names: Sequence[str], corr: np.ndarray, held: str) -> dict[str, float]:
+    """The other parameters of ``names`` correlated with ``held`` (|r| >= :data:`CONDITIONAL_CORR`) in ``corr``."""
+    names = list(names)
+    if held not in names or corr.size == 0:
+        return {}
+    i = names.index(held)
+    return {n: float(corr[i, j]) for j, n in enumerate(names)
+            if j != i and np.isfinite(corr[i, j]) and abs(corr[i, j]) >= CONDITIONAL_CORR}
+
+
+def conditional_on_held(params: ParamSet, free_names: Sequence[str], links: dict[str, dict[str, float]]) -> ParamSet:
+    """Say, on each estimated parameter, which held parameters its standard error is conditional on.
+
+    ``links`` maps a held parameter to the estimated ones it was correlated with while it was free. Holding it at
+    its prior value fixes the combination the data determine, so the estimate's standard error assumes the prior
+    value is right: a muscle whose held constant differs from the prior shifts the estimate by more than that
+    error. The note says so; the value and standard error are unchanged."""
+    per: dict[str, dict[str, float]] = {}
+    for h, others in links.items():
+        for n, r in others.items():
+            if n in free_names and n != h:
+                per.setdefault(n, {})[h] = r
+    out = params
+    for n, hs in per.items():
+        p = out[n]
+        if p.fixed or p.stderr is None:
+            continue
+        which = ", ".join(f"{h} (r = {r:+.3f} while it was free)" for h, r in hs.items())
+        note = (f"standard error conditional on the held {which} at its prior value: the data determine a "
+                f"combination of them, so a {', '.join(hs)} other than the prior moves this constant by more "
+                f"than its standard error")
+        out = out.replace(n, note=(p.note + "; " if p.note else "") + note)
+    return out
+
+
 def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: ParamSet, *,
                       segments: Sequence[int] | None = None, check_identifiability: bool = True,
                       rel_se_max: float = 0.5, corr_max: float = 0.995, max_nfev: int | None = None,
                       diff_step: float | None = None, loss: str = "linear", f_scale: float = 1.0,
-                      xtol: float = 1e-10, ftol: float = 1e-10) -> FitResult:
+                      xtol: float = 1e-10, ftol: float = 1e-10,
+                      held_links: dict[str, dict[str, float]] | None = None) -> FitResult:
     """Least squares over the free parameters of ``params``.
 
     Parameters
@@ -213,9 +256,12 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
     segments : per-log residual lengths for the effective sample size
     check_identifiability : hold non-identifiable parameters at their prior and refit
     rel_se_max, corr_max : thresholds of the identifiability verdict
+    held_links : for parameters a caller already holds (fixed in ``params``), the free ones each was correlated
+        with (:func:`correlated_with`), so that their standard errors are said to be conditional too
     """
     prior = params
     held: dict[str, str] = {}
+    links: dict[str, dict[str, float]] = dict(held_links or {})
     current = params
     for _round in range(len(params) + 1):
         free = current.free()
@@ -265,12 +311,14 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
                                            f"does not check identifiability)")
             for name, why in held.items():
                 out = out.replace(name, stderr=None, identifiable=False, note=f"not identifiable: {why}; held at prior value")
+            out = conditional_on_held(out, names, links)
             return FitResult(out, names, cov, corr, r, r.size, n_eff, bool(sol.success), str(sol.message),
-                             int(sol.nfev), held)
+                             int(sol.nfev), held, conditional=links)
         # hold the worst offender at its prior value and refit (one at a time: the others may recover)
         worst = max(bad, key=lambda n: (2 if bad[n].startswith(ZERO_SENSITIVITY) else 0 if "correlated" in bad[n] else 1,
                                         se[names.index(n)] / max(abs(fitted[n].value), 1e-300)))
         held[worst] = bad[worst]
+        links[worst] = correlated_with(names, corr, worst)
         current = fitted.replace(worst, value=prior[worst].value, fixed=True)
     raise RuntimeError("identifiability loop did not terminate")  # pragma: no cover
 

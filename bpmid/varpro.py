@@ -116,9 +116,16 @@ def fit_variable_projection(design_fn: Callable[[ParamSet], np.ndarray], y: np.n
     names = outer_names + [linear[j] for j in active_idx]
 
     out = fitted
+    rel_max = fit_kw.get("rel_se_max", 0.5)
     for i, name in enumerate(names):
         if np.isfinite(se[i]):
-            out = out.replace(name, stderr=float(se[i]), identifiable=True)
+            v = float(theta[linear.index(name)]) if name in linear else float(fitted.value(name))
+            why = identifiability.judge(float(se[i]), float(se[i]) / max(abs(v), 1e-300), rel_se_max=rel_max)
+            # the same rule as every fit's (rule 2), reported: a constant the data barely fix is never read as
+            # identifiable, even where the linear solve needs it estimated
+            out = out.replace(name, stderr=float(se[i]), identifiable=why is None,
+                              note="" if why is None else f"not identifiable: {why} (estimated, not held: the "
+                                                          f"linear solve keeps it)")
         else:  # a singular covariance: the data do not fix this constant; never report it as measured
             out = out.replace(name, stderr=None, identifiable=False, note=identifiability.NOT_FINITE)
     held = dict(res.held)

@@ -53,6 +53,10 @@ def test_fit_motion_writes_contract_keys_and_figure(fitted):
     assert d["metrics"]["rmse_deg"] == pytest.approx(0.5, rel=0.1)
     assert {"mape_pct", "r2", "fit_pct", "per_log"} <= set(d["metrics"])
     assert d["uncertainty"]["identifiability"]["K_1"] == "estimated"
+    # G_1, correlated with K_1, is held at the prior: K_1's standard error is conditional on it, and says so
+    assert "conditional on the held G_1" in d["material"]["branches"][0]["K"]["note"]
+    assert "conditional on the held G_1" in text
+    assert any("geometry: the paper's" in n for n in d["notes"])   # the default geometry, recorded with the fit
     assert "fitting.csv" in " ".join(d["provenance"]["inputs"])
     assert out.with_suffix(".png").stat().st_size > 10_000
     assert "not identifiable" in text and "RMSE" in text
@@ -214,3 +218,23 @@ def test_missing_files_and_bad_out(data, tmp_path):
     res = runner.invoke(app, ["predict", str(data["fit"]), "--params", str(tmp_path / "none.yaml"),
                               "--out", str(tmp_path / "p")])
     assert res.exit_code == 2 and "none.yaml" in res.output and not (tmp_path / "p").exists()
+
+
+def test_a_clipped_angle_is_named_and_strict_refuses_it(tmp_path, data):
+    """An angle sensor saturating at 80 % of the log's range: the warning names the value and the share of samples;
+    --strict writes nothing. The same log unclipped gets no such warning."""
+    df = pd.read_csv(data["fit"], comment="#")
+    hdr = [ln for ln in data["fit"].read_text().splitlines() if ln.startswith("#")]
+    lim = float(df.angle_deg.min() + 0.8 * np.ptp(df.angle_deg))
+    df["angle_deg"] = np.minimum(df.angle_deg, round(lim, 3))
+    clipped = tmp_path / "clipped.csv"
+    clipped.write_text("\n".join(hdr) + "\n" + df.to_csv(index=False))
+    res = runner.invoke(app, ["fit", "motion", str(clipped), "--out", str(tmp_path / "c.yaml"), "--no-plot"])
+    assert res.exit_code == 0, res.output
+    warns = yaml.safe_load((tmp_path / "c.yaml").read_text())["warnings"]
+    assert any(f"sits at exactly {round(lim, 3):.6g} deg" in w and "clips it" in w for w in warns), warns
+    res = runner.invoke(app, ["fit", "motion", str(clipped), "--out", str(tmp_path / "s.yaml"), "--no-plot",
+                              "--strict"])
+    assert res.exit_code == 2 and "clips it" in res.output and not (tmp_path / "s.yaml").exists()
+    res = runner.invoke(app, ["fit", "motion", str(data["fit"]), "--out", str(tmp_path / "u.yaml"), "--no-plot"])
+    assert not any("clips it" in w for w in yaml.safe_load((tmp_path / "u.yaml").read_text())["warnings"])

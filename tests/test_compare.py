@@ -10,7 +10,9 @@ import pytest
 from typer.testing import CliRunner
 
 from bpmid.cli import app
-from bpmid.compare import (CompareWarning, compare_models, overlap_warnings, verdicts, write_compare)
+from bpmid.compare import (FITTED_SET, CompareWarning, compare_models, overlap_warnings, verdicts,
+                           write_compare)
+from bpmid.errors import InputError
 from bpmid.io.motion_logs import from_arrays, write_motion_log
 from bpmid.models import REGISTRY
 from bpmid.models.base import ModelFamily
@@ -202,6 +204,12 @@ def test_overlap_is_detected_by_path_and_by_content(rate_logs, tmp_path):
     assert msgs and "same data as training log train_0p2" in msgs[0]
     assert overlap_warnings(train, test) == []
     with pytest.warns(CompareWarning):
+        res = compare_models(train, [MotionLog(**copy), test[0]], ["two-branch"], timing=False)
+    # the copy is scored, marked, and left out of the pooled score: ALL is the real test log alone
+    m = res.metrics.set_index("log")
+    assert m.loc["renamed", "set"] == FITTED_SET and m.loc[test[0].name, "set"] == "test"
+    assert res.summary["rmse_deg"].iloc[0] == pytest.approx(m.loc[test[0].name, "rmse_deg"], rel=1e-12)
+    with pytest.raises(InputError, match="every test log is also a training log"):
         compare_models(train, [MotionLog(**copy)], ["two-branch"], timing=False)
 
 
@@ -257,6 +265,10 @@ def test_cli_overlap_warns_but_runs(log_files, tmp_path):
     import yaml
 
     assert yaml.safe_load((tmp_path / "o" / "compare.yaml").read_text())["warnings"]
+    m = pd.read_csv(tmp_path / "o" / "metrics.csv").set_index("log")
+    assert m.loc[train[0].stem, "set"] == FITTED_SET
+    summ = pd.read_csv(tmp_path / "o" / "summary.csv")
+    assert summ["rmse_deg"].iloc[0] == pytest.approx(m.loc[test[0].stem, "rmse_deg"], rel=1e-5)
 
 
 def test_cli_log_too_short_exit_2(tmp_path, log_files):

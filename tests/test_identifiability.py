@@ -39,3 +39,19 @@ def test_fit_holds_a_parameter_the_data_do_not_determine():
     assert held in ("b", "c") and ("correlated" in why or "singular" in why or "relative" in why)
     assert res.params[held].identifiable is False and res.params[held].value == ps[held].value
     assert abs(res.params.value("a") - 2.0) < 1e-8
+
+
+def test_an_estimate_beside_a_held_correlated_parameter_says_its_error_is_conditional():
+    """y = a t + (b + 0.05 c) with c held: b's standard error assumes c's prior value; the fit says so on b (and
+    only on b), leaving the value and standard error as they are."""
+    rng = np.random.default_rng(7)
+    t = np.linspace(0.0, 1.0, 200)
+    y = 2.0 * t + 0.5 + 0.01 * rng.standard_normal(t.size)
+    ps = ParamSet([Param("a", 1.0), Param("b", 0.2), Param("c", 0.1)])
+    res = fit_least_squares(lambda p: p.value("a") * t + p.value("b") + 0.05 * p.value("c") - y, ps)
+    (held,) = res.held
+    other = "b" if held == "c" else "c"
+    assert "conditional on the held " + held in res.params[other].note
+    assert res.params[other].stderr is not None and res.params[other].identifiable
+    assert "conditional" not in res.params["a"].note
+    assert other in res.conditional[held] and abs(res.conditional[held][other]) >= 0.9

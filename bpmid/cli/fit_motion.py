@@ -63,5 +63,7 @@ def fit_motion_command(
                f"R^2 {m['r2']:.4f}, fit {m['fit_pct']:.2f} % ({fit.seconds:.2f} s)")
     for p in fit.fit.params:
         se = "" if p.stderr is None else f" +- {p.stderr:.3g}"
-        typer.echo(f"  {p.name:7s} {p.value:.6g}{se} {p.unit}   {fit.verdicts()[p.name]}")
+        cond = [h for h, others in fit.fit.conditional.items() if p.name in others and p.name in fit.fit.free_names]
+        typer.echo(f"  {p.name:7s} {p.value:.6g}{se} {p.unit}   {fit.verdicts()[p.name]}"
+                   + (f" (standard error conditional on the held {', '.join(cond)})" if cond else ""))
     typer.echo("wrote " + ", ".join(str(w) for w in [out] + ([figure] if figure is not None else [])))

@@ -130,6 +130,35 @@ def _pressure_fix(lg, fits: Sequence[str]) -> str:
     return f"Check the column's unit; to state another, {unit_fix(lg, 'pressure', '<unit>')}"
 
 
+#: an angle held at exactly its largest value on at least this share of a log's samples (and CLIP_RUN in a row)
+CLIP_SHARE = 0.02
+CLIP_RUN = 3
+
+
+def clipped_top(a: np.ndarray, p: np.ndarray) -> tuple[float, int, int] | None:
+    """(the value, the samples at it, the longest run) when a log's angle is clipped at its top: the largest value
+    repeated exactly on at least :data:`CLIP_SHARE` of the samples (at least 5), :data:`CLIP_RUN` of them in a
+    row, while the pressure ``p`` moves over at least a tenth of its range. A sensor that reads a moving muscle
+    never repeats its largest value that often while the pressure changes; a saturated range or a stop does (a
+    hold at the top pressure, read with coarse resolution, repeats it with the pressure still). None otherwise."""
+    ok = np.isfinite(a) & np.isfinite(p)
+    a, p = a[ok], p[ok]
+    if a.size < 20 or np.ptp(a) <= 0 or np.ptp(p) <= 0:
+        return None
+    top = float(np.max(a))
+    at = a == top
+    n_top = int(at.sum())
+    if n_top < max(5, CLIP_SHARE * a.size):
+        return None
+    # longest run of consecutive samples at the top
+    edges = np.diff(np.concatenate([[0], at.astype(np.int8), [0]]))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    run = int(np.max(ends - starts)) if starts.size else 0
+    if run < CLIP_RUN or np.ptp(p[at]) < 0.1 * np.ptp(p):
+        return None
+    return top, n_top, run
+
+
 def motion_data_warnings(logs: Iterable) -> list[str]:
     """Warnings about motion logs whose numbers a unit or reference slip explains (no fit needed)."""
     out: list[str] = []
@@ -163,6 +192,13 @@ def motion_data_warnings(logs: Iterable) -> list[str]:
             if 0.05 < amax <= RADIAN_MAX and np.ptp(p) > 0.2 * max(peak, 1.0):
                 out.append(f"{where}: the bending angle never exceeds {amax:.3g} deg while the pressure moves: these "
                            f"look like radians in a degree column. If so, {unit_fix(lg, 'angle', 'rad')}")
+            clip = clipped_top(np.asarray(a, float), p)
+            if clip is not None:
+                top, n_top, run = clip
+                out.append(f"{where}: the bending angle sits at exactly {top:.6g} deg, its largest value, on {n_top} "
+                           f"samples ({100.0 * n_top / np.size(a):.0f} %, up to {run} in a row): a sensor's range or a "
+                           f"mechanical stop clips it, and the model, which bends freely, cannot follow; leave out "
+                           f"the clipped stretches or log with the limit out of reach")
         t = np.asarray(lg.time_s, float)
         tcol = _column(lg, "time")
         out += milliseconds_warnings(lg)

@@ -72,6 +72,7 @@ from bpmid.io.motion_logs import MotionLog
 from bpmid.models._hysteresis_kernels import direction_with_deadband, stop_bank
 from bpmid.models.base import ModelFamily, check_fit_logs
 from bpmid.models.gpi import check_arrays
+from bpmid import identifiability
 from bpmid.varpro import fit_variable_projection, solve_linear
 from bpmid.params import Param, ParamSet
 from bpmid.units import PA_PER_BAR
@@ -326,7 +327,9 @@ class MaxwellSlipModel(ModelFamily):
                     t[i, j] = 1.0
             cov = t @ cov @ t.T
             se = float(np.sqrt(abs(cov[i, i])))
-            out = out.replace("s1", stderr=se if np.isfinite(se) else None, identifiable=True, note="")
+            why = identifiability.judge(se, se / max(abs(out.value("s1")), 1e-300), rel_se_max=0.5)
+            out = out.replace("s1", stderr=se if np.isfinite(se) else None, identifiable=why is None,
+                              note="" if why is None else f"not identifiable: {why} (estimated, not held)")
             res.cov, res.corr = cov, correlation(cov)
         else:
             # p at its bound 0: s1 = sum k exactly at the constraint, no standard error of its own

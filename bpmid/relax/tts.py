@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from pathlib import Path
 from typing import Sequence
 
@@ -300,7 +301,9 @@ def pair_shift_info(logx_ref: np.ndarray, logy_ref: np.ndarray, logx: np.ndarray
     ib = int(np.nanargmin(costs))
     b = grid[ib]
     step = grid[1] - grid[0]
-    res = minimize_scalar(cost, bounds=(b - step, b + step), method="bounded")
+    with warnings.catch_warnings():   # a flat cost (noise-free data) makes Brent's parabola 0/0: harmless, it
+        warnings.simplefilter("ignore", RuntimeWarning)   # falls back to golden-section steps
+        res = minimize_scalar(cost, bounds=(b - step, b + step), method="bounded")
     d = float(res.x) if res.fun <= costs.min() else float(b)
     why = []
     if not shared:

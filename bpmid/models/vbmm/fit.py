@@ -36,7 +36,7 @@ from bpmid.errors import InputError
 from bpmid.fitting import FitResult, fit_least_squares
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models import _vbmm_kernels as VK
-from bpmid.models.vbmm import VBMM, Material, VBMMConfig, material_params, vbmm_yaml_body
+from bpmid.models.vbmm import VBMM, Material, VBMMConfig, material_params, paper_geometry_note, vbmm_yaml_body
 from bpmid.params import ParamSet
 from bpmid.progress import note
 from bpmid.relax._blas import one_blas_thread
@@ -494,6 +494,9 @@ class MotionFit:
                              for lg in self.logs],
                     "seconds": round(self.seconds, 3)},
             "uncertainty": unc,
+            # the geometry the constants belong to, when it is the paper's (also what a run without one gets):
+            # recorded with them, not a warning (the paper's muscle is a muscle too)
+            **({"notes": [note]} if (note := paper_geometry_note(self.model.geometry)) else {}),
         }
 
     _cfg: MotionFitConfig = dataclasses.field(default_factory=MotionFitConfig, repr=False)
@@ -628,13 +631,17 @@ def _fit_holding_at_prior(residual, start: ParamSet, prior: ParamSet, *, prior_z
     misses a parameter that noise pushed 100 times above its prior (its standard error is absolute, and
     large values make it look small).
     """
+    from bpmid.fitting import correlated_with
+
     held_all: dict[str, str] = {}
+    links: dict[str, dict[str, float]] = {}
     current = start
     check = kw.get("check_identifiability", True)
     rel_max = kw.get("rel_se_max", 0.5)
     for _ in range(2 * len(start) + 2):
-        res = fit_least_squares(residual, current, **kw)
+        res = fit_least_squares(residual, current, held_links=links, **kw)
         held_all.update(res.held)
+        links.update(res.conditional)
         moved = [n for n in res.held if res.params[n].value != prior[n].value]
         weak = {}
         if check:
@@ -651,6 +658,7 @@ def _fit_holding_at_prior(residual, start: ParamSet, prior: ParamSet, *, prior_z
         if weak:
             worst = max(weak, key=lambda n: weak[n][0])
             held_all[worst] = weak[worst][1]
+            links[worst] = correlated_with(res.free_names, res.corr, worst)
         current = res.params
         for n in held_all:
             current = current.replace(n, value=prior[n].value, fixed=True, stderr=None)
@@ -658,7 +666,7 @@ def _fit_holding_at_prior(residual, start: ParamSet, prior: ParamSet, *, prior_z
     for n, why in held_all.items():
         params = params.replace(n, value=prior[n].value, fixed=True, stderr=None, identifiable=False,
                                 note=f"not identifiable: {why}; held at prior value")
-    return dataclasses.replace(res, params=params, held=held_all)
+    return dataclasses.replace(res, params=params, held=held_all, conditional=links)
 
 
 def sensitivity(model: VBMM, logs: Sequence[MotionLog], params: ParamSet, base_deg: np.ndarray,
