@@ -155,26 +155,24 @@ def test_effects_forward_equals_the_augmented_model_and_inverse_is_a_right_inver
     _dd, _exe, lib = exported(tmp_path_factory, "fx", fit)
     aug = load_vbmm_fit(fit)
     assert [e.id for e in aug.effects] == [e["id"] for e in EFFECTS]
-    # without the lag (whose inverse is for a held command, tested below), the same effects in C
+    # the same effects without the lag: the feedforward is their exact inverse there
     fit_nl = write_fit(d / "VBMM_nolag.yaml", VBMM(FITTED), EFFECTS[1:])
     _dd, _exe, lib_nl = exported(tmp_path_factory, "fx_nolag", fit_nl)
-    aug_nl = load_vbmm_fit(fit_nl)
     for lg in logs[::6]:
         ref = aug.simulate_deg(lg.time_s, lg.pressure_pa)
         ang = lib.run_forward(lg.time_s, lg.pressure_pa)
         assert np.max(np.abs(ang - ref)) < 1e-6
-        # the feedforward: the pressure it returns gives the wanted angle back (friction makes the pressure
+        # the inverse: the pressure it returns gives the wanted angle back (friction makes the pressure
         # inside a dead band free, so the pressure itself is not unique)
-        ang_nl = lib_nl.run_forward(lg.time_s, lg.pressure_pa)
-        assert np.max(np.abs(ang_nl - aug_nl.simulate_deg(lg.time_s, lg.pressure_pa))) < 1e-6
-        p_ff = lib_nl.run_inverse(lg.time_s, ang_nl)
-        assert np.max(np.abs(lib_nl.run_forward(lg.time_s, p_ff) - ang_nl)) < 1e-6
-        # with the lag in front: the command that, held over each step, drives the lag to the pressure the
-        # rest of the model needs
-        p_cmd = lib.run_inverse(lg.time_s, ang)
+        p_inv = lib.run_inverse(lg.time_s, ang)
+        assert np.max(np.abs(lib.run_forward(lg.time_s, p_inv) - ang)) < 1e-6
+        # the feedforward: the command that, held over each step, drives the lag to the pressure the rest of the
+        # model needs (the rest inverted exactly: the lag-free model's inverse)
+        p_cmd = lib.run_feedforward(lg.time_s, ang)
         p_rest = lib_nl.run_inverse(lg.time_s, ang)
         tau = EFFECTS[0]["parameters"]["tau"]["value"]
         assert np.max(np.abs(held_lag(lg.time_s, p_cmd, tau) - p_rest)) < 1e-6 * np.max(np.abs(p_rest))
+        assert np.array_equal(lib_nl.run_feedforward(lg.time_s, ang), p_rest)   # no lag: the two are one
 
 
 def held_lag(t, u, tau):
@@ -223,31 +221,43 @@ def test_general_friction_forward_equals_the_augmented_model_and_inverse_is_a_ri
         assert np.max(np.abs(lib.run_forward(lg.time_s, p_f) - ang)) < 1e-2
 
 
-def test_lag_and_offset_inverse_gives_the_pressure_back_within_half_a_step_and_never_rings(tmp_path_factory, logs):
+def test_lag_inverse_gives_the_pressure_back_and_the_feedforward_never_rings(tmp_path_factory, logs):
     d = tmp_path_factory.mktemp("lag_fit")
     fit = write_fit(d / "VBMM.yaml", VBMM(FITTED), [EFFECTS[0], EFFECTS[-1]])
     _dd, _exe, lib = exported(tmp_path_factory, "lag", fit)
+    lg = logs[0]
+    ang = lib.run_forward(lg.time_s, lg.pressure_pa)
+    assert np.max(np.abs(lib.run_inverse(lg.time_s, ang) - lg.pressure_pa)) < 1e-3  # Pa
     for lg in logs[::5]:
         ang = lib.run_forward(lg.time_s, lg.pressure_pa)
-        back = lib.run_inverse(lg.time_s, ang)
-        # the forward reads a logged pressure as linear between samples, the inverse returns a held command:
+        back = lib.run_feedforward(lg.time_s, ang)
+        # the forward reads a logged pressure as linear between samples, the feedforward returns a held command:
         # they differ by about half of each step's change, never more than the whole change of two steps
         dp = np.abs(np.diff(lg.pressure_pa))
         bound = np.concatenate([[0.0], np.maximum(dp, np.concatenate([[0.0], dp[:-1]]))]) + 1e-6
         assert np.all(np.abs(back - lg.pressure_pa) <= bound)
-    # a step in the wanted angle (a reference the model did not make): one sample above the new level, then
-    # the level; no sample-to-sample ringing (the exact inverse of the interpolated lag rings at the Nyquist
-    # rate with a growing swing: a pole near -1)
+    # a step in the wanted angle (a reference the model did not make): the feedforward asks one sample above the
+    # new level, then the level; no sample-to-sample ringing. The exact inverse of the interpolated lag rings at
+    # the Nyquist rate with a slowly decaying swing (a pole near -1); where that swing goes below vacuum it says so
     for hz in (10.0, 100.0):
         t = np.arange(0.0, 4.0, 1.0 / hz)
         want = np.where(t < 2.0, 30.0, 40.0)
-        p = lib.run_inverse(t, want)
+        p = lib.run_feedforward(t, want)
         k = int(np.flatnonzero(t >= 2.0)[0])
         after = p[k + 1:]
         assert p[k] > after.max()
         assert np.all(np.diff(after) <= 1e-9)      # settles from above, monotone (the creep the model holds)
         assert after.min() > p[:k].max()
         assert lib.status == 0
+        ring = lib.run_inverse(t, want)
+        flips = np.sum(np.diff(np.sign(np.diff(ring[k - 1:k + 12]))) != 0)
+        assert flips >= 8
+    statuses = []
+    lib.reset()
+    for a, b in zip(t, want):
+        lib.inverse(float(a), float(b))
+        statuses.append(lib.status)
+    assert 1 in statuses
 
 
 def test_asymmetric_relaxation_inverse_is_a_right_inverse_of_the_forward_through_reversals(tmp_path_factory, logs):
@@ -326,6 +336,16 @@ def test_filter_refuses_bad_lines(plain):
                        ("0,50000\n0.1,nan\n", "line 2: not a finite number"), ("0,50000\ninf,1\n", "line 2")):
         res = subprocess.run([str(exe)], input=text, capture_output=True, text=True)
         assert res.returncode == 2 and what in res.stderr, res.stderr
+
+
+def test_filter_feedforward_flag(plain):
+    """-f runs bpmid_step_feedforward: for a model without a pressure lag, the same numbers as -i."""
+    _fit, _d, exe, _lib = plain
+    text = "time_s,angle_deg\n" + "".join(f"{0.1 * k:.1f},{20 + 5 * np.sin(0.3 * k):.6f}\n" for k in range(50))
+    out = {f: subprocess.run([str(exe), f], input=text, capture_output=True, text=True) for f in ("-i", "-f")}
+    assert out["-i"].returncode == 0 and out["-f"].returncode == 0 and out["-i"].stdout == out["-f"].stdout
+    res = subprocess.run([str(exe), "-x"], input=text, capture_output=True, text=True)
+    assert res.returncode == 2 and "-f" in res.stderr
 
 
 def test_a_refused_input_leaves_the_state_and_says_so(plain):

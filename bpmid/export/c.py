@@ -14,8 +14,8 @@ Two model kinds:
   pressure-proportional band and an elastic stick), angle_offset, second_relaxation (one more
   branch), strain_stiffening, asymmetric_relaxation and thermal_softening. ``step_forward`` is the
   forward model of ``bpmid predict``; ``step_inverse`` is the feedforward of eq. 20 (closed form),
-  followed by the causal inverses of the pressure terms (lag: the discrete lag solved for a command
-  held over the step, which never rings; plays: the smallest input move that gives the wanted output; friction operators: the same, by
+  followed by the exact causal inverses of the pressure terms (lag: the discrete lag solved for its
+  input; ``step_feedforward`` solves it for a command held over the step instead, which never rings; plays: the smallest input move that gives the wanted output; friction operators: the same, by
   bisection on their mean output, which never falls as the input rises).
 - ``maxwell-slip`` (``--model maxwell-slip``): the Maxwell-slip model of a ``bpmid.compare/1`` file
   (pressure in bar gauge -> angle in deg; ``step_inverse`` solves it for the pressure) or the MS-PI
@@ -334,7 +334,8 @@ _FALL_INVERSE = """    if (s->k > 0) {
 
 def _chain_sources(chain) -> tuple[str, list[str], list[str]]:
     """C of the pressure terms: ``pressure_chain_forward`` (logged -> rubber pressure) and
-    ``pressure_chain_inverse`` (rubber -> logged pressure, exact causal inverses, reverse order)."""
+    ``pressure_chain_inverse`` (rubber -> logged pressure, causal inverses in reverse order; ``held``: the lag's
+    inverse for a command held over each step instead of the exact inverse of the forward's interpolated lag)."""
     fields, reset, fwd, inv = [], [], [], []
     for i, (op, val) in enumerate(chain):
         if op == "lag":
@@ -351,14 +352,17 @@ def _chain_sources(chain) -> tuple[str, list[str], list[str]]:
                 f"            + (x - s->lag{i}_x) * (R(1.0) - {tau} * (R(1.0) - s->lag{i}_a) / dt);\n    }}\n"
                 f"    s->lag{i}_x = x;\n    s->lag{i}_y = y;\n    x = y;\n")
             inv.append(
-                f"    /* inverse of the lag for a command held over the step (what a controller's output does):\n"
-                f"     * y_k = a y_(k-1) + (1 - a) x solved for x. Not the inverse of the forward's input linear between\n"
-                f"     * samples: that one has a pole near -1 and rings at the Nyquist rate on any reference the model\n"
-                f"     * did not make (a step); this one is a finite combination of the last two outputs, never rings. */\n"
+                f"    /* inverse of the lag. Exact (bpmid_step_inverse): the forward's lag solved for its input, linear\n"
+                f"     * between samples; it has a pole near -1, so on a reference the model did not make (a step) it\n"
+                f"     * swings sign every sample. Held (bpmid_step_feedforward): y_k = a y_(k-1) + (1 - a) x solved for\n"
+                f"     * a command x held over the step, as a controller's output is: never rings. */\n"
                 f"    if (s->k == 0) {{\n        x = y;\n    }} else {{\n"
                 f"        if (dt != s->lag{i}_dt) {{\n            s->lag{i}_a = B_EXP(-dt / {tau});\n"
                 f"            s->lag{i}_dt = dt;\n        }}\n"
-                f"        x = (y - s->lag{i}_a * s->lag{i}_y) / (R(1.0) - s->lag{i}_a);\n    }}\n"
+                f"        if (held) {{\n"
+                f"            x = (y - s->lag{i}_a * s->lag{i}_y) / (R(1.0) - s->lag{i}_a);\n        }} else {{\n"
+                f"            x = s->lag{i}_x + (y - s->lag{i}_a * s->lag{i}_y - (R(1.0) - s->lag{i}_a) * s->lag{i}_x)\n"
+                f"                / (R(1.0) - {tau} * (R(1.0) - s->lag{i}_a) / dt);\n        }}\n    }}\n"
                 f"    s->lag{i}_x = x;\n    s->lag{i}_y = y;\n    y = x;\n")
         elif op == "frictions":
             ne = len(val) // 3
@@ -408,8 +412,9 @@ def _chain_sources(chain) -> tuple[str, list[str], list[str]]:
              "static bpmid_real pressure_chain_forward(bpmid_state *s, bpmid_real dt, bpmid_real x)\n{\n"
              "    bpmid_real y = x;\n    (void)s;\n    (void)dt;\n    (void)y;\n" + "".join(fwd) + "    return x;\n}\n\n")
     code += ("/* The rubber's pressure (Pa) -> the logged pressure that gives it (the terms inverted, in reverse order). */\n"
-             "static bpmid_real pressure_chain_inverse(bpmid_state *s, bpmid_real dt, bpmid_real y)\n{\n"
-             "    bpmid_real x = y;\n    (void)s;\n    (void)dt;\n    (void)x;\n" + "".join(reversed(inv)) + "    return y;\n}\n")
+             "static bpmid_real pressure_chain_inverse(bpmid_state *s, bpmid_real dt, bpmid_real y, int held)\n{\n"
+             "    bpmid_real x = y;\n    (void)s;\n    (void)dt;\n    (void)x;\n    (void)held;\n"
+             + "".join(reversed(inv)) + "    return y;\n}\n")
     return code, fields, reset
 
 
@@ -804,7 +809,7 @@ class CModel:
         self.lib.bpmid_state_bytes.restype = ctypes.c_int
         self.state_bytes = int(self.lib.bpmid_state_bytes())
         self._buf = ctypes.create_string_buffer(self.state_bytes)
-        for name in ("bpmid_step_forward", "bpmid_step_inverse"):
+        for name in ("bpmid_step_forward", "bpmid_step_inverse", "bpmid_step_feedforward"):
             fn = getattr(self.lib, name)
             fn.restype = ctypes.c_double
             fn.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double]
@@ -821,6 +826,9 @@ class CModel:
 
     def inverse(self, t: float, angle_deg: float) -> float:
         return self.lib.bpmid_step_inverse(self._ptr, t, angle_deg)
+
+    def feedforward(self, t: float, angle_deg: float) -> float:
+        return self.lib.bpmid_step_feedforward(self._ptr, t, angle_deg)
 
     @property
     def status(self) -> int:
@@ -839,6 +847,13 @@ class CModel:
 
         self.reset()
         return np.array([self.inverse(float(a), float(b)) for a, b in zip(t, angle_deg)])
+
+    def run_feedforward(self, t, angle_deg):
+        """The feedforward's gauge pressures (Pa) for a whole angle history (deg), from a fresh state."""
+        import numpy as np
+
+        self.reset()
+        return np.array([self.feedforward(float(a), float(b)) for a, b in zip(t, angle_deg)])
 
 
 __all__ = ["find_cc", "build_c", "CModel", "STRICT_FLAGS", "export_c", "c_sources", "load_vbmm_fit",
