@@ -24,7 +24,9 @@ reported per run.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
+import zlib
 from pathlib import Path
 from typing import Sequence
 
@@ -68,7 +70,8 @@ class ControlConfig:
     pneumatics : their constants (:class:`bpmid.pneumatics.ValveVolumeParams`)
     ms_elements, ms_poly_degree : size of the Maxwell-slip inverse feedforward
     ms_train_bar_abs : pressure range of the open-loop training triangles of the Maxwell-slip feedforward
-    oscillation_limit_pct : a run whose command reverses (by > 0.01 bar) on more than this share of the
+    oscillation_limit_pct : a run whose command reverses (by more than 0.01 bar, or than three standard deviations
+        of the change sensor noise alone makes through the P term, if larger) on more than this share of the
         steps is reported as oscillating (a lightly damped loop ringing near the Nyquist frequency); a run
         whose command swings between both limits (three switches within 2 s), or asks for a bend beyond
         the model's range, is reported as unstable
@@ -287,7 +290,8 @@ def causal_terms(aug, t: np.ndarray) -> tuple[VBMM, PlantTerms]:
     for e in aug.effects:
         terms = e.causal_pressure(p)
         if terms is None:
-            raise InputError(f"effect {e.id} changes the pressure in a way the closed loop cannot step", key=e.id)
+            raise InputError(f"effect {e.id} changes the pressure in a way the closed loop cannot step: "
+                             f"{e.not_causal_because(p)}", key=e.id)
         for name, values in terms:
             if name not in CAUSAL_OPS:
                 raise InputError(f"effect {e.id} asks for an unknown causal operator {name!r} (known: "
@@ -410,6 +414,10 @@ def fit_ms_feedforward(model: VBMM, cfg: ControlConfig) -> MSFeedforward:
 # ---------------------------------------------------------------------------------------------
 # the loop
 # ---------------------------------------------------------------------------------------------
+#: the smallest command change (bar) that counts toward a reversal of the command (the oscillation verdict)
+REVERSAL_MIN_BAR = 0.01
+
+
 @dataclasses.dataclass
 class Run:
     """One closed-loop run: signals (N,) and its verdicts."""
@@ -426,6 +434,9 @@ class Run:
     saturated: np.ndarray  # +1 high, -1 low, 0 inside
     status: np.ndarray
     wall_s: float = 0.0
+    #: a command change counts toward a reversal above this (bar): 0.01 bar, or three standard deviations of the
+    #: change the P term makes from sensor noise alone (kp sqrt(2) sigma; white noise and quantisation), if larger
+    reversal_min_bar: float = REVERSAL_MIN_BAR
 
     @property
     def error_deg(self) -> np.ndarray:
@@ -433,7 +444,8 @@ class Run:
 
     def metrics(self, cfg: ControlConfig) -> dict:
         du = np.diff(self.command_bar_abs)
-        rev = (du[1:] * du[:-1] < 0) & (np.abs(du[1:]) > 0.01) & (np.abs(du[:-1]) > 0.01)
+        thr = self.reversal_min_bar
+        rev = (du[1:] * du[:-1] < 0) & (np.abs(du[1:]) > thr) & (np.abs(du[:-1]) > thr)
         osc_pct = 100.0 * float(np.mean(rev)) if rev.size else 0.0
         sat_pct = 100.0 * float(np.mean(self.saturated != 0))
         out_of_range = bool(np.any(self.status == 1))
@@ -502,8 +514,11 @@ def simulate_loop(controller: str, ref: Reference, model: VBMM, plant: Plant, cf
         np.ascontiguousarray(noise, float), float(plant.sensors.angle_resolution_deg), bool(plant.pressure_dynamics),
         plant.pneumatics.vector(atm))
     wall = time.perf_counter() - t0
+    sn = plant.sensors
+    sigma = math.sqrt(sn.angle_noise_deg ** 2 + sn.angle_resolution_deg ** 2 / 12.0)
+    thr = max(REVERSAL_MIN_BAR, 3.0 * kp * math.sqrt(2.0) * sigma)
     return Run(controller, ref.name, t, np.asarray(ref.angle_deg, float), y, np.degrees(beta), u / PA_PER_BAR,
-               pm / PA_PER_BAR, ff / PA_PER_BAR, sat, status, wall)
+               pm / PA_PER_BAR, ff / PA_PER_BAR, sat, status, wall, thr)
 
 
 @dataclasses.dataclass
@@ -544,7 +559,7 @@ def summary_table(runs: Sequence[Run], cfg: ControlConfig) -> pd.DataFrame:
     return df[cols]
 
 
-def feedforward_cost(model: VBMM, n_steps: int = 200_000, repeats: int = 3) -> dict:
+def feedforward_cost(model: VBMM, n_steps: int = 200_000, repeats: int = 3, period_s: float = 0.1) -> dict:
     """Measured cost of the feedforward per control step (us): the incremental inverse VBMM kernel the loop
     runs, and the vectorised :meth:`VBMM.inverse` per sample; against the control period."""
     dt = 0.1
@@ -558,7 +573,8 @@ def feedforward_cost(model: VBMM, n_steps: int = 200_000, repeats: int = 3) -> d
     best_v = min(_timed(lambda: rec.inverse(t[:m], beta[:m])) for _ in range(repeats))
     us_k = 1e6 * best_k / n_steps
     return {"incremental_kernel_us_per_step": us_k, "vectorised_inverse_us_per_sample": 1e6 * best_v / m,
-            "control_period_us": 1e5, "share_of_period_pct": 100.0 * us_k / 1e5, "n_steps": n_steps}
+            "control_period_us": 1e6 * period_s, "share_of_period_pct": 100.0 * us_k / (1e6 * period_s),
+            "n_steps": n_steps}
 
 
 def _timed(fn) -> float:
@@ -583,8 +599,10 @@ def run_control(model: VBMM, plant: Plant, references: Sequence[Reference], cfg:
         r0 = references[0]
         simulate_loop("vbmm-pi", Reference("warm-up", r0.time_s[:5], r0.angle_deg[:5]), model, plant, cfg, kp=kp, ki=ki)
     runs = []
-    for i, ref in enumerate(references):
-        noise = plant.sensor_error(ref.time_s, np.random.default_rng([cfg.seed, i]))
+    for ref in references:
+        # drawn from the seed and the reference's name, not its place in the list: a reference gives the same
+        # numbers alone or among others
+        noise = plant.sensor_error(ref.time_s, np.random.default_rng([cfg.seed, zlib.crc32(ref.name.encode("utf-8"))]))
         for c in controllers:  # the same noise for every controller on a reference
             runs.append(simulate_loop(c, ref, model, plant, cfg, ms_ff=ms_ff, kp=kp, ki=ki, noise=noise))
     table = summary_table(runs, cfg)
@@ -594,7 +612,18 @@ def run_control(model: VBMM, plant: Plant, references: Sequence[Reference], cfg:
             warnings.append(f"{row.controller} on {row.reference}: {row.status} (command at a pressure limit on "
                             f"{row.saturated_pct:.1f} % of the steps: {row.saturated_high_steps} high, "
                             f"{row.saturated_low_steps} low; command reversals {row.reversal_pct:.0f} %)")
-    cost = feedforward_cost(model) if measure_cost else {}
+    # a reference beyond what the plant can bend to at the top pressure: no controller can follow it
+    reach = float(np.degrees(plant.model.equilibrium_angle(
+        np.array([(cfg.p_max_bar_abs - cfg.atmosphere_bar) * PA_PER_BAR]))[0])) if hasattr(plant, "model") else None
+    if reach is not None and np.isfinite(reach):
+        for ref in references:
+            top = float(np.max(ref.angle_deg))
+            if top > reach:
+                warnings.append(f"reference {ref.name} asks up to {top:.4g} deg; the plant bends at most about "
+                                f"{reach:.4g} deg at the top pressure {cfg.p_max_bar_abs:g} bar abs (relaxed, long "
+                                "term): no controller can follow it there, and its scores say more about the "
+                                "limit than the controller")
+    cost = feedforward_cost(model, period_s=1.0 / cfg.rate_hz) if measure_cost else {}
     return ControlResult(runs, table, cost, ms_ff, warnings)
 
 

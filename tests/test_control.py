@@ -197,9 +197,47 @@ def test_cli_control_reads_a_reference_in_the_users_units_by_flag_or_config(tmp_
     s1, s2 = (pd.read_csv(tmp_path / o / "summary.csv") for o in ("o1", "o2"))
     assert s1.rmse_deg.tolist() == s2.rmse_deg.tolist()
     # the same reference in deg and s gives the same result: the units were converted, not read as numbers
-    pd.DataFrame({"time_s": t, "angle_deg": a}).to_csv(tmp_path / "r_si.csv", index=False)
-    r3 = runner.invoke(app, ["control", "--params", str(params), "--reference", str(tmp_path / "r_si.csv"),
+    # (under the same name: the sensor noise is drawn from the seed and the reference's name)
+    (tmp_path / "si").mkdir()
+    pd.DataFrame({"time_s": t, "angle_deg": a}).to_csv(tmp_path / "si" / "r.csv", index=False)
+    r3 = runner.invoke(app, ["control", "--params", str(params), "--reference", str(tmp_path / "si" / "r.csv"),
                              "--controller", "pi", "--no-figure", "--out", str(tmp_path / "o3")])
     assert r3.exit_code == 0, r3.output
     s3 = pd.read_csv(tmp_path / "o3" / "summary.csv")
     assert np.allclose(s1.rmse_deg, s3.rmse_deg, rtol=1e-6)
+
+
+
+def test_a_reference_gives_the_same_numbers_alone_or_among_others_and_noise_is_not_read_as_oscillation():
+    """The sensor noise is drawn from the seed and the reference's name (not its place in the list); a loop whose
+    command reverses only because the P term passes sensor noise through is not called oscillating; the
+    feedforward's share of the control period uses the configured rate."""
+    from bpmid.control import ControlConfig, build_plant, builtin_reference, run_control
+    from bpmid.twin.sensors import Sensors
+
+    cfg = ControlConfig(controllers=("pi",))
+    refs = [builtin_reference(n) for n in ("steps", "sines")]
+    plant = build_plant(MODEL, cfg=cfg)
+    alone = run_control(MODEL, plant, refs[1:], cfg, measure_cost=False).table
+    both = run_control(MODEL, plant, refs, cfg, measure_cost=False).table
+    pick = lambda tab: tab[tab.reference == refs[1].name].rmse_deg.iloc[0]  # noqa: E731
+    assert pick(alone) == pick(both)
+    noisy = ControlConfig(controllers=("pi",), rate_hz=20.0,
+                          sensors=Sensors(angle_noise_deg=0.5, angle_resolution_deg=0.25))
+    res = run_control(MODEL, build_plant(MODEL, cfg=noisy), refs[:1], noisy)
+    assert "oscillating" not in res.table.status.iloc[0]
+    assert res.feedforward_cost["control_period_us"] == 50_000.0
+
+
+def test_a_reference_beyond_the_plants_reach_is_named():
+    from bpmid.control import ControlConfig, Reference, build_plant, run_control
+
+    cfg = ControlConfig(controllers=("pi",))
+    t = np.arange(0.0, 20.0, 0.1)
+    far = Reference("far", t, np.where(t < 5.0, 45.0, 200.0))
+    res = run_control(MODEL, build_plant(MODEL, cfg=cfg), [far], cfg, measure_cost=False)
+    msg = [w for w in res.warnings if "reference far asks up to 200 deg" in w]
+    assert msg and "bends at most about" in msg[0] and "2.4 bar abs" in msg[0]
+    near = Reference("near", t, np.where(t < 5.0, 45.0, 60.0))
+    assert not any("asks up to" in w for w in run_control(MODEL, build_plant(MODEL, cfg=cfg), [near], cfg,
+                                                            measure_cost=False).warnings)

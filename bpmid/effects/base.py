@@ -81,6 +81,11 @@ class Effect(abc.ABC):
         None: no causal form (the closed loop refuses the effect)."""
         return () if type(self).transform_pressure is Effect.transform_pressure else None
 
+    def not_causal_because(self, params: ParamSet) -> str:
+        """Why :meth:`causal_pressure` is None for these parameters, in words a user can act on (the closed loop
+        and the C export quote it)."""
+        return "its pressure term has no one-step form"
+
     def causal_angle(self, params: ParamSet) -> tuple[float, float] | None:
         """The sensor term per sample as ``(gain, offset_deg)``: the sensor reads ``gain * angle + offset_deg``;
         ``(1, 0)`` when :meth:`transform_angle` is not overridden. None: not affine (the closed loop refuses)."""

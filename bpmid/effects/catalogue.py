@@ -266,6 +266,11 @@ class PressureLag(Effect):
             return None  # no one-step form of the flow-limited fill yet: the closed loop refuses it
         return (("delay", (self.dead_time,)), ("lag", (tau1,))) + ((("lag", (tau2,)),) if tau2 > 0.0 else ())
 
+    def not_causal_because(self, params) -> str:
+        return (f"{self.id}.sat = {self.sat_per_pa(params) * 1e3:g} 1/kPa (a flow-limited fill) has no one-step form "
+                f"yet; set sat = 0 for a linear lag (e.g. {self.id}:tau=...,sat=0, or hold {self.id}.sat at 0 when "
+                "fitting)")
+
     def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
         # beta(p(t - tau)) ~ beta - tau dbeta/dt
         return (-_rate(log.time_s, base_angle_deg))[:, None]
