@@ -60,6 +60,9 @@ def _motion_logs(logs, cfg, *, require_angle: bool = False) -> tuple[list, list[
         else:
             raise InputError(f"a log is a path or a MotionLog (bpmid.from_arrays), found {type(x).__name__}",
                              key="logs")
+    from bpmid.io.motion_logs import check_distinct_names
+
+    check_distinct_names(out, key="logs")   # outputs are named by the log: two of one name would be one
     return out, paths
 
 
@@ -111,12 +114,19 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
     if reference is None:
         raise InputError("state the pressure's reference: from_arrays(..., reference='gauge'|'absolute')",
                          key="reference")
-    t = np.asarray(time_s, float)
-    given = np.asarray(pressure, float)
-    a = None if angle_deg is None else np.asarray(angle_deg, float)
+    if not isinstance(name, str) or not name.strip() or name in (".", "..") or any(c in name for c in "/\\\0"):
+        raise InputError(f"a log's name names its output files: give a plain file stem, found {name!r}", key="name")
+    try:
+        t = np.asarray(time_s, float)
+        given = np.asarray(pressure, float)
+        a = None if angle_deg is None else np.asarray(angle_deg, float)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"time_s, pressure and angle_deg must be arrays of numbers ({exc})", key=name) from None
     if t.ndim != 1 or given.shape != t.shape or (a is not None and a.shape != t.shape):
         raise InputError(f"time_s, pressure and angle_deg must be 1-D arrays of one length, found shapes "
                          f"{t.shape}, {given.shape}, {None if a is None else a.shape}", key=name)
+    if not np.all(np.isfinite(t)):
+        raise InputError("time_s must be finite numbers (NaN or infinite found)", key=name)
     if t.size < 2 or not np.all(np.diff(t) > 0):
         raise InputError("time_s must hold at least two strictly increasing times", key=name)
     if not (np.all(np.isfinite(given)) and (a is None or np.all(np.isfinite(a)))):
@@ -130,8 +140,10 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
     if float(np.min(gauge)) < -0.05 * PA_PER_BAR:
         raise InputError(f"pressure {float(np.min(gauge)) / PA_PER_BAR:.3g} bar gauge is below atmosphere: a wrong "
                          "reference (absolute vs gauge) or unit", key="reference")
-    unit = str(pressure_unit).lower()
-    assert unit in PRESSURE_UNITS
+    unit = str(pressure_unit).strip().lower()
+    if unit not in PRESSURE_UNITS:  # to_gauge_pa read it: only a spelling it accepts and this table does not
+        raise InputError(f"unknown pressure unit {pressure_unit!r} (known: {', '.join(sorted(PRESSURE_UNITS))})",
+                         key="pressure_unit")
     return MotionLog(name=name, time_s=t, pressure_pa=gauge, angle_deg=a, pressure_reference=reference,
                      pressure_unit=unit, pressure_as_given=given.copy(), atmosphere_pa=atmosphere_pa)
 

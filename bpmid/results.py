@@ -160,6 +160,47 @@ def _normalised(data: dict) -> dict:
     return plain(_plain(data)) or {}
 
 
+def _guarded_save(save):
+    """``save`` run so that no file it writes replaces one of the result's inputs (as every CLI command runs:
+    :func:`bpmid.io.atomic.guard_inputs`); inside a command's own guard, as it is."""
+    import functools
+
+    @functools.wraps(save)
+    def wrapper(self, path, *a, **kw):
+        from bpmid.io.atomic import _guard, guard_inputs
+
+        if _guard() is not None:
+            return save(self, path, *a, **kw)
+        with guard_inputs(self.input_paths()), _kept_rc():
+            return save(self, path, *a, **kw)
+
+    return wrapper
+
+
+def _guarded_plot(plot):
+    """``plot`` run so that the caller's matplotlib settings come back after bpmid's house style drew."""
+    import functools
+
+    @functools.wraps(plot)
+    def wrapper(self, *a, **kw):
+        with _kept_rc():
+            return plot(self, *a, **kw)
+
+    return wrapper
+
+
+def _kept_rc():
+    """matplotlib's rc_context when matplotlib is in use (a figure may be drawn), else nothing to keep."""
+    import contextlib
+    import sys
+
+    if "matplotlib" not in sys.modules:
+        # bpmid imports matplotlib only to draw; if it does so now, the caller had no settings of their own, and
+        # the house style applied while drawing is still undone for their first figure
+        import matplotlib
+    return sys.modules["matplotlib"].rc_context()
+
+
 class Result:
     """The common shape of every workflow's result (see the module docstring).
 
@@ -176,6 +217,31 @@ class Result:
     #: for results written as a folder: the YAML inside it that carries the schema
     main_file: ClassVar[str | None] = None
     title: ClassVar[str] = "bpmid result"
+
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        if "save" in cls.__dict__:   # every result's save refuses to replace a file it was made from
+            cls.save = _guarded_save(cls.__dict__["save"])
+        if "plot" in cls.__dict__:   # and drawing leaves the caller's matplotlib settings as they were
+            cls.plot = _guarded_plot(cls.__dict__["plot"])
+
+    def input_paths(self) -> list[Path]:
+        """The files this result was made from (its provenance's inputs, at any depth)."""
+        out: list[Path] = []
+
+        def walk(block):
+            if isinstance(block, Mapping):
+                ins = block.get("inputs")
+                if isinstance(ins, Mapping):
+                    out.extend(Path(k) for k in ins)
+                elif isinstance(ins, (list, tuple)):
+                    out.extend(Path(k) for k in ins if isinstance(k, str))
+                for v in block.values():
+                    if isinstance(v, Mapping):
+                        walk(v)
+
+        walk(self.provenance)
+        return out
 
     def __init__(self, body: Mapping, provenance: Mapping | None = None, *, raw: Any = None,
                  source: str | Path | None = None):
@@ -336,6 +402,10 @@ class Result:
     @classmethod
     def from_file(cls, data: dict, path: Path) -> "Result":
         return cls(data, data.get("provenance"), source=path)
+
+
+Result.save = _guarded_save(Result.save)
+Result.plot = _guarded_plot(Result.plot)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -916,6 +986,9 @@ def load(path: str | Path) -> Result:
         found = [path / n for n in MAIN_FILES if (path / n).is_file()]
         if not found:
             raise InputError(f"no bpmid result in this folder (looked for {', '.join(MAIN_FILES)})", path=path)
+        if len(found) > 1:
+            raise InputError(f"this folder holds {len(found)} results ({', '.join(f.name for f in found)}): load one "
+                             "of the files", path=path)
         path = found[0]
     if not path.is_file():
         raise InputError("file not found", path=path)

@@ -241,3 +241,52 @@ def test_run_study_returns_the_study(tmp_path):
     assert all(v != "done" for k, v in status.items() if k != "relax")
     assert study.results["relax"].params["E_inf"].unit == "Pa"
     assert study == bpmid.load(tmp_path / "o")
+
+
+def test_library_saves_never_replace_an_input_and_logs_are_named_safely(relax, tmp_path):
+    """As the CLI: a result saved over a file it was made from is refused with nothing written; in-memory logs
+    that share a name, or whose name is not a plain file stem, are refused (outputs are named by it); a folder
+    holding two results is not loaded as one of them."""
+    import shutil
+
+    src = sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))[0]
+    mine = tmp_path / "my_log.csv"
+    shutil.copy(src, mine)
+    before = mine.read_bytes()
+    fit = bpmid.fit_motion([mine])
+    with pytest.raises(InputError, match="would replace the input"):
+        fit.save(mine)
+    with pytest.raises(InputError, match="would replace the input"):
+        bpmid.predict([mine], fit).save(tmp_path)
+    assert mine.read_bytes() == before and not (tmp_path / "predict.yaml").exists()
+    fit.save(tmp_path / "VBMM.yaml")   # any other name is fine
+    log = bpmid.read_motion_logs([src])[0]
+    a = bpmid.from_arrays(log.time_s, log.pressure_pa, pressure_unit="Pa", reference="gauge")
+    b = bpmid.from_arrays(log.time_s, log.pressure_pa * 1.01, pressure_unit="Pa", reference="gauge")
+    with pytest.raises(InputError, match="share the file name 'log'"):
+        bpmid.predict([a, b], fit)
+    for bad in ("../escaped", "a/b", "", ".."):
+        with pytest.raises(InputError, match="plain file stem"):
+            bpmid.from_arrays(log.time_s, log.pressure_pa, pressure_unit="Pa", reference="gauge", name=bad)
+    with pytest.raises(InputError, match="finite"):
+        bpmid.from_arrays(np.r_[log.time_s[:-1], np.inf], log.pressure_pa, pressure_unit="Pa", reference="gauge")
+    assert bpmid.from_arrays(log.time_s, log.pressure_pa / 1e5, pressure_unit=" bar ", reference="gauge").n == log.n
+    both = tmp_path / "both"
+    bpmid.predict([a], fit).save(both)
+    (both / "compare.yaml").write_text((tmp_path / "VBMM.yaml").read_text().replace("bpmid.vbmm/1", "bpmid.compare/1"))
+    with pytest.raises(InputError, match="holds 2 results"):
+        bpmid.load(both)
+
+
+def test_plotting_leaves_the_callers_matplotlib_as_it_was(relax):
+    """.plot() and .save(figure=...) keep the caller's backend and rcParams and leave no pyplot figure open
+    (a notebook keeps its inline backend and its own style)."""
+    code = ("import glob, matplotlib; matplotlib.use('svg'); import matplotlib.pyplot as plt, tempfile, os; "
+            "rc0 = {k: str(v) for k, v in matplotlib.rcParams.items()}; import bpmid; "
+            "r = bpmid.fit_relaxation(sorted(glob.glob('datasets/relaxation/*.csv'))[:2]); "
+            "figs = [r.plot() for _ in range(3)]; d = tempfile.mkdtemp(); r.save(os.path.join(d, 'r.yaml'), figure=True); "
+            "changed = [k for k, v in matplotlib.rcParams.items() if str(v) != rc0[k] and k != 'backend']; "
+            "print(matplotlib.get_backend(), len(plt.get_fignums()), changed, os.path.getsize(os.path.join(d, 'r.png')) > 1000)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=REPO,
+                         env={**os.environ, "PYTHONPATH": str(REPO)}).stdout.strip()
+    assert out == "svg 0 [] True", out

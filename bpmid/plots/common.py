@@ -15,9 +15,9 @@ from importlib import resources
 from pathlib import Path
 
 import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402  (colour maps, closing; figures are made without pyplot)
+from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
 from bpmid.io.atomic import staged_file  # noqa: E402
 from bpmid.plots.options import (FORMATS, figure_format, figure_format_as, figure_path,  # noqa: E402,F401
@@ -49,12 +49,22 @@ def style_path() -> Path:
     return Path(str(resources.files("bpmid.plots").joinpath("bpmid.mplstyle")))
 
 
+_STYLE: dict | None = None
+
+
 def style() -> None:
-    """Apply the house style (idempotent)."""
-    plt.style.use(str(style_path()))
+    """Apply the house style to matplotlib's rcParams (idempotent). Every figure bpmid draws applies it
+    (:func:`new_figure`); a library call that draws (``Result.plot``, ``Result.save``) restores the caller's
+    rcParams afterwards (:func:`kept_rc`), so a notebook keeps its own style and backend."""
+    global _STYLE
+    if _STYLE is None:
+        _STYLE = dict(matplotlib.rc_params_from_file(str(style_path()), use_default_template=False))
+    matplotlib.rcParams.update(_STYLE)
 
 
-style()
+def kept_rc():
+    """A context in which bpmid may apply its house style; the caller's rcParams come back after it."""
+    return matplotlib.rc_context()
 
 
 def color_of(name: str, i: int = 0) -> str:
@@ -88,7 +98,14 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, width: float = 7.0, height: fl
     gs = dict(gridspec_kw or {})
     gs.update(left=left / width, right=1 - right_in / width, bottom=bottom_in / height, top=1 - top_in / height,
               hspace=hgap / ax_h if nrows > 1 else 0.0, wspace=wgap / ax_w if ncols > 1 else 0.0)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(width, height), layout=None, gridspec_kw=gs, **kw)
+    style()
+    # a Figure of its own (not pyplot's): nothing is kept open, no backend is chosen or changed
+    fig = Figure(figsize=(width, height), layout=None)
+    FigureCanvasAgg(fig)   # a canvas that measures text (the legend's room), whatever the session's backend
+    sub_kw = {k: kw.pop(k) for k in ("sharex", "sharey", "squeeze", "subplot_kw") if k in kw}
+    axes = fig.subplots(nrows, ncols, gridspec_kw=gs, **sub_kw)
+    if kw:
+        raise TypeError(f"new_figure: unexpected arguments {sorted(kw)}")
     fig._bpmid_legend = (legend, legend_size, top_in, right_in)
     return fig, axes
 
