@@ -60,10 +60,14 @@ def test_kelvin_is_converted_to_celsius_and_unitless_kelvin_is_refused(tmp_path)
     msg = str(e.value)
     assert "bare.csv:" in msg and "'T'" in msg and "kelvin" in msg and "T (C)" in msg and "T (K)" in msg
     assert e.value.line is not None and e.value.line >= 2
-    # below 200 without a unit: still degrees C
-    cold = [(a, b, c, d - 273.15 + 150.0, e) for a, b, c, d, e in rows]
+    # a sweep from below 150 without a unit: still degrees C
+    cold = [(a, b, c, d - 273.15 + 120.0, e) for a, b, c, d, e in rows]
     d = read_material_file(write(tmp_path / "c.csv", ["f", "E_stor", "E_loss", "T", "Set"], cold))
-    assert [T for T, _ in d.sets()] == [170.0, 180.0, 190.0]
+    assert [T for T, _ in d.sets()] == [140.0, 150.0, 160.0]
+    # kelvin from -80 C (193 K) without a unit: asked (every value is at least 150)
+    k80 = [(a, b, c, d - 293.15 + 193.15, e) for a, b, c, d, e in rows]
+    with pytest.raises(InputError, match="almost surely kelvin"):
+        read_material_file(write(tmp_path / "k80.csv", ["f", "E_stor", "E_loss", "T", "Set"], k80))
 
 
 # ---- 2: moduli in Pa under a header without a unit ---------------------------------------------------------------
@@ -249,7 +253,7 @@ def test_flat_relaxation_sets_take_the_shift_function_and_too_few_determined_are
     q = write(tmp_path / "hot.csv", ["t", "E_relax", "T", "Set"], few, ["s", "MPa", "C", "-"])
     res, out = fit(tmp_path, q, "--ref-temp", "70", "--terms", "3")
     assert res.exit_code == 2 and "hot.csv:" in res.output and "--shift" in res.output and not out.exists()
-    assert "determine the shift factors of only" in res.output and "wider sweeps" in res.output
+    assert "determine the shift between only" in res.output and "wider sweeps" in res.output
 
 
 # ---- 10: a time-domain master curve over decades of modulus: the term criterion on relative residuals -------------
@@ -279,3 +283,43 @@ def test_shear_data_are_printed_as_g(tmp_path):
     res, _out = fit(tmp_path, p, "--terms", "6")
     assert res.exit_code == 0, res.output
     assert "G_inf=" in res.output and " G=" in res.output and "E_inf=" not in res.output
+
+
+# ---- second review: shifts judged by the scatter over the slope; a shift the wrong way; increments of the WLF ------
+def test_a_shift_on_a_noisy_plateau_is_not_determined_and_one_in_the_transition_is():
+    """The shift's standard error is the scatter of the log modulus over the curve's slope: on a rubbery plateau
+    with 2 % noise it is far above what the overlap cost's curvature said; across the transition it is small."""
+    rng = np.random.default_rng(5)
+    x = np.linspace(-1.0, 1.0, 13)
+    plateau = lambda d: np.log10(3.0 + 0.02 * (x + d)) + 0.0087 * rng.standard_normal(x.size)  # noqa: E731
+    ramp = lambda d: 0.6 * (x + d) + 0.0087 * rng.standard_normal(x.size)  # noqa: E731
+    flat = tts.pair_shift_info(x, plateau(0.0), x, plateau(0.5))
+    steep = tts.pair_shift_info(x, ramp(0.0), x, ramp(0.5))
+    assert not flat.determined and flat.se > tts.MAX_SHIFT_SE
+    assert steep.determined and steep.se < 0.02 and abs(steep.d - 0.5) < 0.05
+
+
+def test_a_shift_the_wrong_way_is_not_taken_from_the_data():
+    """A colder set must be slower (log a_T larger): a noisy optimum the other way is replaced by the shift
+    function, fitted to the increments across every determined link."""
+    x = np.linspace(-1.0, 1.0, 15)
+    Ts = np.array([0.0, 10.0, 20.0, 30.0, 40.0])
+    true = np.array([3.0, 1.5, 0.0, -1.2, -2.2])     # log a_T at 20 C
+    curve = lambda u: 2.0 * np.tanh(0.5 * u)  # noqa: E731
+    logy = [curve(x + a) for a in true]
+    logy[0] = curve(x + true[1] - 0.3)                # the coldest set placed as if faster than its neighbour
+    sr = tts.search_shift_factors(Ts, [x] * 5, logy, 20.0)
+    k0 = 0
+    assert sr.from_function[k0] and "wrong way" in sr.info[k0].why
+    assert sr.log_aT[k0] > sr.log_aT[1]
+    assert np.allclose(sr.log_aT[1:], true[1:], atol=0.05)
+
+
+
+def test_a_modulus_named_neither_e_nor_g_is_read_as_e_with_a_warning(tmp_path):
+    rows = master_rows()
+    p = write(tmp_path / "rheo.csv", ["Frequency", "Storage Modulus", "Loss Modulus"], rows, ["Hz", "MPa", "MPa"])
+    d = read_material_file(p)
+    assert d.modulus == "E" and any("neither E (tensile) nor G (shear)" in w and "G'" in w for w in d.warnings)
+    q = write(tmp_path / "e.csv", ["f", "E_stor", "E_loss"], rows, ["Hz", "MPa", "MPa"])
+    assert not read_material_file(q).warnings

@@ -227,8 +227,11 @@ _MAT_UNITS = {
     "set": {"-": 1.0, "": 1.0, "1": 1.0},
 }
 #: a temperature column without a stated unit whose every value is at least this is refused (kelvin, or a mistake):
-#: no DMA or relaxation test of a polymer runs entirely above 200 C
-UNITLESS_KELVIN_C = 200.0
+#: no DMA or relaxation test of a soft polymer runs entirely above 150 C, and a sweep from -120 C in kelvin starts
+#: at 153 K
+UNITLESS_KELVIN_C = 150.0
+#: header names that say neither E nor G (read as E, with a warning)
+_VAGUE_MODULUS = frozenset({"storagemodulus", "lossmodulus", "relaxationmodulus", "modulus"})
 #: a modulus above this (MPa; 100 GPa) is stiffer than any polymer: refused without a stated unit, warned with one
 MAX_PLAUSIBLE_MPA = 1e5
 #: fewest samples of one set of raw data (bpmid.relax.tts.MIN_OVERLAP: a shift is judged on at least 3 overlapping
@@ -504,6 +507,13 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                          "(C); add the test temperature of every row", path=path, line=header_line, key="T")
 
     warnings: list[str] = []
+    # a name that says neither E nor G ("Storage Modulus", as rheometers and DMA software both write it)
+    vague = [header[index[r][0]] for r in ("storage", "loss", "relax") if has(r)
+             and _mat_key(_split_unit(cmap.get(header[index[r][0]], header[index[r][0]]))[0]) in _VAGUE_MODULUS]
+    if vague:
+        warnings.append(f"{path.name}: the column(s) {', '.join(repr(v) for v in vague)} say neither E (tensile) nor G "
+                        "(shear): read as tensile E (a DMA in tension or bending); a rheometer's or a shear DMA's "
+                        "storage modulus is G: if so, name the columns G' and G'' (or G_stor, G_loss)")
 
     def column(role: str) -> np.ndarray:
         j, unit = index[role]
@@ -600,7 +610,8 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
         else:
             i = int(np.flatnonzero(step * np.sign(np.median(step) or 1.0) <= 0)[0]) + 1
             raise InputError(f"the {what} falls back ({x[i - 1]:g} then {x[i]:g}): several sweeps in one file are raw "
-                             "sets, which need a temperature column T (C) to be shifted into a master curve",
+                             "sets, which need a temperature column T (C) to be shifted into a master curve; or, for "
+                             "one master curve joined from parts that overlap, remove the rows the parts repeat",
                              path=path, line=int(lines[i]), key="T")
     out = MaterialData(path.stem, path, domain, modulus, x, stor, loss, T, sid, lines, sheet,
                        {r: u for r, (_, u) in index.items()}, warnings)

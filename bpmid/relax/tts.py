@@ -41,7 +41,7 @@ MIN_OVERLAP = 3
 #: the shifts that give an overlap
 EDGE_STEPS = 2
 #: ... or when its standard error exceeds this (decades)
-MAX_SHIFT_SE = 0.1
+MAX_SHIFT_SE = 0.2
 #: ... or when a set is flat: its smooth curve's range over its samples below this many times its robust scatter
 FLAT_SCATTER = 3.0
 #: half-width (decades) of the central difference for the overlap cost's curvature
@@ -242,6 +242,42 @@ def flat_set(logx: np.ndarray, logy: np.ndarray) -> bool:
     return float(fit.max() - fit.min()) < FLAT_SCATTER * scatter
 
 
+def _curve(logx: np.ndarray, logy: np.ndarray) -> tuple[np.ndarray, float]:
+    """A set's smooth curve (:func:`_quad` coefficients) and its robust residual scatter (decades)."""
+    c = _quad(logx, logy)
+    r = logy - np.polynomial.polynomial.polyval(logx, c)
+    return c, 1.4826 * float(np.median(np.abs(r)))
+
+
+def shift_se(xr, yr, xs, ys, d: float) -> float:
+    """Standard error (decades) of the shift d that overlays the set (xs, ys) on (xr, yr): a horizontal shift is
+    read through the curves' slope, so its error is the scatter of the two sets' log moduli, averaged over the
+    samples that inform it, over that slope: sqrt(s_r^2 / n_r + s_s^2 / n_s) / |dlogE/dlogx|. The samples are those
+    of each set within the other's shifted range (at least the 3 nearest to it, for a bridged pair) and the slope
+    is the smooth curves' mean slope there. Honest where the curvature of an interpolated noisy overlap cost is not:
+    a flat stretch (a glassy or rubbery plateau) gives a large error however small the cost's noise."""
+    cr, s_r = _curve(xr, yr)
+    cs, s_s = _curve(xs, ys)
+    xx = xs + d
+
+    def near(x, lo, hi):
+        k = (x >= lo) & (x <= hi)
+        if k.sum() >= 3:
+            return k
+        idx = np.argsort(np.minimum(np.abs(x - lo), np.abs(x - hi)))[:3]
+        k = np.zeros(x.size, bool)
+        k[idx] = True
+        return k
+
+    kr = near(xr, xx.min(), xx.max())
+    ks = near(xx, xr.min(), xr.max())
+    dr = np.polynomial.polynomial.polyval(xr[kr], np.polynomial.polynomial.polyder(cr))
+    ds = np.polynomial.polynomial.polyval(xs[ks], np.polynomial.polynomial.polyder(cs))
+    slope = abs(float(np.mean(np.concatenate([dr, ds]))))
+    noise = math.sqrt(s_r ** 2 / max(int(kr.sum()), 1) + s_s ** 2 / max(int(ks.sum()), 1))
+    return noise / slope if slope > 0 else math.inf
+
+
 def pair_shift(logx_ref: np.ndarray, logy_ref: np.ndarray, logx: np.ndarray, logy: np.ndarray) -> float:
     """Shift d (decades of x) that moves the set (logx, logy) onto the reference set: logx + d overlays logx_ref
     (:func:`pair_shift_info` without the verdict)."""
@@ -295,7 +331,12 @@ def pair_shift_info(logx_ref: np.ndarray, logy_ref: np.ndarray, logx: np.ndarray
     if not np.isfinite(costs).any() or not shared:
         d = _bridge_shift(xr, yr, xs, ys)
         if math.isfinite(d):
-            return PairShift(d, not flat, flat_why, math.nan, "bridge")
+            why = [flat_why] if flat_why else []
+            se = shift_se(xr, yr, xs, ys, d)
+            if not se <= MAX_SHIFT_SE:
+                why.append(f"its standard error is {se:.2g} decades (the modulus barely changes where the two "
+                           "sets' extrapolated curves meet)")
+            return PairShift(d, not why, "; ".join(why), se, "bridge")
     if not np.isfinite(costs).any():
         raise InputError("two neighbouring sets cannot be overlaid (too few samples in common at any shift)")
     ib = int(np.nanargmin(costs))
@@ -314,13 +355,17 @@ def pair_shift_info(logx_ref: np.ndarray, logy_ref: np.ndarray, logx: np.ndarray
     c0 = cost(d)
     h = max(CURVATURE_STEP, 2 * step)
     cp, cm = cost(d + h), cost(d - h)
-    se = math.nan
+    se_cost = math.nan
     if math.isfinite(cp) and math.isfinite(cm):
         k = (cp + cm - 2.0 * c0) / (2.0 * h * h)
         n = overlap(d)[3]
-        se = math.sqrt(max(c0, 0.0) / (n * k)) if k > 0 else math.inf
-        if se > MAX_SHIFT_SE:
-            why.append(f"its standard error is {se:.2g} decades (the overlap barely changes with the shift)")
+        se_cost = math.sqrt(max(c0, 0.0) / (n * k)) if k > 0 else math.inf
+    # the slope-based error (the scatter over the slope) is the honest one on noisy data; the cost's curvature
+    # catches a cost that does not rise away from its optimum at all
+    se = max(shift_se(xr, yr, xs, ys, d), se_cost if math.isfinite(se_cost) else 0.0) \
+        if not (math.isinf(se_cost)) else math.inf
+    if se > MAX_SHIFT_SE:
+        why.append(f"its standard error is {se:.2g} decades (the modulus barely changes over the overlap)")
     if flat_why:
         why.append(flat_why)
     return PairShift(d, not why, "; ".join(why), se)
@@ -421,37 +466,44 @@ def search_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: S
                                  path=path, line=line) from None
             log_aT[cur] = sign * info[cur].d
             pair[cur] = log_aT[cur] - log_aT[prev]
+            # a colder set is slower (log a_T larger), a warmer one faster: a shift the other way is noise
+            if info[cur].determined and pair[cur] * (-direction) <= 0.0 and T[cur] != T[prev]:
+                info[cur] = dataclasses.replace(info[cur], determined=False,
+                                                why=f"its shift goes the wrong way ({pair[cur]:+.2g} decades against "
+                                                    f"the {T[prev]:g} C set: a {'colder' if direction < 0 else 'warmer'} "
+                                                    f"set must be {'slower' if direction < 0 else 'faster'})")
             prev = cur
             j += direction
     none = np.zeros(T.size, bool)
     if all(p is None or p.determined for p in info):
         return ShiftSearch(log_aT, pair, info, none, none.copy())
-    # the sets connected to the reference through determined links
-    connected = [k_ref]
+    # every determined link (pair of neighbours), wherever it sits: the shift function is fitted to their increments
+    links = []   # (colder-or-warmer set, its inner neighbour, increment of log a_T, its standard error)
     for direction in (-1, 1):
-        j = pos + direction
-        while 0 <= j < order.size and info[order[j]].determined:
-            connected.append(order[j])
-            j += direction
-    connected = np.array(sorted(connected, key=lambda k: T[k]))
+        prev = order[pos]
+        for jj in range(pos + direction, -1 if direction < 0 else order.size, direction):
+            cur = order[jj]
+            if info[cur].determined:
+                links.append((cur, prev, pair[cur], info[cur].se))
+            prev = cur
+    used = sorted({k for a, b, _d, _s in links for k in (a, b)}, key=lambda k: T[k])
     bad = [k for k in order if info[k] is not None and not info[k].determined]
     words = "; ".join(f"{T[k]:g} C: {info[k].why}" for k in bad[:3]) + (" ..." if len(bad) > 3 else "")
-    if connected.size < MIN_DETERMINED:
+    if len(links) < MIN_DETERMINED - 1:
         path, line = where[bad[0]] if where is not None else (None, None)
-        raise InputError(f"the data determine the shift factors of only {connected.size} temperature(s) connected to "
-                         f"the reference set ({', '.join(format(T[k], 'g') for k in connected)} C; at least "
-                         f"{MIN_DETERMINED} are needed to fit a shift function to the rest): not determined at "
-                         f"{', '.join(format(T[k], 'g') for k in bad)} C ({words}); measure wider sweeps (neighbouring "
-                         "temperatures must share a range of modulus over which it changes) or give the shift factors "
-                         "with --shift FILE", path=path, line=line, key="--shift")
-    fn = fit_wlf(T[connected], log_aT[connected], T_ref)
+        raise InputError(f"the data determine the shift between only {len(links)} pair(s) of neighbouring sets (at "
+                         f"least {MIN_DETERMINED - 1} are needed to fit a shift function to the rest): not determined "
+                         f"at {', '.join(format(T[k], 'g') for k in bad)} C ({words}); measure wider sweeps "
+                         "(neighbouring temperatures must share a range of modulus over which it changes) or give "
+                         "the shift factors with --shift FILE", path=path, line=line, key="--shift")
+    fn = fit_wlf_increments(T, links, T_ref)
     if fn is not None:
         fn = {"kind": "wlf", **fn}
         f_of = lambda t: float(wlf(t, fn["T_ref"], fn["C1"], fn["C2"]))  # noqa: E731
     else:
-        fn = fit_poly(T[connected], log_aT[connected], T_ref, degree=2)
-        fn = {"kind": "poly", **fn}
+        fn = {"kind": "poly", **fit_poly_increments(T, links, T_ref)}
         f_of = lambda t: float(np.polynomial.polynomial.polyval(t - T_ref, fn["coefficients"]))  # noqa: E731
+    connected = np.array(used, int)
     new = log_aT.copy()
     from_fn, chained = none.copy(), none.copy()
     for direction in (-1, 1):
@@ -462,8 +514,8 @@ def search_shift_factors(T: Sequence[float], logx: Sequence[np.ndarray], logy: S
             if info[cur].determined:
                 new[cur] = new[prev] + pair[cur]
                 chained[cur] = from_fn[prev] or chained[prev]
-            else:
-                new[cur] = f_of(T[cur])
+            else:   # the shift function's step across the link the data do not fix
+                new[cur] = new[prev] + f_of(T[cur]) - f_of(T[prev])
                 from_fn[cur] = True
             prev = cur
             j += direction
@@ -526,6 +578,61 @@ def fit_wlf(T: np.ndarray, log_aT: np.ndarray, T_ref: float) -> dict | None:
         se = np.array([np.nan, np.nan])
     return {"C1": float(best.x[0]), "C2": float(best.x[1]), "T_ref": float(T_ref), "se_C1": float(se[0]),
             "se_C2": float(se[1]), "rmse": float(np.sqrt(np.mean(r ** 2)))}
+
+
+def fit_wlf_increments(T: np.ndarray, links, T_ref: float) -> dict | None:
+    """WLF constants fitted to the increments of log a_T across determined links (``(k, k_inner, increment, se)``):
+    f(T_k) - f(T_inner) = increment, weighted by 1 / se^2 (se at least 0.02 decades), with f(T_ref) = 0. Uses every
+    link the data fix, wherever it lies, so that a gap between determined stretches does not leave the function to
+    a few temperatures near the reference. None when it does not fit."""
+    T = np.asarray(T, float)
+    a = np.array([T[k] for k, _i, _d, _s in links])
+    b = np.array([T[i] for _k, i, _d, _s in links])
+    y = np.array([d for _k, _i, d, _s in links])
+    w = 1.0 / np.maximum(np.array([s if np.isfinite(s) else 0.1 for *_r, s in links]), 0.02)
+    if y.size < 2:
+        return None
+    lo2 = -(min(a.min(), b.min()) - T_ref) + 1e-3
+    best = None
+    for C2 in (30.0, 51.6, 100.0, 200.0, 500.0):
+        C2 = max(C2, lo2 + 1.0)
+
+        def res(p):
+            return w * (wlf(a, T_ref, p[0], p[1]) - wlf(b, T_ref, p[0], p[1]) - y)
+
+        g = (wlf(a, T_ref, 1.0, C2) - wlf(b, T_ref, 1.0, C2)) * w
+        C1 = float(np.sum(g * w * y) / max(float(g @ g), 1e-300))
+        try:
+            sol = least_squares(res, [C1, C2], bounds=([-np.inf, lo2], [np.inf, 1e5]), method="trf")
+        except ValueError:
+            continue
+        if best is None or sol.cost < best.cost:
+            best = sol
+    if best is None:
+        return None
+    r = best.fun / w
+    dof = max(y.size - 2, 1)
+    try:
+        cov = np.linalg.inv(best.jac.T @ best.jac) * float(best.fun @ best.fun) / dof
+        se = np.sqrt(np.abs(np.diag(cov)))
+    except np.linalg.LinAlgError:
+        se = np.array([np.nan, np.nan])
+    return {"C1": float(best.x[0]), "C2": float(best.x[1]), "T_ref": float(T_ref), "se_C1": float(se[0]),
+            "se_C2": float(se[1]), "rmse": float(np.sqrt(np.mean(r ** 2))), "fitted_to": "increments across links"}
+
+
+def fit_poly_increments(T: np.ndarray, links, T_ref: float, degree: int = 2) -> dict:
+    """A polynomial in (T - T_ref) without constant term fitted to the increments across determined links."""
+    T = np.asarray(T, float)
+    a = np.array([T[k] for k, _i, _d, _s in links]) - T_ref
+    b = np.array([T[i] for _k, i, _d, _s in links]) - T_ref
+    y = np.array([d for _k, _i, d, _s in links])
+    deg = max(1, min(degree, y.size - 1))
+    V = np.column_stack([a ** m - b ** m for m in range(1, deg + 1)])
+    c, *_ = np.linalg.lstsq(V, y, rcond=None)
+    r = y - V @ c
+    return {"degree": int(deg), "variable": "T - T_ref (C)", "coefficients": [0.0] + [float(v) for v in c],
+            "se": [0.0] + [math.nan] * deg, "rmse": float(np.sqrt(np.mean(r ** 2))) if r.size else 0.0}
 
 
 def fit_poly(T: np.ndarray, log_aT: np.ndarray, T_ref: float, degree: int = POLY_DEGREE) -> dict | None:
