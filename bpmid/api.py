@@ -362,6 +362,10 @@ def simulate(protocol, *, params=None, effects: Sequence[str] = (), seed: int | 
     from bpmid.results import SimulationResult
     from bpmid.twin.simulate import simulate as _simulate
 
+    import numbers
+
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0):
+        raise InputError(f"seed must be a non-negative integer, found {seed!r}", key="seed")
     sim = _simulate(protocol, params_path=params, effects=tuple(_as_list(effects)), seed=seed, timestamp=timestamp)
     return SimulationResult(sim.manifest, sim.manifest.get("provenance"), raw=sim)
 

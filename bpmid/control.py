@@ -100,6 +100,11 @@ class ControlConfig:
         def bad(key, msg):
             raise InputError(msg, path=path, key=f"{where}.{key}")
 
+        for key in ("kp_bar_per_deg", "ki_bar_per_deg_s", "rate_hz", "p_min_bar_abs", "p_max_bar_abs",
+                    "atmosphere_bar", "plant_modulus_scale", "plant_tau_scale", "oscillation_limit_pct"):
+            v = getattr(self, key)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+                bad(key, f"must be a number, found {v!r}")
         for key in ("kp_bar_per_deg", "ki_bar_per_deg_s"):
             v = getattr(self, key)
             if not (np.isfinite(v) and v >= 0):

@@ -404,6 +404,17 @@ class Result:
         return cls(data, data.get("provenance"), source=path)
 
 
+def _save_with_figure(result: Result, path: Path, fig_path: Path) -> None:
+    """The result's YAML and its :meth:`~Result.plot` figure, both staged: on any failure neither appears."""
+    from bpmid.io.atomic import staged_file
+    from bpmid.io.results import write_result
+    from bpmid.plots.common import save_figure
+
+    with staged_file(path) as tmp_yaml, staged_file(fig_path) as tmp_fig:
+        write_result(tmp_yaml, result.schema, result.body, result.provenance)
+        save_figure(result.plot(), tmp_fig)
+
+
 Result.save = _guarded_save(Result.save)
 Result.plot = _guarded_plot(Result.plot)
 
@@ -420,15 +431,26 @@ class RelaxationResult(Result):
     @property
     def params(self) -> Parameters:
         out = []
+        fitted = "shear" if str(self.body.get("fitted_modulus", "E")).upper() == "G" else "prony"
+
+        def judged(info: ParamInfo) -> ParamInfo:
+            # the rule every fit uses (relative standard error above 50 %: not identifiable), reported here
+            if info.identifiability == "estimated" and info.stderr is not None and info.value:
+                rel = info.stderr / abs(info.value)
+                if rel > 0.5:
+                    return dataclasses.replace(info, identifiability=f"not identifiable: relative standard error "
+                                                                      f"{rel:.0%} > 50% (estimated)")
+            return info
+
         for block, inf_name, mod in (("prony", "E_inf", "E"), ("shear", "G_inf", "G"), ("bulk", "K_inf", "K")):
             b = self.body.get(block) or {}
-            tag = "estimated" if block == "prony" else "derived (Poisson's ratio)"
+            tag = "estimated" if block == fitted else "derived (Poisson's ratio)"
             if inf_name in b:
-                out.append(_entry(inf_name, b[inf_name], "Pa", tag))
+                out.append(judged(_entry(inf_name, b[inf_name], "Pa", tag)))
             for j, term in enumerate(b.get("terms") or [], start=1):
-                out.append(_entry(f"{mod}_{j}", term[mod], "Pa", tag))
+                out.append(judged(_entry(f"{mod}_{j}", term[mod], "Pa", tag)))
                 if block == "prony":
-                    out.append(_entry(f"tau_{j}", term["tau"], "s", tag))
+                    out.append(judged(_entry(f"tau_{j}", term["tau"], "s", "estimated")))
         if "poisson_ratio" in self.body:
             out.append(ParamInfo("poisson_ratio", float(self.body["poisson_ratio"]), None, "1", "given"))
         return Parameters(out)
@@ -496,6 +518,9 @@ class RelaxationResult(Result):
             with staged_file(path) as tmp_yaml, staged_file(fig_path) as tmp_fig:
                 super().save(tmp_yaml)
                 save_figure(self._figure(), tmp_fig)
+            return path
+        if figure:   # a loaded result: its figure drawn from the file's numbers
+            _save_with_figure(self, path, path.with_suffix(".png") if figure is True else Path(figure))
             return path
         return super().save(path)
 
@@ -590,13 +615,20 @@ class VBMMFitResult(Result):
         ax.set_title(self.title)
         return fig
 
-    def save(self, path: str | Path, *, figure: str | Path | None = None, synthetic: bool = False) -> Path:
-        """Write the ``bpmid.vbmm/1`` YAML; with ``figure`` (a live result) the fit figure too, all or nothing."""
-        if figure is not None and self.raw is not None:
+    def save(self, path: str | Path, *, figure: str | Path | bool | None = None, synthetic: bool = False) -> Path:
+        """Write the ``bpmid.vbmm/1`` YAML; with ``figure`` (a path, or True: beside it as .png) the fit figure too,
+        all or nothing (a loaded result draws :meth:`plot`)."""
+        path = Path(path)
+        if figure is True:
+            figure = path.with_suffix(".png")
+        if figure and self.raw is not None:
             from bpmid.models.vbmm.fit import write_motion_fit
 
             write_motion_fit(path, self.raw, self.provenance, figure=figure, synthetic=synthetic)
-            return Path(path)
+            return path
+        if figure:
+            _save_with_figure(self, path, Path(figure))
+            return path
         return super().save(path)
 
 

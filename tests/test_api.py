@@ -290,3 +290,27 @@ def test_plotting_leaves_the_callers_matplotlib_as_it_was(relax):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=REPO,
                          env={**os.environ, "PYTHONPATH": str(REPO)}).stdout.strip()
     assert out == "svg 0 [] True", out
+
+
+def test_results_of_shear_data_fitted_from_files_and_bad_settings(tmp_path):
+    """A loaded result saves its figure too (figure=True beside it as .png); constants a relaxation fit barely fixes
+    are not called estimated; settings of the wrong type are InputErrors naming the key."""
+    relax = bpmid.fit_relaxation(sorted(glob.glob(str(REPO / "datasets/relaxation/*.csv")))[:2])
+    relax.save(tmp_path / "r.yaml")
+    back = bpmid.load(tmp_path / "r.yaml")
+    back.save(tmp_path / "r2.yaml", figure=True)
+    assert (tmp_path / "r2.png").stat().st_size > 1000
+    for p in back.params.values():
+        if p.identifiability == "estimated" and p.stderr is not None and p.value:
+            assert p.stderr / abs(p.value) <= 0.5, p
+    src = (REPO / "datasets/reference/pyvisco-frequency/freq_user_master.csv").read_text().splitlines()
+    src[0] = src[0].replace("E_stor", "G_stor").replace("E_loss", "G_loss")
+    (tmp_path / "G_master.csv").write_text("\n".join(src) + "\n")
+    g = bpmid.fit_relaxation([tmp_path / "G_master.csv"], terms=6)
+    assert g.params["G_inf"].identifiability in ("estimated",) or g.params["G_inf"].identifiability.startswith("not")
+    assert g.params["E_inf"].identifiability == "derived (Poisson's ratio)"
+    assert g.params["G_1"].identifiability != "derived (Poisson's ratio)"
+    with pytest.raises(InputError, match="kp_bar_per_deg"):
+        bpmid.control(None, reference="steps", kp_bar_per_deg="x")
+    with pytest.raises(InputError, match="seed"):
+        bpmid.simulate("fitting_set", seed="x")
