@@ -66,6 +66,17 @@ def _motion_logs(logs, cfg, *, require_angle: bool = False) -> tuple[list, list[
     return out, paths
 
 
+def _paths(items, what: str, key: str) -> list[Path]:
+    """The items as paths; anything else is an InputError naming ``key`` (these calls read, hash and name files)."""
+    out = []
+    for x in _as_list(items):
+        if not isinstance(x, (str, Path)):
+            raise InputError(f"{what} must be file paths (str or Path), found {type(x).__name__}: this call reads, hashes "
+                             "and names its inputs by file; write the data to a file first", key=key)
+        out.append(Path(x))
+    return out
+
+
 def _vbmm(params, model_cfg):
     """A VBMM from a ``bpmid.vbmm/1`` path, a :class:`VBMMFitResult` or a VBMM; plus the path when there is one."""
     from bpmid.models.vbmm import VBMM, load_vbmm, vbmm_from_mapping
@@ -192,7 +203,7 @@ def fit_relaxation(logs, *, terms: int | str | None = None, mode: str | None = N
     from bpmid.relax.result import fit_relax_files
     from bpmid.results import RelaxationResult
 
-    paths = [Path(p) for p in _as_list(logs)]
+    paths = _paths(logs, "relaxation logs", "logs")
     if not paths:
         raise InputError("no relaxation logs given", key="logs")
     run = fit_relax_files(paths, terms=terms, mode=mode, poisson=poisson, config=_config(config),
@@ -231,6 +242,9 @@ def fit_motion(logs, *, init=None, config=None):
         if not Path(init).is_file():
             raise InputError("relaxation fit not found", path=init, key="init")
         inputs.append(Path(init))
+    elif init is not None:
+        raise InputError(f"init must be a relaxation fit (a bpmid.relax/1 path or a RelaxationResult), found "
+                         f"{type(init).__name__}", key="init")
     fit = _fit(motion, config=cfg, init=init)
     warnings = plaus.reader_warnings(motion) + plaus.motion_fit_warnings(fit)
     body = {**fit.yaml_body(), "warnings": warnings}
@@ -301,8 +315,16 @@ def compare(train=None, test=None, *, models: Sequence[str] | str | None = None,
         models = parse_model_list(models)
     elif models is not None:
         models = parse_model_list(",".join(models))
-    train_paths, test_sets, relax_path = resolve_inputs(cfg.section("compare"), cfg, train=_as_list(train) or None,
-                                                        test=_as_list(test) or None, relax=relax)
+    from bpmid.results import RelaxationResult
+
+    if isinstance(relax, RelaxationResult) and relax.source is not None:
+        relax = relax.source   # a loaded fit: its file
+    if relax is not None and not isinstance(relax, (str, Path)):
+        raise InputError(f"relax must be a bpmid.relax/1 file path (or a RelaxationResult loaded from one), found "
+                         f"{type(relax).__name__}", key="relax")
+    train_paths, test_sets, relax_path = resolve_inputs(cfg.section("compare"), cfg,
+                                                        train=_paths(train, "training logs", "train") or None,
+                                                        test=_paths(test, "test logs", "test") or None, relax=relax)
     result, prov, how = compare_files(train_paths, test_sets, models=models, config=cfg, relax_fit=relax_path)
     body = compare_yaml_body(result, how["relax_fit"])
     body["synthetic"] = bool(how["synthetic"])
@@ -366,6 +388,13 @@ def simulate(protocol, *, params=None, effects: Sequence[str] = (), seed: int | 
 
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0):
         raise InputError(f"seed must be a non-negative integer, found {seed!r}", key="seed")
+    from bpmid.results import VBMMFitResult
+
+    if isinstance(params, VBMMFitResult) and params.source is not None:
+        params = params.source   # a loaded fit: its file
+    if params is not None and not isinstance(params, (str, Path)):
+        raise InputError(f"params must be a bpmid.vbmm/1 file path (or a VBMMFitResult loaded from one), found "
+                         f"{type(params).__name__}", key="params")
     sim = _simulate(protocol, params_path=params, effects=tuple(_as_list(effects)), seed=seed, timestamp=timestamp)
     return SimulationResult(sim.manifest, sim.manifest.get("provenance"), raw=sim)
 

@@ -946,7 +946,7 @@ class StudyResult(Result):
 
     #: stage output -> file or folder in the run folder
     STAGE_FILES = {"relax": "relax_fit.yaml", "vbmm_fit": "vbmm_fit.yaml", "vbmm_mat": "vbmm_mat.yaml",
-                   "compare": "compare", "history": "history_modes.yaml", "discover": "discover"}
+                   "compare": "compare", "history": "history_modes.yaml", "discover": "discover", "control": "control"}
 
     @property
     def results(self) -> dict[str, Result]:

@@ -223,6 +223,8 @@ def test_every_output_of_a_study_loads(timed_small_study):
     res = study.results
     assert isinstance(res["relax"], RelaxationResult) and isinstance(res["vbmm_fit"], VBMMFitResult)
     assert isinstance(res["compare"], ComparisonResult) and isinstance(res["discover"], DiscoveryResult)
+    from bpmid.results import ControlResult
+    assert isinstance(res["control"], ControlResult)   # every stage's result, control's too
     assert res["vbmm_mat"].params["K_inf"].value == pytest.approx(res["relax"].params["K_inf"].value, rel=1e-9)
     assert set(res["compare"].table["model"]) == {"vbmm-mat", "vbmm-fit", "two-branch", "maxwell-slip"}
     for name, r in res.items():
@@ -321,3 +323,13 @@ def test_results_of_shear_data_fitted_from_files_and_bad_settings(tmp_path):
         bpmid.control(None, reference="steps", kp_bar_per_deg="x")
     with pytest.raises(InputError, match="seed"):
         bpmid.simulate("fitting_set", seed="x")
+
+
+def test_calls_that_read_files_say_so_for_other_inputs():
+    log = bpmid.read_motion_logs(sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))[:1])
+    with pytest.raises(InputError, match="must be file paths"):
+        bpmid.compare(train=log, test=log)
+    with pytest.raises(InputError, match="must be file paths"):
+        bpmid.fit_relaxation(log)
+    with pytest.raises(InputError, match="init must be a relaxation fit"):
+        bpmid.fit_motion(log, init=3)
