@@ -551,33 +551,8 @@ def fit_wlf(T: np.ndarray, log_aT: np.ndarray, T_ref: float) -> dict | None:
     if T.size < 3:
         return None
     d = T - T_ref
-    best = None
-    for C2 in (30.0, 51.6, 100.0, 200.0, 500.0):
-        C2 = max(C2, -d.min() + 1.0)
-        C1 = float(np.sum(-d / (C2 + d) * y) / max(np.sum((d / (C2 + d)) ** 2), 1e-300))
-
-        def res(p):
-            return wlf(T, T_ref, p[0], p[1]) - y
-
-        lo2 = -d.min() + 1e-3
-        try:
-            sol = least_squares(res, [C1, C2], bounds=([-np.inf, lo2], [np.inf, 1e5]), method="trf")
-        except ValueError:
-            continue
-        if best is None or sol.cost < best.cost:
-            best = sol
-    if best is None:
-        return None
-    r = best.fun
-    dof = max(T.size - 2, 1)
-    s2 = float(r @ r) / dof
-    try:
-        cov = np.linalg.inv(best.jac.T @ best.jac) * s2
-        se = np.sqrt(np.abs(np.diag(cov)))
-    except np.linalg.LinAlgError:
-        se = np.array([np.nan, np.nan])
-    return {"C1": float(best.x[0]), "C2": float(best.x[1]), "T_ref": float(T_ref), "se_C1": float(se[0]),
-            "se_C2": float(se[1]), "rmse": float(np.sqrt(np.mean(r ** 2)))}
+    return _fit_wlf_core(T, np.full(T.size, float(T_ref)), y, np.ones(T.size), T_ref, lo2=-d.min() + 1e-3,
+                         c2_floor=-d.min() + 1.0)
 
 
 def fit_wlf_increments(T: np.ndarray, links, T_ref: float) -> dict | None:
@@ -593,9 +568,17 @@ def fit_wlf_increments(T: np.ndarray, links, T_ref: float) -> dict | None:
     if y.size < 2:
         return None
     lo2 = -(min(a.min(), b.min()) - T_ref) + 1e-3
+    out = _fit_wlf_core(a, b, y, w, T_ref, lo2=lo2, c2_floor=lo2 + 1.0)
+    return None if out is None else {**out, "fitted_to": "increments across links"}
+
+
+def _fit_wlf_core(a, b, y, w, T_ref: float, *, lo2: float, c2_floor: float) -> dict | None:
+    """Weighted least squares of w (f(a) - f(b) - y) over the WLF constants, from several C2 starts (C1 solved
+    linearly for each); the constants with standard errors and the unweighted RMSE (decades). ``f(T_ref) = 0``:
+    an absolute fit is b = T_ref."""
     best = None
     for C2 in (30.0, 51.6, 100.0, 200.0, 500.0):
-        C2 = max(C2, lo2 + 1.0)
+        C2 = max(C2, c2_floor)
 
         def res(p):
             return w * (wlf(a, T_ref, p[0], p[1]) - wlf(b, T_ref, p[0], p[1]) - y)
@@ -618,7 +601,7 @@ def fit_wlf_increments(T: np.ndarray, links, T_ref: float) -> dict | None:
     except np.linalg.LinAlgError:
         se = np.array([np.nan, np.nan])
     return {"C1": float(best.x[0]), "C2": float(best.x[1]), "T_ref": float(T_ref), "se_C1": float(se[0]),
-            "se_C2": float(se[1]), "rmse": float(np.sqrt(np.mean(r ** 2))), "fitted_to": "increments across links"}
+            "se_C2": float(se[1]), "rmse": float(np.sqrt(np.mean(r ** 2)))}
 
 
 def fit_poly_increments(T: np.ndarray, links, T_ref: float, degree: int = 2) -> dict:
