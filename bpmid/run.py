@@ -552,7 +552,7 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
 
 
 def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRecord]:
-    from bpmid.io.motion_logs import is_synthetic
+    from bpmid.io.motion_logs import file_is_synthetic, is_synthetic
     from bpmid.io.results import command_line, new_run_id, run_stamp, write_result
 
     rc: RunConfig = config.section("run")
@@ -563,8 +563,11 @@ def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRe
     # every input of every stage read and checked before the first stage runs (and before DIR is touched)
     motion_logs = check_stage_inputs(config, inp, stages_to_run(rc, inp))
     check_run_outputs(out, [config.path] + inp.all() + _param_inputs(config, rc, inp))
+    # synthetic only when every log the study reads is: a measured relaxation curve is not (the report says so)
+    relax_synth = all(file_is_synthetic(p) for p in inp.relax_logs)
     ctx = {"seed": rc.seed, "command": command or command_line(),
-           "synthetic": is_synthetic(motion_logs) if motion_logs else True, "run_id": new_run_id()}
+           "synthetic": (is_synthetic(motion_logs) if motion_logs else True) and relax_synth,
+           "run_id": new_run_id()}
     journal = OutputJournal(out)
     try:
         with run_stamp(ctx["run_id"], ctx["command"]):  # every file of this run says so (provenance.run_id)

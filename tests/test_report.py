@@ -6,6 +6,7 @@ import shutil
 from pathlib import Path
 
 import pandas as pd
+import yaml
 import pytest
 from typer.testing import CliRunner
 
@@ -138,6 +139,14 @@ def test_report_says_when_a_baseline_wins(study, tmp_path):
     md = (d / "report.md").read_text()
     assert re.search(r"On variable_rate, the baseline two-branch \(0\.001°\) beats the best VBMM variant", md)
     assert "On variable_amplitude, the best VBMM variant" in md
+    # a stage the run recorded as done whose files were deleted since: said to be missing, not "not run"
+    shutil.rmtree(d / "discover")
+    assert runner.invoke(app, ["report", str(d)]).exit_code == 0
+    disc = (d / "report.md").read_text().split("## Discovery of missing effects")[1].split("\n## ")[0]
+    assert "Missing: run.yaml records the discover stage as done" in disc and "Not run" not in disc
+    # the geometry the fit used, and the discovery scores with and without the per-log factors
+    md = (study / "report.md").read_text()
+    assert "Muscle geometry (the fit file's): th " in md and "before, no per-log factors" in md
 
 
 def test_report_bad_folder_exit_2(tmp_path):
@@ -178,6 +187,10 @@ def test_control_section_beside_the_paper_quoted_apart(study):
     assert "| VBMM-PI | RMSE | 2.411 | ° |" in quoted and "52.9" in quoted
     assert f"| VBMM-PI | {fmt(vb.rmse_deg)} |" in measured and "2.411" not in measured
     assert re.search(r"!\[Figure \d+\]\(control/fig18\.png\)", ctl)
+    # the study's plant is the controller's own model: the report says the reductions are an ideal case
+    cy = yaml.safe_load((study / "control" / "control.yaml").read_text())
+    ideal = not cy["plant"]["effects"] and cy["plant"]["model"]["material"] == cy["controller_model"]["material"]
+    assert ("an ideal case" in ctl) == ideal
 
 
 def test_model_equations_as_mathml_and_numbered_captions(study):

@@ -359,3 +359,21 @@ def test_side_by_side_jobs_wait_for_the_stage_they_are_drawn_from(tmp_path, monk
     assert set(done) == {"slowstage", "quickstage"} and ctx["drawn"] == {"seen": "done"}
     with pytest.raises(RuntimeError, match="waits for nostage"):
         R._run_side_by_side([("fig", figure, "nostage")], 2, None, out, None, {})
+
+
+def test_a_study_on_a_measured_relaxation_curve_is_not_called_synthetic(tmp_path):
+    """The study is synthetic only when every log it reads is: relaxation logs count too (a study of the measured
+    pyvisco master curve read 'Data: SYNTHETIC')."""
+    from bpmid.io.motion_logs import file_is_synthetic
+
+    assert all(file_is_synthetic(p) for p in (REPO / "datasets" / "relaxation").glob("*.csv"))
+    assert not file_is_synthetic(REPO / "datasets" / "reference" / "pyvisco" / "time_user_master.csv")
+    (tmp_path / "mine.csv").write_text("# synthetic: true (my own generator)\nt,E_relax\n1,2\n")
+    (tmp_path / "lab.csv").write_text("# operator: A. Person\nt,E_relax\n1,2\n")
+    assert file_is_synthetic(tmp_path / "mine.csv") and not file_is_synthetic(tmp_path / "lab.csv")
+    cfg = tmp_path / "m.yaml"
+    cfg.write_text(f"run:\n  relax_logs: [\"{REPO / 'datasets/reference/pyvisco/time_user_master.csv'}\"]\n"
+                   "  stages: [relax]\nrelax:\n  terms: 8\n")
+    res = CliRunner().invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    assert yaml.safe_load((tmp_path / "o" / "run.yaml").read_text())["synthetic"] is False

@@ -294,6 +294,32 @@ def is_synthetic(logs: Sequence[MotionLog]) -> bool:
     return bool(logs) and all(one(lg) for lg in logs)
 
 
+def file_is_synthetic(path: str | Path) -> bool:
+    """The rule of :func:`is_synthetic` for any data file bpmid reads (a relaxation log, a material file): a
+    ``# synthetic: true`` line or a ``# source:``/``# generator:`` line naming bpmid's twin among its first comment
+    lines, else a file under a ``datasets`` folder of bpmid's shipped data (not ``reference``)."""
+    path = Path(path)
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            head = [fh.readline() for _ in range(40)]
+    except OSError:
+        head = []
+    for line in head:
+        s = line.strip().lstrip("#").strip().lower()
+        if not line.lstrip().startswith("#"):
+            continue
+        key, sep, val = s.partition(":")
+        if not sep:
+            continue
+        key, val = key.strip(), val.strip()
+        if key == "synthetic":
+            words = val.replace("(", " ").split()
+            return bool(words) and words[0] in ("true", "yes", "1")
+        if key in ("source", "generator") and ("twin" in val or "synthetic" in val or "bpmid simulate" in val):
+            return True
+    return "datasets" in path.parts and "reference" not in path.parts
+
+
 def pressure_column_name(unit: str) -> str:
     """bpmid's column name for a pressure in ``unit`` (``pressure_bar``, ``pressure_kpa``, ``pressure_pa``)."""
     return f"pressure_{unit.lower()}"

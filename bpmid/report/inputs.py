@@ -177,6 +177,8 @@ class MotionInfo:
     corr: list[list[float]] = dataclasses.field(default_factory=list)
     #: the file the VBMM-fit was read from (relative to DIR), or None (only vbmm_mat.yaml)
     fit_file: str | None = "vbmm_fit.yaml"
+    #: the muscle geometry of the fit file (SI: th, R0, l0 in m, alpha0 in rad, n), {} when absent
+    geometry: dict = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass
@@ -222,6 +224,10 @@ class DiscoveryInfo:
     provenance: dict
     #: a round withheld its effect for a rival outside the catalogue (discovery.yaml rounds[].rival_outside_catalogue)
     withheld: bool = False
+    #: the held-out RMSE without the per-log factors the scored one fits on each held-out log (deg)
+    raw_before_deg: float | None = None
+    raw_after_deg: float | None = None
+    scoring: str = ""
 
 
 @dataclasses.dataclass
@@ -233,6 +239,17 @@ class ControlInfo:
     cost: dict
     warnings: list[str]
     provenance: dict
+    plant: dict = dataclasses.field(default_factory=dict)              # control.yaml's plant block
+    controller_model: dict = dataclasses.field(default_factory=dict)   # ... and the controller's model
+
+    @property
+    def plant_is_the_model(self) -> bool:
+        """The plant is the controller's own model, without effects, valve dynamics or a scaled material: the
+        feedforward inverts the plant exactly (an ideal case)."""
+        pl = self.plant
+        if not pl or pl.get("effects") or pl.get("pressure_dynamics"):
+            return False
+        return (pl.get("model") or {}).get("material") == (self.controller_model or {}).get("material")
 
     def pooled(self, controller: str):
         g = self.table[(self.table.controller == controller) & (self.table.reference == "ALL")]
@@ -398,7 +415,8 @@ def load_motion(rd: _Reader) -> MotionInfo | None:
     return MotionInfo(_material(fit) if fit else [], _material(mat) if mat else [], _num(m.get("rmse_deg")),
                       _num(m.get("mape_pct")), _num(m.get("r2")), _text((fit or mat).get("closure")),
                       _text(_dict((fit or mat).get("model")).get("history")), per_log,
-                      _dict((fit or mat).get("provenance")), names, corr, fit_file if fit is not None else None)
+                      _dict((fit or mat).get("provenance")), names, corr, fit_file if fit is not None else None,
+                      _dict((fit or mat).get("geometry")))
 
 
 def _corr(unc: dict) -> tuple[list[str], list[list[float]]]:
@@ -462,7 +480,9 @@ def load_discovery(rd: _Reader) -> DiscoveryInfo | None:
                          str(d.get("verdict") or "").strip(), [s for s in _list(d.get("steps")) if isinstance(s, dict)],
                          _dict(d.get("provenance")),
                          any(_dict(_dict(r).get("rival_outside_catalogue")).get("withheld_the_round")
-                             for r in _list(d.get("rounds"))))
+                             for r in _list(d.get("rounds"))),
+                         _num(gap.get("raw_before_rmse_deg")), _num(gap.get("raw_after_rmse_deg")),
+                         _text(gap.get("scoring")) or "")
 
 
 def load_control(rd: _Reader) -> ControlInfo | None:
@@ -475,7 +495,7 @@ def load_control(rd: _Reader) -> ControlInfo | None:
         return None
     return ControlInfo(cdir, tab, _dict(cy.get("gains")), _num(cy.get("rate_hz")),
                        _dict(_dict(cy.get("feedforward")).get("cost")), [str(w) for w in _list(cy.get("warnings"))],
-                       _dict(cy.get("provenance")))
+                       _dict(cy.get("provenance")), _dict(cy.get("plant")), _dict(cy.get("controller_model")))
 
 
 #: stage name -> Study attribute

@@ -40,7 +40,17 @@ def stale_ref(doc, st, stages: tuple[str, ...], what: str) -> None:
 def absent(doc, st, path: str, extra: str = "") -> None:
     """Say why a section has nothing to show: its file is unusable (named, with the problem) or not there."""
     probs = [p for p in st.problems if p.path == path]
+    stage = _STAGE_OF_FILE.get(path.split("/")[0])
+    done = st.run is not None and stage is not None and st.run.status(stage) == "done"
     if probs:
         doc.p(f"Not available: {path} is unusable ({probs[0].what}).", css="warn")
+    elif done:   # the run says it wrote them: they were moved or deleted since
+        doc.p(f"Missing: run.yaml records the {stage} stage as done, but {path} is not in this folder (moved or "
+              "deleted after the run); rerun the stage to restore it.", css="warn")
     else:
         doc.p(f"Not run (no {path} in this folder){extra}.", css="muted")
+
+
+#: the first part of a stage file's path -> the stage run.yaml names
+_STAGE_OF_FILE = {"relax_fit.yaml": "relax", "vbmm_fit.yaml": "motion", "compare": "compare",
+                  "history_modes.yaml": "history", "discover": "discover", "control": "control"}

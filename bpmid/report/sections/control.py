@@ -27,6 +27,11 @@ def build(doc, st, figs) -> None:
           f"P = {fmt(kp)} bar/°, I = {fmt(ki)} bar/(° s). References: {', '.join(refs)}. The controller's model is "
           "this study's VBMM-fit where there is one; the plant adds sensor noise. RMSE is of the true angle against "
           "the reference.")
+    if k.plant_is_the_model:
+        doc.p("The plant here is the controller's own model (the same constants, no effects, no valve dynamics): the "
+              "feedforward inverts the plant exactly, an ideal case a real muscle does not offer. The reductions "
+              "below are an upper bound for this model; the paper's are on its rig. A plant off the model: bpmid "
+              "control --plant-modulus-scale, --plant-tau-scale, --plant-effect, --pressure-dynamics.", css="verdict")
     if k.warnings:
         doc.p(f"Warnings of the control stage ({len(k.warnings)}): runs whose command touched a pressure limit or "
               "reversed often.", css="verdict")

@@ -1,6 +1,8 @@
 """The model that was fitted, as equations (MathML; plain text in the Markdown)."""
 from __future__ import annotations
 
+import math
+
 from bpmid.report import mathml as M
 from bpmid.report.doc import fmt
 
@@ -91,9 +93,20 @@ def _fit_sentence(st) -> str:
     used = [f"the '{v}' {what}" for v, what in ((m.closure, "closure"), (m.history, "history mode")) if v]
     unsaid = [key for v, key in ((m.closure, "closure"), (m.history, "model.history")) if not v]
     text = f"{which} used {' and '.join(used)}. " if used else f"{which} "
+    if m.history and m.history != "recursive":
+        text += (f"(The recursive form above is the exact history; the '{m.history}' mode sums the hereditary "
+                 "integral directly, eq. 5" + (", over a sliding window, eq. 19" if m.history == "window" else "")
+                 + ".) ")
     if unsaid:
         text += ("It does not state " if used else "does not state ") + " or ".join(
             "its closure" if k == "closure" else "its history mode" for k in unsaid) + f" (no key {', '.join(unsaid)}). "
+    g = m.geometry or {}
+    try:
+        text += (f"Muscle geometry (the fit file's): th {1e3 * float(g['th']):.4g} mm, alpha0 "
+                 f"{math.degrees(float(g['alpha0'])):.4g}°, R0 {1e3 * float(g['R0']):.4g} mm, l0 "
+                 f"{1e3 * float(g['l0']):.4g} mm, n {float(g['n']):.4g}. ")
+    except (KeyError, TypeError, ValueError):
+        pass
     return text
 
 
