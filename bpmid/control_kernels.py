@@ -24,7 +24,7 @@ from bpmid.effects._kernels import play_step as _play_step
 from bpmid.models._vbmm_kernels import commit as _commit
 from bpmid.models._vbmm_kernels import decay as _decay
 from bpmid.models._vbmm_kernels import instantaneous as _instantaneous
-from bpmid.models._vbmm_kernels import pressure_at, stretch, u3_from_beta
+from bpmid.models._vbmm_kernels import DIR_TOL, pressure_at, stretch, u3_from_beta
 from bpmid.models._vbmm_kernels import recursion_const as _hist
 from bpmid.models._vbmm_kernels import solve_beta as _solve_beta
 from bpmid.pneumatics import muscle_volume, pressure_period, IDX_DEAD
@@ -76,7 +76,7 @@ def inverse_step(k, dt, beta, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, fall
                  hG1, hG2, hK1, hK2, aG, aK, x):  # pragma: no cover - compiled
     """One step of the incremental inverse VBMM: gauge pressure (Pa) that holds ``beta`` (rad) at step k
     given the state; commits the step. Falling angle (beta < previous) uses tau * fall."""
-    r = fall if (k > 0 and beta < x[3]) else 1.0
+    r = fall if (k > 0 and beta < x[3] - DIR_TOL) else 1.0
     G0, K0, cG1, cG2, cK1, cK2 = _step_history(k, dt, r, Ginf, Gj, tauG, Kinf, Kj, tauK,
                                                hG1, hG2, hK1, hK2, aG, aK, x)
     p = pressure_at(beta, geo, closure, G0, K0, cG1, cG2, cK1, cK2, 1.0, stiff)
@@ -128,12 +128,12 @@ def plant_step(k, dt, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, fall, sti
     G0, K0, cG1, cG2, cK1, cK2 = _step_history(k, dt, r, Ginf, Gj, tauG, Kinf, Kj, tauK,
                                                hG1, hG2, hK1, hK2, aG, aK, x)
     b, st = _solve_beta(p, x[3], geo, closure, G0, K0, cG1, cG2, cK1, cK2, sc, stiff)
-    if k > 0 and fall != 1.0 and (b < x[3]) != falling:
+    if k > 0 and fall != 1.0 and (b < x[3] - DIR_TOL) != falling:
         r2 = 1.0 if falling else fall
         G0, K0, c1, c2, c3, c4 = _step_history(k, dt, r2, Ginf, Gj, tauG, Kinf, Kj, tauK,
                                                hG1, hG2, hK1, hK2, aG, aK, x)
         b2, st2 = _solve_beta(p, x[3], geo, closure, G0, K0, c1, c2, c3, c4, sc, stiff)
-        if (b2 < x[3]) != falling:    # consistent: the angle turned
+        if (b2 < x[3] - DIR_TOL) != falling:    # consistent: the angle turned
             b, st = b2, st2
             falling = not falling
         else:                         # neither is consistent: the first solve stands, with its decays

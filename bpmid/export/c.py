@@ -174,6 +174,8 @@ def load_vbmm_from_compare(path: str | Path, name: str):
 
 
 def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
+    import numpy as np
+
     m = cv.model
     g = m.geometry
     mat = m.material
@@ -184,6 +186,10 @@ def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
         "TH": th, "R0": R0, "L0": l0, "PN2": pn2, "DD": l0 * l0 + pn2 * R0 * R0, "EE": pn2 * pn2 * R0 * R0,
         "AA": -math.pi * math.pi * n * n / (l0 * l0), "BB": -4.0 * math.pi * math.pi * n * n * R0 / (l0 * l0),
         "L0CA": l0 * math.cos(alpha0), "CA0": math.cos(alpha0), "BETA_MAX": 4.0 * math.pi,
+        # the gauge pressure (Pa) that holds the largest angle relaxed: a feedforward above it is out of range
+        "P_TOP": float(m.equilibrium_pressure(np.array([4.0 * math.pi]))[0]),
+        # inputs beyond these are refused (status 3): no rig logs them, and they overflow a float build
+        "P_INPUT_MAX": 1e9, "ANGLE_INPUT_MAX": 1e6,
         "GINF": mat.G_inf, "KINF": mat.K_inf,
     }
     g0 = mat.G_inf
@@ -276,7 +282,7 @@ def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
 #: the forward step's check of the direction it assumed (asymmetric relaxation): the angle falling, as
 #: :func:`bpmid.models._vbmm_kernels.forward_kernel` decides it (solved with the last step's direction, again with
 #: the other when the angle moves the other way, kept when that one is consistent)
-_FALL_CHECK = """    if (s->k > 0 && (b < s->b1) != (r != R(1.0))) {
+_FALL_CHECK = """    if (s->k > 0 && (b < s->b1 - B_DIR_TOL) != (r != R(1.0))) {
         /* the angle moved against the direction assumed: solve again with the other direction's rate */
         const bpmid_real r1 = r;
         bpmid_real b2, d2 = s->d_prev;
@@ -284,7 +290,7 @@ _FALL_CHECK = """    if (s->k > 0 && (b < s->b1) != (r != R(1.0))) {
         r = r1 != R(1.0) ? R(1.0) : FALL;
         history(s, dt, r, &c);
         b2 = solve_beta(p, x0, &c, &st2, &d2);
-        if ((b2 < s->b1) == (r != R(1.0))) {
+        if ((b2 < s->b1 - B_DIR_TOL) == (r != R(1.0))) {
             b = b2;
             s->status = st2;
             s->d_prev = d2;
@@ -309,24 +315,26 @@ _FALL_INVERSE = """    if (s->k > 0) {
         bpmid_step_consts c1, cf;
         bpmid_real d1, p1, pf;
         int ok1, okf;
-        const int down = b < s->b1;
+        const bpmid_real edge = s->b1 - B_DIR_TOL;   /* the angle falls when it ends below this */
+        const int down = b < edge;
         c1.sc = cf.sc = modulus_scale(s, t);
         history(s, dt, R(1.0), &c1);
         history(s, dt, FALL, &cf);
         p1 = model_pressure(b, &c1, &d1);
         pf = model_pressure(b, &cf, &d1);
         if (down) {
-            okf = s->falling || pf < model_pressure(s->b1, &c1, &d1);
-            ok1 = !s->falling && p1 >= model_pressure(s->b1, &cf, &d1);
+            okf = s->falling || pf < model_pressure(edge, &c1, &d1);
+            ok1 = !s->falling && p1 >= model_pressure(edge, &cf, &d1);
         } else {
-            ok1 = !s->falling || p1 >= model_pressure(s->b1, &cf, &d1);
-            okf = s->falling && pf < model_pressure(s->b1, &c1, &d1);
+            ok1 = !s->falling || p1 >= model_pressure(edge, &cf, &d1);
+            okf = s->falling && pf < model_pressure(edge, &c1, &d1);
         }
         if (ok1 && okf) {
             r = B_FABS(pf - s->p_prev) < B_FABS(p1 - s->p_prev) ? FALL : R(1.0);
         } else if (okf || (!ok1 && down)) {
             r = FALL;   /* (neither: no pressure gives b from here; the rate of its direction is the nearest) */
         }
+        unreach = !ok1 && !okf;
         s->falling = r != R(1.0);
     }
 """

@@ -21,6 +21,9 @@ import numba
 import numpy as np
 
 BETA_MAX = 4.0 * math.pi  # rad; the solve's upper bracket (VBMM.md section 5)
+#: the angle falls on a step only when it ends this far (rad) below the last one: a held angle, solved to the
+#: solver's last bits, is not a fall (asymmetric relaxation; the C export and the closed loop use the same)
+DIR_TOL = 1e-9
 
 STATUS_OK = 0
 STATUS_ABOVE_RANGE = 1  # pressure needs beta > 4 pi
@@ -373,9 +376,9 @@ def forward_kernel(t, p, geo, closure, Ginf, Gj, tauG, Kinf, Kj, tauK, mode, win
             bt, st, dt_slope = solve_beta_gc(p[k], x0, gc, closure, G0, K0, cG1, cG2, cK1, cK2, scale[k], stiff)
             if attempt == 0:
                 b, status[k], d_prev = bt, st, dt_slope
-                if (bt < b_prev) == fall_try:
+                if (bt < b_prev - DIR_TOL) == fall_try:
                     break
-            elif (bt < b_prev) == fall_try:    # consistent: the angle turned
+            elif (bt < b_prev - DIR_TOL) == fall_try:    # consistent: the angle turned
                 b, status[k], d_prev = bt, st, dt_slope
                 falling = fall_try
             else:                               # neither is consistent: the first solve stands, with its decays
