@@ -147,6 +147,8 @@ def test_report_says_when_a_baseline_wins(study, tmp_path):
     # the geometry the fit used, and the discovery scores with and without the per-log factors
     md = (study / "report.md").read_text()
     assert "Muscle geometry (the fit file's): th " in md and "before, no per-log factors" in md
+    # synthetic data named with the protocol and seed that made them (the shipped relaxation logs' headers)
+    assert "Made by bpmid simulate from the protocols" in md and "protocol relaxation, seed 14062025" in md
 
 
 def test_report_bad_folder_exit_2(tmp_path):

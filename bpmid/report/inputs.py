@@ -298,6 +298,42 @@ class Study:
                 out.update(_dict(_dict(x.provenance).get("inputs")))
         return out
 
+    def data_origins(self) -> list[str]:
+        """What made the synthetic data logs, read from their own header lines: one entry per protocol with its
+        seeds (``protocol fitting_set, seeds 1001-1004 (4 logs)``); logs that say nothing are not listed."""
+        import re
+
+        groups: dict[str, set[int]] = {}
+        counts: dict[str, int] = {}
+        for path in self.inputs():
+            f = Path(path)
+            if f.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat") or not f.is_file():
+                continue
+            try:
+                with open(f, encoding="utf-8", errors="replace") as fh:
+                    head = " ".join(ln for ln in (fh.readline() for _ in range(30)) if ln.lstrip().startswith("#"))
+            except OSError:
+                continue
+            proto = re.search(r"protocol[:\s]+([A-Za-z0-9_.\-]+)", head)
+            if proto is None or "synthetic" not in head.lower() and "generator" not in head.lower():
+                continue
+            name = proto.group(1).rstrip(").,;")
+            groups.setdefault(name, set()).update(int(x) for x in re.findall(r"seed[:\s]+(\d+)", head))
+            counts[name] = counts.get(name, 0) + 1
+        out = []
+        for name in sorted(groups):
+            seeds = sorted(groups[name])
+            if not seeds:
+                txt = "no seed stated"
+            elif len(seeds) == 1:
+                txt = f"seed {seeds[0]}"
+            elif seeds == list(range(seeds[0], seeds[-1] + 1)):
+                txt = f"seeds {seeds[0]}-{seeds[-1]}"
+            else:
+                txt = "seeds " + ", ".join(map(str, seeds[:6])) + (" ..." if len(seeds) > 6 else "")
+            out.append(f"protocol {name}, {txt} ({counts[name]} log{'s' if counts[name] > 1 else ''})")
+        return out
+
 
 # --------------------------------------------------------------------------------------------------
 # loaders

@@ -24,8 +24,13 @@ def _stale(st, stage):
 def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     if st.synthetic:
-        doc.p("Data: SYNTHETIC. Every log of this study was made by bpmid's digital twin (shipped datasets); the "
-              "numbers below are bpmid's results on those logs, not measurements of a real muscle.", css="verdict")
+        doc.p("Data: SYNTHETIC. Every log of this study was made by bpmid's digital twin; the numbers below are "
+              "bpmid's results on those logs, not measurements of a real muscle.", css="verdict")
+        origins = st.data_origins()
+        if origins:   # the config and seed that made them, as each log's header states them
+            doc.p("Made by bpmid simulate from the protocols (configs/datasets/<protocol>.yaml for the shipped "
+                  "ones; each log's header and its folder's manifest.yaml give the rest): " + "; ".join(origins)
+                  + ".", css="muted")
     else:
         doc.p("Data: measured logs (no log of this study says it is synthetic).", css="good")
     for p in st.problems:
