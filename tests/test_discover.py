@@ -281,3 +281,15 @@ def test_noise_floor_leaves_out_a_log_too_fast_for_its_sampling_and_says_when_th
     dup = noise_floor([_sine_log("run", 10, 2.0, rng), steps[0], _step_log("run", 10, rng)])
     assert dup["left_out"] == ["run (log 1)"] and set(dup["per_log"]) == {"run (log 1)", "steps_0", "run (log 3)"}
     assert abs(dup["sigma_deg"] - 0.2) < 0.03
+
+
+def test_the_verdict_says_when_the_fitting_logs_do_not_show_what_the_held_out_logs_do():
+    """Nothing named, the base model at the floor on the fitting logs and well above it held out: the verdict names
+    that cause (the fitting logs do not exercise what the held-out logs do) and what to do."""
+    from bpmid.discover.workflow import make_verdict
+
+    at_floor = {"converged": True, "rmse_deg": 0.27, "per_log_constants": {"rmse_deg": 0.265}}
+    v = make_verdict([], [], 0.34, 0.34, 0.241, True, base_fit=at_floor)
+    assert "the fitting logs do not show it" in v and "1.10 noise floors" in v and "fit on logs like" in v
+    above = {"converged": True, "rmse_deg": 0.40, "per_log_constants": {"rmse_deg": 0.39}}
+    assert "the fitting logs do not show it" not in make_verdict([], [], 0.34, 0.34, 0.241, True, base_fit=above)

@@ -543,6 +543,12 @@ def _pair_member_explanation(c: Confirmation, rnd: Round, floor: float, s, e) ->
                           "better by more than the margin asked")
 
 
+#: the verdict's "the fitting logs do not show it": the base model within this many noise floors on the fitting logs
+FIT_AT_FLOOR = 1.15
+#: ... while the scored held-out error is at least this many
+HELDOUT_ABOVE = 1.3
+
+
 def make_verdict(named: list[str], rounds: list[Round], before: float, after: float, floor: float,
                  unexplained: bool, variation: Optional[dict] = None, thr: Optional[dict] = None,
                  base_fit: Optional[dict] = None, raw_after: Optional[float] = None,
@@ -595,6 +601,18 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
     else:
         lines.append(f"the held-out error ({raw_after:.2f} deg) is within the noise floor ({floor:.2f} deg) give or "
                      f"take the reporting margin ({unexplained_margin:g} noise floors): nothing left to explain")
+    fit_rmse = None
+    if base_fit is not None:
+        fit_rmse = (base_fit.get("per_log_constants") or {}).get("rmse_deg", base_fit.get("rmse_deg"))
+    if (not named and unexplained and fit_rmse is not None and floor > 0 and fit_rmse <= FIT_AT_FLOOR * floor
+            and after >= HELDOUT_ABOVE * floor):
+        # a cause the user can act on: what the held-out logs show, the fitting logs never asked of the model
+        lines.append(f"the fitting logs do not show it: the base model fits them to {fit_rmse:.2f} deg "
+                     f"({fit_rmse / floor:.2f} noise floors) while the held-out logs stay at {after:.2f} deg "
+                     f"({after / floor:.2f}): the held-out logs exercise the muscle in a way the fitting logs do not "
+                     f"(faster pressure changes, other amplitudes or holds, or later in a session that warms the "
+                     f"muscle), and an effect that shows only there cannot "
+                     f"pass a test on the fitting logs; fit on logs like the held-out ones as well")
     if base_fit is not None and not base_fit.get("converged", True):
         lines.append(f"caution: the base fit did not converge ({base_fit.get('message')})")
     for c in (noise or {}).get("caution") or []:
