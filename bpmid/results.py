@@ -46,6 +46,7 @@ class ParamInfo:
     stderr : standard error in ``unit`` (None: not estimated, fixed, or not identifiable)
     unit : unit string (``Pa``, ``s``, ``deg``, ``bar/deg`` ...)
     identifiability : ``estimated``, ``fixed ...``, ``not identifiable: ...`` or ``""`` when not judged
+    note : what else the file says of it, e.g. that its standard error is conditional on a held constant
     """
 
     name: str
@@ -53,6 +54,7 @@ class ParamInfo:
     stderr: float | None = None
     unit: str = ""
     identifiability: str = ""
+    note: str = ""
 
     @property
     def rel_stderr(self) -> float | None:
@@ -97,6 +99,8 @@ class Parameters(Mapping[str, ParamInfo]):
             rel = p.rel_stderr
             se += "" if rel is None else f" ({100 * rel:.2f}%)"
             ident = f"  [{p.identifiability}]" if p.identifiability else ""
+            if p.note and "conditional" in p.note:   # an estimate's standard error that assumes a held constant
+                ident += "  (" + p.note[p.note.index("standard error conditional"):].split(":")[0] + ")"
             lines.append(f"    {p.name:<{w}} = {_num(p.value):>12}{se} {p.unit}{ident}")
         return "\n".join(lines)
 
@@ -130,7 +134,8 @@ def _entry(name: str, entry, unit: str = "", identifiability: str = "") -> Param
     if isinstance(entry, Mapping):
         se = entry.get("stderr")
         return ParamInfo(name, float(entry.get("value")), None if se is None else float(se),
-                         str(entry.get("unit", unit) or unit), identifiability or _verdict_of(entry))
+                         str(entry.get("unit", unit) or unit), identifiability or _verdict_of(entry),
+                         str(entry.get("note") or ""))
     return ParamInfo(name, float(entry), None, unit, identifiability)
 
 

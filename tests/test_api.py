@@ -333,3 +333,15 @@ def test_calls_that_read_files_say_so_for_other_inputs():
         bpmid.fit_relaxation(log)
     with pytest.raises(InputError, match="init must be a relaxation fit"):
         bpmid.fit_motion(log, init=3)
+
+
+def test_a_conditional_standard_error_is_shown_with_the_estimate():
+    from bpmid.results import Parameters, ParamInfo, _entry
+
+    e = _entry("K_1", {"value": 1.3e7, "stderr": 1.3e6, "unit": "Pa", "identifiable": True,
+                       "note": "standard error conditional on the held tau_1 (r = -0.995 while it was free) at its "
+                               "prior value: the data determine a combination of them"}, "Pa", "estimated")
+    assert e.identifiability == "estimated" and "conditional" in e.note
+    table = Parameters([e, ParamInfo("K_inf", 6.6e6, 7e4, "Pa", "estimated")]).table()
+    assert "[estimated]  (standard error conditional on the held tau_1" in table
+    assert table.count("conditional") == 1

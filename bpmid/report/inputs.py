@@ -384,12 +384,15 @@ def _material(d: dict) -> list[Param]:
     out = []
 
     def verdict(name, entry):
-        if name in ident:
-            return str(ident[name])
         e = _dict(entry)
+        note = str(e.get("note") or "")
+        cond = ("; " + note[note.index("standard error conditional"):].split(":")[0]
+                if "standard error conditional" in note else "")   # the caveat the fit file gives an estimate
+        if name in ident:
+            return str(ident[name]) + cond
         if e.get("identifiable") is False:
             return "not identifiable, held at prior"
-        return "estimated" if e.get("identifiable") else ""
+        return ("estimated" + cond) if e.get("identifiable") else ""
 
     for k in ("G_inf", "K_inf"):
         if k in mat:
