@@ -236,7 +236,10 @@ def conditional_on_held(params: ParamSet, free_names: Sequence[str], links: dict
         note = (f"standard error conditional on the held {which} at its prior value: the data determine a "
                 f"combination of them, so a {', '.join(hs)} other than the prior moves this constant by more "
                 f"than its standard error")
-        out = out.replace(n, note=(p.note + "; " if p.note else "") + note)
+        # a refit of the same parameters says it again: the note replaces an earlier one, never repeats it
+        kept = [part for part in (p.note or "").split("; ") if part and not part.startswith("standard error conditional")
+                and not part.startswith("combination of them") and "moves this constant by more" not in part]
+        out = out.replace(n, note="; ".join(kept + [note]))
     return out
 
 

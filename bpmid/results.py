@@ -99,8 +99,9 @@ class Parameters(Mapping[str, ParamInfo]):
             rel = p.rel_stderr
             se += "" if rel is None else f" ({100 * rel:.2f}%)"
             ident = f"  [{p.identifiability}]" if p.identifiability else ""
-            if p.note and "conditional" in p.note:   # an estimate's standard error that assumes a held constant
-                ident += "  (" + p.note[p.note.index("standard error conditional"):].split(":")[0] + ")"
+            k = (p.note or "").find("standard error conditional")
+            if k >= 0:   # an estimate's standard error that assumes a held constant
+                ident += "  (" + p.note[k:].split(":")[0] + ")"
             lines.append(f"    {p.name:<{w}} = {_num(p.value):>12}{se} {p.unit}{ident}")
         return "\n".join(lines)
 
@@ -176,7 +177,9 @@ def _guarded_save(save):
 
         if _guard() is not None:
             return save(self, path, *a, **kw)
-        with guard_inputs(self.input_paths()), _kept_rc():
+        # the inputs by content (their recorded sha256), not by the path as written: a path recorded relative to
+        # the folder a command ran in names another file from here
+        with guard_inputs((), hashes=self.input_hashes()), _kept_rc():
             return save(self, path, *a, **kw)
 
     return wrapper
@@ -229,6 +232,22 @@ class Result:
             cls.save = _guarded_save(cls.__dict__["save"])
         if "plot" in cls.__dict__:   # and drawing leaves the caller's matplotlib settings as they were
             cls.plot = _guarded_plot(cls.__dict__["plot"])
+
+    def input_hashes(self) -> dict[str, str]:
+        """sha256 -> path of the files this result was made from (its provenance's inputs, at any depth)."""
+        out: dict[str, str] = {}
+
+        def walk(block):
+            if isinstance(block, Mapping):
+                ins = block.get("inputs")
+                if isinstance(ins, Mapping):
+                    out.update({str(v): str(k) for k, v in ins.items() if isinstance(v, str) and len(v) == 64})
+                for v in block.values():
+                    if isinstance(v, Mapping):
+                        walk(v)
+
+        walk(self.provenance)
+        return out
 
     def input_paths(self) -> list[Path]:
         """The files this result was made from (its provenance's inputs, at any depth)."""

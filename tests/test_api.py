@@ -345,3 +345,27 @@ def test_a_conditional_standard_error_is_shown_with_the_estimate():
     table = Parameters([e, ParamInfo("K_inf", 6.6e6, 7e4, "Pa", "estimated")]).table()
     assert "[estimated]  (standard error conditional on the held tau_1" in table
     assert table.count("conditional") == 1
+
+
+
+def test_a_saved_results_inputs_are_known_by_content_wherever_it_is_saved_from(tmp_path, monkeypatch):
+    """A fit made in another folder records its log by a relative path: saved from here, the log is still refused
+    (by its content), and an unrelated file of the same name here is not."""
+    import shutil
+
+    from typer.testing import CliRunner
+
+    from bpmid.cli import app
+
+    w = tmp_path / "w"
+    w.mkdir()
+    shutil.copy(sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))[0], w / "b.csv")
+    monkeypatch.chdir(w)
+    assert CliRunner().invoke(app, ["fit", "motion", "b.csv", "--out", "fit.yaml", "--no-plot"]).exit_code == 0
+    monkeypatch.chdir(tmp_path)
+    before = (w / "b.csv").read_bytes()
+    with pytest.raises(InputError, match="would replace the input"):
+        bpmid.load("w/fit.yaml").save("w/b.csv")
+    assert (w / "b.csv").read_bytes() == before
+    (tmp_path / "b.csv").write_text("an unrelated file\n")
+    bpmid.load("w/fit.yaml").save("b.csv")   # not the input: replaced as asked

@@ -55,6 +55,7 @@ def test_fit_motion_writes_contract_keys_and_figure(fitted):
     assert d["uncertainty"]["identifiability"]["K_1"] == "estimated"
     # G_1, correlated with K_1, is held at the prior: K_1's standard error is conditional on it, and says so
     assert "conditional on the held G_1" in d["material"]["branches"][0]["K"]["note"]
+    assert d["material"]["branches"][0]["K"]["note"].count("standard error conditional") == 1   # said once
     assert "conditional on the held G_1" in text
     assert any("geometry: the paper's" in n for n in d["notes"])   # the default geometry, recorded with the fit
     assert "fitting.csv" in " ".join(d["provenance"]["inputs"])
@@ -238,3 +239,22 @@ def test_a_clipped_angle_is_named_and_strict_refuses_it(tmp_path, data):
     assert res.exit_code == 2 and "clips it" in res.output and not (tmp_path / "s.yaml").exists()
     res = runner.invoke(app, ["fit", "motion", str(data["fit"]), "--out", str(tmp_path / "u.yaml"), "--no-plot"])
     assert not any("clips it" in w for w in yaml.safe_load((tmp_path / "u.yaml").read_text())["warnings"])
+
+
+
+def test_a_coarse_sensor_at_the_top_of_a_loop_is_not_called_clipped(tmp_path):
+    """A shipped fitting log read at 0.5 deg resolution repeats its top reading while the pressure falls (the
+    muscle lags): not a clip, so no warning and --strict writes the fit."""
+    import glob
+    import os
+
+    src = sorted(glob.glob(os.path.join(os.path.dirname(__file__), "..", "datasets", "motion", "fitting_set",
+                                        "*_r3.csv")))[0]
+    lines = open(src).read().splitlines()
+    head = [ln for ln in lines if ln.startswith("#")]
+    df = pd.read_csv(src, comment="#")
+    df["angle_deg"] = np.round(df.angle_deg / 0.5) * 0.5
+    q = tmp_path / "coarse.csv"
+    q.write_text("\n".join(head) + "\n" + df.to_csv(index=False))
+    res = runner.invoke(app, ["fit", "motion", str(q), "--out", str(tmp_path / "q.yaml"), "--no-plot", "--strict"])
+    assert res.exit_code == 0 and "clips it" not in res.output, res.output

@@ -463,3 +463,17 @@ def test_a_motion_fit_under_another_name_is_read_and_no_placeholder_is_printed(s
     (d / "vbmm_fit.yaml").rename(d / "A.yaml")
     shutil.copy(d / "A.yaml", d / "B.yaml")  # two candidates: which one is meant is not guessed
     assert "no vbmm_fit.yaml but 2 bpmid.vbmm/1 motion fits (A.yaml, B.yaml)" in model_text(d)
+
+
+
+def test_the_ideal_plant_line_needs_the_whole_model_the_same():
+    from pathlib import Path as _P
+
+    from bpmid.report.inputs import ControlInfo
+
+    model = {"geometry": {"th": 0.002, "l0": 0.1959}, "closure": "paper", "material": {"K_inf": 1.0},
+             "model": {"history": "recursive"}}
+    same = ControlInfo(_P("."), pd.DataFrame(), {}, 10.0, {}, [], {}, {"model": model, "effects": []}, model)
+    other = dict(model, geometry={"th": 0.002, "l0": 0.25})
+    moved = ControlInfo(_P("."), pd.DataFrame(), {}, 10.0, {}, [], {}, {"model": other, "effects": []}, model)
+    assert same.plant_is_the_model and not moved.plant_is_the_model

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import hashlib
 import json
 import os
 import shutil
@@ -99,6 +100,7 @@ class _Guard:
         self.inputs: dict[str, str] = {}       # resolved path -> path as given
         self.ids: dict[tuple, str] = {}        # (st_dev, st_ino) -> path as given
         self.written: set[str] = set()         # resolved paths this command wrote
+        self.hashes: dict[str, str] = {}       # sha256 of an input's content -> its path as recorded
 
 
 _state = threading.local()
@@ -110,14 +112,17 @@ def _guard() -> _Guard | None:
 
 
 @contextlib.contextmanager
-def guard_inputs(inputs: Iterable[str | Path | None] = ()) -> Iterator[None]:
+def guard_inputs(inputs: Iterable[str | Path | None] = (), *, hashes: dict[str, str] | None = None) -> Iterator[None]:
     """Within this block every write refuses to replace a file read as input (see the module docstring).
 
-    ``inputs`` are noted at once (for files the command names but reads later)."""
+    ``inputs`` are noted at once (for files the command names but reads later). ``hashes`` (sha256 -> the path as
+    a result's provenance recorded it): a file with one of these contents is an input too, wherever it lies and
+    however its path was spelled (a saved result's inputs may be recorded relative to another folder)."""
     stack = getattr(_state, "guards", None)
     if stack is None:
         stack = _state.guards = []
     stack.append(_Guard())
+    stack[-1].hashes = dict(hashes or {})
     try:
         for p in inputs:
             if p is not None:
@@ -156,10 +161,18 @@ def input_at(target: str | Path) -> str | None:
         return None
     if real in g.inputs:
         return g.inputs[real]
+    hit = None
     with contextlib.suppress(OSError):
         st = os.stat(real)
-        return g.ids.get((st.st_dev, st.st_ino))
-    return None
+        hit = g.ids.get((st.st_dev, st.st_ino))
+    if hit is None and g.hashes and os.path.isfile(real):
+        with contextlib.suppress(OSError):
+            h = hashlib.sha256()
+            with open(real, "rb") as fh:
+                for chunk in iter(lambda: fh.read(1 << 20), b""):
+                    h.update(chunk)
+            hit = g.hashes.get(h.hexdigest())
+    return hit
 
 
 def check_not_input(target: str | Path, shown: str | Path | None = None) -> None:

@@ -138,9 +138,10 @@ CLIP_RUN = 3
 def clipped_top(a: np.ndarray, p: np.ndarray) -> tuple[float, int, int] | None:
     """(the value, the samples at it, the longest run) when a log's angle is clipped at its top: the largest value
     repeated exactly on at least :data:`CLIP_SHARE` of the samples (at least 5), :data:`CLIP_RUN` of them in a
-    row, while the pressure ``p`` moves over at least a tenth of its range. A sensor that reads a moving muscle
-    never repeats its largest value that often while the pressure changes; a saturated range or a stop does (a
-    hold at the top pressure, read with coarse resolution, repeats it with the pressure still). None otherwise."""
+    row, while the pressure ``p`` goes on rising, by at least a tenth of its range, past the pressure at which the
+    angle reached it. A sensor that reads a moving muscle never holds its largest value while the pressure rises; a
+    saturated range or a stop does (a hold at the top pressure, or the top of a loop read with coarse resolution
+    while the pressure falls, repeats it without a rise). None otherwise."""
     ok = np.isfinite(a) & np.isfinite(p)
     a, p = a[ok], p[ok]
     if a.size < 20 or np.ptp(a) <= 0 or np.ptp(p) <= 0:
@@ -150,11 +151,14 @@ def clipped_top(a: np.ndarray, p: np.ndarray) -> tuple[float, int, int] | None:
     n_top = int(at.sum())
     if n_top < max(5, CLIP_SHARE * a.size):
         return None
-    # longest run of consecutive samples at the top
+    # runs of consecutive samples at the top; a clip holds the reading while the pressure still RISES past the
+    # pressure at which the angle reached it (a coarse sensor at the top of a loop repeats its reading while the
+    # pressure falls: the muscle lags, it is not clipped)
     edges = np.diff(np.concatenate([[0], at.astype(np.int8), [0]]))
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     run = int(np.max(ends - starts)) if starts.size else 0
-    if run < CLIP_RUN or np.ptp(p[at]) < 0.1 * np.ptp(p):
+    rise = max((float(np.max(p[a:b]) - p[a]) for a, b in zip(starts, ends)), default=0.0)
+    if run < CLIP_RUN or rise < 0.1 * np.ptp(p):
         return None
     return top, n_top, run
 

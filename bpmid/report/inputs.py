@@ -249,7 +249,8 @@ class ControlInfo:
         pl = self.plant
         if not pl or pl.get("effects") or pl.get("pressure_dynamics"):
             return False
-        return (pl.get("model") or {}).get("material") == (self.controller_model or {}).get("material")
+        # the whole model: constants, geometry, closure and history alike
+        return bool(pl.get("model")) and pl.get("model") == (self.controller_model or {})
 
     def pooled(self, controller: str):
         g = self.table[(self.table.controller == controller) & (self.table.reference == "ALL")]
