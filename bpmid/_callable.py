@@ -35,4 +35,15 @@ def make_callable(module_name: str, target: str) -> None:
     mod = sys.modules[module_name]
     mod.__class__ = WorkflowModule
     mod.__bpmid_call__ = target
+    # help(bpmid.compare) shows the module's docstring: lead it with the call a user makes (its signature and
+    # parameters), then the module's own text
+    try:
+        import inspect
+
+        fn = mod.__bpmid_function__()
+        call = f"{module_name}{inspect.signature(fn)}"
+        mod.__doc__ = (f"{call}\n\n{inspect.cleandoc(fn.__doc__ or '')}\n\n"
+                       f"The module {module_name} (its science):\n\n{inspect.cleandoc(mod.__doc__ or '')}")
+    except Exception:  # pragma: no cover - the docstring is a convenience; the call works without it
+        pass
 

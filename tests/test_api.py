@@ -369,3 +369,9 @@ def test_a_saved_results_inputs_are_known_by_content_wherever_it_is_saved_from(t
     assert (w / "b.csv").read_bytes() == before
     (tmp_path / "b.csv").write_text("an unrelated file\n")
     bpmid.load("w/fit.yaml").save("b.csv")   # not the input: replaced as asked
+
+
+def test_help_on_a_workflow_shows_the_call_first():
+    for name in ("predict", "compare", "control", "discover"):
+        doc = getattr(bpmid, name).__doc__
+        assert doc.startswith(f"bpmid.{name}(") and "Returns" in doc and f"The module bpmid.{name}" in doc, name
