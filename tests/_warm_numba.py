@@ -26,6 +26,15 @@ def warm() -> None:
             AugmentedVBMM(base, (e,), e.default_params()).simulate_deg(t, p)
         except Exception:
             pass
+    try:       # the closed loop's kernels (13 s to compile; the study fixtures of both workers run the control stage)
+        from bpmid.control import ControlConfig, build_plant, builtin_reference, run_control
+
+        cfg = ControlConfig()
+        ref = builtin_reference("steps")
+        short = type(ref)(ref.name, ref.time_s[:30], ref.angle_deg[:30])
+        run_control(base, build_plant(base, cfg=cfg), [short], cfg, measure_cost=False)
+    except Exception:
+        pass
     try:       # the relaxation fit's hereditary kernels
         import glob
         import os
