@@ -233,12 +233,11 @@ def conditional_on_held(params: ParamSet, free_names: Sequence[str], links: dict
         if p.fixed or p.stderr is None:
             continue
         which = ", ".join(f"{h} (r = {r:+.3f} while it was free)" for h, r in hs.items())
-        note = (f"standard error conditional on the held {which} at its prior value: the data determine a "
+        note = (f"{identifiability.CONDITIONAL} {which} at its prior value: the data determine a "
                 f"combination of them, so a {', '.join(hs)} other than the prior moves this constant by more "
                 f"than its standard error")
         # a refit of the same parameters says it again: the note replaces an earlier one, never repeats it
-        kept = [part for part in (p.note or "").split("; ") if part and not part.startswith("standard error conditional")
-                and not part.startswith("combination of them") and "moves this constant by more" not in part]
+        kept = [part for part in (p.note or "").split("; ") if part and not part.startswith(identifiability.CONDITIONAL)]
         out = out.replace(n, note="; ".join(kept + [note]))
     return out
 

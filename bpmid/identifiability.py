@@ -50,6 +50,17 @@ def rel_text(rel: float, cap: float | None = 10.0) -> str:
     return f"{rel:.0%}" if cap is None or rel < cap else ">1000%"
 
 
+#: how a fit's note says that an estimate's standard error assumes a held constant's prior value
+CONDITIONAL = "standard error conditional on the held"
+
+
+def conditional_caveat(note: str | None) -> str:
+    """The caveat a note carries (``"standard error conditional on the held tau_1 (r = ...) at its prior value"``),
+    or "" when it carries none."""
+    k = (note or "").find(CONDITIONAL)
+    return "" if k < 0 else note[k:].split(":")[0]
+
+
 def judge(se: float, rel: float, *, rel_se_max: float, bound: bool = False, cap: float | None = 10.0) -> str | None:
     """Rules 1-3 for one parameter: the reason it is not identifiable, or None."""
     if not np.isfinite(se):

@@ -92,6 +92,8 @@ class Parameters(Mapping[str, ParamInfo]):
         """Aligned text table: name, value, stderr (and %), unit, identifiability."""
         if not self._items:
             return "    (none)"
+        from bpmid.identifiability import conditional_caveat
+
         w = max(len(n) for n in self._items)
         lines = []
         for p in self._items.values():
@@ -99,9 +101,9 @@ class Parameters(Mapping[str, ParamInfo]):
             rel = p.rel_stderr
             se += "" if rel is None else f" ({100 * rel:.2f}%)"
             ident = f"  [{p.identifiability}]" if p.identifiability else ""
-            k = (p.note or "").find("standard error conditional")
-            if k >= 0:   # an estimate's standard error that assumes a held constant
-                ident += "  (" + p.note[k:].split(":")[0] + ")"
+            caveat = conditional_caveat(p.note)   # an estimate's standard error that assumes a held constant
+            if caveat:
+                ident += f"  ({caveat})"
             lines.append(f"    {p.name:<{w}} = {_num(p.value):>12}{se} {p.unit}{ident}")
         return "\n".join(lines)
 
@@ -242,24 +244,6 @@ class Result:
                 ins = block.get("inputs")
                 if isinstance(ins, Mapping):
                     out.update({str(v): str(k) for k, v in ins.items() if isinstance(v, str) and len(v) == 64})
-                for v in block.values():
-                    if isinstance(v, Mapping):
-                        walk(v)
-
-        walk(self.provenance)
-        return out
-
-    def input_paths(self) -> list[Path]:
-        """The files this result was made from (its provenance's inputs, at any depth)."""
-        out: list[Path] = []
-
-        def walk(block):
-            if isinstance(block, Mapping):
-                ins = block.get("inputs")
-                if isinstance(ins, Mapping):
-                    out.extend(Path(k) for k in ins)
-                elif isinstance(ins, (list, tuple)):
-                    out.extend(Path(k) for k in ins if isinstance(k, str))
                 for v in block.values():
                     if isinstance(v, Mapping):
                         walk(v)
@@ -457,13 +441,14 @@ class RelaxationResult(Result):
         out = []
         fitted = "shear" if str(self.body.get("fitted_modulus", "E")).upper() == "G" else "prony"
 
+        from bpmid import identifiability
+
         def judged(info: ParamInfo) -> ParamInfo:
-            # the rule every fit uses (relative standard error above 50 %: not identifiable), reported here
+            # the rule every fit uses (bpmid.identifiability: a relative standard error above 50 %), reported here
             if info.identifiability == "estimated" and info.stderr is not None and info.value:
-                rel = info.stderr / abs(info.value)
-                if rel > 0.5:
-                    return dataclasses.replace(info, identifiability=f"not identifiable: relative standard error "
-                                                                      f"{rel:.0%} > 50% (estimated)")
+                why = identifiability.judge(info.stderr, info.stderr / abs(info.value), rel_se_max=0.5)
+                if why:
+                    return dataclasses.replace(info, identifiability=f"not identifiable: {why} (estimated)")
             return info
 
         for block, inf_name, mod in (("prony", "E_inf", "E"), ("shear", "G_inf", "G"), ("bulk", "K_inf", "K")):

@@ -236,9 +236,8 @@ def flat_set(logx: np.ndarray, logy: np.ndarray) -> bool:
     residual scatter: noise, not a slope, would set its shift."""
     if logx.size < 3:
         return True
-    c = _quad(logx, logy)
+    c, scatter = _curve(logx, logy)
     fit = np.polynomial.polynomial.polyval(logx, c)
-    scatter = 1.4826 * float(np.median(np.abs(logy - fit)))
     return float(fit.max() - fit.min()) < FLAT_SCATTER * scatter
 
 

@@ -380,15 +380,16 @@ def load_relax(rd: _Reader) -> RelaxInfo | None:
 
 
 def _material(d: dict) -> list[Param]:
+    from bpmid.identifiability import conditional_caveat
+
     mat = _dict(d.get("material"))
     ident = _dict(_dict(d.get("uncertainty")).get("identifiability"))
     out = []
 
     def verdict(name, entry):
         e = _dict(entry)
-        note = str(e.get("note") or "")
-        cond = ("; " + note[note.index("standard error conditional"):].split(":")[0]
-                if "standard error conditional" in note else "")   # the caveat the fit file gives an estimate
+        caveat = conditional_caveat(str(e.get("note") or ""))   # the caveat the fit file gives an estimate
+        cond = f"; {caveat}" if caveat else ""
         if name in ident:
             return str(ident[name]) + cond
         if e.get("identifiable") is False:
