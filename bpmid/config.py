@@ -180,8 +180,9 @@ def build_dataclass(cls: type, data: Any, where: str = "", path=None):
     if unknown:
         k = unknown[0]
         full = f"{where}.{k}" if where else str(k)
-        raise InputError(f"unknown config key (known here: {', '.join(sorted([*fields, *aliases]))})", path=path,
-                         key=full)
+        hint = (getattr(cls, "UNKNOWN_KEY_HINTS", None) or {}).get(str(k))
+        raise InputError(f"unknown config key (known here: {', '.join(sorted([*fields, *aliases]))})"
+                         + (f"; {hint}" if hint else ""), path=path, key=full)
     kwargs = {}
     for k, v in data.items():
         full = f"{where}.{k}" if where else str(k)

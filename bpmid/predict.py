@@ -15,7 +15,7 @@ import pandas as pd
 
 from bpmid.io.atomic import staged_dir
 from bpmid.io.ambient import atmosphere_line
-from bpmid.io.motion_logs import MotionLog, pressure_column_name
+from bpmid.io.motion_logs import MotionLog, pressure_column_name, synthetic_line
 from bpmid.io.tables import UNITS
 from bpmid.models.vbmm import VBMM
 from bpmid.models.vbmm.fit import check_pressure_range, log_metrics
@@ -37,6 +37,15 @@ class Prediction:
     angle_pred_deg: np.ndarray
     metrics: dict | None
 
+    def ambient_series_pa(self) -> np.ndarray | None:
+        """The ambient pressure (Pa) at each sample of an absolute log read with an ambient column that varies
+        (absolute as given minus the gauge pressure the model saw); None when one value served every sample."""
+        lg = self.log
+        if lg.pressure_reference != "absolute" or lg.pressure_as_given is None:
+            return None
+        amb = lg.pressure_as_given * UNITS["pressure"][lg.pressure_unit] - lg.pressure_pa
+        return amb if float(np.ptp(amb)) > 1.0 else None   # > 1 Pa: more than the rounding of the columns
+
     def frame(self, decimals: int = 6) -> pd.DataFrame:
         lg = self.log
         given = lg.pressure_as_given if lg.pressure_as_given is not None else lg.pressure_pa
@@ -46,6 +55,9 @@ class Prediction:
         cols = {"time_s": lg.time_s, "pressure_bar": np.round(given * UNITS["pressure"][unit] / PA_PER_BAR, 9)}
         if unit != "bar":
             cols[pressure_column_name(unit)] = np.round(given, 9)
+        amb = self.ambient_series_pa()
+        if amb is not None:   # an ambient column the log was read with: kept, so the file reads back the same
+            cols["ambient_pressure_kpa"] = np.round(amb / 1e3, 9)
         cols["angle_pred_deg"] = np.round(self.angle_pred_deg, decimals)
         df = pd.DataFrame(cols)
         if lg.angle_deg is not None:
@@ -81,13 +93,17 @@ def predict_yaml_body(preds: Sequence[Prediction], *, params: str | Path | None 
     body = {"params": None if params is None else str(params)}
     if model is not None:
         base = model.base if isinstance(model, AugmentedVBMM) else model
-        body["model"] = {"closure": base.closure, "history": base.history, "window_s": base.window_s}
+        body["model"] = {"closure": base.closure, "history": base.history, "window_s": base.window_s,
+                         "geometry": base.geometry.to_yaml()}   # SI (m, rad): the muscle the prediction is for
         if isinstance(model, AugmentedVBMM):
             # the fit file's effects list acted on every prediction (in this order)
             body["model"]["effects"] = [e.id for e in model.effects]
     body["logs"] = {p.log.name: {"samples": p.log.n, "file": f"{p.log.name}.csv",
                                  "metrics": None if p.metrics is None else
                                  {k: float(v) for k, v in p.metrics.items()}} for p in preds}
+    # the input logs' own label (each output file keeps its log's '# synthetic:' line)
+    body["synthetic"] = bool(preds) and all(bool(synthetic_line(p.log)) for p in preds)
+    body["synthetic_logs"] = sorted(p.log.name for p in preds if synthetic_line(p.log))
     return body
 
 
@@ -105,8 +121,10 @@ def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov:
         for p in preds:
             name = f"{p.log.name}.csv"
             # the reference line and unit-suffixed columns let bpmid (and anyone) read the file back unambiguously
-            head = f"# pressure_reference: {p.log.pressure_reference}\n" + atmosphere_line(p.log) \
-                + "# angle_pred_deg: bpmid predict output\n"
+            # one ambient value as a line; an ambient that varied is the frame's column instead (never both)
+            head = f"# pressure_reference: {p.log.pressure_reference}\n" \
+                + (atmosphere_line(p.log) if p.ambient_series_pa() is None else "") \
+                + synthetic_line(p.log) + "# angle_pred_deg: bpmid predict output\n"
             (tmp / name).write_text(head + p.frame().to_csv(index=False, lineterminator="\n"), encoding="utf-8")
             names.append(out_dir / name)
         if prov is not None:

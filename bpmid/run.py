@@ -565,8 +565,14 @@ def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRe
     check_run_outputs(out, [config.path] + inp.all() + _param_inputs(config, rc, inp))
     # synthetic only when every log the study reads is: a measured relaxation curve is not (the report says so)
     relax_synth = all(file_is_synthetic(p) for p in inp.relax_logs)
+    data_logs = inp.all()
+    synth_logs = [str(p) for p in data_logs if file_is_synthetic(p)]
     ctx = {"seed": rc.seed, "command": command or command_line(),
            "synthetic": (is_synthetic(motion_logs) if motion_logs else True) and relax_synth,
+           # how many of the study's data logs say they are synthetic: a study mixing them with measured logs
+           # is not called measured (the report names the synthetic ones)
+           "data_logs": {"total": len(data_logs), "synthetic": len(synth_logs),
+                         **({"synthetic_files": synth_logs} if 0 < len(synth_logs) < len(data_logs) else {})},
            "run_id": new_run_id()}
     journal = OutputJournal(out)
     try:
@@ -819,6 +825,7 @@ def _report_figure_jobs(out: Path, side: list[str], records: dict, todo: list[st
 
 def _write_run_yaml(out, records, inp, config, ctx, write_result) -> None:
     body = {"stages": [r.to_yaml() for r in records], "synthetic": bool(ctx["synthetic"]),
+            "data_logs": ctx["data_logs"],
             "test_sets": {s: [str(p) for p in v] for s, v in inp.test_sets.items()},
             "note": "seconds are wall-clock times on this machine; every other number is reproducible from the inputs"}
     write_result(out / "run.yaml", SCHEMA, body, _prov(inp.all(), config, ctx["seed"], ctx["command"]))

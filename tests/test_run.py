@@ -377,3 +377,20 @@ def test_a_study_on_a_measured_relaxation_curve_is_not_called_synthetic(tmp_path
     res = CliRunner().invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
     assert res.exit_code == 0, res.output
     assert yaml.safe_load((tmp_path / "o" / "run.yaml").read_text())["synthetic"] is False
+
+
+def test_a_study_mixing_synthetic_and_measured_logs_is_called_mixed(tmp_path):
+    """A study of measured logs beside bpmid's synthetic ones read 'Data: measured logs' (27 of 37 synthetic in
+    the review that found it): run.yaml counts them and the report names the synthetic ones."""
+    synth = REPO / "datasets" / "motion" / "fitting_set" / "fit_1p2_1p6_r1.csv"
+    cfg = tmp_path / "m.yaml"
+    cfg.write_text(f"run:\n  relax_logs: [\"{REPO / 'datasets/reference/pyvisco/time_user_master.csv'}\"]\n"
+                   f"  fitting_set: [\"{synth}\"]\n  stages: [relax, report]\nrelax:\n  terms: 8\n")
+    res = CliRunner().invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    run = yaml.safe_load((tmp_path / "o" / "run.yaml").read_text())
+    assert run["synthetic"] is False
+    assert run["data_logs"] == {"total": 2, "synthetic": 1, "synthetic_files": [str(synth)]}
+    page = " ".join((tmp_path / "o" / "report.md").read_text().split())
+    assert "Data: MIXED. 1 of 2 logs" in page and str(synth.parent) in page
+    assert "Data: measured logs" not in page

@@ -282,7 +282,7 @@ def check_distinct_names(logs: Sequence[MotionLog], key: str | None = None) -> N
 
 def is_synthetic(logs: Sequence[MotionLog]) -> bool:
     """True when every log says it is synthetic (a ``# synthetic: true`` line, or a ``# source:``/``# generator:``
-    line naming bpmid's twin) or lives under a ``datasets`` folder of bpmid's shipped data (not ``reference``)."""
+    line naming bpmid's twin) or lives in bpmid's own shipped ``datasets`` folder (not ``reference``)."""
     def one(lg: MotionLog) -> bool:
         meta = {str(k).strip().lower(): str(v).strip().lower() for k, v in (lg.meta or {}).items()}
         if "synthetic" in meta:  # "# synthetic: true (bpmid digital twin; not a measurement)"
@@ -290,14 +290,37 @@ def is_synthetic(logs: Sequence[MotionLog]) -> bool:
             return bool(words) and words[0] in ("true", "yes", "1")
         if any(("twin" in meta.get(k, "") or "synthetic" in meta.get(k, "")) for k in ("source", "generator")):
             return True
-        return lg.path is not None and "datasets" in Path(lg.path).parts and "reference" not in Path(lg.path).parts
+        return lg.path is not None and _in_shipped_datasets(lg.path)
     return bool(logs) and all(one(lg) for lg in logs)
+
+
+def synthetic_line(log: MotionLog) -> str:
+    """``'# synthetic: true (...)\n'`` for a file bpmid writes from a synthetic log (a prediction keeps its input's
+    label, so the output is never taken for a measurement); ``''`` for a measured one."""
+    if not is_synthetic([log]):
+        return ""
+    said = str((log.meta or {}).get("synthetic", "")).strip()
+    source = f" {log.path.name}" if log.path is not None else ""
+    return f"# synthetic: true (the input log{source} says: {said or 'made by bpmid twin'})\n"
+
+
+def _in_shipped_datasets(path: str | Path) -> bool:
+    """True for a file inside bpmid's own shipped ``datasets`` folder (:mod:`bpmid.data`), not ``reference``
+    (measured data of others). A user's folder that happens to be called ``datasets`` says nothing."""
+    from bpmid import data
+
+    try:
+        shipped = (data.root() / "datasets").resolve()
+        rel = Path(path).resolve().relative_to(shipped)
+    except (ValueError, OSError):
+        return False
+    return not rel.parts or rel.parts[0] != "reference"
 
 
 def file_is_synthetic(path: str | Path) -> bool:
     """The rule of :func:`is_synthetic` for any data file bpmid reads (a relaxation log, a material file): a
     ``# synthetic: true`` line or a ``# source:``/``# generator:`` line naming bpmid's twin among its first comment
-    lines, else a file under a ``datasets`` folder of bpmid's shipped data (not ``reference``)."""
+    lines, else a file in bpmid's own shipped ``datasets`` folder (not ``reference``)."""
     path = Path(path)
     try:
         with open(path, encoding="utf-8", errors="replace") as fh:
@@ -317,7 +340,7 @@ def file_is_synthetic(path: str | Path) -> bool:
             return bool(words) and words[0] in ("true", "yes", "1")
         if key in ("source", "generator") and ("twin" in val or "synthetic" in val or "bpmid simulate" in val):
             return True
-    return "datasets" in path.parts and "reference" not in path.parts
+    return _in_shipped_datasets(path)
 
 
 def pressure_column_name(unit: str) -> str:

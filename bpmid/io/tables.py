@@ -781,6 +781,14 @@ def _known_names(cells: Sequence[str]) -> int:
 #: units of a raw transducer signal, not of any quantity bpmid reads ('Pressure (V)')
 _SIGNAL_UNITS = {"v", "mv", "ma", "counts", "cts", "digits", "lsb", "adc", "raw", "volt", "volts", "bits"}
 
+#: pressure units bpmid does not read (lower case) -> Pa per unit, for the message that says how to convert them:
+#: relabelling such a column as kPa without converting its numbers would give a wrong pressure
+_UNREAD_PRESSURE_UNITS = {"inh2o": 249.08891, "inwc": 249.08891, "in h2o": 249.08891, "cmh2o": 98.0665,
+                          "mmh2o": 9.80665, "mh2o": 9806.65, "torr": 133.322368, "mmhg": 133.322368,
+                          "inhg": 3386.389, "atm": 101325.0, "kgf/cm2": 98066.5, "kgf/cm²": 98066.5,
+                          "kg/cm2": 98066.5, "kg/cm²": 98066.5, "ksi": 6894757.293168, "n/m2": 1.0, "n/m²": 1.0,
+                          "mpsi": 6.894757293168}
+
 #: a line of separators only (a spreadsheet's empty row: ',,', ';;'): a blank line
 _EMPTY_ROW = re.compile(r"^[\s,;|]*$")
 
@@ -1488,7 +1496,14 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
                                                                    "first"}
             unit = "iso8601"
         else:
-            arr = _numbers(vals, where, h, lines) * UNITS[q][unit]
+            raw = _numbers(vals, where, h, lines)
+            with np.errstate(over="ignore"):
+                arr = raw * UNITS[q][unit]
+            bad = np.flatnonzero(~np.isfinite(arr))
+            if bad.size:   # finite as written, beyond a float in SI (1e308 kPa): name the cell, not numpy
+                k = int(bad[0])
+                raise InputError(f"column {h!r}: {vals[k]!r} {unit} is too large to be a {q} (beyond a float in SI "
+                                 f"units)", path=where, line=lines[k] if k < len(lines) else None, key=h)
             col_info_extra = {}
             if unit in EPOCH_UNITS:
                 import datetime as _dt
@@ -1639,8 +1654,16 @@ def _unknown_unit_hint(q: str, h: str, unit: str, unit_from: str | None) -> str:
     if q == "angle" and unit == "grad":
         out += ("; 'grad' is the degree in German but the gradian (400 to a turn) in English, so bpmid does not "
                 "read it either way: write deg or gon")
+    if q in ("pressure", "ambient") and unit in _UNREAD_PRESSURE_UNITS:
+        kpa = _UNREAD_PRESSURE_UNITS[unit] / 1e3
+        return (f"; bpmid does not read {unit!r}: convert the column to kPa first (1 {unit} = {kpa:.6g} kPa; "
+                f"multiply the values by {kpa:.6g}) and name it {BPMID_NAME[q]}, or to another unit it reads. "
+                f"Do not only rename or map the column: its numbers would then be read as kPa")
     name = f"pressure_{ex.lower()}_{unit}" if ref is not None else BPMID_NAME[q]
     mapped = f"{columns_arg(f'{name}={h}')} (config io.columns: {{'{h}': {name}}})"
+    if q in UNIT_FLAGS or q == "ambient":
+        # only right when the stated unit is a slip for the example's: say so, never suggest a relabel alone
+        mapped += f", only if the values are in fact in {ex} (otherwise convert them to a unit bpmid reads first)"
     if unit_from == "units row":
         out += f"; state the unit the column is logged in: correct the units row, or map the column: {mapped}"
     else:

@@ -134,6 +134,8 @@ class RunInfo:
     synthetic: bool | None
     provenance: dict
     test_sets: dict
+    #: run.yaml's data_logs: {total, synthetic, synthetic_files (when some, not all, are)}; {} from older runs
+    data_logs: dict = dataclasses.field(default_factory=dict)
 
     def status(self, stage: str) -> str | None:
         for s in self.stages:
@@ -349,7 +351,8 @@ def load_run(rd: _Reader) -> RunInfo | None:
         stages.append(StageRecord(str(s.get("name", "?")), str(s.get("status", "?")), _num(s.get("seconds")),
                                   [str(o) for o in _list(s.get("outputs"))], str(s.get("note") or "")))
     syn = d.get("synthetic")
-    return RunInfo(stages, None if syn is None else bool(syn), _dict(d.get("provenance")), _dict(d.get("test_sets")))
+    return RunInfo(stages, None if syn is None else bool(syn), _dict(d.get("provenance")), _dict(d.get("test_sets")),
+                   _dict(d.get("data_logs")))
 
 
 def load_relax(rd: _Reader) -> RelaxInfo | None:

@@ -42,7 +42,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
-from typing import Any, Literal, Mapping, Optional
+from typing import Any, ClassVar, Literal, Mapping, Optional
 
 import numpy as np
 
@@ -409,6 +409,10 @@ class Variation:
                                  path=path, key=f"{where}.{k}")
 
 
+_GEOMETRY_HINT = ("another muscle's geometry and constants come from a fit file: bpmid simulate PROTOCOL --params "
+                  "FIT.yaml (a bpmid.vbmm/1 file as bpmid fit motion writes it; its geometry block sets the muscle)")
+
+
 @dataclasses.dataclass(frozen=True)
 class PlantSpec:
     """The muscle on the rig: VBMM constants (unless ``--params``), the rig's own effects, variation."""
@@ -417,6 +421,9 @@ class PlantSpec:
     closure: Literal["paper", "consistent"] = "paper"
     effects: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     variation: Variation = dataclasses.field(default_factory=Variation)
+
+    #: what to do instead of an unknown key a user is likely to try (named in the error)
+    UNKNOWN_KEY_HINTS: ClassVar[dict] = {k: _GEOMETRY_HINT for k in ("geometry", "model", "params")}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -439,6 +446,8 @@ class Protocol:
     relaxation: Optional[RelaxationSpec] = None
     path: Optional[str] = None
     sha256: Optional[str] = None
+
+    UNKNOWN_KEY_HINTS: ClassVar[dict] = {k: _GEOMETRY_HINT for k in ("geometry", "model", "params")}
 
     def validate(self, where, path):
         if self.schema != SCHEMA:

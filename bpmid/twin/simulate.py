@@ -36,7 +36,7 @@ from bpmid.params import ParamSet
 from bpmid.progress import Progress
 from bpmid.twin import sensors as S
 from bpmid.twin.protocol import Protocol, load_protocol
-from bpmid.units import PA_PER_BAR
+from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR
 
 SCHEMA = "bpmid.simulation/1"
 SYNTHETIC_NOTE = "bpmid digital twin; not a measurement"
@@ -174,7 +174,7 @@ def simulate(protocol: Protocol | str | Path, *, params_path: str | Path | None 
     seed = proto.seed if seed is None else int(seed)
     if seed < 0:
         raise InputError(f"a seed is a non-negative whole number, found {seed}", key="--seed")
-    prov = provenance((), seed=seed, command=command, timestamp=timestamp,
+    prov = provenance(() if params_path is None else (params_path,), seed=seed, command=command, timestamp=timestamp,
                       extra={"protocol": {"path": proto.path, "sha256": proto.sha256}})
     if proto.kind != "motion" and (params_path is not None or effects):
         raise InputError(f"--params and --effect apply to motion protocols, this one is kind {proto.kind}",
@@ -262,8 +262,15 @@ def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov:
             a_log = S.read_angle(t, angle, sens, rs)
             frame = pd.DataFrame({"time_s": np.round(t, 6), col: np.round(p_log, 6), "angle_deg": np.round(a_log, 6)})
             head = [f"# pressure_reference: {proto.pressure_reference}",
+                    # an ambient pressure other than the standard one the absolute values were made with, so the
+                    # file reads back the same (a reader assumes the standard atmosphere without this line)
+                    *([f"# atmosphere_pa: {proto.atmosphere_bar * PA_PER_BAR:.10g}"]
+                      if proto.pressure_reference == "absolute"
+                      and abs(proto.atmosphere_bar * PA_PER_BAR - ATMOSPHERE_PA) > 1e-6 else []),
                     f"# synthetic: true ({SYNTHETIC_NOTE})",
-                    f"# protocol: {proto.name} (log {spec.name}, replicate {rep + 1}), seed {seed}; see manifest.yaml"]
+                    f"# protocol: {proto.name} (log {spec.name}, replicate {rep + 1}), seed {seed}; see manifest.yaml",
+                    *([f"# plant constants: {Path(params_path).name} (--params), not the protocol's material preset"]
+                      if params_path is not None else [])]
             files[f"{name}.csv"] = _csv(head, frame)
             logs.append({"file": f"{name}.csv", "log": spec.name, "replicate": rep + 1, "samples": int(t.size),
                          "duration_s": float(t[-1]), "modulus_factor": round(fm, 6), "tau_factor": round(ft, 6),

@@ -450,6 +450,11 @@ MAX_BRANCHES = 200
 _BRANCH_KEYS = ("G", "K", "tau", "tauG", "tauK")
 
 
+#: the smallest K_inf + sum K (Pa) a fit file may hold: the paper's muscle has 2e7 Pa, the softest silicone tubes
+#: some 1e5; below this the moduli were typed in another unit (MPa under 'unit: Pa')
+MIN_PLAUSIBLE_K_PA = 1e3
+
+
 def material_from_yaml(data: dict, path=None) -> Material:
     """Read the ``material`` block of a ``bpmid.vbmm/1`` file (values in Pa and s)."""
     from bpmid.params import parse_param_entry
@@ -499,6 +504,13 @@ def material_from_yaml(data: dict, path=None) -> Material:
             tK.append(val(b["tauK"], f"{key}.tauK", "s"))
         else:
             raise InputError("missing key (tau, or tauG and tauK)", path=path, key=f"{key}.tau")
+    k_total = (K_inf if np.isfinite(K_inf) else 0.0) + sum(k for k in Kk if np.isfinite(k))
+    if 0.0 <= k_total < MIN_PLAUSIBLE_K_PA:
+        # a modulus typed in MPa under 'unit: Pa' makes a muscle that bends fully at a few Pa: every log would
+        # then be refused as beyond the model's range, blamed on the log; name the fit file's key instead
+        raise InputError(f"K_inf plus the branches' K is {k_total:.4g} Pa, below {MIN_PLAUSIBLE_K_PA:g} Pa: no rubber "
+                         f"tube is that soft; the moduli of a bpmid.vbmm/1 file are in Pa (6.434e6, not 6.434 MPa)",
+                         path=path, key="material.K_inf")
     try:
         return Material(G_inf, K_inf, tuple(G), tuple(Kk), tuple(tG), tuple(tK) if split else None)
     except InputError as exc:

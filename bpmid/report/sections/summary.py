@@ -2,6 +2,8 @@
 comparison ranking, the discovery verdict, the control result, and whether the data are synthetic."""
 from __future__ import annotations
 
+from pathlib import Path
+
 from bpmid.report.doc import fmt, pm
 
 KEY = "summary"
@@ -13,6 +15,13 @@ def cost_phrase(reduction_pct) -> str:
     if reduction_pct is None or reduction_pct != reduction_pct:
         return "(not measured)"
     return f"{fmt(abs(reduction_pct))} % {'less' if reduction_pct >= 0 else 'more'}"
+
+
+def _num_or_zero(x) -> float:
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return 0.0
 
 
 def _stale(st, stage):
@@ -31,6 +40,15 @@ def build(doc, st, figs) -> None:
             doc.p("Made by bpmid simulate from the protocols (configs/datasets/<protocol>.yaml for the shipped "
                   "ones; each log's header and its folder's manifest.yaml give the rest): " + "; ".join(origins)
                   + ".", css="muted")
+    elif st.run is not None and _num_or_zero(st.run.data_logs.get("synthetic")) > 0:
+        dl = st.run.data_logs
+        files = [str(f) for f in (dl.get("synthetic_files") or [])]
+        folders = sorted({str(Path(f).parent) for f in files})
+        doc.p(f"Data: MIXED. {int(dl['synthetic'])} of {int(_num_or_zero(dl.get('total')))} logs of this study say "
+              f"they are synthetic (made by bpmid's digital twin, not measured)"
+              + (f", in {', '.join(folders)}" if folders else "")
+              + "; the rest are measured. Results on the synthetic logs are bpmid's results on its own model's "
+              "output, not measurements of a real muscle; run.yaml (data_logs) lists them.", css="warn")
     else:
         doc.p("Data: measured logs (no log of this study says it is synthetic).", css="good")
     for p in st.problems:
