@@ -474,6 +474,8 @@ def compare_yaml_body(result: CompareResult, relax_fit=None) -> dict:
         "warnings": list(result.warnings),
         "verdicts": verdicts(result),
         "models": models,
+        # which logs say they are synthetic (a comparison mixing them with measured logs is not 'synthetic')
+        "synthetic_logs": sorted({lg.name for lg in list(result.train) + list(result.test) if is_synthetic([lg])}),
     }
 
 

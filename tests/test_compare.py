@@ -242,6 +242,7 @@ def test_cli_writes_contract_files_and_figures(log_files, tmp_path):
 
     cy = yaml.safe_load((out / "compare.yaml").read_text())
     assert cy["schema"] == "bpmid.compare/1" and cy["synthetic"] is True
+    assert cy["synthetic_logs"] == sorted(Path(p).stem for p in [*train, *test])   # every log names itself
     assert set(cy["models"]) == {"two-branch", "maxwell-slip"}
     assert len(cy["provenance"]["inputs"]) == 3
     assert "rank" in r.output and "two-branch" in r.output
