@@ -83,10 +83,20 @@ def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
     ho = [str(paths[n]) for n in ("ho_va_2.0", "ho_vr_0.16", "ho_mixed", "ho_long_2.0")]
     fit = [str(p) for n, p in paths.items() if not n.startswith("ho_")]
     out = tmp_path / "out"
-    r = runner.invoke(app, ["--quiet", "discover", *fit, "--holdout", *ho, "--out", str(out)])
+    # a thresholds file as bpmid calibrate writes it (here the shipped one's copy: the same gate)
+    import shutil
+
+    from bpmid.discover.calibrate import THRESHOLDS_PATH
+
+    thr = tmp_path / "my_rig_thresholds.yaml"
+    shutil.copy(THRESHOLDS_PATH, thr)
+    r = runner.invoke(app, ["--quiet", "discover", *fit, "--holdout", *ho, "--out", str(out), "--thresholds",
+                            str(thr)])
     assert r.exit_code == 0, r.output
     d = yaml.safe_load((out / "discovery.yaml").read_text())
     assert d["schema"] == "bpmid.discovery/1"
+    assert d["thresholds_from"].startswith(str(thr.resolve()))
+    assert str(thr.resolve()) in d["provenance"]["inputs"]
     assert d["named_effects"] == ["angle_offset"]
     assert len(d["steps"]) == 1 and d["steps"][0]["evidence"]["identifiable"]
     # the share the signature explains is of what is left after the base constants' own compensation, and says so

@@ -32,6 +32,7 @@ def test_uninterrupted_sweep_writes_records_thresholds_tables_answers(full_run):
     assert all(r["phase"] == r["split"] for r in recs)
     thr = yaml.safe_load((out / "thresholds.yaml").read_text())
     assert thr["schema"] == "bpmid.discover-thresholds/1" and "tiny" in thr["calibration"]["produced_by"]
+    assert res.summary["thresholds_from"].startswith("calibrated in this run")   # the gate's source is said
     # the calibration half's candidates were recorded with their truth
     cal = [r for r in recs if r["split"] == "calibration"]
     assert sum(len(r["calibration_records"]) for r in cal) >= 2
@@ -88,7 +89,9 @@ def test_a_case_run_with_other_discover_settings_is_rerun(full_run, tmp_path):
     (out / RECORDS).write_text("\n".join(lines) + "\n")
     res = run_sweep(load_sweep(TINY), out, workers=2, processes=False)
     again = read_records(out / RECORDS)
-    assert len(again) == 5 and [r["id"] for r in again].count(ho[0]) == 2  # rerun and appended, latest wins
+    # rerun, and the finished sweep keeps one record per case, the new one (a rescore left 38 lines for 24 cases)
+    assert len(again) == 4 and [r["id"] for r in again].count(ho[0]) == 1
+    assert next(r for r in again if r["id"] == ho[0])["named"] != ["stale"]
     assert comparable(res.records) == comparable(read_records(out_full / RECORDS))
 
 
@@ -287,3 +290,83 @@ def test_the_table_never_rounds_a_rate_onto_a_target_it_misses():
     md = confusion_markdown(s)
     assert "| 53/59 (89.8 %) |" in md                 # not "90 %": the target is at least 90 %
     assert "| 16/20 (80 %) |" in md and "| 71/71 (100 %) |" in md and "| 0/22 (0 %) |" in md
+
+
+# --- a rig user's review (a helper calibrating on its own rig, recounting every table from the records) ---------
+def _rec(kind, truth, named, error=None):
+    return {"id": f"{kind}-{truth}-{len(named)}-{error}", "kind": kind, "truth_label": truth,
+            "truth_ids": [] if truth in ("none", "out_of_catalogue") else [truth], "named": named,
+            "error": error, "error_kind": "declined" if error else None, "heldout_before_deg": 0.3,
+            "heldout_after_deg": 0.2, "noise_floor_deg": 0.15, "noise_deg": 0.15}
+
+
+def test_rates_count_judged_cases_only():
+    """A case discovery declined named nothing without judging anything: it was counted as a null rightly left
+    unnamed and as a missed single."""
+    recs = [_rec("single", "angle_offset", ["angle_offset"]), _rec("single", "angle_offset", [], "too short"),
+            _rec("null", "none", []), _rec("null", "none", [], "too short")]
+    s = summarize(recs, "heldout")
+    assert s["n_cases"] == 4 and s["judged"] == 2 and s["not_judged"] == 2
+    assert s["single_named_first_right"] == {"n": 1, "right": 1, "rate": 1.0}
+    assert s["null_false_positive"]["n"] == 1
+    assert sum(sum(row.values()) for row in s["confusion"].values()) == 2
+    from bpmid.validation.sweep import confusion_markdown
+
+    assert "4 cases, 2 judged" in confusion_markdown(s)
+
+
+def test_calibration_on_no_judged_case_is_refused_and_a_thin_one_warned(full_run, tmp_path):
+    from bpmid.discover.calibrate import thresholds_from_records, write_thresholds
+    from bpmid.errors import InputError
+    from bpmid.validation.sweep import _calibrate
+
+    cfg = load_sweep(TINY)
+    declined = [_rec("single", "angle_offset", [], "fewer than 30 samples per log")] * 3
+    with pytest.raises(InputError, match="no calibration case could be judged"):
+        _calibrate(tmp_path, cfg, declined, thresholds_from_records, write_thresholds)
+    assert not (tmp_path / "thresholds.yaml").exists()
+    out, _ = full_run
+    cal = [r for r in read_records(out / RECORDS) if r["phase"] == "calibration"]
+    said = []
+    _calibrate(tmp_path, cfg, cal, thresholds_from_records, write_thresholds, warn=said.append)
+    assert (tmp_path / "thresholds.yaml").exists()
+    assert len(said) == 1 and f"on {len(cal)} judged case(s)" in said[0] and "too few" in said[0]
+
+
+def test_a_bad_scheduler_is_refused_before_any_folder_is_made(tmp_path):
+    from bpmid.errors import InputError
+
+    with pytest.raises(InputError) as e:
+        run_sweep(load_sweep(TINY), tmp_path / "o", scheduler="bogus-address")
+    assert e.value.key == "--scheduler" and "LocalCluster" in str(e.value)
+    assert not (tmp_path / "o").exists()
+
+
+def test_workers_without_this_bpmid_are_named_not_waited_for():
+    """A worker that cannot import bpmid died on the first case and the sweep waited forever, silently."""
+    import importlib.metadata
+
+    from bpmid import __version__
+    from bpmid.errors import InputError
+    from bpmid.validation.sweep import _check_workers
+
+    class Client:   # the two questions asked of a cluster, answered as a cluster without bpmid answers them
+        def __init__(self, wait_ok, answers):
+            self.wait_ok, self.answers = wait_ok, answers
+
+        def wait_for_workers(self, n, timeout):
+            if not self.wait_ok:
+                raise TimeoutError("no workers")
+
+        def run(self, fn, *args, on_error):
+            assert fn is importlib.metadata.version and args == ("bpmid",) and on_error == "return"
+            return self.answers
+
+    with pytest.raises(InputError, match="has no worker"):
+        _check_workers(Client(False, {}), "tcp://h:1")
+    with pytest.raises(InputError, match="has no bpmid"):
+        _check_workers(Client(True, {"tcp://w1": __version__,
+                                     "tcp://w2": importlib.metadata.PackageNotFoundError("bpmid")}), "tcp://h:1")
+    with pytest.raises(InputError, match="has bpmid 0.0.1"):
+        _check_workers(Client(True, {"tcp://w1": "0.0.1"}), "tcp://h:1")
+    _check_workers(Client(True, {"tcp://w1": __version__}), "tcp://h:1")   # this bpmid everywhere: fine

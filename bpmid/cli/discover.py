@@ -38,6 +38,10 @@ def discover_cmd(
     init: Optional[Path] = typer.Option(None, "--init", help="Starting constants: bpmid.vbmm/1 or bpmid.relax/1 "
                                         "(default: the paper's VBMM-fit)."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config YAML (sections io, model, discover)."),
+    thresholds: Optional[Path] = typer.Option(None, "--thresholds", help="The gate's thresholds: a "
+                                              "bpmid.discover-thresholds/1 file, as bpmid calibrate writes it "
+                                              "(OUT/thresholds.yaml, calibrated on your rig's noise); default "
+                                              "bpmid's shipped calibration (config: discover.thresholds_file)."),
     out: Path = typer.Option(..., "--out", help="Output folder: discovery.yaml, verdict.txt, model.yaml (the final model, bpmid.vbmm/1), figures."),
     logopts=None,
     figures: Optional[str] = figures_option(),
@@ -61,20 +65,33 @@ def discover_cmd(
 
     check_outputs_not_inputs([out / "discovery.yaml", out / "verdict.txt", out / "model.yaml"],
                              list(paths) + list(ho_paths)
-                             + [init, config])
+                             + [init, config, thresholds])
+    dcfg = cfg.section("discover")
+    if thresholds is not None:   # the flag over the config's discover.thresholds_file, checked before any work
+        import dataclasses
+
+        from bpmid.discover.calibrate import load_thresholds
+        from bpmid.errors import InputError
+
+        if not thresholds.is_file():
+            raise InputError("thresholds file not found (bpmid calibrate writes OUT/thresholds.yaml)",
+                             path=thresholds, key="--thresholds")
+        load_thresholds(thresholds)   # a file of another kind is refused, naming it
+        dcfg = dataclasses.replace(dcfg, thresholds_file=str(thresholds.resolve()))
     fit_logs = read_motion_logs(paths, cfg.section("io"), require_angle=True)
     ho_logs = read_motion_logs(ho_paths, cfg.section("io"), require_angle=True) if ho_paths else None
     all_logs = fit_logs + (ho_logs or [])
     warnings = plaus.reader_warnings(all_logs) + plaus.motion_data_warnings(all_logs)
     plaus.emit(warnings, strict=cfg.section("io").strict, what=str(out))
     base, base_from = load_base(init, cfg)
-    result = discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
+    result = discover(fit_logs, base, holdout=ho_logs, cfg=dcfg)
     from bpmid.models.vbmm.model import paper_geometry_note
 
     geometry_note = paper_geometry_note(base.geometry)
     if geometry_note:   # after the inputs were judged: not beside an error
         typer.echo("note: " + geometry_note, err=True)
-    inputs = list(paths) + list(ho_paths) + ([init] if init else [])
+    inputs = list(paths) + list(ho_paths) + ([init] if init else []) \
+        + ([Path(dcfg.thresholds_file)] if dcfg.thresholds_file else [])
     note("discover: writing figures")
     write_discovery(out, result, plaus.attach(provenance(inputs, config=cfg), all_logs, warnings), base_from=base_from)
     typer.echo(result.verdict)

@@ -43,6 +43,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from pathlib import Path
 from typing import Mapping, Optional, Sequence
 
 import numpy as np
@@ -157,6 +158,7 @@ class DiscoverConfig:
     per_log_constants: bool = True
     unexplained_gap_sigma: float = 0.5
     hold: Optional[Mapping[str, float]] = None
+    thresholds_file: Optional[str] = None
 
     def __post_init__(self):
         # a plain dict (a config file's mapping arrives read-only, and a sweep ships the config to its workers)
@@ -165,6 +167,20 @@ class DiscoverConfig:
                 object.__setattr__(self, name, dict(getattr(self, name)))
 
     def validate(self, where, path):
+        if self.thresholds_file is not None:
+            # a thresholds file (bpmid calibrate's thresholds.yaml): relative to the config that names it; read and
+            # checked now, so a bad one is refused before any work
+            tf = Path(str(self.thresholds_file)).expanduser()
+            if not tf.is_absolute() and path is not None:
+                tf = Path(path).resolve().parent / tf
+            if not tf.is_file():
+                raise InputError(f"thresholds file not found: {tf} (bpmid calibrate writes OUT/thresholds.yaml)",
+                                 path=path, key=f"{where}.thresholds_file")
+            try:
+                load_thresholds(tf)
+            except InputError as exc:
+                raise InputError(f"{tf}: {exc.message}", path=path, key=f"{where}.thresholds_file") from None
+            object.__setattr__(self, "thresholds_file", str(tf))
         for c in self.candidates:
             if c not in CATALOGUE:
                 raise InputError(f"unknown effect id {c!r} (known: {', '.join(CATALOGUE)})", path=path,
@@ -214,7 +230,9 @@ class DiscoverConfig:
                 raise InputError(str(e), path=path, key=f"{where}.hold.{name}") from None
 
     def thresholds(self) -> dict:
-        return self.overrides(load_thresholds())
+        """The gate: the thresholds file's (``thresholds_file``, else the shipped calibration), with this config's
+        per-key overrides on top."""
+        return self.overrides(load_thresholds(self.thresholds_file))
 
     def overrides(self, thr: dict) -> dict:
         """``thr`` with this config's threshold overrides; a ``heldout_gain_min_sigma`` set here without
@@ -379,6 +397,8 @@ class DiscoveryResult:
     heldout_raw_before: float = float("nan")
     heldout_raw_after: float = float("nan")
     per_log_gain: object = True   # True/False or the LogNuisance that scored the held-out logs
+    #: the thresholds file the gate came from (None: the shipped calibration, bpmid/discover/thresholds.yaml)
+    thresholds_file: Optional[str] = None
 
     @property
     def noise_floor_deg(self) -> float:
@@ -424,6 +444,8 @@ class DiscoveryResult:
             "log_to_log_variation": self.variation,
             "verdict": self.verdict,
             "gate": gate_in_words(self.thresholds),
+            "thresholds_from": (self.thresholds_file or "bpmid's shipped calibration (bpmid/discover/thresholds.yaml)")
+            + " and the config's discover overrides, if any",
             "noise_floor": {"method": self.noise.get("method", ""),
                             "sigma_deg": round(floor, 4),
                             "noise_lag1_correlation": round(float(self.noise.get("rho", 0.0)), 3),
@@ -991,7 +1013,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                            noise, cfg.unexplained_gap_sigma, final=state)
     return DiscoveryResult(named, rounds, noise, base_state, state, list(fit_logs), list(ho_logs), before, after,
                            thr, unexplained, verdict, how, time.perf_counter() - t0, variation, base_report,
-                           raw_before, raw_after, base_gain)
+                           raw_before, raw_after, base_gain, thresholds_file=cfg.thresholds_file)
 
 
 def log_to_log_variation(state: ModelState, ho_logs: Sequence[MotionLog], after: float, floor: float,

@@ -313,6 +313,8 @@ def discover_settings(discover_cfg) -> dict:
     """The discover settings a record was made with (plain JSON): a resumed sweep reruns a case whose settings
     (thresholds, overrides) differ from the current ones."""
     d = dataclasses.asdict(discover_cfg) if dataclasses.is_dataclass(discover_cfg) else dict(discover_cfg or {})
+    if d.get("thresholds_file") is None:   # unset: the records written before the key existed stay current
+        d.pop("thresholds_file", None)
     return json.loads(json.dumps(_fix_nan(d), sort_keys=True, default=_json_default))
 
 
@@ -386,6 +388,19 @@ def read_records(path: str | Path) -> list[dict]:
     return out
 
 
+def _compact_records(path: Path) -> None:
+    """Rewrite a records file with one line per case id, the last one (the one every reader uses), when a case
+    was recorded more than once; atomically, so an interruption leaves the old file."""
+    recs = read_records(path)
+    last = {r["id"]: r for r in recs}
+    if len(last) == len(recs):
+        return
+    from bpmid.io.atomic import write_text
+
+    order = list(dict.fromkeys(r["id"] for r in recs))
+    write_text(path, "".join(json.dumps(_fix_nan(last[i]), sort_keys=True, allow_nan=False) + "\n" for i in order))
+
+
 class RecordWriter:
     """Append one JSON record per line, flushed and synced as each arrives."""
 
@@ -439,14 +454,53 @@ def _client(scheduler: Optional[str], workers: Optional[int], processes: bool):
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise InputError("sweeps run on Dask: pip install 'bpmid[cluster]' (dask[distributed])") from exc
     if scheduler:
+        what_to_do = (f"check the address (tcp://HOST:8786, as `dask scheduler` prints it), start a scheduler there "
+                      f"(`dask scheduler`) with workers (`dask worker tcp://HOST:8786`, in an environment where bpmid "
+                      f"is installed), or leave out --scheduler to run on a LocalCluster on this machine")
         try:
-            return Client(scheduler, timeout="10s"), None
-        except (OSError, TimeoutError) as exc:
-            raise InputError(f"cannot reach the Dask scheduler at {scheduler!r} ({exc})", key="--scheduler") from None
+            client = Client(scheduler, timeout="10s")
+        except Exception as exc:   # a malformed address is a ValueError, an unreachable one an OSError/TimeoutError
+            raise InputError(f"cannot connect to the Dask scheduler at {scheduler!r} ({type(exc).__name__}: {exc}): "
+                             f"{what_to_do}", key="--scheduler") from None
+        try:
+            _check_workers(client, scheduler)
+        except BaseException:
+            client.close()
+            raise
+        return client, None
     n = workers or os.cpu_count() or 1
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=processes, dashboard_address=":0",
                            silence_logs=40)
     return Client(cluster), cluster
+
+
+#: how long an existing cluster may take to show its first worker (s)
+WORKER_WAIT_S = 60.0
+
+
+def _check_workers(client, scheduler: str) -> None:
+    """An existing cluster must have workers, and every worker must run this bpmid: a worker that cannot import it
+    dies on the first case and the sweep would wait forever. Asked with standard-library functions only (they
+    unpickle on any worker)."""
+    import importlib.metadata
+
+    from bpmid import __version__
+
+    try:
+        client.wait_for_workers(1, timeout=WORKER_WAIT_S)
+    except Exception:   # TimeoutError (of asyncio or of dask)
+        raise InputError(f"the Dask scheduler at {scheduler!r} has no worker after {WORKER_WAIT_S:g} s: start one "
+                         f"(`dask worker {scheduler}`, in an environment where bpmid is installed), or leave out "
+                         f"--scheduler to run on a LocalCluster on this machine", key="--scheduler") from None
+    found = client.run(importlib.metadata.version, "bpmid", on_error="return")
+    bad = {w: v for w, v in found.items() if v != __version__}
+    if bad:
+        w, v = next(iter(bad.items()))
+        has = (f"bpmid {v}" if isinstance(v, str) else
+               "no bpmid" if isinstance(v, importlib.metadata.PackageNotFoundError) else f"an error ({v!r})")
+        raise InputError(f"{len(bad)} of the {len(found)} Dask worker(s) at {scheduler!r} cannot run this sweep: "
+                         f"{w} has {has}, this command bpmid {__version__}. Install the same bpmid (with "
+                         f"'bpmid[cluster]') in the workers' environment and restart them", key="--scheduler")
 
 
 def run_cases(cases: Sequence[Case], phase: str, discover_cfg, writer: RecordWriter, client, *,
@@ -533,12 +587,14 @@ class SweepOutcome:
 def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", scheduler: Optional[str] = None,
               workers: Optional[int] = None, processes: bool = True, thresholds_path: Optional[str | Path] = None,
               stop_after: Optional[int] = None, progress: Optional[Callable[[str], None]] = None,
-              max_cases: Optional[int] = None) -> SweepOutcome:
+              max_cases: Optional[int] = None, warn: Optional[Callable[[str], None]] = None) -> SweepOutcome:
     """Run a sweep into ``out`` (see the module docstring). Resumes: finished case ids in ``out/records.jsonl``
     are skipped. ``stop_after`` stops after that many new records (an interruption, used by the tests);
     ``max_cases`` keeps only the first cases of each half (by id; a quick subset that a full rerun extends)."""
     from bpmid.discover.calibrate import load_thresholds, thresholds_from_records, write_thresholds
 
+    if warn is None:   # a warning is said even when progress is silenced (-q)
+        warn = lambda m: print(m, file=sys.stderr)  # noqa: E731
     check_split(split)
     out = Path(out)
     # a given thresholds file is read (and a bad one refused) before anything is written
@@ -547,8 +603,16 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
         import dask.distributed  # noqa: F401
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise InputError("sweeps run on Dask: pip install 'bpmid[cluster]' (dask[distributed])") from exc
-    out.mkdir(parents=True, exist_ok=True)
-    _check_folder(out, cfg)
+    # an existing cluster is asked before anything is written: a bad address, no workers or workers without bpmid
+    # leave no folder behind (a LocalCluster starts only when there are cases to run)
+    client, cluster = _client(scheduler, workers, processes) if scheduler else (None, None)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        _check_folder(out, cfg)
+    except BaseException:
+        if client is not None:
+            client.close()
+        raise
     say = progress or (lambda m: None)
     gen = cfg.effective_generator
     cases = make_cases(gen, cfg.sweep.seed, prefix=cfg.sweep.name)
@@ -562,11 +626,11 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     phases = {"all": ["calibration", "heldout"], "pool": ["calibration"]}.get(split, [split])
     done = {r["id"]: r for r in read_records(out / RECORDS)}
     writer = RecordWriter(out / RECORDS)
-    keep = str(out / "cases") if cfg.sweep.keep_cases else None
+    # absolute: the workers of an existing cluster run in their own working folder
+    keep = str(out.resolve() / "cases") if cfg.sweep.keep_cases else None
     files = {"records": str(out / RECORDS), "sweep": str(out / "sweep.yaml")}
     thresholds = None
     new = 0
-    client = cluster = None
     try:
         for phase in phases:
             if phase == "heldout":
@@ -600,17 +664,30 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
                     return SweepOutcome(sorted(done.values(), key=lambda r: r["id"]), thresholds, None, files, False)
             if phase == "calibration":
                 thresholds = _calibrate(out, cfg, [done[c.id] for c in halves["calibration"]],
-                                        thresholds_from_records, write_thresholds)
+                                        thresholds_from_records, write_thresholds, warn=warn)
                 files["thresholds"] = str(out / "thresholds.yaml")
+    except InputError:
+        raise
+    except BaseException as exc:   # Ctrl-C, a lost scheduler or worker: what is kept and how to go on
+        what = "interrupted" if isinstance(exc, KeyboardInterrupt) else f"stopped ({type(exc).__name__}: {exc})"
+        warn(f"sweep {what}: the {len(done)} finished case(s) are kept in {out / RECORDS}; rerun the same command "
+             f"to resume from them")
+        raise
     finally:
         writer.close()
         if client is not None:
             client.close()
         if cluster is not None:
             cluster.close()
+    _compact_records(out / RECORDS)   # a case rerun (other settings, a rescore) leaves one record, the last
     evaluated = "heldout" if "heldout" in phases else "calibration"
     recs = [done[c.id] for c in halves[evaluated]]
     summary = summarize(recs, evaluated)
+    summary["thresholds_from"] = (
+        None if evaluated != "heldout" else str(thresholds_path) if thresholds_path is not None
+        else "calibrated in this run on the calibration half (thresholds.yaml)" if "calibration" in phases
+        else "this folder's thresholds.yaml (calibrated earlier)" if (out / "thresholds.yaml").exists()
+        else "bpmid's shipped calibration (bpmid/discover/thresholds.yaml)")
     # 4 significant digits (rounding to 4 decimals wrote a family alpha of 1e-9 as 0)
     summary["thresholds"] = ({k: ({e: float(f"{x:.4g}") for e, x in v.items()} if isinstance(v, Mapping)
                                   else float(f"{float(v):.4g}")) for k, v in thresholds.items()} if thresholds and
@@ -634,11 +711,31 @@ def _thresholds_for_heldout(out: Path, given, calibrated, load_thresholds) -> di
     return load_thresholds()
 
 
-def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_records, write_thresholds) -> dict:
+#: fewer judged calibration cases than this (or no null among them) get a warning: a gate from a handful of
+#: cases is set by their ties, not by the rig's noise
+MIN_CALIBRATION_CASES = 20
+
+
+def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_records, write_thresholds,
+               warn=lambda m: None) -> dict:
     from bpmid.discover.calibrate import case_records, pair_records
-    records = [r for rec in recs for r in case_records(rec)]
-    values = thresholds_from_records(records, [q for rec in recs for q in pair_records(rec)])
-    n_err = sum(1 for r in recs if r.get("error"))
+    judged = [r for r in recs if not r.get("error")]
+    n_err = len(recs) - len(judged)
+    if not judged:
+        why = next((str(r.get("error")) for r in recs if r.get("error")), "no calibration case was drawn")
+        raise InputError(f"no calibration case could be judged ({len(recs)} run, {n_err} declined or failed; the "
+                         f"first: {why[:300]}): thresholds calibrated on nothing would mean nothing, so none are "
+                         f"written. Make the rig's logs long and fast enough for discovery (rig.sampling_hz, the "
+                         f"protocol durations) or draw more cases (generator.n_cases); records.jsonl keeps the cases",
+                         path=cfg.path, key="generator")
+    records = [r for rec in judged for r in case_records(rec)]
+    values = thresholds_from_records(records, [q for rec in judged for q in pair_records(rec)])
+    kinds = [r.get("kind") for r in judged]
+    if kinds.count("null") == 0 or len(judged) < MIN_CALIBRATION_CASES:
+        warn(f"warning: the thresholds were calibrated on {len(judged)} judged case(s), {kinds.count('null')} of them "
+             f"null: too few to bound the false positives on your rig (at least {MIN_CALIBRATION_CASES}, nulls "
+             f"among them, are needed for a gate to mean much); draw more cases (generator.n_cases, "
+             f"generator.mix)")
     meta = {"produced_by": f"bpmid calibrate {cfg.path or 'SWEEP.yaml'} (sweep {cfg.sweep.name}, "
                            f"seed {cfg.sweep.seed})",
             "data": f"{len(recs)} out-of-family cases ({GENERATOR}), "
@@ -706,7 +803,11 @@ def by_visible_size(recs: Sequence[dict]) -> dict:
 
 
 def summarize(recs: Sequence[dict], split: str) -> dict:
-    """Confusion matrix and rates of one half's records."""
+    """Confusion matrix and rates of one half's records. The matrix and every rate count the judged cases only: a
+    case discovery declined (too short a log) or failed on names nothing without having judged anything, so it is
+    counted apart (``not_judged``, ``internal_failures``), never as a null rightly left unnamed."""
+    all_recs = list(recs)
+    recs = [r for r in all_recs if not r.get("error")]
     M = {r: {c: 0 for c in COLUMNS} for r in ROWS}
     for rec in recs:
         first = rec["named"][0] if rec.get("named") else "none"
@@ -725,9 +826,9 @@ def summarize(recs: Sequence[dict], split: str) -> dict:
     pair_both = sum(1 for r in pair if case_right(r))
 
     return {
-        "split": split, "n_cases": len(recs),
-        "not_judged": sum(1 for r in recs if r.get("error") and r.get("error_kind") != "internal"),
-        "internal_failures": sum(1 for r in recs if r.get("error_kind") == "internal"),
+        "split": split, "n_cases": len(all_recs), "judged": len(recs),
+        "not_judged": sum(1 for r in all_recs if r.get("error") and r.get("error_kind") != "internal"),
+        "internal_failures": sum(1 for r in all_recs if r.get("error_kind") == "internal"),
         "single_named_first_right": {"n": len(single), "right": single_right, "rate": rate(single_right, len(single))},
         "null_false_positive": {"n": len(null), "named_something": sum(1 for r in null if r.get("named")),
                                 "rate": rate(sum(1 for r in null if r.get("named")), len(null))},
@@ -740,7 +841,7 @@ def summarize(recs: Sequence[dict], split: str) -> dict:
                                                                     len(oof))},
         "gap_halved_where_named": {"n": len(named_any), "halved": sum(1 for h in halved if h),
                                    "rate": rate(sum(1 for h in halved if h), len(named_any))},
-        "by_visible_size": by_visible_size(recs),
+        "by_visible_size": by_visible_size(all_recs),
         "confusion": M,
     }
 
@@ -750,8 +851,10 @@ def confusion_markdown(summary: dict) -> str:
     short = {"second_relaxation": "2nd relax", "braid_friction": "friction", "pressure_lag": "lag",
              "asymmetric_relaxation": "asym relax", "strain_stiffening": "stiffening", "angle_offset": "offset",
              "thermal_softening": "thermal", "none": "none"}
-    lines = [f"Confusion matrix, {summary['split']} half ({summary['n_cases']} cases; rows: hidden truth, columns: "
-             f"effect named first)", "",
+    judged = summary.get("judged", summary["n_cases"])
+    lines = [f"Confusion matrix, {summary['split']} half ({summary['n_cases']} cases"
+             + (f", {judged} judged" if judged != summary["n_cases"] else "")
+             + "; rows: hidden truth, columns: effect named first)", "",
              "| hidden \\ named | " + " | ".join(short[c] for c in COLUMNS) + " |",
              "|---" * (len(COLUMNS) + 1) + "|"]
     for r in ROWS:
@@ -777,8 +880,9 @@ def confusion_markdown(summary: dict) -> str:
               f"{s['out_of_catalogue_nothing_named']['n']} ({pct(s['out_of_catalogue_nothing_named']['rate'])}) |",
               f"| gap at least halved where an effect was named | {s['gap_halved_where_named']['halved']}/"
               f"{s['gap_halved_where_named']['n']} ({pct(s['gap_halved_where_named']['rate'])}) |",
-              f"| cases discovery declined to judge | {s['not_judged']} |",
-              f"| internal failures (see records.jsonl) | {s.get('internal_failures', 0)} |"]
+              f"| cases discovery declined to judge (left out of the rates above) | {s['not_judged']} |",
+              f"| internal failures (see records.jsonl; left out of the rates above) | "
+              f"{s.get('internal_failures', 0)} |"]
     if s.get("by_visible_size"):
         kinds = {"single": "single effect named first right", "null": "null: nothing named",
                  "pair": "pair: both named", "out_of_catalogue": "out of catalogue: nothing named"}
@@ -795,7 +899,8 @@ def confusion_markdown(summary: dict) -> str:
         thr = s["thresholds"]
         lines += ["", "Thresholds: " + (", ".join(f"{k} = {v:g}" if not isinstance(v, dict) else
                                                   f"{k} = {{" + ", ".join(f"{e}: {x:g}" for e, x in v.items()) + "}"
-                                                  for k, v in thr.items()) if isinstance(thr, dict) else str(thr))]
+                                                  for k, v in thr.items()) if isinstance(thr, dict) else str(thr))
+                  + (f" (from {s['thresholds_from']})" if s.get("thresholds_from") else "")]
     return "\n".join(lines) + "\n"
 
 
