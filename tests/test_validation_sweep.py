@@ -370,3 +370,36 @@ def test_workers_without_this_bpmid_are_named_not_waited_for():
     with pytest.raises(InputError, match="has bpmid 0.0.1"):
         _check_workers(Client(True, {"tcp://w1": "0.0.1"}), "tcp://h:1")
     _check_workers(Client(True, {"tcp://w1": __version__}), "tcp://h:1")   # this bpmid everywhere: fine
+
+
+@pytest.mark.parametrize("rig, key, words", [
+    ("noise_ar1_rho: 1.5", "rig.noise_ar1_rho", "from 0 (white) to 0.99"),
+    ("noise_deg: -0.1", "rig.noise_deg", "above 0"),
+    ("geometry: {name: mine, th_mm: 2.0}", "rig.geometry.alpha0_deg", "missing alpha0_deg, R0_mm, l0_mm, n"),
+    ("geometry: {name: mine, th_mm: -2, alpha0_deg: 30, R0_mm: 15, l0_mm: 180, n: 7}", "rig.geometry.th_mm",
+     "must be positive")])
+def test_a_bad_rig_value_is_named_under_the_users_own_key(tmp_path, rig, key, words):
+    """The rig's values were checked as the generator ranges they replace: 'rig.noise_rho' (a key the user never
+    wrote), '[1.5, 1.5]', or a Python signature for a geometry."""
+    from bpmid.errors import InputError
+
+    p = tmp_path / "rig.yaml"
+    p.write_text(f"sweep: {{name: m, seed: 1}}\ngenerator: {{n_cases: 2}}\nrig:\n  {rig}\n")
+    with pytest.raises(InputError) as e:
+        load_sweep(p)
+    assert e.value.key == key and words in str(e.value) and "__init__" not in str(e.value)
+
+
+def test_rig_units_are_read_as_bpmid_spells_them(tmp_path):
+    p = tmp_path / "rig.yaml"
+    p.write_text("sweep: {name: m, seed: 1}\ngenerator: {n_cases: 2}\n"
+                 "rig: {pressure_unit: kPa, pressure_reference: Gauge, time_unit: ms}\n")
+    gen = load_sweep(p).effective_generator
+    assert gen.pressure_units == ("kpa",) and gen.pressure_references == ("gauge",) and gen.time_units == ("ms",)
+
+
+def test_cli_refuses_a_local_cluster_size_beside_an_existing_cluster(tmp_path):
+    r = CliRunner().invoke(app, ["calibrate", str(TINY), "--out", str(tmp_path / "o"), "--scheduler",
+                                 "tcp://127.0.0.1:1", "--workers", "2"])
+    assert r.exit_code == 2 and "--workers" in r.output and "give one or the other" in r.output
+    assert not (tmp_path / "o").exists()

@@ -39,6 +39,10 @@ def calibrate_cmd(
     from bpmid.validation.sweep import check_split, confusion_markdown, load_sweep, run_sweep
 
     check_split(split)
+    if scheduler and (workers is not None or threads):
+        raise InputError("--workers and --threads size a LocalCluster on this machine; with --scheduler the "
+                         "existing cluster's own workers run the sweep: give one or the other",
+                         key="--workers" if workers is not None else "--threads")
     if thresholds is not None and not Path(thresholds).is_file():
         raise InputError("thresholds file not found", path=thresholds, key="--thresholds")
     cfg = load_sweep(sweep)

@@ -105,6 +105,16 @@ class RigSection:
     time_unit: Optional[Literal["s", "ms"]] = None
     pressure_noise_pa: Optional[float] = None
 
+    def validate(self, where, path):
+        """Each rig value checked under its own key (not as the generator's range it replaces)."""
+        for name, ok, what in (("noise_deg", lambda x: 0 < x <= 10, "above 0 and at most 10 deg"),
+                               ("noise_ar1_rho", lambda x: 0 <= x <= 0.99, "from 0 (white) to 0.99"),
+                               ("sampling_hz", lambda x: 1 <= x <= 2000, "1-2000 Hz"),
+                               ("pressure_noise_pa", lambda x: 0 <= x <= 1e4, "0-10000 Pa")):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and ok(v)):
+                raise InputError(f"must be {what}, found {v!r}", path=path, key=f"{where}.{name}")
+
     def apply(self, gen: GeneratorConfig, path=None) -> GeneratorConfig:
         d = gen.to_yaml()
         if self.noise_deg is not None:
@@ -185,6 +195,23 @@ def load_sweep(path: str | Path) -> SweepConfig:
     for k in data:
         if k not in known:
             raise InputError(f"unknown section (known: {', '.join(known)})", path=path, key=str(k))
+    rig = data.get("rig")
+    if isinstance(rig, dict):
+        rig = dict(rig)
+        for k in ("pressure_unit", "pressure_reference", "time_unit"):   # kPa as the rest of bpmid spells it
+            if isinstance(rig.get(k), str):
+                rig[k] = rig[k].strip().lower()
+        geo = rig.get("geometry")
+        if isinstance(geo, dict):   # a mapping: every key named when one is missing (not a Python signature)
+            need = ("name", "th_mm", "alpha0_deg", "R0_mm", "l0_mm", "n")
+            missing = [k for k in need if k not in geo]
+            if missing:
+                raise InputError(f"missing {', '.join(missing)} (a geometry is {{name, th_mm, alpha0_deg, R0_mm, "
+                                 f"l0_mm, n}}, or a built-in name: paper, slim, wide)", path=path,
+                                 key=f"rig.geometry.{missing[0]}")
+            from bpmid.validation.generator import GeometrySpec
+            build_dataclass(GeometrySpec, geo, "rig.geometry", path)   # each value checked under its own key
+        data = {**data, "rig": rig}
     kw = {}
     for name, cls in (("sweep", SweepSection), ("generator", GeneratorConfig), ("rig", RigSection),
                       ("calibration", PhaseSection), ("evaluation", PhaseSection)):
