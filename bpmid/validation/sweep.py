@@ -709,7 +709,7 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     _compact_records(out / RECORDS)   # a case rerun (other settings, a rescore) leaves one record, the last
     evaluated = "heldout" if "heldout" in phases else "calibration"
     recs = [done[c.id] for c in halves[evaluated]]
-    summary = summarize(recs, evaluated)
+    summary = summarize(recs, evaluated if split != "pool" else "pool (both halves run as calibration)")
     summary["thresholds_from"] = (
         None if evaluated != "heldout" else str(thresholds_path) if thresholds_path is not None
         else "calibrated in this run on the calibration half (thresholds.yaml)" if "calibration" in phases
@@ -879,7 +879,8 @@ def confusion_markdown(summary: dict) -> str:
              "asymmetric_relaxation": "asym relax", "strain_stiffening": "stiffening", "angle_offset": "offset",
              "thermal_softening": "thermal", "none": "none"}
     judged = summary.get("judged", summary["n_cases"])
-    lines = [f"Confusion matrix, {summary['split']} half ({summary['n_cases']} cases"
+    which = summary["split"] if str(summary["split"]).startswith("pool") else f"{summary['split']} half"
+    lines = [f"Confusion matrix, {which} ({summary['n_cases']} cases"
              + (f", {judged} judged" if judged != summary["n_cases"] else "")
              + "; rows: hidden truth, columns: effect named first)", "",
              "| hidden \\ named | " + " | ".join(short[c] for c in COLUMNS) + " |",
