@@ -371,17 +371,8 @@ def test_a_study_on_a_measured_relaxation_curve_is_not_called_synthetic(tmp_path
     (tmp_path / "mine.csv").write_text("# synthetic: true (my own generator)\nt,E_relax\n1,2\n")
     (tmp_path / "lab.csv").write_text("# operator: A. Person\nt,E_relax\n1,2\n")
     assert file_is_synthetic(tmp_path / "mine.csv") and not file_is_synthetic(tmp_path / "lab.csv")
-    cfg = tmp_path / "m.yaml"
-    cfg.write_text(f"run:\n  relax_logs: [\"{REPO / 'datasets/reference/pyvisco/time_user_master.csv'}\"]\n"
-                   "  stages: [relax]\nrelax:\n  terms: 8\n")
-    res = CliRunner().invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
-    assert res.exit_code == 0, res.output
-    assert yaml.safe_load((tmp_path / "o" / "run.yaml").read_text())["synthetic"] is False
-
-
-def test_a_study_mixing_synthetic_and_measured_logs_is_called_mixed(tmp_path):
-    """A study of measured logs beside bpmid's synthetic ones read 'Data: measured logs' (27 of 37 synthetic in
-    the review that found it): run.yaml counts them and the report names the synthetic ones."""
+    # beside one of bpmid's synthetic motion logs the study is mixed: not called measured (27 of 37 logs synthetic
+    # read 'Data: measured logs' in the review that found it); run.yaml counts them, the report names them
     synth = REPO / "datasets" / "motion" / "fitting_set" / "fit_1p2_1p6_r1.csv"
     cfg = tmp_path / "m.yaml"
     cfg.write_text(f"run:\n  relax_logs: [\"{REPO / 'datasets/reference/pyvisco/time_user_master.csv'}\"]\n"
@@ -393,4 +384,5 @@ def test_a_study_mixing_synthetic_and_measured_logs_is_called_mixed(tmp_path):
     assert run["data_logs"] == {"total": 2, "synthetic": 1, "synthetic_files": [str(synth)]}
     page = " ".join((tmp_path / "o" / "report.md").read_text().split())
     assert "Data: MIXED. 1 of 2 logs" in page and str(synth.parent) in page
-    assert "Data: measured logs" not in page
+    assert "Data: measured logs" not in page and "Data: SYNTHETIC" not in page
+
