@@ -86,8 +86,10 @@ def _vbmm(params, model_cfg):
         return load_vbmm(params, model_cfg), Path(params)
     if isinstance(params, VBMMFitResult):
         return vbmm_from_mapping(params.to_dict(), params.source, model_cfg), params.source
-    if isinstance(params, VBMM):
-        return params, None
+    if isinstance(params, VBMM):   # a config's model section speaks to it as to a fit file's
+        from bpmid.models.vbmm import with_config
+
+        return with_config(params, model_cfg), None
     raise InputError(f"params must be a bpmid.vbmm/1 file, a VBMMFitResult or a VBMM, found {type(params).__name__}",
                      key="params")
 
@@ -251,35 +253,6 @@ def fit_motion(logs, *, init=None, config=None):
     return VBMMFitResult(body, plaus.attach(provenance(inputs, config=cfg), motion, warnings), raw=fit)
 
 
-def _refuse_config_model_conflict(model, cfg, ppath) -> None:
-    """A config whose ``model`` section states a geometry or closure other than the fitted model's is refused:
-    the fitted constants belong to their own muscle and closure, and a prediction must not silently use one and
-    ignore the other. A config that states none (the defaults) says nothing either way."""
-    import math
-
-    import numpy as np
-
-    from bpmid.models.vbmm import Geometry
-
-    def words(g) -> str:
-        return (f"th {g.th * 1e3:.6g} mm, alpha0 {math.degrees(g.alpha0):.6g} deg, R0 {g.R0 * 1e3:.6g} mm, "
-                f"l0 {g.l0 * 1e3:.6g} mm, n {g.n:.6g}")
-
-    mc = cfg.section("model")
-    where = f"the fit {ppath}" if ppath is not None else "the given model"
-    cpath = getattr(cfg, "path", None)
-    stated = not np.allclose(mc.geometry.vector(), Geometry().vector(), rtol=1e-9, atol=0.0)
-    if stated and not np.allclose(mc.geometry.vector(), model.geometry.vector(), rtol=1e-6, atol=0.0):
-        raise InputError(f"the config's model.geometry ({words(mc.geometry)}) differs from {where}'s "
-                         f"({words(model.geometry)}); fitted constants belong to the muscle they were fitted on: "
-                         f"predict another muscle with a fit of that muscle, or remove model.geometry from the config",
-                         path=cpath, key="model.geometry")
-    if mc.closure != "paper" and mc.closure != model.closure:
-        raise InputError(f"the config's model.closure ({mc.closure}) differs from {where}'s ({model.closure}); the "
-                         f"closure is part of the fitted model: remove model.closure from the config or refit with it",
-                         path=cpath, key="model.closure")
-
-
 def predict(logs, params, *, config=None):
     """Run a fitted VBMM free on pressure logs (``bpmid predict``).
 
@@ -302,7 +275,6 @@ def predict(logs, params, *, config=None):
 
     cfg = _config(config)
     model, ppath = _vbmm(params, cfg.section("model"))
-    _refuse_config_model_conflict(model, cfg, ppath)
     if not isinstance(params, VBMM):
         model = augmented_from_file(model, params)  # the fit's effects list acts too (never silently dropped)
     motion, paths = _motion_logs(logs, cfg)

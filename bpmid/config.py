@@ -194,10 +194,20 @@ def build_dataclass(cls: type, data: Any, where: str = "", path=None):
         raise
     except (TypeError, ValueError) as exc:
         raise InputError(str(exc), path=path, key=where or None) from exc
+    try:   # which keys the file gave (a value equal to the default is still a statement): stated_keys()
+        object.__setattr__(obj, "_stated", frozenset(str(k) for k in data))
+    except (AttributeError, TypeError):   # pragma: no cover - a class with slots
+        pass
     check = getattr(obj, "validate", None)
     if callable(check):
         check(where, path)
     return obj
+
+
+def stated_keys(obj) -> frozenset:
+    """The keys a config file gave for the section ``obj`` (built by :func:`build_dataclass`); empty for
+    defaults. A setting the user wrote out, even at its default value, must not be silently overridden."""
+    return getattr(obj, "_stated", frozenset())
 
 
 def _unit_keys(data: dict, aliases: dict, where: str, path) -> dict:

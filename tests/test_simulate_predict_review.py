@@ -169,3 +169,44 @@ def test_a_pressure_beyond_a_float_names_its_line(tmp_path):
                             "--out", str(tmp_path / "o")])
     assert r.exit_code == 2 and "huge.csv:3" in r.output and "too large" in r.output
     assert "RuntimeWarning" not in r.output
+
+
+def test_a_config_stating_the_papers_muscle_or_closure_is_not_ignored_for_another_fit(tmp_path):
+    """A config that wrote out the paper's geometry or `closure: paper` was taken for no statement at all (only
+    values other than the defaults were compared), so a fit of another muscle ran without a word; control and
+    discover --init ignored any config geometry."""
+    other = tmp_path / "other.yaml"
+    other.write_text((TRUTH % ("6434000.0", "13645000.0")).replace("R0: 0.01673", "R0: 0.012")
+                     .replace("closure: paper", "closure: consistent"))
+    log = tmp_path / "g.csv"
+    log.write_text("time_s,pressure_kpa,angle_deg\n" + "".join(f"{x / 10:.1f},{30 + x:.1f},10\n" for x in range(40)))
+    cfg = tmp_path / "paper.yaml"
+    for body, key in (("model: {geometry: {th_mm: 2, alpha0_deg: 30, R0_mm: 16.73, l0_mm: 195.9, n: 7.43}}\n",
+                       "model.geometry"), ("model: {closure: paper}\n", "model.closure")):
+        cfg.write_text(body + "io: {pressure_reference: gauge}\n")
+        r = runner.invoke(app, ["predict", str(log), "--params", str(other), "--config", str(cfg),
+                                "--out", str(tmp_path / "o")])
+        assert r.exit_code == 2 and key in r.output, r.output
+    cfg.write_text("model: {geometry: {th_mm: 2.5, alpha0_deg: 28, R0_mm: 12, l0_mm: 150, n: 6}}\n")
+    r = runner.invoke(app, ["control", "--params", str(_truth(tmp_path)), "--config", str(cfg), "--reference",
+                            "steps", "--out", str(tmp_path / "c")])
+    assert r.exit_code == 2 and "model.geometry" in r.output and not (tmp_path / "c").exists()
+    case = ROOT / "datasets" / "discovery" / "case_01"
+    r = runner.invoke(app, ["discover", *map(str, sorted(case.glob("train_*.csv"))), "--init",
+                            str(_truth(tmp_path)), "--config", str(cfg), "--out", str(tmp_path / "d")])
+    assert r.exit_code == 2 and "model.geometry" in r.output and not (tmp_path / "d").exists()
+
+
+def test_a_vbmm_object_runs_with_the_configs_history_mode(tmp_path):
+    import bpmid
+    from bpmid.models.vbmm import load_vbmm
+
+    log = tmp_path / "g.csv"
+    log.write_text("time_s,pressure_kpa\n" + "".join(f"{x / 10:.1f},{30 + 20 * (x % 20 > 9):.1f}\n" for x in range(80)))
+    cfg = tmp_path / "w.yaml"
+    cfg.write_text("model: {history: window, window_s: 0.3}\nio: {pressure_reference: gauge}\n")
+    params = _truth(tmp_path)
+    by_file = bpmid.predict([log], params, config=cfg)
+    by_object = bpmid.predict([log], load_vbmm(params), config=cfg)   # it ran the exact history: 8 deg apart
+    assert by_object.body["model"]["history"] == "window" and by_object.body["model"]["window_s"] == 0.3
+    assert np.array_equal(by_object.predictions["g"], by_file.predictions["g"])

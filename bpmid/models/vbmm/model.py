@@ -615,7 +615,37 @@ def vbmm_from_mapping(data: dict, path=None, cfg: VBMMConfig | None = None) -> V
     material = material_from_yaml(data, path)
     if not isinstance(closure, str) or closure not in _CLOSURES:
         raise InputError(f"unknown closure {closure!r} (paper or consistent)", path=path, key="closure")
-    return VBMM(material=material, geometry=geometry, closure=closure, history=cfg.history, window_s=cfg.window_s)
+    model = VBMM(material=material, geometry=geometry, closure=closure, history=cfg.history, window_s=cfg.window_s)
+    return with_config(model, cfg, f"the fit {path}" if path is not None else "the given fit")
+
+
+def with_config(model: VBMM, cfg: VBMMConfig | None, where: str = "the given model") -> VBMM:
+    """``model`` under a config's section ``model``: a geometry or closure the config states (even at the
+    paper's values) must be the model's own, else InputError (fitted constants belong to the muscle and closure
+    they were fitted with; one of the two must not be silently ignored); a history mode or window it states is
+    applied (evaluation settings)."""
+    from bpmid.config import stated_keys
+
+    if cfg is None:
+        return model
+    stated = stated_keys(cfg)
+
+    def words(g) -> str:
+        return (f"th {g.th * 1e3:.9g} mm, alpha0 {math.degrees(g.alpha0):.9g} deg, R0 {g.R0 * 1e3:.9g} mm, "
+                f"l0 {g.l0 * 1e3:.9g} mm, n {g.n:.9g}")
+
+    if "geometry" in stated and not np.allclose(cfg.geometry.vector(), model.geometry.vector(), rtol=1e-6, atol=0.0):
+        raise InputError(f"the config's model.geometry ({words(cfg.geometry)}) differs from {where}'s "
+                         f"({words(model.geometry)}); fitted constants belong to the muscle they were fitted on: "
+                         f"use a fit of this muscle, or remove model.geometry from the config", key="model.geometry")
+    if "closure" in stated and cfg.closure != model.closure:
+        raise InputError(f"the config's model.closure ({cfg.closure}) differs from {where}'s ({model.closure}); the "
+                         f"closure is part of the fitted model: remove model.closure from the config or refit with it",
+                         key="model.closure")
+    if stated & {"history", "window_s"}:
+        model = model.replace(history=cfg.history if "history" in stated else model.history,
+                              window_s=cfg.window_s if "window_s" in stated else model.window_s)
+    return model
 
 
 def starting_vbmm(init=None, cfg: VBMMConfig | None = None) -> tuple[VBMM, str, Path | None]:
@@ -681,5 +711,5 @@ def triangle_pressure(t: np.ndarray, p_lo: float, p_hi: float, rate: float) -> n
 
 
 __all__: Sequence[str] = ["Geometry", "Material", "VBMM", "VBMMConfig", "kinematics", "u3_from_beta",
-                          "closure_pressure", "load_vbmm", "vbmm_from_mapping", "starting_vbmm", "material_params",
+                          "closure_pressure", "load_vbmm", "vbmm_from_mapping", "with_config", "starting_vbmm", "material_params",
                           "material_yaml", "FIT_BOUNDS", "DISCOVERY_BOUNDS", "vbmm_yaml_body", "material_from_yaml"]
