@@ -210,3 +210,15 @@ def test_a_vbmm_object_runs_with_the_configs_history_mode(tmp_path):
     by_object = bpmid.predict([log], load_vbmm(params), config=cfg)   # it ran the exact history: 8 deg apart
     assert by_object.body["model"]["history"] == "window" and by_object.body["model"]["window_s"] == 0.3
     assert np.array_equal(by_object.predictions["g"], by_file.predictions["g"])
+
+
+def test_one_rule_says_a_file_is_synthetic(tmp_path):
+    """A log saying only '# generator: bpmid simulate' was synthetic to run.yaml's count and measured to predict."""
+    from bpmid.io.motion_logs import is_synthetic
+
+    for head, truth in (("# generator: bpmid simulate (protocol x)\n", True), ("# synthetic: false\n", False),
+                        ("# source: bpmid digital twin\n", True), ("# operator: A. Person\n", False)):
+        p = tmp_path / "g.csv"
+        p.write_text(head + "# pressure_reference: gauge\ntime_s,pressure_kpa,angle_deg\n0,20,10\n0.1,21,10.5\n")
+        assert file_is_synthetic(p) is truth
+        assert is_synthetic([read_motion_log(p, require_angle=True)]) is truth

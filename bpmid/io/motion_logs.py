@@ -284,13 +284,8 @@ def is_synthetic(logs: Sequence[MotionLog]) -> bool:
     """True when every log says it is synthetic (a ``# synthetic: true`` line, or a ``# source:``/``# generator:``
     line naming bpmid's twin) or lives in bpmid's own shipped ``datasets`` folder (not ``reference``)."""
     def one(lg: MotionLog) -> bool:
-        meta = {str(k).strip().lower(): str(v).strip().lower() for k, v in (lg.meta or {}).items()}
-        if "synthetic" in meta:  # "# synthetic: true (bpmid digital twin; not a measurement)"
-            words = meta["synthetic"].replace("(", " ").split()
-            return bool(words) and words[0] in ("true", "yes", "1")
-        if any(("twin" in meta.get(k, "") or "synthetic" in meta.get(k, "")) for k in ("source", "generator")):
-            return True
-        return lg.path is not None and _in_shipped_datasets(lg.path)
+        said = _header_says_synthetic((lg.meta or {}).items())
+        return said if said is not None else lg.path is not None and _in_shipped_datasets(lg.path)
     return bool(logs) and all(one(lg) for lg in logs)
 
 
@@ -327,20 +322,28 @@ def file_is_synthetic(path: str | Path) -> bool:
             head = [fh.readline() for _ in range(40)]
     except OSError:
         head = []
+    pairs = []
     for line in head:
-        s = line.strip().lstrip("#").strip().lower()
-        if not line.lstrip().startswith("#"):
-            continue
-        key, sep, val = s.partition(":")
-        if not sep:
-            continue
-        key, val = key.strip(), val.strip()
-        if key == "synthetic":
+        if line.lstrip().startswith("#"):
+            key, sep, val = line.strip().lstrip("#").strip().partition(":")
+            if sep:
+                pairs.append((key, val))
+    said = _header_says_synthetic(pairs)
+    return said if said is not None else _in_shipped_datasets(path)
+
+
+def _header_says_synthetic(pairs) -> bool | None:
+    """The one rule on a file's ``# key: value`` lines: ``synthetic: true|false`` decides; else a ``source`` or
+    ``generator`` naming bpmid's twin, ``synthetic`` or ``bpmid simulate`` says synthetic; else None (not said)."""
+    meta = [(str(k).strip().lower(), str(v).strip().lower()) for k, v in pairs]
+    for key, val in meta:
+        if key == "synthetic":   # "# synthetic: true (bpmid digital twin; not a measurement)"
             words = val.replace("(", " ").split()
             return bool(words) and words[0] in ("true", "yes", "1")
+    for key, val in meta:
         if key in ("source", "generator") and ("twin" in val or "synthetic" in val or "bpmid simulate" in val):
             return True
-    return _in_shipped_datasets(path)
+    return None
 
 
 def pressure_column_name(unit: str) -> str:
