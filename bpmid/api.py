@@ -362,7 +362,8 @@ def discover(logs, *, holdout=None, init=None, config=None):
     res = _discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
     body = res.to_yaml()
     body["base_from"] = base_from
-    prov = provenance(list(paths) + list(ho_paths) + ([init_path] if init_path else []), config=cfg)
+    prov = provenance(list(paths) + list(ho_paths) + ([init_path] if init_path else [])
+                      + ([Path(res.thresholds_file)] if res.thresholds_file else []), config=cfg)
     return DiscoveryResult(body, prov, raw=res)
 
 

@@ -455,7 +455,8 @@ def stage_discover(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     base = starting_vbmm(ctx.get("vbmm_fit"), config.section("model"))[0]
     base_from = "vbmm_fit.yaml (motion fit of this run)" if ctx.get("vbmm_fit") else "paper VBMM-fit constants"
     result = discover(fit_logs, base, holdout=ho, cfg=config.section("discover"))
-    inputs = inp.discover_logs + inp.discover_holdout + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
+    inputs = inp.discover_logs + inp.discover_holdout + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else []) \
+        + ([Path(result.thresholds_file)] if result.thresholds_file else [])   # the gate's file is an input too
     written = write_discovery(out / "discover", result, _prov(inputs, config, ctx["seed"], ctx["command"]),
                               base_from=base_from)
     return [f"discover/{name}" for name in written if not name.endswith(".png")]

@@ -58,10 +58,21 @@ def test_uninterrupted_sweep_writes_records_thresholds_tables_answers(full_run):
 def test_interrupted_sweep_resumes_to_the_same_records(full_run, tmp_path):
     out_full, _ = full_run
     cfg = load_sweep(TINY)
-    res = run_sweep(cfg, tmp_path, workers=2, processes=False, stop_after=2)
-    assert not res.complete
+    said, seen = [], []
+
+    def progress(msg):   # a Ctrl-C right after the second record was written
+        seen.append(msg)
+        if sum(m.startswith("[") for m in seen) == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(cfg, tmp_path, workers=2, processes=False, progress=progress, warn=said.append)
     lines = (tmp_path / RECORDS).read_text().splitlines()
     assert len(lines) == 2
+    # it says what it kept (the count once left out the running half's records) and how to go on
+    assert any("interrupted: the 2 finished case(s) are kept" in m and "rerun the same command" in m for m in said)
+    res = run_sweep(cfg, tmp_path, workers=2, processes=False, stop_after=0)   # the other way to stop: at once
+    assert not res.complete and len((tmp_path / RECORDS).read_text().splitlines()) == 2
     with open(tmp_path / RECORDS, "a") as fh:  # a write torn by the interruption
         fh.write('{"id": "tiny-00')
     res2 = run_sweep(cfg, tmp_path, workers=2, processes=False)
@@ -403,3 +414,4 @@ def test_cli_refuses_a_local_cluster_size_beside_an_existing_cluster(tmp_path):
                                  "tcp://127.0.0.1:1", "--workers", "2"])
     assert r.exit_code == 2 and "--workers" in r.output and "give one or the other" in r.output
     assert not (tmp_path / "o").exists()
+

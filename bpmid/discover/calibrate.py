@@ -117,9 +117,9 @@ SCHEMA = "bpmid.discover-thresholds/1"
 def load_thresholds(path: str | Path | None = None) -> dict:
     """The calibrated thresholds (:data:`THRESHOLD_KEYS`)."""
     path = Path(path) if path else THRESHOLDS_PATH
-    from bpmid.io.yamlsafe import loads
+    from bpmid.io.yamlsafe import load_file
 
-    data = loads(path.read_text("utf-8"), path=path)
+    data, _raw = load_file(path, "thresholds file")   # not found, not UTF-8, bad YAML: exit 2 naming the file
     from bpmid.errors import InputError
     if not isinstance(data, dict) or data.get("schema") != SCHEMA:
         raise InputError(f"not a {SCHEMA} file (a thresholds file written by bpmid calibrate or "

@@ -697,7 +697,12 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
         raise
     except BaseException as exc:   # Ctrl-C, a lost scheduler or worker: what is kept and how to go on
         what = "interrupted" if isinstance(exc, KeyboardInterrupt) else f"stopped ({type(exc).__name__}: {exc})"
-        warn(f"sweep {what}: the {len(done)} finished case(s) are kept in {out / RECORDS}; rerun the same command "
+        try:   # what the file holds (the running half's records are not in `done` yet)
+            writer.fh.flush()
+            kept = len({r["id"] for r in read_records(out / RECORDS)})
+        except Exception:   # pragma: no cover - the count is a courtesy
+            kept = len(done)
+        warn(f"sweep {what}: the {kept} finished case(s) are kept in {out / RECORDS}; rerun the same command "
              f"to resume from them")
         raise
     finally:
