@@ -415,3 +415,19 @@ def test_cli_refuses_a_local_cluster_size_beside_an_existing_cluster(tmp_path):
     assert r.exit_code == 2 and "--workers" in r.output and "give one or the other" in r.output
     assert not (tmp_path / "o").exists()
 
+
+
+def test_a_port_that_is_no_scheduler_is_refused_not_waited_on(tmp_path, monkeypatch):
+    """A port that accepts but never speaks Dask (a scheduler's dashboard, a web server) hung past 290 s."""
+    import socket
+
+    from bpmid.errors import InputError
+    from bpmid.validation import sweep
+
+    monkeypatch.setattr(sweep, "CONNECT_WAIT_S", 0.5)
+    with socket.socket() as srv:   # accepts connections (the kernel's backlog) and never answers
+        srv.bind(("127.0.0.1", 0))
+        srv.listen(4)
+        with pytest.raises(InputError) as e:
+            run_sweep(load_sweep(TINY), tmp_path / "o", scheduler=f"tcp://127.0.0.1:{srv.getsockname()[1]}")
+    assert "no Dask scheduler answered within 0.5 s" in str(e.value) and not (tmp_path / "o").exists()

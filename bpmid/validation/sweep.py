@@ -484,11 +484,7 @@ def _client(scheduler: Optional[str], workers: Optional[int], processes: bool):
         what_to_do = (f"check the address (tcp://HOST:8786, as `dask scheduler` prints it), start a scheduler there "
                       f"(`dask scheduler`) with workers (`dask worker tcp://HOST:8786`, in an environment where bpmid "
                       f"is installed), or leave out --scheduler to run on a LocalCluster on this machine")
-        try:
-            client = Client(scheduler, timeout="10s")
-        except Exception as exc:   # a malformed address is a ValueError, an unreachable one an OSError/TimeoutError
-            raise InputError(f"cannot connect to the Dask scheduler at {scheduler!r} ({type(exc).__name__}: {exc}): "
-                             f"{what_to_do}", key="--scheduler") from None
+        client = _connect(Client, scheduler, what_to_do)
         try:
             _check_workers(client, scheduler)
         except BaseException:
@@ -503,6 +499,35 @@ def _client(scheduler: Optional[str], workers: Optional[int], processes: bool):
 
 #: how long an existing cluster may take to show its first worker (s)
 WORKER_WAIT_S = 60.0
+#: how long connecting to a scheduler may take in all (s): a port that accepts the connection but is no Dask
+#: scheduler (its dashboard, a web server) never answers the handshake, and the client's own timeout does not end it
+CONNECT_WAIT_S = 20.0
+
+
+def _connect(Client, scheduler: str, what_to_do: str):
+    """``Client(scheduler)`` within :data:`CONNECT_WAIT_S`, else InputError naming the address and what to do."""
+    import threading
+
+    box: dict = {}
+
+    def go():
+        try:
+            box["client"] = Client(scheduler, timeout="10s")
+        except BaseException as exc:   # noqa: BLE001 - reported below
+            box["error"] = exc
+
+    th = threading.Thread(target=go, name="bpmid-connect", daemon=True)
+    th.start()
+    th.join(CONNECT_WAIT_S)
+    if "client" in box:
+        return box["client"]
+    exc = box.get("error")
+    why = (f"{type(exc).__name__}: {exc}" if exc is not None else
+           f"no Dask scheduler answered within {CONNECT_WAIT_S:g} s: is it the scheduler's port (8786 by default), not "
+           f"its dashboard's?")
+    # a malformed address is a ValueError, an unreachable one an OSError/TimeoutError
+    raise InputError(f"cannot connect to the Dask scheduler at {scheduler!r} ({why}): {what_to_do}",
+                     key="--scheduler") from None
 
 
 def _check_workers(client, scheduler: str) -> None:
