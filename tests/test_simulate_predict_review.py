@@ -89,6 +89,13 @@ def test_an_unread_pressure_unit_is_converted_never_relabelled(tmp_path):
     out = " ".join(r.output.split())
     assert r.exit_code == 2 and "convert the column to kPa first" in out and "0.249089" in out
     assert "--columns" not in out          # relabelling it as kPa read inH2O numbers as kPa: 218 deg for 68
+    for unit, factor in (("mm Hg", "0.133322"), ("in. H2O", "0.249089"), ("N/mm2", "1000"), ("kgf/cm^2", "98.0665"),
+                         ("Torr abs", "0.133322"), ("mmHg g", "0.133322")):   # other spellings of them
+        log.write_text(f"time_s,Pressure ({unit})\n0,300\n0.1,301\n")
+        r = runner.invoke(app, ["predict", str(log), "--params", str(_truth(tmp_path)), "--out", str(tmp_path / "o"),
+                                "--pressure-reference", "gauge"])
+        out = " ".join(r.output.split())
+        assert r.exit_code == 2 and f"multiply the values by {factor}" in out and "--columns" not in out, unit
     # a unit bpmid does not know at all: the map is offered only for values that are in fact in kPa
     log.write_text("time_s,Pressure (kPascal)\n" + "".join(f"{x:.1f},{30 + x:.3f}\n" for x in t))
     r = runner.invoke(app, ["predict", str(log), "--params", str(_truth(tmp_path)), "--out", str(tmp_path / "o"),
@@ -222,3 +229,13 @@ def test_one_rule_says_a_file_is_synthetic(tmp_path):
         p.write_text(head + "# pressure_reference: gauge\ntime_s,pressure_kpa,angle_deg\n0,20,10\n0.1,21,10.5\n")
         assert file_is_synthetic(p) is truth
         assert is_synthetic([read_motion_log(p, require_angle=True)]) is truth
+
+
+def test_simulate_with_a_fit_refuses_a_protocol_closure_it_would_drop(tmp_path):
+    proto = tmp_path / "c.yaml"
+    proto.write_text((PROTO % "1.01325") + "plant: {closure: consistent}\n")
+    r = runner.invoke(app, ["simulate", str(proto), "--params", str(_truth(tmp_path)), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and "plant.closure" in r.output and not (tmp_path / "o").exists()
+    proto.write_text((PROTO % "1.01325") + "plant: {closure: paper, material: paper_mat}\n")   # the fit's own: fine
+    r = runner.invoke(app, ["simulate", str(proto), "--params", str(_truth(tmp_path)), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output

@@ -431,3 +431,15 @@ def test_a_port_that_is_no_scheduler_is_refused_not_waited_on(tmp_path, monkeypa
         with pytest.raises(InputError) as e:
             run_sweep(load_sweep(TINY), tmp_path / "o", scheduler=f"tcp://127.0.0.1:{srv.getsockname()[1]}")
     assert "no Dask scheduler answered within 0.5 s" in str(e.value) and not (tmp_path / "o").exists()
+
+
+def test_a_built_in_rig_geometry_is_read_as_written(tmp_path):
+    from bpmid.errors import InputError
+
+    p = tmp_path / "rig.yaml"
+    p.write_text("sweep: {name: m, seed: 1}\ngenerator: {n_cases: 2}\nrig: {geometry: PAPER}\n")
+    assert load_sweep(p).effective_generator.geometries == ("paper",)
+    p.write_text("sweep: {name: m, seed: 1}\ngenerator: {n_cases: 2}\nrig: {geometry: mine}\n")
+    with pytest.raises(InputError) as e:
+        load_sweep(p)
+    assert e.value.key == "rig.geometry"

@@ -399,6 +399,8 @@ class DiscoveryResult:
     per_log_gain: object = True   # True/False or the LogNuisance that scored the held-out logs
     #: the thresholds file the gate came from (None: the shipped calibration, bpmid/discover/thresholds.yaml)
     thresholds_file: Optional[str] = None
+    #: the gate's keys a config's discover section (or a calibration) set over the file's
+    overridden: tuple = ()
 
     @property
     def noise_floor_deg(self) -> float:
@@ -445,7 +447,8 @@ class DiscoveryResult:
             "verdict": self.verdict,
             "gate": gate_in_words(self.thresholds),
             "thresholds_from": (self.thresholds_file or "bpmid's shipped calibration (bpmid/discover/thresholds.yaml)")
-            + " and the config's discover overrides, if any",
+            + (f"; the config's discover section sets {', '.join(self.overridden)}" if self.overridden
+               else "; no config override"),
             "noise_floor": {"method": self.noise.get("method", ""),
                             "sigma_deg": round(floor, 4),
                             "noise_lag1_correlation": round(float(self.noise.get("rho", 0.0)), 3),
@@ -1013,7 +1016,10 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                            noise, cfg.unexplained_gap_sigma, final=state)
     return DiscoveryResult(named, rounds, noise, base_state, state, list(fit_logs), list(ho_logs), before, after,
                            thr, unexplained, verdict, how, time.perf_counter() - t0, variation, base_report,
-                           raw_before, raw_after, base_gain, thresholds_file=cfg.thresholds_file)
+                           raw_before, raw_after, base_gain, thresholds_file=cfg.thresholds_file,
+                           overridden=tuple(sorted({k for k in GATE_KEYS if getattr(cfg, k, None) is not None}
+                                                   | ({BY_EFFECT_KEY} if cfg.to_floor_drop_by_effect is not None
+                                                      else set()) | {k for k in (thresholds or {}) if k in thr})))
 
 
 def log_to_log_variation(state: ModelState, ho_logs: Sequence[MotionLog], after: float, floor: float,

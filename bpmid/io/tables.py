@@ -787,7 +787,20 @@ _UNREAD_PRESSURE_UNITS = {"inh2o": 249.08891, "inwc": 249.08891, "in h2o": 249.0
                           "mmh2o": 9.80665, "mh2o": 9806.65, "torr": 133.322368, "mmhg": 133.322368,
                           "inhg": 3386.389, "atm": 101325.0, "kgf/cm2": 98066.5, "kgf/cm²": 98066.5,
                           "kg/cm2": 98066.5, "kg/cm²": 98066.5, "ksi": 6894757.293168, "n/m2": 1.0, "n/m²": 1.0,
-                          "mpsi": 6.894757293168}
+                          "mpsi": 6.894757293168, "fth2o": 2989.06692, "n/mm2": 1e6, "n/mm²": 1e6,
+                          "n/cm2": 1e4, "n/cm²": 1e4}
+
+
+def _unread_pressure_unit(unit: str) -> str | None:
+    """The key of :data:`_UNREAD_PRESSURE_UNITS` a stated unit spells (``mm Hg``, ``in. H2O``, ``kgf/cm^2``,
+    ``Torr abs``, ``mmHg g``), or None."""
+    u = re.sub(r"[\s.^]", "", str(unit).lower())
+    if u in _UNREAD_PRESSURE_UNITS:
+        return u
+    for ref in ("absolute", "gauge", "gage", "abs", "rel", "a", "g"):
+        if u.endswith(ref) and u[:-len(ref)] in _UNREAD_PRESSURE_UNITS:
+            return u[:-len(ref)]
+    return None
 
 #: a line of separators only (a spreadsheet's empty row: ',,', ';;'): a blank line
 _EMPTY_ROW = re.compile(r"^[\s,;|]*$")
@@ -1502,8 +1515,8 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
             bad = np.flatnonzero(~np.isfinite(arr))
             if bad.size:   # finite as written, beyond a float in SI (1e308 kPa): name the cell, not numpy
                 k = int(bad[0])
-                raise InputError(f"column {h!r}: {vals[k]!r} {unit} is too large to be a {q} (beyond a float in SI "
-                                 f"units)", path=where, line=lines[k] if k < len(lines) else None, key=h)
+                raise InputError(f"column {h!r}: {vals[k]!r} {unit} is too large to be {'an' if q[0] in 'aeiou' else 'a'} {q} "
+                                 f"(beyond a float in SI units)", path=where, line=lines[k] if k < len(lines) else None, key=h)
             col_info_extra = {}
             if unit in EPOCH_UNITS:
                 import datetime as _dt
@@ -1654,8 +1667,9 @@ def _unknown_unit_hint(q: str, h: str, unit: str, unit_from: str | None) -> str:
     if q == "angle" and unit == "grad":
         out += ("; 'grad' is the degree in German but the gradian (400 to a turn) in English, so bpmid does not "
                 "read it either way: write deg or gon")
-    if q in ("pressure", "ambient") and unit in _UNREAD_PRESSURE_UNITS:
-        kpa = _UNREAD_PRESSURE_UNITS[unit] / 1e3
+    unread = _unread_pressure_unit(unit) if q in ("pressure", "ambient") else None
+    if unread is not None:
+        kpa = _UNREAD_PRESSURE_UNITS[unread] / 1e3
         return (f"; bpmid does not read {unit!r}: convert the column to kPa first (1 {unit} = {kpa:.6g} kPa; "
                 f"multiply the values by {kpa:.6g}) and name it {BPMID_NAME[q]}, or to another unit it reads. "
                 f"Do not only rename or map the column: its numbers would then be read as kPa")

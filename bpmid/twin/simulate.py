@@ -141,6 +141,14 @@ def _base_model(proto: Protocol, params_path) -> tuple[VBMM, dict]:
         refuse_effects_list(params_path, "bpmid simulate --params",
                             "inject them with --effect ID:key=value or the protocol's effects section")
         model = load_vbmm(params_path)
+        from bpmid.config import stated_keys
+
+        if "closure" in stated_keys(proto.plant) and proto.plant.closure != model.closure:
+            # --params replaces the protocol's material preset (documented), never silently its closure
+            raise InputError(f"the protocol's plant.closure ({proto.plant.closure}) differs from the fit "
+                             f"{params_path}'s ({model.closure}); the closure is part of the fitted model: remove "
+                             f"plant.closure from the protocol, or simulate with a fit made with that closure",
+                             path=proto.path, key="plant.closure")
         return model, {"params_file": str(params_path)}
     material = Material.paper_fit() if proto.plant.material == "paper_fit" else Material.paper_mat()
     return VBMM(material=material, closure=proto.plant.closure), {"material_preset": proto.plant.material}

@@ -202,6 +202,12 @@ def load_sweep(path: str | Path) -> SweepConfig:
             if isinstance(rig.get(k), str):
                 rig[k] = rig[k].strip().lower()
         geo = rig.get("geometry")
+        if isinstance(geo, str):   # a built-in name, as written (PAPER is paper), refused under the user's key
+            from bpmid.validation.generator import GEOMETRIES
+            rig["geometry"] = geo = geo.strip().lower()
+            if geo not in GEOMETRIES:
+                raise InputError(f"unknown geometry {geo!r} (built in: {', '.join(GEOMETRIES)}; or give a mapping "
+                                 "name, th_mm, alpha0_deg, R0_mm, l0_mm, n)", path=path, key="rig.geometry")
         if isinstance(geo, dict):   # a mapping: every key named when one is missing (not a Python signature)
             need = ("name", "th_mm", "alpha0_deg", "R0_mm", "l0_mm", "n")
             missing = [k for k in need if k not in geo]
@@ -782,8 +788,9 @@ def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_re
         why = next((str(r.get("error")) for r in recs if r.get("error")), "no calibration case was drawn")
         raise InputError(f"no calibration case could be judged ({len(recs)} run, {n_err} declined or failed; the "
                          f"first: {why[:300]}): thresholds calibrated on nothing would mean nothing, so none are "
-                         f"written. Make the rig's logs long and fast enough for discovery (rig.sampling_hz, the "
-                         f"protocol durations) or draw more cases (generator.n_cases); records.jsonl keeps the cases",
+                         f"written. Make the logs long and fast enough for discovery (rig.sampling_hz, "
+                         f"generator.duration_scale), or ask discovery less (calibration.discover: min_fit_samples, "
+                         f"min_log_samples), or draw more cases (generator.n_cases); records.jsonl keeps the cases",
                          path=cfg.path, key="generator")
     records = [r for rec in judged for r in case_records(rec)]
     values = thresholds_from_records(records, [q for rec in judged for q in pair_records(rec)])
