@@ -5,21 +5,8 @@ worker that starts a test after a kernel was cached reads it. It decides nothing
 compiled by the worker as before."""
 from __future__ import annotations
 
-import os
-import sys
-
 
 def warm() -> None:
-    try:
-        _warm()
-    finally:   # the workers wait for this file (conftest), whatever happened here
-        if len(sys.argv) > 1:
-            with open(sys.argv[1] + ".tmp", "w") as fh:
-                fh.write("done\n")
-            os.replace(sys.argv[1] + ".tmp", sys.argv[1])
-
-
-def _warm() -> None:
     import numpy as np
 
     from bpmid.discover.rivals import RIVALS
@@ -46,25 +33,6 @@ def _warm() -> None:
         ref = builtin_reference("steps")
         short = type(ref)(ref.name, ref.time_s[:30], ref.angle_deg[:30])
         run_control(base, build_plant(base, cfg=cfg), [short], cfg, measure_cost=False)
-    except Exception:
-        pass
-    try:       # the baselines' operator kernels (plays, stops, first-order lags), through the registry
-        from bpmid.io.motion_logs import MotionLog
-        from bpmid.models import REGISTRY, model_class
-
-        log = MotionLog("warm", t, p - 1e5 * 0.1, 30.0 * np.ones_like(t))
-        for name in REGISTRY:
-            try:
-                m = model_class(name)()
-                m.simulate(m.default_params(), log)
-            except Exception:
-                pass
-    except Exception:
-        pass
-    try:       # the out-of-family generator's continuous-time muscle (bpmid.validation.physics)
-        from bpmid.validation.generator import make_cases, realize
-
-        realize(make_cases({"n_cases": 1, "mix": {"single": 1.0}, "duration_scale": 0.05}, seed=1)[0])
     except Exception:
         pass
     try:       # the relaxation fit's hereditary kernels

@@ -96,8 +96,6 @@ def pytest_configure_node(node):
     if not hasattr(cfg, "_bpmid_groups_dir"):
         cfg._bpmid_groups_dir = tempfile.mkdtemp(prefix="bpmid-xdist-groups-")
     node.workerinput[_GROUPS_KEY] = cfg._bpmid_groups_dir
-    if getattr(cfg, "_bpmid_warm_done", None):
-        node.workerinput[_WARM_KEY] = cfg._bpmid_warm_done
 
 
 def pytest_configure(config):
@@ -107,37 +105,12 @@ def pytest_configure(config):
         return
     import subprocess
     import sys
-    import tempfile
 
-    config._bpmid_warm_done = os.path.join(tempfile.mkdtemp(prefix="bpmid-warm-"), "done")
-    config._bpmid_warm = subprocess.Popen([sys.executable, os.path.join(os.path.dirname(__file__), "_warm_numba.py"),
-                                           config._bpmid_warm_done],
+    config._bpmid_warm = subprocess.Popen([sys.executable, os.path.join(os.path.dirname(__file__), "_warm_numba.py")],
                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                           env={**os.environ, "PYTHONPATH": os.pathsep.join(
                                               [REPO] + [x for x in os.environ.get("PYTHONPATH", "").split(os.pathsep)
                                                         if x])})
-
-
-#: workerinput key: the file the warm-up writes when numba's cache is filled
-_WARM_KEY = "bpmid_warm_done"
-#: the longest a worker waits for it (s): past this it runs its tests and compiles what it needs, as before
-WARM_WAIT_S = 60.0
-
-
-@pytest.hookimpl(hookwrapper=True)
-def pytest_runtestloop(session):
-    """On a worker: wait for the warm-up to fill numba's cache (about 15 s on 2 cores from a fresh clone, in part
-    while the worker collects) before the first test. Without the wait both workers and the warm-up compiled the
-    same kernels at once, three processes on two cores (a fresh clone's tests took 17-19 s longer than warm ones).
-    It decides nothing: a kernel the warm-up did not cache is compiled by the worker as before."""
-    done = getattr(session.config, "workerinput", {}).get(_WARM_KEY)
-    if done:
-        import time
-
-        t0 = time.monotonic()
-        while not os.path.exists(done) and time.monotonic() - t0 < WARM_WAIT_S:
-            time.sleep(0.1)
-    yield
 
 
 def pytest_unconfigure(config):
@@ -145,11 +118,6 @@ def pytest_unconfigure(config):
     if warm is not None and warm.poll() is None:
         warm.kill()
         warm.wait()
-    done = getattr(config, "_bpmid_warm_done", None)
-    if done:
-        import shutil
-
-        shutil.rmtree(os.path.dirname(done), ignore_errors=True)
     folder = getattr(config, "_bpmid_groups_dir", None)
     if folder:
         import shutil
