@@ -16,17 +16,9 @@ def warm() -> None:
 
     t = np.arange(0.0, 20.0, 0.1)
     p = 1e5 * (0.2 + 0.4 * np.abs(np.sin(t / 3.0)))
-    for closure in ("paper", "consistent"):
-        for history in ("recursive", "window", "full"):
-            VBMM(material=Material.paper_fit(), closure=closure, history=history).forward_deg(t, p)
     base = VBMM(material=Material.paper_fit())
-    effects = [get_effect(e) for e in CATALOGUE] + [R() for R in RIVALS]
-    for e in effects:
-        try:   # each kernel on its own: one that fails here is compiled by the worker that needs it, as before
-            AugmentedVBMM(base, (e,), e.default_params()).simulate_deg(t, p)
-        except Exception:
-            pass
-    try:       # the closed loop's kernels (13 s to compile; the study fixtures of both workers run the control stage)
+    try:       # first: the closed loop's kernels (13 s to compile), which the study fixtures of both workers reach
+               # in their control stage some 10-15 s in (compiled later here, they were compiled there too)
         from bpmid.control import ControlConfig, build_plant, builtin_reference, run_control
 
         cfg = ControlConfig()
@@ -35,6 +27,15 @@ def warm() -> None:
         run_control(base, build_plant(base, cfg=cfg), [short], cfg, measure_cost=False)
     except Exception:
         pass
+    for closure in ("paper", "consistent"):
+        for history in ("recursive", "window", "full"):
+            VBMM(material=Material.paper_fit(), closure=closure, history=history).forward_deg(t, p)
+    effects = [get_effect(e) for e in CATALOGUE] + [R() for R in RIVALS]
+    for e in effects:
+        try:   # each kernel on its own: one that fails here is compiled by the worker that needs it, as before
+            AugmentedVBMM(base, (e,), e.default_params()).simulate_deg(t, p)
+        except Exception:
+            pass
     try:       # the relaxation fit's hereditary kernels
         import glob
         import os
