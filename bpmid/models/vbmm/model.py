@@ -670,7 +670,23 @@ def starting_vbmm(init=None, cfg: VBMMConfig | None = None) -> tuple[VBMM, str, 
         data = read_result(path, ("bpmid.vbmm/", "bpmid.relax/"))
     schema = str(data.get("schema"))
     if schema.startswith("bpmid.vbmm/"):
-        return vbmm_from_mapping(data, path, cfg), f"{path or 'given VBMM'} (motion fit)", path
+        # a start: its constants are refitted, so a geometry or closure the config states is the muscle being
+        # fitted and wins over the file's (said in the words), where a prediction would refuse the difference
+        from bpmid.config import stated_keys
+
+        stated = stated_keys(cfg)
+        model = vbmm_from_mapping(data, path, None).replace(history=cfg.history, window_s=cfg.window_s)
+        where = f"{path or 'given VBMM'} (motion fit)"
+        taken = []
+        if "geometry" in stated and not np.allclose(cfg.geometry.vector(), model.geometry.vector(), rtol=1e-6,
+                                                    atol=0.0):
+            model, _ = model.replace(geometry=cfg.geometry), taken.append("geometry")
+        if "closure" in stated and cfg.closure != model.closure:
+            model, _ = model.replace(closure=cfg.closure), taken.append("closure")
+        if taken:
+            where += (f"; its constants only as the start: the {' and '.join(taken)} from the config, which differ "
+                      f"from the fit's")
+        return model, where, path
     if schema.startswith("bpmid.relax/"):
         from bpmid.models.vbmm.fit import material_from_relax
 
