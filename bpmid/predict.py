@@ -15,7 +15,7 @@ import pandas as pd
 
 from bpmid.io.atomic import staged_dir
 from bpmid.io.ambient import atmosphere_line
-from bpmid.io.motion_logs import MotionLog, pressure_column_name, synthetic_line
+from bpmid.io.motion_logs import MotionLog, is_synthetic, pressure_column_name, synthetic_line
 from bpmid.io.tables import UNITS
 from bpmid.models.vbmm import VBMM
 from bpmid.models.vbmm.fit import check_pressure_range, log_metrics
@@ -102,8 +102,8 @@ def predict_yaml_body(preds: Sequence[Prediction], *, params: str | Path | None 
                                  "metrics": None if p.metrics is None else
                                  {k: float(v) for k, v in p.metrics.items()}} for p in preds}
     # the input logs' own label (each output file keeps its log's '# synthetic:' line)
-    body["synthetic"] = bool(preds) and all(bool(synthetic_line(p.log)) for p in preds)
-    body["synthetic_logs"] = sorted(p.log.name for p in preds if synthetic_line(p.log))
+    body["synthetic"] = is_synthetic([p.log for p in preds])
+    body["synthetic_logs"] = sorted(p.log.name for p in preds if is_synthetic([p.log]))
     return body
 
 

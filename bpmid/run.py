@@ -194,7 +194,7 @@ def _param_file(config, section: str, key: str, value) -> Path:
 def check_stage_inputs(config, inp: RunInputs, stages) -> list:
     """Read and check every input of every stage in ``stages`` with the reader that stage uses, before any
     stage runs (InputError naming the file, line or key). Returns the motion logs of the fitting and test sets
-    (read without requiring angles when the stages that need them do not run), for the synthetic flag."""
+    (read without requiring angles when the stages that need them do not run)."""
     from bpmid.io.motion_logs import read_motion_log, read_motion_logs
     from bpmid.io.relax_logs import read_relax_logs
     from bpmid.motion_fit import initial_material, material_from_relax
@@ -553,7 +553,7 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
 
 
 def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRecord]:
-    from bpmid.io.motion_logs import file_is_synthetic, is_synthetic
+    from bpmid.io.motion_logs import file_is_synthetic
     from bpmid.io.results import command_line, new_run_id, run_stamp, write_result
 
     rc: RunConfig = config.section("run")
@@ -562,16 +562,14 @@ def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRe
     if out.exists() and not out.is_dir():
         raise InputError("--out must be a folder, found a file", path=out)
     # every input of every stage read and checked before the first stage runs (and before DIR is touched)
-    motion_logs = check_stage_inputs(config, inp, stages_to_run(rc, inp))
+    check_stage_inputs(config, inp, stages_to_run(rc, inp))
     check_run_outputs(out, [config.path] + inp.all() + _param_inputs(config, rc, inp))
-    # synthetic only when every log the study reads is: a measured relaxation curve is not (the report says so)
-    relax_synth = all(file_is_synthetic(p) for p in inp.relax_logs)
+    # synthetic only when every log the study reads is (a measured relaxation curve is not; the report says so); a
+    # study mixing them with measured logs is not called measured (the report names the synthetic ones)
     data_logs = inp.all()
     synth_logs = [str(p) for p in data_logs if file_is_synthetic(p)]
     ctx = {"seed": rc.seed, "command": command or command_line(),
-           "synthetic": (is_synthetic(motion_logs) if motion_logs else True) and relax_synth,
-           # how many of the study's data logs say they are synthetic: a study mixing them with measured logs
-           # is not called measured (the report names the synthetic ones)
+           "synthetic": len(synth_logs) == len(data_logs),
            "data_logs": {"total": len(data_logs), "synthetic": len(synth_logs),
                          **({"synthetic_files": synth_logs} if 0 < len(synth_logs) < len(data_logs) else {})},
            "run_id": new_run_id()}

@@ -70,14 +70,9 @@ def discover_cmd(
     if thresholds is not None:   # the flag over the config's discover.thresholds_file, checked before any work
         import dataclasses
 
-        from bpmid.discover.calibrate import load_thresholds
-        from bpmid.errors import InputError
+        from bpmid.discover.workflow import checked_thresholds_file
 
-        if not thresholds.is_file():
-            raise InputError("thresholds file not found (bpmid calibrate writes OUT/thresholds.yaml)",
-                             path=thresholds, key="--thresholds")
-        load_thresholds(thresholds)   # a file of another kind is refused, naming it
-        dcfg = dataclasses.replace(dcfg, thresholds_file=str(thresholds.resolve()))
+        dcfg = dataclasses.replace(dcfg, thresholds_file=checked_thresholds_file(thresholds, "--thresholds"))
     fit_logs = read_motion_logs(paths, cfg.section("io"), require_angle=True)
     ho_logs = read_motion_logs(ho_paths, cfg.section("io"), require_angle=True) if ho_paths else None
     all_logs = fit_logs + (ho_logs or [])

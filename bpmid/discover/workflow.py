@@ -66,6 +66,23 @@ from bpmid.progress import Progress, note
 from bpmid.relax._blas import one_blas_thread
 
 
+def checked_thresholds_file(value, key: str, config_path=None) -> str:
+    """The absolute path of a thresholds file (``bpmid calibrate``'s thresholds.yaml) given under ``key`` (a
+    relative one from the folder of ``config_path``, if any), read and checked now so a bad one is refused before
+    any work: InputError naming the key."""
+    tf = Path(str(value)).expanduser()
+    if not tf.is_absolute() and config_path is not None:
+        tf = Path(config_path).resolve().parent / tf
+    if not tf.is_file():
+        raise InputError(f"thresholds file not found: {tf} (bpmid calibrate writes OUT/thresholds.yaml)",
+                         path=config_path, key=key)
+    try:
+        load_thresholds(tf)
+    except InputError as exc:
+        raise InputError(f"{tf}: {exc.message}", path=config_path, key=key) from None
+    return str(tf.resolve())
+
+
 @dataclasses.dataclass(frozen=True)
 class DiscoverConfig:
     """Config section ``discover``.
@@ -167,20 +184,9 @@ class DiscoverConfig:
                 object.__setattr__(self, name, dict(getattr(self, name)))
 
     def validate(self, where, path):
-        if self.thresholds_file is not None:
-            # a thresholds file (bpmid calibrate's thresholds.yaml): relative to the config that names it; read and
-            # checked now, so a bad one is refused before any work
-            tf = Path(str(self.thresholds_file)).expanduser()
-            if not tf.is_absolute() and path is not None:
-                tf = Path(path).resolve().parent / tf
-            if not tf.is_file():
-                raise InputError(f"thresholds file not found: {tf} (bpmid calibrate writes OUT/thresholds.yaml)",
-                                 path=path, key=f"{where}.thresholds_file")
-            try:
-                load_thresholds(tf)
-            except InputError as exc:
-                raise InputError(f"{tf}: {exc.message}", path=path, key=f"{where}.thresholds_file") from None
-            object.__setattr__(self, "thresholds_file", str(tf))
+        if self.thresholds_file is not None:   # relative to the config that names it
+            object.__setattr__(self, "thresholds_file", checked_thresholds_file(
+                self.thresholds_file, f"{where}.thresholds_file", path))
         for c in self.candidates:
             if c not in CATALOGUE:
                 raise InputError(f"unknown effect id {c!r} (known: {', '.join(CATALOGUE)})", path=path,

@@ -55,6 +55,11 @@ class GeometrySpec:
         return {"th": th, "alpha0": a0, "R0": R0, "l0": l0, "n": n}
 
 
+#: the values the generator accepts for each drawn quantity (a range's ends, or a rig's single value)
+VALUE_RANGES = {"sampling_hz": (1.0, 2000.0), "noise_deg": (0.0, 10.0), "noise_rho": (0.0, 0.99),
+                "variation": (0.0, 0.3), "size_ratio": (1.0, 50.0), "atmosphere_pa": (50e3, 120e3),
+                "pressure_noise_pa": (0.0, 1e4)}
+
 #: built-in geometries: the paper's muscle (Table I) and two others
 GEOMETRIES = {
     "paper": GeometrySpec("paper", 2.0, 30.0, 16.73, 195.9, 7.43),
@@ -153,12 +158,13 @@ class GeneratorConfig:
                      "header_styles", "effects"):
             if not getattr(self, name):
                 raise InputError("must not be empty", path=path, key=f"{where}.{name}")
+        lo, hi = VALUE_RANGES["sampling_hz"]
         for f in self.sampling_hz:
-            if not 1.0 <= f <= 2000.0:
-                raise InputError(f"sampling rate {f} Hz is outside 1-2000 Hz", path=path, key=f"{where}.sampling_hz")
-        for name, lo_ok, hi_ok in (("noise_deg", 0.0, 10.0), ("noise_rho", 0.0, 0.99), ("variation", 0.0, 0.3),
-                                   ("size_ratio", 1.0, 50.0), ("atmosphere_pa", 50e3, 120e3),
-                                   ("pressure_noise_pa", 0.0, 1e4)):
+            if not lo <= f <= hi:
+                raise InputError(f"sampling rate {f} Hz is outside {lo:g}-{hi:g} Hz", path=path,
+                                 key=f"{where}.sampling_hz")
+        for name in ("noise_deg", "noise_rho", "variation", "size_ratio", "atmosphere_pa", "pressure_noise_pa"):
+            lo_ok, hi_ok = VALUE_RANGES[name]
             rng = getattr(self, name)
             if len(rng) != 2 or not (lo_ok <= rng[0] <= rng[1] <= hi_ok):
                 raise InputError(f"expected [low, high] within [{lo_ok:g}, {hi_ok:g}], found {list(rng)}", path=path,

@@ -107,13 +107,17 @@ class RigSection:
 
     def validate(self, where, path):
         """Each rig value checked under its own key (not as the generator's range it replaces)."""
-        for name, ok, what in (("noise_deg", lambda x: 0 < x <= 10, "above 0 and at most 10 deg"),
-                               ("noise_ar1_rho", lambda x: 0 <= x <= 0.99, "from 0 (white) to 0.99"),
-                               ("sampling_hz", lambda x: 1 <= x <= 2000, "1-2000 Hz"),
-                               ("pressure_noise_pa", lambda x: 0 <= x <= 1e4, "0-10000 Pa")):
-            v = getattr(self, name)
-            if v is not None and not (math.isfinite(v) and ok(v)):
-                raise InputError(f"must be {what}, found {v!r}", path=path, key=f"{where}.{name}")
+        from bpmid.validation.generator import VALUE_RANGES
+
+        for name, gen_name, unit in (("noise_deg", "noise_deg", " deg"), ("noise_ar1_rho", "noise_rho", ""),
+                                     ("sampling_hz", "sampling_hz", " Hz"), ("pressure_noise_pa", "pressure_noise_pa",
+                                                                             " Pa")):
+            v, (lo, hi) = getattr(self, name), VALUE_RANGES[gen_name]
+            # sensor noise must be above 0 (discovery needs raw measurements), as the generator asks
+            if v is not None and not (math.isfinite(v) and lo <= v <= hi and (v > 0 or name != "noise_deg")):
+                what = (f"above 0 and at most {hi:g}" if name == "noise_deg" else
+                        f"from {lo:g}{' (white)' if name == 'noise_ar1_rho' else ''} to {hi:g}")
+                raise InputError(f"must be {what}{unit}, found {v!r}", path=path, key=f"{where}.{name}")
 
     def apply(self, gen: GeneratorConfig, path=None) -> GeneratorConfig:
         d = gen.to_yaml()

@@ -619,6 +619,20 @@ def vbmm_from_mapping(data: dict, path=None, cfg: VBMMConfig | None = None) -> V
     return with_config(model, cfg, f"the fit {path}" if path is not None else "the given fit")
 
 
+def stated_differences(model: VBMM, cfg: VBMMConfig | None) -> list[str]:
+    """Which of ``geometry`` and ``closure`` a config's section ``model`` states (even at the paper's values) and
+    ``model`` has otherwise (a geometry within 1e-6 relative is the same muscle)."""
+    from bpmid.config import stated_keys
+
+    stated = stated_keys(cfg) if cfg is not None else frozenset()
+    out = []
+    if "geometry" in stated and not np.allclose(cfg.geometry.vector(), model.geometry.vector(), rtol=1e-6, atol=0.0):
+        out.append("geometry")
+    if "closure" in stated and cfg.closure != model.closure:
+        out.append("closure")
+    return out
+
+
 def with_config(model: VBMM, cfg: VBMMConfig | None, where: str = "the given model") -> VBMM:
     """``model`` under a config's section ``model``: a geometry or closure the config states (even at the
     paper's values) must be the model's own, else InputError (fitted constants belong to the muscle and closure
@@ -634,11 +648,12 @@ def with_config(model: VBMM, cfg: VBMMConfig | None, where: str = "the given mod
         return (f"th {g.th * 1e3:.9g} mm, alpha0 {math.degrees(g.alpha0):.9g} deg, R0 {g.R0 * 1e3:.9g} mm, "
                 f"l0 {g.l0 * 1e3:.9g} mm, n {g.n:.9g}")
 
-    if "geometry" in stated and not np.allclose(cfg.geometry.vector(), model.geometry.vector(), rtol=1e-6, atol=0.0):
+    differ = stated_differences(model, cfg)
+    if "geometry" in differ:
         raise InputError(f"the config's model.geometry ({words(cfg.geometry)}) differs from {where}'s "
                          f"({words(model.geometry)}); fitted constants belong to the muscle they were fitted on: "
                          f"use a fit of this muscle, or remove model.geometry from the config", key="model.geometry")
-    if "closure" in stated and cfg.closure != model.closure:
+    if "closure" in differ:
         raise InputError(f"the config's model.closure ({cfg.closure}) differs from {where}'s ({model.closure}); the "
                          f"closure is part of the fitted model: remove model.closure from the config or refit with it",
                          key="model.closure")
@@ -672,18 +687,11 @@ def starting_vbmm(init=None, cfg: VBMMConfig | None = None) -> tuple[VBMM, str, 
     if schema.startswith("bpmid.vbmm/"):
         # a start: its constants are refitted, so a geometry or closure the config states is the muscle being
         # fitted and wins over the file's (said in the words), where a prediction would refuse the difference
-        from bpmid.config import stated_keys
-
-        stated = stated_keys(cfg)
         model = vbmm_from_mapping(data, path, None).replace(history=cfg.history, window_s=cfg.window_s)
         where = f"{path or 'given VBMM'} (motion fit)"
-        taken = []
-        if "geometry" in stated and not np.allclose(cfg.geometry.vector(), model.geometry.vector(), rtol=1e-6,
-                                                    atol=0.0):
-            model, _ = model.replace(geometry=cfg.geometry), taken.append("geometry")
-        if "closure" in stated and cfg.closure != model.closure:
-            model, _ = model.replace(closure=cfg.closure), taken.append("closure")
+        taken = stated_differences(model, cfg)
         if taken:
+            model = model.replace(**{k: getattr(cfg, k) for k in taken})
             where += (f"; its constants only as the start: the {' and '.join(taken)} from the config, which differ "
                       f"from the fit's")
         return model, where, path
