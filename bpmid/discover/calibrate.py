@@ -28,7 +28,7 @@ from typing import Mapping, Sequence
 import numpy as np
 import yaml
 
-from bpmid.discover.rivals import own_shape, takes_the_round
+from bpmid.discover.rivals import held_against, own_shape, takes_the_round
 from bpmid.effects.base import AugmentedVBMM, Effect
 from bpmid.io.motion_logs import ATMOSPHERE_PA, MotionLog, from_arrays
 from bpmid.models.vbmm import VBMM, Material
@@ -218,11 +218,13 @@ def scaled_params(effect: Effect, size: float) -> ParamSet:
 
 
 def paper_sized_set(effect: Effect | None, *, size: float = 1.0, seed: int = 0, noise_deg: float = 0.15,
-                    noise_rho: float = 0.0, truth: VBMM | None = None, protocols: dict | None = None
-                    ) -> tuple[list[MotionLog], list[MotionLog]]:
+                    noise_rho: float = 0.0, truth: VBMM | None = None, protocols: dict | None = None,
+                    pressure_noise_pa: float = 0.0) -> tuple[list[MotionLog], list[MotionLog]]:
     """Fitting logs and held-out logs simulated with ``effect`` hidden (None: no effect).
 
-    Noise: AR(1) Gaussian with standard deviation ``noise_deg`` and lag-1 correlation ``noise_rho``, seeded.
+    Noise: AR(1) Gaussian with standard deviation ``noise_deg`` and lag-1 correlation ``noise_rho``, seeded;
+    ``pressure_noise_pa``: white Gaussian noise of that standard deviation on the logged pressure (a transducer's:
+    the muscle saw the pressure without it).
     """
     rng = np.random.default_rng(seed)
     truth = truth or truth_model()
@@ -237,7 +239,8 @@ def paper_sized_set(effect: Effect | None, *, size: float = 1.0, seed: int = 0, 
         e[0] = rng.normal(0.0, noise_deg)
         for k in range(1, t.size):
             e[k] = noise_rho * e[k - 1] + w[k]
-        lg = from_arrays(name, t, pg, beta + e)
+        logged = pg + rng.normal(0.0, pressure_noise_pa, t.size) if pressure_noise_pa > 0 else pg
+        lg = from_arrays(name, t, logged, beta + e)
         (ho if name in HELDOUT else fit).append(lg)
     return fit, ho
 
@@ -446,20 +449,25 @@ def _first_passing(recs: Sequence[Record], g, share, alpha, fit_share, waive,
     passing = [r for r in cands if _passes(r, g, share, alpha, fit_share, waive)]
     if passing:
         best = _record_winner(passing, g)
-        return None if withhold and rival_withholds(recs, best.after_over_floor, alpha) else best.candidate
+        return (None if withhold and rival_withholds(recs, best.after_over_floor, alpha, (best.candidate,))
+                    else best.candidate)
     if math.isfinite(to_floor):
         passing = [r for r in cands if _passes_to_floor(r, to_floor, alpha, to_floor_ratio)]
         if passing:
             best = max(passing, key=lambda r: r.drop_sigma)
-            return None if withhold and rival_withholds(recs, best.after_over_floor, alpha) else best.candidate
+            return (None if withhold and rival_withholds(recs, best.after_over_floor, alpha, (best.candidate,))
+                    else best.candidate)
     return None
 
 
-def rival_withholds(recs: Sequence[Record], named_after_over_floor: float, alpha: float) -> bool:
-    """Whether a rival outside the catalogue among one round's records takes the round from an effect leaving
-    ``named_after_over_floor`` (:func:`bpmid.discover.rivals.beats`; records without a rival: never)."""
-    return any(r.rival and takes_the_round(r.tested, r.own_shape, r.lr_p, r.after_over_floor, named_after_over_floor,
-                                           alpha) for r in recs)
+def rival_withholds(recs: Sequence[Record], named_after_over_floor: float, alpha: float,
+                    named: Sequence[str]) -> bool:
+    """Whether a rival outside the catalogue among one round's records takes the round from ``named`` (effect ids),
+    which leaves ``named_after_over_floor`` (:func:`bpmid.discover.rivals.beats`, asked as
+    :func:`bpmid.discover.rivals.held_against` says; records without a rival: never)."""
+    return any(r.rival and held_against(r.candidate, named)
+               and takes_the_round(r.tested, r.own_shape, r.lr_p, r.after_over_floor, named_after_over_floor, alpha)
+               for r in recs)
 
 
 def _pair_eligible(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, alpha: float) -> list[PairRecord]:
@@ -489,7 +497,7 @@ def _pair_withheld(recs: Sequence[Record], q: PairRecord, alpha: float) -> bool:
     two members alone, as in discovery)."""
     r1 = [r for r in recs if r.round == 1]
     alone = [r.after_over_floor for r in r1 if not r.rival and r.candidate in (q.first, q.second)]
-    return bool(alone) and rival_withholds(r1, min(alone), alpha)
+    return bool(alone) and rival_withholds(r1, min(alone), alpha, (q.first, q.second))
 
 
 def _pair_named(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, alpha: float, pair_share: float,
@@ -674,7 +682,7 @@ def _tally_gains(cases: Sequence[Sequence[Record]], gains: np.ndarray, sh: float
                      else np.ones(ng, bool))
             m = ~taken & (gains <= r.gain_sigma) & level
             taken |= m
-            if m.any() and not rival_withholds(recs, r.after_over_floor, a):
+            if m.any() and not rival_withholds(recs, r.after_over_floor, a, (r.candidate,)):
                 out.append((r, m))
         return out
 

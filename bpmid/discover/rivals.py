@@ -6,7 +6,9 @@ it up: a payload on the tip that rings after every change of the pressure rate a
 orifice falls short of the supply pressure by an amount growing as the square root of its pressure, and an angle
 offset (with the stiffness refitted) takes up most of that shortfall over a working range; rubber that softens
 below the largest stretch so far (the Mullins effect) opens a loop that friction or a slower deflation partly
-takes up. Judged only against the other catalogue entries, the lag, the offset or the friction would be named. A rival is a model term for such an outside
+takes up; a pressure transducer's noise, which the muscle never saw, passes through a model driven by the logged
+pressure into its angle, and a lag of a sample or two averages it away. Judged only against the other catalogue
+entries, the lag, the offset or the friction would be named. A rival is a model term for such an outside
 effect, refitted and scored exactly like a candidate (:func:`bpmid.discover.confirm.confirm`: the same starts,
 nuisance and held-out logs);
 when it explains the held-out logs better than the effect the round would name, and it needs what only it has,
@@ -21,17 +23,19 @@ shows (that the residual rings, not that it is a payload). The rule has no calib
 2. it fits what only it can do: :class:`PayloadInertia`'s damping ratio stays inside its range, not on the upper
    bound 0.5 (at the bound the data asked for a response that does not overshoot, which a lag represents);
    :class:`AirLeak`'s orifice constant is off its lower bound 0 (a leak at all); :class:`MullinsSoftening`'s
-   softening is off its lower bound 0;
+   softening is off its lower bound 0; :class:`PressureNoise`'s smoothing width is above 0;
 3. its held-out RMSE is below the named candidate's (for two effects named together, below the better of the two
    alone).
 
-Every rival of :data:`RIVALS` is refitted in each round that would name something; the first that takes the round
-withholds it.
+Every rival of :data:`RIVALS` is refitted in each round that would name something, except that one listed in
+:data:`IMITATES` is asked only of the effects it can pass for (noise on the logged pressure, of a pressure lag:
+a lag of a sample or two averages the pressure's noise away; no other catalogue entry smooths the pressure); the
+first that takes the round withholds it.
 """
 from __future__ import annotations
 
 import math
-from typing import ClassVar, Optional
+from typing import ClassVar, Optional, Sequence
 
 import numpy as np
 
@@ -169,14 +173,71 @@ class MullinsSoftening(Effect):
         return np.zeros((log.n, 0))
 
 
+class PressureNoise(Effect):
+    """Noise of the pressure transducer: the logged pressure carries noise the muscle never saw, and a model
+    driven by the logged pressure passes that noise on to its angle. Any term that smooths the logged pressure
+    takes part of it out again, and a pressure lag does so too: with the time constant of a sample or two it is a
+    one-sided average of the last samples, which removes the noise and adds a delay the data need not ask for.
+    This rival smooths the logged pressure with a zero-phase Gaussian kernel (standard deviation ``width``, s, in
+    the log's median sample spacing): the same removal of noise with no delay, so a lag that explains nothing
+    more than this is not shown to be there. Outside the catalogue: a rival only, held against a pressure lag
+    (:data:`IMITATES`; :mod:`bpmid.discover.rivals`)."""
+
+    id = "pressure_noise"
+    signal_order = 5     # on the logged pressure, before any other pressure term
+    meaning = ("noise on the logged pressure, which the muscle never saw: a smoothing of the logged pressure with "
+               "no delay removes what the model passes on of it (outside the catalogue)")
+    where_it_shows = "a residual that follows the logged pressure's sample-to-sample noise"
+    SETTINGS: ClassVar[tuple[str, ...]] = ()
+    #: starting values a refit tries: 1, 4 and 15 samples at 100 Hz (0.1 to 1.5 samples at 10 Hz)
+    START_VALUES: ClassVar[dict] = {"width": (0.01, 0.04, 0.15)}
+
+    def default_params(self) -> ParamSet:
+        return ParamSet([Param(f"{self.id}.width", 0.02, "s", 0.0, 0.5,
+                               note="standard deviation of the zero-phase Gaussian smoothing of the logged pressure")])
+
+    def null_values(self):
+        return {f"{self.id}.width": 0.0}
+
+    def transform_pressure(self, t, p, params):
+        width = params.value(f"{self.id}.width")
+        p = np.asarray(p, float)
+        if width <= 0.0 or p.size < 3:
+            return p
+        dt = float(np.median(np.diff(np.asarray(t, float))))
+        if not dt > 0.0:
+            return p
+        from scipy.ndimage import gaussian_filter1d
+
+        return gaussian_filter1d(p, width / dt, mode="nearest")
+
+    def causal_pressure(self, params):
+        return None   # two-sided: no step-by-step form (it is never named)
+
+    def not_causal_because(self, params):
+        return "it smooths the logged pressure in both directions of time"
+
+    def signature_columns(self, log: MotionLog, base_angle_deg: np.ndarray) -> np.ndarray:
+        return np.zeros((log.n, 0))
+
+
 def _erf(x: np.ndarray) -> np.ndarray:
     from scipy.special import erf
 
     return erf(x)
 
 
-#: the rivals every round that names something is checked against, in the order they are asked
-RIVALS: tuple[type[Effect], ...] = (PayloadInertia, AirLeak, MullinsSoftening)
+#: the rivals a round that names something is checked against, in the order they are asked
+RIVALS: tuple[type[Effect], ...] = (PayloadInertia, AirLeak, MullinsSoftening, PressureNoise)
+#: a rival held only against the catalogue effects it can be mistaken for (by id); the others against every effect
+IMITATES: dict[str, tuple[str, ...]] = {PressureNoise.id: ("pressure_lag",)}
+
+
+def held_against(rival_id: str, named: Sequence[str]) -> bool:
+    """Whether the rival ``rival_id`` is asked of a round that would name ``named`` (effect ids; two for a pair):
+    :data:`IMITATES` limits a rival to the effects it can pass for, the others are asked of every name."""
+    only = IMITATES.get(rival_id)
+    return only is None or any(n in only for n in named)
 #: the first rival (kept for callers that know one)
 RIVAL: type[Effect] = PayloadInertia
 
@@ -195,6 +256,8 @@ def own_shape(c: Confirmation) -> bool:
         return bool(c.state.params.value(f"{AirLeak.id}.c") > 0.0)
     if c.effect_id == MullinsSoftening.id:
         return bool(c.state.params.value(f"{MullinsSoftening.id}.d") > 0.0)
+    if c.effect_id == PressureNoise.id:
+        return bool(c.state.params.value(f"{PressureNoise.id}.width") > 0.0)
     return True
 
 
@@ -234,6 +297,11 @@ def rival_words(c: Confirmation, named: str, named_after_deg: float, floor: floa
         what = (f"rubber {100 * k.get('d', math.nan):.3g} % softer below the largest pressure so far in each log "
                 f"(w = {k.get('w', math.nan):.3g})")
         eg, cannot = "e.g. the Mullins effect", "no catalogue entry remembers the largest pressure"
+    elif c.effect_id == PressureNoise.id:
+        what = (f"noise on the logged pressure (a smoothing of it with no delay, over {k.get('width', math.nan):.3g} "
+                "s)")
+        eg, cannot = ("e.g. the pressure transducer's own noise, which the muscle never saw",
+                      "a lag smooths the logged pressure too, but adds a delay the data did not ask for")
     else:
         what, eg, cannot = c.effect_id, "", "no catalogue entry represents it"
     return (f"withheld: the residual is explained better by {what} ({c.effect_id}: outside the catalogue"

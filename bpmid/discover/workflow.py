@@ -28,7 +28,8 @@ fitting share to measure; the drop is still measured on logs the effect was not 
 the candidate is reported beside it. Its drop is calibrated like the rest of the gate.
 
 Whatever a round would name is held against the rivals outside the catalogue (:mod:`bpmid.discover.rivals`: payload
-inertia that rings, an air leak through an orifice, the Mullins effect), refitted and scored the same way; when a rival explains the
+inertia that rings, an air leak through an orifice, the Mullins effect; beside a pressure lag, noise on the logged
+pressure), refitted and scored the same way; when a rival explains the
 held-out logs better and needs its own shape, nothing is named that round and the remainder is reported
 unexplained.
 
@@ -53,7 +54,7 @@ from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS
                                       winner_rank)
 from bpmid.discover.confirm import Confirmation, PairTrial, confirm, excess_deg, holm_adjusted, pair_trial
 from bpmid.discover.diagnose import diagnose, noise_floor
-from bpmid.discover.rivals import RIVALS, check_rival, own_shape, rival_constants
+from bpmid.discover.rivals import RIVALS, check_rival, held_against, own_shape, rival_constants
 from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, heldout_residual, residuals,
                                   rmse_deg, scored_rmse, sensitivities, simulate, stacked)
 from bpmid.discover.screen import ScreenResult, screen
@@ -300,11 +301,11 @@ def gate_in_words(thr: dict) -> str:
             + ". Whatever a round would name, three rivals outside the catalogue (payload inertia that rings: an "
               "underdamped response of the angle; an air leak through an orifice: a pressure shortfall growing as "
               "the square root of the pressure; the Mullins effect: rubber softer below the largest pressure so "
-              "far) are refitted beside it; when a rival passes the likelihood-ratio "
-              f"test at {thr['family_alpha']:.2g} uncorrected, needs its own shape (damping off its bound of "
-              "0.5; a leak above 0; a softening above 0) and leaves a lower held-out RMSE, nothing is named that "
-              "round (a catalogue "
-              "effect would only imitate it)"
+              "far) are refitted beside it, and a fourth beside a pressure lag (noise on the logged pressure, "
+              "which the muscle never saw: a smoothing of the logged pressure with no delay); when a rival passes "
+              f"the likelihood-ratio test at {thr['family_alpha']:.2g} uncorrected, needs its own shape (damping "
+              "off its bound of 0.5; a leak above 0; a softening above 0; a smoothing wider than 0) and leaves a "
+              "lower held-out RMSE, nothing is named that round (a catalogue effect would only imitate it)"
             + ". BIC is reported, never a gate")
 
 
@@ -487,7 +488,7 @@ class DiscoveryResult:
 # ---------------------------------------------------------------------------------------------
 #: a rival's constants as discovery.yaml names them (with their unit where they have one)
 _RIVAL_CONSTANT_NAMES = {"period": "period_s", "zeta": "damping_ratio", "d": "softening_share",
-                         "w": "onset_width_share"}
+                         "w": "onset_width_share", "width": "smoothing_width_s"}
 
 
 def rival_yaml(rnd: Round, thr: dict, floor: float, c: Optional[Confirmation] = None) -> Optional[dict]:
@@ -904,7 +905,10 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         if pt is not None or best is not None or not cfg.withhold_for_rivals:
             # the rivals outside the catalogue, each refitted and scored like the candidates; the first that takes
             # the round withholds it
+            names = pt.ids if pt is not None else (best.effect_id,) if best is not None else None
             for R in RIVALS:
+                if names is not None and not held_against(R.id, names):
+                    continue   # a rival asked only of the effects it can pass for (rivals.IMITATES)
                 rv = confirm(state, R(), fit_logs, ho_logs, noise_floor_deg=floor,
                              base_fit_residual=stacked(parts), heldout_before=ho_now, heldout_before_res=ho_res_now,
                              max_nfev=cfg.confirm_max_nfev, nuisance=J, per_log_gain=gain)
