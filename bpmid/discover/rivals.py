@@ -238,6 +238,8 @@ def held_against(rival_id: str, named: Sequence[str]) -> bool:
     :data:`IMITATES` limits a rival to the effects it can pass for, the others are asked of every name."""
     only = IMITATES.get(rival_id)
     return only is None or any(n in only for n in named)
+
+
 #: the first rival (kept for callers that know one)
 RIVAL: type[Effect] = PayloadInertia
 
