@@ -288,4 +288,25 @@ def test_pressure_transducer_noise_gets_no_lag_named():
     assert 0.02 < rv.state.params.value("pressure_noise.width") < 0.3              # a sample or so at 10 Hz
     y = res.to_yaml()["rounds"][0]["rival_outside_catalogue"]
     assert y["withheld_the_round"] and set(y["constants"]) == {"smoothing_width_s"}
+    assert y["effect_refitted_beside"]["effect"] == "pressure_lag" and y["effect_refitted_beside"]["still_adds"] is False
     assert "noise on the logged pressure" in res.verdict and "no delay" in res.verdict
+    assert "refitted on top of the smoothing, pressure_lag leaves" in res.verdict
+
+
+def test_a_short_lag_beside_pressure_noise_is_named_when_it_adds_to_the_smoothing():
+    """A lag of a quarter of a sample (25 ms at 10 Hz) beside 300 Pa of pressure noise: the smoothing alone edges
+    the lag alone out on the held-out logs, but refitted on top of the smoothing the lag still removes error (its
+    delay is real), so the rival does not take the round and the lag is named; discovery.yaml says why."""
+    cfg = DiscoverConfig(candidates=("pressure_lag",), max_effects=1, **LOOSE)
+    fit, ho = paper_sized_set(get_effect("pressure_lag"), size=0.1, seed=12, noise_deg=0.1, protocols=SHORT,
+                              pressure_noise_pa=300.0)
+    res = discover(fit, start_model(), holdout=ho, cfg=cfg)
+    smoothing = next(c for c in res.rounds[0].rivals if c.effect_id == "pressure_noise")
+    lag = next(c for c in res.rounds[0].confirmations if c.effect_id == "pressure_lag")
+    assert beats(smoothing, lag.heldout_rmse_after, 1e-6) is False     # it would have, before the lag on top of it
+    assert smoothing.heldout_rmse_after < lag.heldout_rmse_after and smoothing.effect_beside_adds
+    assert smoothing.effect_beside.heldout_rmse_after < smoothing.heldout_rmse_after
+    assert res.named_effects == ["pressure_lag"] and not res.rounds[0].withheld
+    y = next(r for r in res.to_yaml()["rounds"][0]["rivals_outside_catalogue"] if r["effect"] == "pressure_noise")
+    assert y["effect_refitted_beside"]["effect"] == "pressure_lag" and y["effect_refitted_beside"]["still_adds"] is True
+    assert y["needs_its_own_shape"] is False

@@ -87,6 +87,11 @@ class Confirmation:
     reasons: list = dataclasses.field(default_factory=list)
     #: named together with another effect: the joint refit whose constants are the ones named
     named_with: Optional[ModelState] = None
+    #: a rival that can stand beside an effect as well as for it (:data:`bpmid.discover.rivals.IMITATES`): that
+    #: effect refitted on top of this rival's fit (None: not asked), and whether it still added what the rival
+    #: cannot (:func:`bpmid.discover.rivals.adds_beside`)
+    effect_beside: Optional["Confirmation"] = None
+    effect_beside_adds: bool = False
 
     @property
     def family_p(self) -> float:

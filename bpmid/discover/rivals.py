@@ -23,7 +23,8 @@ shows (that the residual rings, not that it is a payload). The rule has no calib
 2. it fits what only it can do: :class:`PayloadInertia`'s damping ratio stays inside its range, not on the upper
    bound 0.5 (at the bound the data asked for a response that does not overshoot, which a lag represents);
    :class:`AirLeak`'s orifice constant is off its lower bound 0 (a leak at all); :class:`MullinsSoftening`'s
-   softening is off its lower bound 0; :class:`PressureNoise`'s smoothing width is above 0;
+   softening is off its lower bound 0; :class:`PressureNoise`'s smoothing width is above 0, and the lag, refitted on
+   top of the smoothing, adds nothing more (:func:`adds_beside`: the noise and a lag can both be there);
 3. its held-out RMSE is below the named candidate's (for two effects named together, below the better of the two
    alone).
 
@@ -39,7 +40,7 @@ from typing import ClassVar, Optional, Sequence
 
 import numpy as np
 
-from bpmid.discover.confirm import Confirmation
+from bpmid.discover.confirm import Confirmation, heldout_drop_sigma
 from bpmid.effects import _kernels
 from bpmid.effects.base import Effect
 from bpmid.io.motion_logs import MotionLog
@@ -229,8 +230,24 @@ def _erf(x: np.ndarray) -> np.ndarray:
 
 #: the rivals a round that names something is checked against, in the order they are asked
 RIVALS: tuple[type[Effect], ...] = (PayloadInertia, AirLeak, MullinsSoftening, PressureNoise)
-#: a rival held only against the catalogue effects it can be mistaken for (by id); the others against every effect
+#: a rival held only against the catalogue effects it can be mistaken for (by id); the others against every effect.
+#: Such a rival is a nuisance that can stand beside the effect: before it takes the round, the effect is refitted on
+#: top of it (:func:`adds_beside`)
 IMITATES: dict[str, tuple[str, ...]] = {PressureNoise.id: ("pressure_lag",)}
+
+
+def adds_beside(beside: Confirmation, rival: Confirmation, alpha: float, floor: float, drop_min: float) -> bool:
+    """Whether an effect refitted on top of the fit of a rival of :data:`IMITATES` (``beside``) still adds what the
+    rival cannot: tested, its likelihood-ratio p below ``alpha`` (uncorrected, as the rival's own test), and a
+    held-out drop below the rival alone (``sqrt(rival^2 - beside^2)``, in noise floors of ``floor`` deg) of at least
+    ``drop_min`` (discovery asks the drop the gate asks of that effect on the path to the noise floor). Noise on the
+    logged pressure and a pressure lag can both be there: a short lag beside heavy noise is half smoothing, and the
+    smoothing alone can edge the lag out although the data still ask for its delay on top of it (a 10 ms lag at
+    100 Hz beside 300 Pa: p 1e-105, a drop of 0.25 noise floors; a lag beside the smoothing of pure noise: p 3e-9
+    and 2e-5, drops of 0.06). Discovery stores the answer on the rival (``effect_beside_adds``), and
+    :func:`own_shape` reads it: a rival that leaves the effect something to add does not take the round."""
+    return bool(beside.tested and math.isfinite(beside.lr_p) and beside.lr_p < alpha
+                and heldout_drop_sigma(rival.heldout_rmse_after, beside.heldout_rmse_after, floor) >= drop_min)
 
 
 def held_against(rival_id: str, named: Sequence[str]) -> bool:
@@ -259,7 +276,7 @@ def own_shape(c: Confirmation) -> bool:
     if c.effect_id == MullinsSoftening.id:
         return bool(c.state.params.value(f"{MullinsSoftening.id}.d") > 0.0)
     if c.effect_id == PressureNoise.id:
-        return bool(c.state.params.value(f"{PressureNoise.id}.width") > 0.0)
+        return bool(c.state.params.value(f"{PressureNoise.id}.width") > 0.0) and not c.effect_beside_adds
     return True
 
 
@@ -300,10 +317,14 @@ def rival_words(c: Confirmation, named: str, named_after_deg: float, floor: floa
                 f"(w = {k.get('w', math.nan):.3g})")
         eg, cannot = "e.g. the Mullins effect", "no catalogue entry remembers the largest pressure"
     elif c.effect_id == PressureNoise.id:
-        what = (f"noise on the logged pressure (a smoothing of it with no delay, over {k.get('width', math.nan):.3g} "
-                "s)")
+        what = ("noise on the logged pressure (a zero-phase Gaussian smoothing of it, no delay, standard deviation "
+                f"{k.get('width', math.nan):.3g} s)")
+        b = c.effect_beside
         eg, cannot = ("e.g. the pressure transducer's own noise, which the muscle never saw",
-                      "a lag smooths the logged pressure too, but adds a delay the data did not ask for")
+                      "a lag smooths the logged pressure too, but adds a delay the data did not ask for"
+                      + ("" if b is None else
+                         f": refitted on top of the smoothing, {b.effect_id} leaves a held-out RMSE of "
+                         f"{b.heldout_rmse_after:.4g} deg, likelihood-ratio p = {b.lr_p:.2g}"))
     else:
         what, eg, cannot = c.effect_id, "", "no catalogue entry represents it"
     return (f"withheld: the residual is explained better by {what} ({c.effect_id}: outside the catalogue"

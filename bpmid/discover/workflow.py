@@ -52,9 +52,11 @@ import numpy as np
 from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, check_drops_by_effect,
                                       floor_drops, gain_winner, later_gain_follows, load_thresholds,
                                       winner_rank)
-from bpmid.discover.confirm import Confirmation, PairTrial, confirm, excess_deg, holm_adjusted, pair_trial
+from bpmid.discover.confirm import (Confirmation, PairTrial, confirm, excess_deg, heldout_drop_sigma, holm_adjusted,
+                                   pair_trial)
 from bpmid.discover.diagnose import diagnose, noise_floor
-from bpmid.discover.rivals import RIVALS, check_rival, held_against, own_shape, rival_constants
+from bpmid.discover.rivals import (IMITATES, RIVALS, adds_beside, beats, check_rival, held_against, own_shape,
+                                   rival_constants)
 from bpmid.discover.model import (LogNuisance, ModelState, fit_state, gained_residuals, heldout_residual, residuals,
                                   rmse_deg, scored_rmse, sensitivities, simulate, stacked)
 from bpmid.discover.screen import ScreenResult, screen
@@ -509,6 +511,17 @@ def rival_yaml(rnd: Round, thr: dict, floor: float, c: Optional[Confirmation] = 
             "likelihood_ratio_p_note": "below 1e-300 (underflow)" if c.tested and c.lr_p == 0.0 else None,
             "tested": bool(c.tested),
             "not_tested_reason": c.not_tested_reason or None,
+            "effect_refitted_beside": None if c.effect_beside is None else {
+                "effect": c.effect_beside.effect_id,
+                "heldout_rmse_after_deg": round(c.effect_beside.heldout_rmse_after, 4),
+                "likelihood_ratio_p": float(f"{c.effect_beside.lr_p:.3g}"),
+                "heldout_drop_below_the_rival_in_noise_floors": round(heldout_drop_sigma(
+                    c.heldout_rmse_after, c.effect_beside.heldout_rmse_after, floor), 4),
+                "still_adds": bool(c.effect_beside_adds),
+                "rule": "refitted on top of the rival before it may withhold the effect; when it is tested, p < "
+                        "family_alpha and it removes at least the held-out drop the gate asks of it on the path "
+                        "to the noise floor below the rival alone, the rival does not take the round (both can "
+                        "be there)"},
             "rule": "withholds the round's effect when tested, p < family_alpha "
                     f"({thr.get('family_alpha', math.nan):.3g}), its own shape needed, and its held-out RMSE below "
                     "that effect's"}
@@ -912,6 +925,23 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 rv = confirm(state, R(), fit_logs, ho_logs, noise_floor_deg=floor,
                              base_fit_residual=stacked(parts), heldout_before=ho_now, heldout_before_res=ho_res_now,
                              max_nfev=cfg.confirm_max_nfev, nuisance=J, per_log_gain=gain)
+                if names is not None and R.id in IMITATES:
+                    named_after = (min(pt.first.heldout_rmse_after, pt.second.heldout_rmse_after) if pt is not None
+                                   else best.heldout_rmse_after)
+                    if beats(rv, named_after, thr["family_alpha"]):
+                        # a nuisance that can stand beside the effect: the effect refitted on top of it must add
+                        # nothing before the rival takes the round
+                        e = next(x for x in remaining if x.id in names and x.id in IMITATES[R.id])
+                        rv.effect_beside = confirm(
+                            rv.state, e, fit_logs, ho_logs, noise_floor_deg=floor,
+                            base_fit_residual=stacked(gained_residuals(simulate(rv.state, fit_logs), fit_logs,
+                                                                       per_log_gain=gain)),
+                            heldout_before=rv.heldout_rmse_after, max_nfev=cfg.confirm_max_nfev,
+                            nuisance=sensitivities(rv.state, fit_logs), per_log_gain=gain)
+                        drop = floor_drops(thr).of(e.id)
+                        rv.effect_beside_adds = adds_beside(
+                            rv.effect_beside, rv, thr["family_alpha"], floor,
+                            drop if math.isfinite(drop) else float(thr["heldout_gain_min_sigma"]))
                 rivals.append(rv)
                 why = ""
                 if pt is not None:
