@@ -918,39 +918,28 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         if pt is not None or best is not None or not cfg.withhold_for_rivals:
             # the rivals outside the catalogue, each refitted and scored like the candidates; the first that takes
             # the round withholds it
-            names = pt.ids if pt is not None else (best.effect_id,) if best is not None else None
+            # what the round would name, and the held-out RMSE a rival must beat (two effects named together: the
+            # better of the two alone)
+            names, named_id, named_after = None, "", math.nan
+            if pt is not None:
+                names, named_after = pt.ids, min(pt.first.heldout_rmse_after, pt.second.heldout_rmse_after)
+            elif best is not None:
+                names, named_after = (best.effect_id,), best.heldout_rmse_after
+            if names is not None:
+                named_id = "+".join(names)
             for R in RIVALS:
                 if names is not None and not held_against(R.id, names):
                     continue   # a rival asked only of the effects it can pass for (rivals.IMITATES)
                 rv = confirm(state, R(), fit_logs, ho_logs, noise_floor_deg=floor,
                              base_fit_residual=stacked(parts), heldout_before=ho_now, heldout_before_res=ho_res_now,
                              max_nfev=cfg.confirm_max_nfev, nuisance=J, per_log_gain=gain)
-                if names is not None and R.id in IMITATES:
-                    named_after = (min(pt.first.heldout_rmse_after, pt.second.heldout_rmse_after) if pt is not None
-                                   else best.heldout_rmse_after)
-                    if beats(rv, named_after, thr["family_alpha"]):
-                        # a nuisance that can stand beside the effect: the effect refitted on top of it must add
-                        # nothing before the rival takes the round
-                        e = next(x for x in remaining if x.id in names and x.id in IMITATES[R.id])
-                        rv.effect_beside = confirm(
-                            rv.state, e, fit_logs, ho_logs, noise_floor_deg=floor,
-                            base_fit_residual=stacked(gained_residuals(simulate(rv.state, fit_logs), fit_logs,
-                                                                       per_log_gain=gain)),
-                            heldout_before=rv.heldout_rmse_after, max_nfev=cfg.confirm_max_nfev,
-                            nuisance=sensitivities(rv.state, fit_logs), per_log_gain=gain)
-                        drop = floor_drops(thr).of(e.id)
-                        rv.effect_beside_adds = adds_beside(
-                            rv.effect_beside, rv, thr["family_alpha"], floor,
-                            drop if math.isfinite(drop) else float(thr["heldout_gain_min_sigma"]))
+                if names is not None and R.id in IMITATES and beats(rv, named_after, thr["family_alpha"]):
+                    # a nuisance that can stand beside the effect: the effect refitted on top of it must add nothing
+                    # before the rival takes the round
+                    _refit_beside(rv, next(x for x in remaining if x.id in names and x.id in IMITATES[R.id]),
+                                  fit_logs, ho_logs, floor=floor, thr=thr, max_nfev=cfg.confirm_max_nfev, gain=gain)
                 rivals.append(rv)
-                why = ""
-                if pt is not None:
-                    named_id = "+".join(pt.ids)
-                    why = check_rival(rv, named_id, min(pt.first.heldout_rmse_after, pt.second.heldout_rmse_after),
-                                      thr["family_alpha"], floor) or ""
-                elif best is not None:
-                    named_id = best.effect_id
-                    why = check_rival(rv, named_id, best.heldout_rmse_after, thr["family_alpha"], floor) or ""
+                why = (check_rival(rv, named_id, named_after, thr["family_alpha"], floor) or "") if names else ""
                 if why and not withheld:
                     rival, withheld = rv, why
             if rival is None and rivals:
@@ -1080,6 +1069,21 @@ def log_to_log_variation(state: ModelState, ho_logs: Sequence[MotionLog], after:
     share = float(np.clip((after - refit) / gap, 0.0, 1.0))
     return {"per_log_refit_rmse_deg": round(refit, 4), "share_of_gap": round(share, 3),
             "method": "constants refitted on each held-out log alone, scored in sample"}
+
+
+def _refit_beside(rv: Confirmation, effect: Effect, fit_logs, ho_logs, *, floor: float, thr: dict, max_nfev: int,
+                  gain) -> None:
+    """Refit ``effect`` on top of the rival ``rv``'s fit and store on ``rv`` whether it still adds what the rival
+    cannot (:func:`bpmid.discover.rivals.adds_beside`, asked the drop the gate asks of the effect on the path to
+    the noise floor, or the gain asked of an effect at all when the gate has no such path)."""
+    rv.effect_beside = confirm(
+        rv.state, effect, fit_logs, ho_logs, noise_floor_deg=floor,
+        base_fit_residual=stacked(gained_residuals(simulate(rv.state, fit_logs), fit_logs, per_log_gain=gain)),
+        heldout_before=rv.heldout_rmse_after, max_nfev=max_nfev, nuisance=sensitivities(rv.state, fit_logs),
+        per_log_gain=gain)
+    drop = floor_drops(thr).of(effect.id)
+    rv.effect_beside_adds = adds_beside(rv.effect_beside, rv, thr["family_alpha"], floor,
+                                        drop if math.isfinite(drop) else float(thr["heldout_gain_min_sigma"]))
 
 
 def judge(c: Confirmation, thr: dict, floor: float | None = None, later: bool = False) -> list[str]:
