@@ -243,8 +243,8 @@ def adds_beside(beside: Confirmation, rival: Confirmation, alpha: float, floor: 
     ``drop_min`` (discovery asks the drop the gate asks of that effect on the path to the noise floor). Noise on the
     logged pressure and a pressure lag can both be there: a short lag beside heavy noise is half smoothing, and the
     smoothing alone can edge the lag out although the data still ask for its delay on top of it (a 10 ms lag at
-    100 Hz beside 300 Pa: p 1e-105, a drop of 0.25 noise floors; a lag beside the smoothing of pure noise: p 3e-9
-    and 2e-5, drops of 0.06). Discovery stores the answer on the rival (``effect_beside_adds``), and
+    100 Hz beside 300 Pa: p 1e-105, a drop of 0.24 noise floors; a lag beside the smoothing of pure noise: p 3e-9
+    and 2e-5, drops of 0.07). Discovery stores the answer on the rival (``effect_beside_adds``), and
     :func:`own_shape` reads it: a rival that leaves the effect something to add does not take the round."""
     return bool(beside.tested and math.isfinite(beside.lr_p) and beside.lr_p < alpha
                 and heldout_drop_sigma(rival.heldout_rmse_after, beside.heldout_rmse_after, floor) >= drop_min)
