@@ -6,6 +6,8 @@ Import cost: none beyond the standard library.
 """
 from __future__ import annotations
 
+import re
+
 #: Pa in one bar
 PA_PER_BAR = 1e5
 #: Pa in one kPa, one MPa, one mbar, one psi
@@ -27,6 +29,25 @@ ANGLE_UNITS: dict[str, float] = {"deg": 1.0, "rad": 57.29577951308232}
 TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "min": 60.0}
 
 
+#: ``mPa`` as written: the millipascal, which no log of a muscle or a rubber is in; bpmid reads units without regard
+#: to case (``stress_mpa`` is the megapascal), so this one spelling is refused rather than read as ``MPa``
+_MILLIPASCAL = re.compile(r"(?<![A-Za-z])mPa(?![A-Za-z])")
+
+
+def millipascal_slip(text) -> str | None:
+    """A message when ``text`` (a header cell, a units-row cell or a stated unit) writes ``mPa``, else None.
+
+    ``mPa`` is the millipascal (1e-3 Pa); read without regard to case it would be taken for the megapascal (1e6 Pa),
+    a factor of 1e9. bpmid never guesses which was meant.
+    """
+    if text is None or not _MILLIPASCAL.search(str(text)):
+        return None
+    said = "'mPa' is" if str(text).strip() == "mPa" else f"{str(text).strip()!r} states 'mPa',"
+    return (f"{said} the millipascal (1e-3 Pa), a factor of 1e9 from MPa (the megapascal); "
+            f"bpmid does not guess which is meant: write MPa (or N/mm^2) if the values are megapascals, or give them "
+            f"in Pa, kPa or bar")
+
+
 def pa_per(unit: str, *, what: str = "pressure_unit") -> float:
     """Pa per ``unit`` (``"bar"``, ``"kPa"``, ``"Pa"``, ``"MPa"``, ``"mbar"``, ``"psi"``; case-insensitive).
 
@@ -39,6 +60,8 @@ def pa_per(unit: str, *, what: str = "pressure_unit") -> float:
 
     if unit is None:
         raise InputError(f"no pressure unit given: state it ({', '.join(PRESSURE_UNITS)})", key=what)
+    if (slip := millipascal_slip(unit)) is not None:
+        raise InputError(slip, key=what)
     key = str(unit).strip().lower()
     if key not in PRESSURE_UNITS:
         raise InputError(f"unknown pressure unit {unit!r} (known: {', '.join(PRESSURE_UNITS)})", key=what)
@@ -58,4 +81,5 @@ def to_gauge_pa(values, unit: str, reference: str, *, atmosphere_pa: float = ATM
 
 
 __all__ = ["PA_PER_BAR", "PA_PER_KPA", "PA_PER_MPA", "PA_PER_MBAR", "PA_PER_PSI", "ATMOSPHERE_PA",
-           "PRESSURE_UNITS", "PRESSURE_REFERENCES", "ANGLE_UNITS", "TIME_UNITS", "pa_per", "to_gauge_pa"]
+           "PRESSURE_UNITS", "PRESSURE_REFERENCES", "ANGLE_UNITS", "TIME_UNITS", "millipascal_slip", "pa_per",
+           "to_gauge_pa"]

@@ -388,3 +388,37 @@ def test_a_one_letter_temperature_column_is_not_taken_for_the_time(tmp_path, tem
                + "".join(f"{0.1 * k:.1f},{5.0 * k},{10 + k},{295 + 0.01 * k}\n" for k in range(40)))
     lg = read_motion_log(f)
     assert lg.n == 40 and lg.time_s[1] == pytest.approx(0.1) and temp in lg.reading["ignored_columns"]
+
+
+# ---- 'mPa' is the millipascal: never read as the megapascal it would be without regard to case ------------------
+@pytest.mark.parametrize("header, extra, line, key", [
+    ("time_s,pressure (mPa),angle_deg", [], 2, "pressure (mPa)"),
+    ("time_s,pressure,angle_deg", ["--pressure-unit", "mPa"], None, "--pressure-unit"),
+])
+def test_a_pressure_in_mpa_as_written_is_refused_naming_where(tmp_path, header, extra, line, key):
+    log = _write(tmp_path, "m.csv", _motion("# pressure_reference: absolute\n", header, p_scale=0.1))
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["predict", str(log), "--params", str(_params(tmp_path)), "--out", str(out), *extra])
+    assert res.exit_code == 2, res.output
+    assert (f"m.csv:{line}, key '{key}'" if line else f"m.csv, key '{key}'") in res.output
+    assert "millipascal" in res.output and "write MPa" in res.output
+    assert not out.exists()
+    # the megapascal, written MPa or in bpmid's own lower-case suffix, is read (0.12 MPa is 1.2 bar)
+    for ok in ("time_s,pressure (MPa),angle_deg", "time_s,pressure_mpa,angle_deg"):
+        log = _write(tmp_path, "ok.csv", _motion("# pressure_reference: absolute\n", ok, p_scale=0.1))
+        t = read_motion_log(log)
+        assert float(t.pressure_pa.max()) == pytest.approx(1.6e5 - 101325.0, rel=1e-3)
+
+
+def test_a_modulus_in_mpa_as_written_is_refused_in_relaxation_and_dma_files(tmp_path):
+    t = np.linspace(0.01, 50, 60)
+    body = "".join(f"{a:.6g},{1 + 2 * np.exp(-a / 10):.6g}\n" for a in t)
+    cases = {"e.csv": ("time_s,modulus_mPa\n" + body, 1, "modulus_mPa"),
+             "d.csv": ("f,E_stor,E_loss\nHz,mPa,mPa\n1,2,0.1\n2,2.1,0.2\n", 2, "E_stor")}
+    for name, (text, line, key) in cases.items():
+        f = _write(tmp_path, name, text)
+        out = tmp_path / f"{name}.yaml"
+        res = runner.invoke(app, ["fit", "relax", str(f), "--out", str(out)])
+        assert res.exit_code == 2, res.output
+        assert f"{name}:{line}, key '{key}'" in res.output and "millipascal" in res.output
+        assert not out.exists()

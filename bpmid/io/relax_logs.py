@@ -33,6 +33,7 @@ import numpy as np
 
 from bpmid.errors import InputError
 from bpmid.io.tables import check_time, read_table
+from bpmid.units import millipascal_slip
 
 KIND = "relaxation log"
 
@@ -465,6 +466,10 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
         role, unit = _mat_role(cmap.get(h, h))
         if role is None:
             continue
+        for text, line in ((h, header_line), (units[j] if units is not None and j < len(units) else None,
+                                              header_line + 1)):
+            if (slip := millipascal_slip(text)) is not None:
+                raise InputError(f"the unit of column {h!r}: {slip}", path=path, line=line, key=h)
         if units is not None and unit is None and j < len(units):
             unit = units[j].strip().lower()
         unit = (unit or "").strip()

@@ -46,6 +46,7 @@ import numpy as np
 
 from bpmid.errors import InputError
 from bpmid.io.atomic import note_input
+from bpmid.units import millipascal_slip
 
 #: quantity -> canonical unit
 CANONICAL = {
@@ -1364,6 +1365,7 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
         note = grid.info.get("map_note", "")
         raise InputError(f"missing column for {q} (found columns: {cols}); name it {BPMID_NAME[q]} or map it with "
                          f"--columns {q}=<your column> (config io.columns){note}", path=where, line=hline, key=q)
+    _refuse_millipascal(grid, found, units, unit_sources, meta)
     lines = list(grid.lines)
     n_rows = max((len(grid.cols[e[0]]) for ents in found.values() for e in ents), default=0)
     if grid.info.get("format", "").startswith("matlab"):
@@ -1413,6 +1415,20 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
                   reading, warns, where, grid.info.get("map_note", ""), dict(grid.meta_lines or {}), deferred)
     return table
+
+
+def _refuse_millipascal(grid: Grid, found: dict, units: Mapping[str, str], unit_sources: Mapping[str, str],
+                        meta: Mapping[str, str]) -> None:
+    """Refuse a column bpmid uses whose unit is written ``mPa`` (header, units row, flag or ``# q_unit:`` line):
+    read without regard to case it would be the megapascal, 1e9 times the millipascal it says."""
+    for q, ents in found.items():
+        for j, _unit, h, *_ in ents:
+            row = grid.unit_row[j] if grid.unit_row is not None and j < len(grid.unit_row) else None
+            for text, line, key in ((h, grid.header_line or None, h), (row, grid.unit_row_line, h),
+                                    (units.get(q), None, unit_sources.get(q, f"io.units.{q}")),
+                                    (meta.get(f"{q}_unit"), grid.meta_lines.get(f"{q}_unit"), f"{q}_unit")):
+                if (slip := millipascal_slip(text)) is not None:
+                    raise InputError(f"the {q} column's unit: {slip}", path=grid.where, line=line, key=key)
 
 
 #: the quantities a log may hold a second column of under another name ('Chamber pressure' beside 'Supply pressure')
