@@ -233,6 +233,18 @@ def test_boundary_corrected_lr_p_value():
     assert boundary_lr_p(0.0, 2) == 1.0
 
 
+def test_a_p_value_at_the_floor_of_double_precision_is_never_written_as_zero():
+    from bpmid.discover.confirm import boundary_lr_p, p_note, p_words
+
+    huge = boundary_lr_p(1e4, 1)                     # the chi-squared tail underflows to 0
+    assert huge == 0.0
+    for p in (huge, 4e-309, 9.9e-301):                # 0, a subnormal, just below the floor
+        assert p_words(p) == "< 1e-300" and p_words(p, eq=False) == "< 1e-300"
+        assert "underflow" in p_note(p)
+    assert p_words(0.0123) == "= 0.012" and p_words(0.0123, eq=False) == "0.012" and p_note(0.0123) is None
+    assert p_words(1e-300) == "= 1e-300" and p_note(1e-300) is None
+
+
 @pytest.mark.parametrize("text, key", [("fit_share_min: 1.5", "discover.fit_share_min"),
                                        ("fit_share_waived_above_sigma: -1", "discover.fit_share_waived_above_sigma"),
                                        ("per_log_constants: maybe", "discover.per_log_constants"),

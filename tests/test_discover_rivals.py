@@ -136,6 +136,24 @@ def test_a_ringing_payload_gets_nothing_named_and_a_lag_is_still_named():
     assert smoothing.heldout_rmse_after > lag.heldout_rmse_after
 
 
+def test_when_no_rival_withholds_the_one_reported_is_the_nearest_not_the_first():
+    """An angle offset named with every rival asked and none withholding: ``rival_outside_catalogue`` is the rival
+    with the lowest held-out RMSE (here not the first asked), and discovery.yaml says why it is the one shown."""
+    cfg = DiscoverConfig(candidates=("angle_offset",), max_effects=1, **LOOSE)
+    fit, ho = paper_sized_set(get_effect("angle_offset"), size=1.0, seed=13, noise_deg=0.1, protocols=SHORT)
+    res = discover(fit, start_model(), holdout=ho, cfg=cfg)
+    rnd = res.rounds[0]
+    assert res.named_effects == ["angle_offset"] and not rnd.withheld
+    tested = [c for c in rnd.rivals if c.tested]
+    assert len(tested) > 1 and rnd.rival is min(tested, key=lambda c: c.heldout_rmse_after)
+    assert rnd.rival is not rnd.rivals[0]
+    y = res.to_yaml()["rounds"][0]
+    assert y["rival_outside_catalogue"]["effect"] == rnd.rival.effect_id
+    assert y["rival_outside_catalogue"]["withheld_the_round"] is False
+    assert "no rival withheld" in y["rival_outside_catalogue"]["reported_because"]
+    assert all(r["reported_because"] is None for r in y["rivals_outside_catalogue"] if r["effect"] != rnd.rival.effect_id)
+
+
 # ------------------------------------------------------------------------------------------------ the air leak
 def test_the_leak_solves_the_orifice_balance_exactly_and_is_absent_at_zero():
     leak = AirLeak()

@@ -120,6 +120,7 @@ class Confirmation:
             "likelihood_ratio": round(self.lr, 3),
             "likelihood_ratio_p": float(f"{self.lr_p:.3g}"),
             "likelihood_ratio_p_holm": float(f"{self.lr_p_holm:.3g}") if math.isfinite(self.lr_p_holm) else None,
+            "likelihood_ratio_p_note": p_note(self.lr_p) if self.tested else None,
             "share_of_heldout_gap_removed": round(self.gap_share, 3) if math.isfinite(self.gap_share) else None,
             "share_of_fitting_gap_removed": round(self.fit_share, 3) if math.isfinite(self.fit_share) else None,
             "f_statistic": round(self.f_stat, 3),
@@ -144,6 +145,24 @@ def boundary_lr_p(lr: float, dp: int) -> float:
     dp = max(int(dp), 1)
     lower = float(chdtrc(dp - 1, lr)) if dp > 1 else 0.0
     return 0.5 * lower + 0.5 * float(chdtrc(dp, lr))
+
+
+#: below this a likelihood-ratio p is at the floor of double precision (the chi-squared tail underflows toward 0,
+#: through subnormal numbers): it is written "< 1e-300", never as a value to quote
+P_FLOOR = 1e-300
+
+
+def p_words(p: float, *, eq: bool = True) -> str:
+    """A p-value for a sentence: ``"= 0.012"`` (``"0.012"`` with ``eq=False``), or ``"< 1e-300"`` at the floor of
+    double precision, so an underflow never reads as "p = 0"."""
+    if p < P_FLOOR:
+        return "< 1e-300"
+    return f"= {p:.2g}" if eq else f"{p:.2g}"
+
+
+def p_note(p: float) -> str | None:
+    """``discovery.yaml``'s note beside a p-value at the floor of double precision (see :data:`P_FLOOR`)."""
+    return "below 1e-300 (underflow): the value is not one to quote" if p < P_FLOOR else None
 
 
 def holm_adjusted(p: Sequence[float], m: int | None = None) -> list[float]:

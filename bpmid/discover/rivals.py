@@ -40,7 +40,7 @@ from typing import ClassVar, Optional, Sequence
 
 import numpy as np
 
-from bpmid.discover.confirm import Confirmation, heldout_drop_sigma
+from bpmid.discover.confirm import Confirmation, heldout_drop_sigma, p_words
 from bpmid.effects import _kernels
 from bpmid.effects.base import Effect
 from bpmid.io.motion_logs import MotionLog
@@ -324,14 +324,14 @@ def rival_words(c: Confirmation, named: str, named_after_deg: float, floor: floa
                       "a lag smooths the logged pressure too, but adds a delay the data did not ask for"
                       + ("" if b is None else
                          f": refitted on top of the smoothing, {b.effect_id} leaves a held-out RMSE of "
-                         f"{b.heldout_rmse_after:.4g} deg, likelihood-ratio p = {b.lr_p:.2g}"))
+                         f"{b.heldout_rmse_after:.4g} deg, likelihood-ratio p {p_words(b.lr_p)}"))
     else:
         what, eg, cannot = c.effect_id, "", "no catalogue entry represents it"
     return (f"withheld: the residual is explained better by {what} ({c.effect_id}: outside the catalogue"
             f"{', ' + eg if eg else ''}): held-out RMSE {c.heldout_rmse_after:.4g} deg against "
             f"{named_after_deg:.4g} deg with {named} ({c.heldout_rmse_after / floor:.3f} vs "
             f"{named_after_deg / floor:.3f} noise floors), likelihood-ratio p "
-            f"{'< 1e-300' if c.lr_p == 0.0 else f'= {c.lr_p:.2g}'}; {cannot}, so {named} would only imitate it and "
+            f"{p_words(c.lr_p)}; {cannot}, so {named} would only imitate it and "
             "nothing is named this round")
 
 

@@ -53,7 +53,7 @@ from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS
                                       floor_drops, gain_winner, later_gain_follows, load_thresholds,
                                       winner_rank)
 from bpmid.discover.confirm import (Confirmation, PairTrial, confirm, excess_deg, heldout_drop_sigma, holm_adjusted,
-                                   pair_trial)
+                                   p_note, p_words, pair_trial)
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import (IMITATES, RIVALS, adds_beside, beats, check_rival, held_against, own_shape,
                                    rival_constants)
@@ -503,12 +503,16 @@ def rival_yaml(rnd: Round, thr: dict, floor: float, c: Optional[Confirmation] = 
     return {"effect": c.effect_id, "meaning": type(c.state.effects[-1]).meaning,
             "constants": {_RIVAL_CONSTANT_NAMES.get(k, k): round(v, 4) for k, v in rival_constants(c).items()},
             "needs_its_own_shape": own_shape(c), "withheld_the_round": bool(rnd.withheld) and c is rnd.rival,
+            "reported_because": None if c is not rnd.rival else (
+                "it withheld the round's effect" if rnd.withheld else
+                "no rival withheld; this is the one that came nearest (the lowest held-out RMSE of the rivals "
+                "tested; rivals_outside_catalogue lists them all)"),
             "reason": (rnd.withheld or None) if c is rnd.rival else None,
             "heldout_rmse_after_deg": round(c.heldout_rmse_after, 4),
             "heldout_rmse_after_in_noise_floors": round(c.heldout_rmse_after / floor, 4),
             "fit_rmse_after_deg": round(c.fit_rmse_after, 4),
             "likelihood_ratio_p": float(f"{c.lr_p:.3g}"),
-            "likelihood_ratio_p_note": "below 1e-300 (underflow)" if c.tested and c.lr_p == 0.0 else None,
+            "likelihood_ratio_p_note": p_note(c.lr_p) if c.tested else None,
             "tested": bool(c.tested),
             "not_tested_reason": c.not_tested_reason or None,
             "effect_refitted_beside": None if c.effect_beside is None else {
@@ -561,7 +565,7 @@ def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
             + (f"{c.heldout_rmse_before:.3f}" if c.passed_by == "floor" else f"{c.heldout_rmse_before:.2f}")
             + " to "
             + how +
-            f"likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected {c.lr_p_holm:.2g})"
+            f"likelihood-ratio p {p_words(c.lr_p)}, Holm-corrected {p_words(c.lr_p_holm, eq=False)})"
             + ("" if c.identifiable else
                f"; named for its held-out gain although none of its constants is determined separately by these logs "
                f"(" + "; ".join(f"{k}: {v}" for k, v in c.not_identifiable.items()) + "): its values are one point of "
@@ -576,13 +580,13 @@ def _pair_member_explanation(c: Confirmation, rnd: Round, floor: float, s, e) ->
             f"of two effects that share the residual (constants from their joint refit). ")
     if rnd.joint_with:
         body = (f"Beside {rnd.joint_with} it cut the held-out error from {c.heldout_rmse_before:.3f} to "
-                f"{c.heldout_rmse_after:.3f} deg (noise floor {floor:.3f} deg; likelihood-ratio p = {c.lr_p:.2g}, "
-                f"{c.lr_p_holm:.2g} Bonferroni-corrected over the pairs tried)")
+                f"{c.heldout_rmse_after:.3f} deg (noise floor {floor:.3f} deg; likelihood-ratio p {p_words(c.lr_p)}, "
+                f"{p_words(c.lr_p_holm, eq=False)} Bonferroni-corrected over the pairs tried)")
     else:
         body = (f"Alone it cut the held-out error from {c.heldout_rmse_before:.3f} to {c.heldout_rmse_after:.3f} deg "
                 f"(noise floor {floor:.3f} deg; its signature explained {s.explained:.0%} of what the base model left "
-                f"after the base constants' own compensation; likelihood-ratio p = {c.lr_p:.2g}, Holm-corrected "
-                f"{c.lr_p_holm:.2g})")
+                f"after the base constants' own compensation; likelihood-ratio p {p_words(c.lr_p)}, Holm-corrected "
+                f"{p_words(c.lr_p_holm, eq=False)})")
     return head + body + ("; alone the gate refused it because " + "; ".join(c.gate_reasons) if c.gate_reasons else
                           "; it passed the gate alone, but the two refitted together explain the held-out logs "
                           "better by more than the margin asked")
@@ -942,8 +946,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                 why = (check_rival(rv, named_id, named_after, thr["family_alpha"], floor) or "") if names else ""
                 if why and not withheld:
                     rival, withheld = rv, why
-            if rival is None and rivals:
-                rival = rivals[0]
+            if rival is None and rivals:   # none withheld: report the one that came nearest (lowest held-out RMSE)
+                rival = min(rivals, key=lambda c: (not c.tested, c.heldout_rmse_after))
         if withheld and cfg.withhold_for_rivals:
             for c in passing:
                 c.accepted, c.passed_by = False, ""
@@ -1275,7 +1279,7 @@ def pair_words(pt: PairTrial, floor: float, over: Optional[Confirmation] = None)
             f"{pt.heldout_rmse_before:.3f} to {pt.heldout_rmse_after:.3f} deg (noise floor {floor:.3f} deg), "
             f"removing {pt.gap_share:.0%} of the gap above the floor (gain {pt.gain_sigma:.2f} noise floors); beside "
             f"the other, {a} adds {pt.gain_first_given_second:.2f} and {b} {pt.gain_second_given_first:.2f} noise "
-            f"floors of held-out gain (likelihood-ratio p = {pt.p_first_given_second:.2g} and "
+            f"floors of held-out gain (likelihood-ratio p {p_words(pt.p_first_given_second)} and "
             f"{pt.p_second_given_first:.2g}, the larger Bonferroni-corrected over {pt.n_pairs} pair(s) to "
             f"{pt.p_corrected:.2g}): "
             + ("the two share the residual, so neither removes enough of it alone, and both are named" if over is None
