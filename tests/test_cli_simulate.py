@@ -74,9 +74,10 @@ def test_bad_input_exits_2_naming_the_key_and_writes_nothing(tmp_path):
     cases = [(PROTO.replace("rate: 0.2", "rate: -0.2"), [], "logs[0].program[0].triangle.rate"),
              (PROTO.replace("cycles: 2}", "cycles: 2, colour: red}"), [], "logs[0].program[0].triangle.colour"),
              (PROTO.replace("high: 1.8", "high: 99"), [], "logs[0].program[0].triangle.high"),
-             (PROTO, ["--effect", "gremlins"], "gremlins"),
-             (PROTO, ["--effect", "pressure_lag:tau=0.1,lag=2"], "pressure_lag.lag"),
-             (PROTO, ["--effect", "pressure_lag:tau=-1"], "pressure_lag.tau")]
+             (PROTO, ["--effect", "gremlins"], "key '--effect.gremlins'"),
+             (PROTO, ["--effect", "pressure_lag:tau=0.1,lag=2"], "key '--effect.pressure_lag.lag'"),
+             (PROTO, ["--effect", "pressure_lag:tau=-1"], "key '--effect.pressure_lag.tau'"),
+             (PROTO, ["--effect", "pressure_lag:tau=fast"], "key '--effect.pressure_lag.tau'")]
     for i, (text, extra, key) in enumerate(cases):
         p = tmp_path / f"p{i}.yaml"
         p.write_text(text)

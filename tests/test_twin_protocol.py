@@ -67,6 +67,33 @@ def test_sine_and_sawtooth(tmp_path):
     assert x[0] == 45 and x[50] == pytest.approx(60) and x[99] == pytest.approx(74.7) and x[100] == pytest.approx(45)
 
 
+def test_a_sine_after_another_level_changes_to_its_mean_at_its_slew_or_jumps_without_one(tmp_path):
+    proto = load_protocol(write(tmp_path, """
+        kind: reference
+        unit: deg
+        sampling_hz: 10
+        logs:
+          - {name: s, start: 30, program: [{sine: {mean: 60, amplitude: 15, frequency_hz: 0.25, cycles: 1, slew: 10}}]}
+          - {name: j, start: 30, program: [{sine: {mean: 60, amplitude: 15, frequency_hz: 0.25, cycles: 1}}]}
+        """))
+    t, x = proto.render(proto.logs[0])
+    assert x[0] == 30 and x[15] == pytest.approx(45) and x[30] == pytest.approx(60)   # 30 deg at 10 deg/s: 3 s
+    assert np.allclose(x[30:], 60 + 15 * np.sin(2 * np.pi * 0.25 * (t[30:] - 3.0)), atol=1e-9)
+    steepest = max(10.0, 2 * np.pi * 0.25 * 15) * 0.1              # the slew, or the sine's own steepest slope
+    assert np.abs(np.diff(x)).max() <= steepest + 1e-9               # no step anywhere
+    assert t[-1] == pytest.approx(7.0)
+    t, x = proto.render(proto.logs[1])
+    assert x[0] == pytest.approx(60) and t[-1] == pytest.approx(4.0)   # no slew: the sine starts at its mean at t = 0
+    with pytest.raises(InputError, match="must be positive") as e:
+        load_protocol(write(tmp_path, """
+            kind: reference
+            unit: deg
+            logs:
+              - {name: s, start: 30, program: [{sine: {mean: 60, amplitude: 15, frequency_hz: 0.25, slew: 0}}]}
+            """, "bad.yaml"))
+    assert e.value.key.endswith("sine.slew")
+
+
 def test_motion_simulation_is_seeded_labelled_and_reads_back(tmp_path):
     path = write(tmp_path, MOTION)
     a = simulate(path, effects=["pressure_lag:tau=0.2"], timestamp=False, command="x")

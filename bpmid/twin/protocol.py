@@ -28,7 +28,8 @@ Top level
     low -> high -> low at +-``rate``
   - ``sawtooth: {low, high, period_s, cycles, fall_s}``: rise low -> high over ``period_s``, fall back over
     ``fall_s`` (default 0: a jump)
-  - ``sine: {mean, amplitude, frequency_hz, cycles}``: mean + amplitude sin(2 pi f t)
+  - ``sine: {mean, amplitude, frequency_hz, cycles, slew}``: mean + amplitude sin(2 pi f t), starting at ``mean``:
+    from another level it first changes to ``mean`` at the slew limit ``slew`` (unit/s; omitted: a jump, as ``step``)
   - ``repeat: {times, program}``: a sub-program run ``times`` times
 - ``plant`` (motion): ``material`` (``paper_fit`` or ``paper_mat``; ``--params`` overrides), ``closure``,
   ``effects`` (the rig's own physics: ``{id: {parameter or setting: value}}``), ``variation``
@@ -196,18 +197,24 @@ class Sine:
     amplitude: float
     frequency_hz: float
     cycles: float = 1.0
+    slew: Optional[float] = None
 
     def validate(self, where, path):
-        _positive(where, path, frequency_hz=self.frequency_hz, cycles=self.cycles)
+        _positive(where, path, frequency_hz=self.frequency_hz, cycles=self.cycles, slew=self.slew)
         _non_negative(where, path, amplitude=self.amplitude)
 
     def levels(self):
         return {"mean": self.mean}
 
     def pieces(self, t0, x0):
+        out = []
+        if self.slew is not None and self.mean != x0:
+            d = abs(self.mean - x0) / self.slew
+            out.append(("lin", t0, t0 + d, x0, self.mean))
+            t0 += d
         d = self.cycles / self.frequency_hz
         end = self.mean + self.amplitude * math.sin(2 * math.pi * self.cycles)
-        return [("sine", t0, t0 + d, self.mean, self.amplitude, self.frequency_hz)], t0 + d, end
+        return out + [("sine", t0, t0 + d, self.mean, self.amplitude, self.frequency_hz)], t0 + d, end
 
 
 @dataclasses.dataclass(frozen=True)

@@ -68,7 +68,7 @@ def parse_effect_arg(text: str) -> tuple[str, dict]:
             k = k.strip()
             if not eq or not k:
                 raise InputError(f"expected key=value, found {item!r}", key=f"--effect {text}")
-            values[k] = _number(v.strip(), f"{eid}.{k}")
+            values[k] = _number(v.strip(), f"--effect.{eid}.{k}")   # the key build_effect names too
     return eid, values
 
 
