@@ -8,7 +8,8 @@ import yaml
 from typer.testing import CliRunner
 
 from bpmid.cli import app
-from bpmid.validation.sweep import (RECORDS, comparable, load_sweep, read_records, run_sweep, summarize)
+from bpmid.validation.sweep import (RECORDS, code_fingerprint, comparable, load_sweep, read_records, run_sweep,
+                                   summarize)
 
 REPO = Path(__file__).resolve().parents[1]
 TINY = REPO / "configs" / "sweeps" / "tiny.yaml"
@@ -370,9 +371,13 @@ def test_workers_without_this_bpmid_are_named_not_waited_for():
                 raise TimeoutError("no workers")
 
         def run(self, fn, *args, on_error):
-            assert fn is importlib.metadata.version and args == ("bpmid",) and on_error == "return"
+            assert on_error == "return"
+            if fn is code_fingerprint:   # asked only once every worker has this version
+                return {w: prints.get(w, code_fingerprint()) for w in self.answers}
+            assert fn is importlib.metadata.version and args == ("bpmid",)
             return self.answers
 
+    prints = {}
     with pytest.raises(InputError, match="has no worker"):
         _check_workers(Client(False, {}), "tcp://h:1")
     with pytest.raises(InputError, match="has no bpmid"):
@@ -381,6 +386,27 @@ def test_workers_without_this_bpmid_are_named_not_waited_for():
     with pytest.raises(InputError, match="has bpmid 0.0.1"):
         _check_workers(Client(True, {"tcp://w1": "0.0.1"}), "tcp://h:1")
     _check_workers(Client(True, {"tcp://w1": __version__}), "tcp://h:1")   # this bpmid everywhere: fine
+    # the same version string on other code (another commit): named with both fingerprints
+    prints = {"tcp://w2": "0123456789abcdef"}
+    with pytest.raises(InputError, match="run other bpmid code") as e:
+        _check_workers(Client(True, {"tcp://w1": __version__, "tcp://w2": __version__}), "tcp://h:1")
+    assert "tcp://w2" in e.value.message and "0123456789abcdef" in e.value.message
+    assert code_fingerprint() in e.value.message and e.value.key == "--scheduler"
+
+
+def test_the_code_fingerprint_follows_the_package_source(tmp_path, monkeypatch):
+    """Equal for the same files wherever they are installed; another byte anywhere gives another fingerprint."""
+    import bpmid
+
+    src = Path(bpmid.__file__).resolve().parent
+    copy = tmp_path / "site" / "bpmid"
+    shutil.copytree(src, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    here = code_fingerprint()
+    monkeypatch.setattr(bpmid, "__file__", str(copy / "__init__.py"))
+    assert code_fingerprint() == here
+    with open(copy / "discover" / "thresholds.yaml", "a") as f:
+        f.write("\n# a local edit\n")
+    assert code_fingerprint() != here
 
 
 @pytest.mark.parametrize("rig, key, words", [

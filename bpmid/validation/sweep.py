@@ -540,6 +540,23 @@ def _connect(Client, scheduler: str, what_to_do: str):
                      key="--scheduler") from None
 
 
+def code_fingerprint() -> str:
+    """A short SHA-256 of the bpmid package this process runs (every ``.py`` and ``.yaml`` file under it, by path
+    relative to the package and content; not the shipped example data of ``_data``): equal on two machines when they
+    run the same code, whatever the version string says (every commit of a release carries the same one) or where it
+    is installed."""
+    import hashlib
+    from pathlib import Path
+
+    import bpmid
+
+    root = Path(bpmid.__file__).resolve().parent
+    h = hashlib.sha256()
+    for f in sorted(p for ext in ("*.py", "*.yaml") for p in root.rglob(ext) if not {"__pycache__", "_data"} & set(p.relative_to(root).parts)):
+        h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
+
 def _check_workers(client, scheduler: str) -> None:
     """An existing cluster must have workers, and every worker must run this bpmid: a worker that cannot import it
     dies on the first case and the sweep would wait forever. Asked with standard-library functions only (they
@@ -563,6 +580,17 @@ def _check_workers(client, scheduler: str) -> None:
         raise InputError(f"{len(bad)} of the {len(found)} Dask worker(s) at {scheduler!r} cannot run this sweep: "
                          f"{w} has {has}, this command bpmid {__version__}. Install the same bpmid (with "
                          f"'bpmid[cluster]') in the workers' environment and restart them", key="--scheduler")
+    # the same version string can be other code (another commit, local edits): its discovery would decide otherwise
+    mine = code_fingerprint()
+    prints = client.run(code_fingerprint, on_error="return")
+    other = {w: v for w, v in prints.items() if v != mine}
+    if other:
+        w, v = next(iter(other.items()))
+        raise InputError(f"{len(other)} of the {len(prints)} Dask worker(s) at {scheduler!r} run other bpmid code: "
+                         f"{w} has bpmid {__version__} with code fingerprint "
+                         f"{v if isinstance(v, str) else f'(an error: {v!r})'}, this command {mine} (another commit, "
+                         f"or local edits; the fingerprint hashes every .py and .yaml file of the package). Install "
+                         f"this bpmid in the workers' environment and restart them", key="--scheduler")
 
 
 def run_cases(cases: Sequence[Case], phase: str, discover_cfg, writer: RecordWriter, client, *,
