@@ -1,4 +1,5 @@
-"""Progress on stderr for long work: shown only when stderr is a terminal and --quiet was not given."""
+"""Progress on stderr for long work: shown only when stderr is a terminal and --quiet was not given (:func:`line`,
+for a sweep's one line per case: unless --quiet, also when stderr goes to a file)."""
 from __future__ import annotations
 
 import sys
@@ -19,6 +20,13 @@ def enabled() -> bool:
 def note(message: str) -> None:
     """One line of progress (a stage starting or ending)."""
     if enabled():
+        print(f"[bpmid] {message}", file=sys.stderr, flush=True)
+
+
+def line(message: str) -> None:
+    """One line of progress of long work that is often run with stderr sent to a file (a sweep of hundreds of
+    cases, ``bpmid calibrate ... 2> sweep.log``): shown unless --quiet, on a terminal or not, one whole line each."""
+    if not _QUIET:
         print(f"[bpmid] {message}", file=sys.stderr, flush=True)
 
 

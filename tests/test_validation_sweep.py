@@ -188,6 +188,10 @@ def test_cli_calibrate_resumes_a_finished_folder_and_rejects_bad_configs(full_ru
     r = runner.invoke(app, ["--quiet", "calibrate", str(TINY), "--out", str(out)])
     assert r.exit_code == 0, r.output
     assert "Confusion matrix, heldout half" in r.output and (out / "confusion.md").exists()
+    # without --quiet, progress goes to stderr as whole lines even when it is not a terminal (a log file)
+    r = runner.invoke(app, ["calibrate", str(TINY), "--out", str(out)])
+    assert r.exit_code == 0 and "[bpmid] heldout half:" in r.stderr and "0 to run" in r.stderr
+    assert "[bpmid]" not in r.stdout and "\r" not in r.stderr
     # a bad key names itself, exit 2
     bad = tmp_path / "bad.yaml"
     bad.write_text(TINY.read_text().replace("  duration_scale: 0.08", "  duration_scael: 0.08"))

@@ -35,7 +35,7 @@ def calibrate_cmd(
     the calibration half and write the confusion matrix and rates of the held-out half. Every finished case is
     appended to DIR/records.jsonl at once; rerunning into the same DIR resumes."""
     from bpmid.errors import InputError
-    from bpmid.progress import note
+    from bpmid.progress import line
     from bpmid.validation.sweep import check_split, confusion_markdown, load_sweep, run_sweep
 
     check_split(split)
@@ -47,7 +47,7 @@ def calibrate_cmd(
         raise InputError("thresholds file not found", path=thresholds, key="--thresholds")
     cfg = load_sweep(sweep)
     res = run_sweep(cfg, out, split=split, scheduler=scheduler, workers=workers, processes=not threads,
-                    thresholds_path=thresholds, progress=note)
+                    thresholds_path=thresholds, progress=line)
     if res.summary is not None:
         typer.echo(confusion_markdown(res.summary))
     if res.thresholds is not None and split != "heldout":
