@@ -422,3 +422,36 @@ def test_a_modulus_in_mpa_as_written_is_refused_in_relaxation_and_dma_files(tmp_
         assert res.exit_code == 2, res.output
         assert f"{name}:{line}, key '{key}'" in res.output and "millipascal" in res.output
         assert not out.exists()
+
+
+# ---- a point between groups of three digits in a file not separated by commas: never guessed -------------------
+def test_whole_numbers_with_thousands_points_are_refused_and_decimal_columns_still_read(tmp_path):
+    rows = [(0, 187), (100, 640), (200, 991), (300, 1008), (400, 1188)]
+    text = "# pressure_reference: gauge\nZeit (ms);Druck (mbar);Winkel (deg)\n" + "".join(
+        f"{t};{f'{p:,d}'.replace(',', '.')};{a}\n" for (t, p), a in zip(rows, (1, 5, 9, 12, 14)))
+    log = _write(tmp_path, "th.csv", text)
+    with pytest.raises(InputError, match="thousands separator") as e:
+        read_motion_log(log)
+    assert e.value.line == 6 and e.value.key == "Druck (mbar)" and "1008" in e.value.message
+    res = runner.invoke(app, ["predict", str(log), "--params", str(_params(tmp_path)), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 2 and "th.csv:6, key 'Druck (mbar)'" in res.output and not (tmp_path / "o").exists()
+    # decimals of other lengths, every value's decimals written out, or a comma-separated file: decimal points
+    for name, sep, cells in (("g.csv", ";", ["187", "640.5", "991", "1.008", "1.188"]),
+                             ("f.csv", ";", ["187.000", "640.000", "991.000", "1.008", "1.188"]),
+                             ("c.csv", ",", ["187", "640", "991", "1.008", "1.188"])):
+        body = "".join(f"{t}{sep}{c}{sep}{a}\n" for (t, _p), c, a in zip(rows, cells, (1, 5, 9, 12, 14)))
+        f = _write(tmp_path, name, f"# pressure_reference: gauge\ntime_ms{sep}pressure_mbar{sep}angle_deg\n" + body)
+        assert read_motion_log(f).pressure_pa[3] == pytest.approx(100.8)
+
+
+# ---- an ambient-pressure column under a one-word name ------------------------------------------------------------
+@pytest.mark.parametrize("name", ["Ambient (hPa)", "Barometer (hPa)", "baro_hpa", "Atmospheric [hPa]"])
+def test_an_ambient_column_under_a_one_word_name_is_the_ambient_pressure(tmp_path, name):
+    body = "".join(f"{0.1 * k:.1f},{0.84 + 0.05 * k:.3f},840\n" for k in range(10))
+    log = _write(tmp_path, "amb.csv", f"# pressure_reference: absolute\ntime_s,pressure_bar,{name}\n" + body)
+    p = read_motion_log(log).pressure_pa
+    assert p == pytest.approx(5e3 * np.arange(10), abs=1e-6)          # gauge against 840 hPa, not 1013.25
+    # a temperature under the same word is set aside, and the ambient pressure is the standard atmosphere
+    t = _write(tmp_path, "amb_t.csv", "# pressure_reference: absolute\ntime_s,pressure_bar,Ambient (C)\n"
+               + "".join(f"{0.1 * k:.1f},{1.2 + 0.05 * k:.3f},21\n" for k in range(10)))
+    assert read_motion_log(t).pressure_pa[0] == pytest.approx(120000 - 101325.0)

@@ -95,6 +95,8 @@ ALIASES = {
     # not 'air pressure': on a pneumatic rig that is as often the supply
     "ambient pressure": "ambient", "atmospheric pressure": "ambient", "barometric pressure": "ambient",
     "p amb": "ambient", "p atm": "ambient", "p ambient": "ambient", "p baro": "ambient", "umgebungsdruck": "ambient",
+    # a column named only so (a temperature unit beside it makes it a temperature: 'Ambient [°C]', set aside)
+    "ambient": "ambient", "barometer": "ambient", "baro": "ambient", "barometric": "ambient", "atmospheric": "ambient",
 }
 
 #: header base names whose unit 'grad' is the German for degree (elsewhere 'grad' may be the gradian: refused)
@@ -685,6 +687,8 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
                                  line=row_lines[dot[0]])
             rows = [[c.replace(",", ".") for c in row] for row in rows]  # text cells are never used as numbers
     cols = [list(c) for c in zip(*rows)] if rows else [[] for _ in header]
+    if delim != "," and decimal == ".":
+        _refuse_thousands_points(header, cols, row_lines, where)
     info = {"format": "text", "encoding": enc, "delimiter": info_delim, "decimal": "comma" if decimal == "," else
             "point"}
     if info_rows:
@@ -694,6 +698,32 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
     if nul_tail:
         info["nul_bytes_at_end"] = nul_tail
     return Grid(header, unit_row, cols, row_lines, meta, where, header_line, info, meta_lines, unit_row_line)
+
+
+#: a whole number written with points between groups of three digits (German, Swiss: 1.008 for 1008)
+_THOUSANDS = re.compile(r"^[-+]?[1-9]\d{0,2}(?:\.\d{3})+$")
+_WHOLE = re.compile(r"^[-+]?\d+$")
+
+
+def _refuse_thousands_points(header: list[str], cols: list[list], row_lines: list[int], where: str) -> None:
+    """Refuse a column of whole numbers some of which carry a point before exactly three digits (``991`` above
+    ``1.008``) in a file not separated by commas: the point is a thousands separator there as often as a decimal
+    point, a factor of 1000 apart, and bpmid does not guess. A column with any other decimal (``1.5``) or with every
+    whole number written with decimals (``991.000``) is a decimal column and read as such."""
+    for j, col in enumerate(cols):
+        cells = [str(c).strip() for c in col if str(c).strip()]
+        grouped = next((k for k, c in enumerate(col) if _THOUSANDS.match(str(c).strip())), None)
+        if grouped is None or not any(_WHOLE.match(c) for c in cells):
+            continue
+        if all(_WHOLE.match(c) or _THOUSANDS.match(c) for c in cells):
+            whole = next(c for c in cells if _WHOLE.match(c))
+            g = str(col[grouped]).strip()
+            name = header[j] if j < len(header) else f"column {j + 1}"
+            raise InputError(f"column {name!r} holds whole numbers ({whole!r}) and {g!r}: is the point a thousands "
+                             f"separator ({g.replace('.', '')}) or a decimal point ({g})? They are 1000 times apart "
+                             f"and bpmid does not guess; export the log without thousands separators (or with every "
+                             f"value's decimals written out)", path=where,
+                             line=row_lines[grouped] if grouped < len(row_lines) else None, key=name)
 
 
 def _fields(line: str, delim: str | None) -> list[str]:
