@@ -61,7 +61,8 @@ def exported(tmp_path_factory, name, fit, filter=False, **kw):
 
 def run_filter(exe, t, x, inverse=False):
     text = "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, x))
-    res = subprocess.run([str(exe)] + (["-i"] if inverse else []), input="time_s,value\n" + text,
+    head = "time_s,angle_deg\n" if inverse else "time_s,pressure_gauge_pa\n"
+    res = subprocess.run([str(exe)] + (["-i"] if inverse else []), input=head + text,
                          capture_output=True, text=True, check=True)
     return np.array(res.stdout.split(), float)
 
@@ -376,6 +377,15 @@ def test_filter_refuses_bad_lines(plain):
                        ("nan,50000\n0.1,1\n", "line 1: not a finite number")):
         res = subprocess.run([str(exe)], input=text, capture_output=True, text=True)
         assert res.returncode == 2 and what in res.stderr, res.stderr
+    # a header naming other columns (a log in absolute bar, in kPa) is refused, naming what is read
+    for flag, head in (([], "time_s,pressure_bar"), ([], "time_s,pressure_kpa_gauge"), (["-i"], "time_s,pressure_gauge_pa")):
+        res = subprocess.run([str(exe), *flag], input=f"{head}\n0,1.2\n0.1,1.3\n", capture_output=True, text=True)
+        assert res.returncode == 2 and res.stdout == "", res.stderr
+        assert f"line 1: the header names '{head}'" in res.stderr and "time in s" in res.stderr
+    # the header it reads, with spaces, quotes or CRLF, and no header at all: read
+    for text in ('"time_s", "pressure_gauge_pa"\r\n0,20000\r\n', "0,20000\n"):
+        res = subprocess.run([str(exe)], input=text, capture_output=True, text=True)
+        assert res.returncode == 0 and len(res.stdout.split()) == 1, res.stderr
 
 
 def test_filter_feedforward_flag(plain):
