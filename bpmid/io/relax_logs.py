@@ -227,10 +227,12 @@ _MAT_UNITS = {
     "T": {"c": 0.0, "°c": 0.0, "degc": 0.0, "deg c": 0.0, "celsius": 0.0, "k": -273.15, "": 0.0},  # offsets added: C = K - 273.15
     "set": {"-": 1.0, "": 1.0, "1": 1.0},
 }
-#: a temperature column without a stated unit whose every value is at least this is refused (kelvin, or a mistake):
-#: no DMA or relaxation test of a soft polymer runs entirely above 150 C, and a sweep from -120 C in kelvin starts
-#: at 153 K
-UNITLESS_KELVIN_C = 150.0
+#: unit families a material file must state (in the header or a units row): why, and how to state it. A test
+#: temperature of 20 is C, K (no: refused as a mistake only above 150) or F alike, and a modulus of 3 is MPa or GPa
+_STATED = {"T": ("degrees C, kelvin and degrees F all read as plausible test temperatures",
+                 "name the column '{h} (C)' or '{h} (K)' (degrees F: convert to C)"),
+           "modulus": ("a modulus of 3 is a soft rubber in MPa and a glassy polymer in GPa",
+                       "name the column '{h} (MPa)' (or Pa, kPa, GPa)")}
 #: header names that say neither E nor G (read as E, with a warning)
 _VAGUE_MODULUS = frozenset({"storagemodulus", "lossmodulus", "relaxationmodulus", "modulus"})
 #: a modulus above this (MPa; 100 GPa) is stiffer than any polymer: refused without a stated unit, warned with one
@@ -522,6 +524,11 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
 
     def column(role: str) -> np.ndarray:
         j, unit = index[role]
+        fam = _ROLE_UNIT[role]
+        if unit == "" and fam in _STATED:   # C, K or F; MPa, Pa or GPa: a factor (or an offset) bpmid never guesses
+            raise InputError(f"column {header[j]!r} states no unit, and bpmid does not guess one "
+                             f"({_STATED[fam][0]}): {_STATED[fam][1].format(h=header[j])}, or add a units row "
+                             f"under the header", path=path, line=header_line, key=header[j])
         vals = np.empty(len(rows))
         for r, (ln, row) in enumerate(rows):
             cell = row[j] if j < len(row) else ""
@@ -533,25 +540,11 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                 raise InputError(f"column {header[j]!r}: {cell!r} (NaN or infinite values are not allowed)", path=path,
                                  line=ln)
             vals[r] = v
-        fam = _ROLE_UNIT[role]
         if fam == "T":
-            if unit == "" and vals.size and float(vals.min()) >= UNITLESS_KELVIN_C:
-                i = int(np.argmin(vals))
-                raise InputError(f"column {header[j]!r} has no unit and every temperature is at least "
-                                 f"{UNITLESS_KELVIN_C:g} (the lowest {vals[i]:g}): that is almost surely kelvin "
-                                 f"(or a mistake); state the unit: name the column 'T (C)' or 'T (K)', or add a "
-                                 "units row (C or K) under the header", path=path, line=int(rows[i][0]),
-                                 key=header[j])
             return vals + _MAT_UNITS["T"][unit]  # K -> C: T - 273.15; C unchanged
         out = vals * _MAT_UNITS[fam][unit]
         if fam == "modulus" and out.size and float(out.max()) > MAX_PLAUSIBLE_MPA:
             i = int(np.argmax(out))
-            if unit == "":
-                raise InputError(f"column {header[j]!r} has no unit, and read as MPa (the default) its largest value "
-                                 f"{vals[i]:g} would be {out[i] / 1e3:g} GPa, stiffer than any polymer: the values "
-                                 "look like Pa (or kPa); state the unit: name the column with it, e.g. "
-                                 f"'{header[j]} (Pa)', or add a units row (Pa, kPa, MPa or GPa) under the header",
-                                 path=path, line=int(rows[i][0]), key=header[j])
             where = f"{path.name}:{int(rows[i][0])}" if path is not None else f"line {int(rows[i][0])}"
             warnings.append(f"{where}: column {header[j]!r} reaches {out[i]:.4g} MPa ({vals[i]:g} {unit}), above "
                             f"{MAX_PLAUSIBLE_MPA:g} MPa (100 GPa), stiffer than any polymer: check the unit "
