@@ -378,7 +378,8 @@ def test_filter_refuses_bad_lines(plain):
         res = subprocess.run([str(exe)], input=text, capture_output=True, text=True)
         assert res.returncode == 2 and what in res.stderr, res.stderr
     # a header naming other columns (a log in absolute bar, in kPa) is refused, naming what is read
-    for flag, head in (([], "time_s,pressure_bar"), ([], "time_s,pressure_kpa_gauge"), (["-i"], "time_s,pressure_gauge_pa")):
+    for flag, head in (([], "time_s,pressure_bar"), ([], "time_s,pressure_kpa_gauge"),
+                       (["-i"], "time_s,pressure_gauge_pa")):
         res = subprocess.run([str(exe), *flag], input=f"{head}\n0,1.2\n0.1,1.3\n", capture_output=True, text=True)
         assert res.returncode == 2 and res.stdout == "", res.stderr
         assert f"line 1: the header names '{head}'" in res.stderr and "time in s" in res.stderr

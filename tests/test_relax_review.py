@@ -2,8 +2,10 @@
 decimal commas, rad/s, the order of master curves and sweeps, small sets, a single set with --ref-temp, shift
 factors the data do not determine, and the term criterion of time-domain master curves."""
 import re
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 import yaml
 from typer.testing import CliRunner
@@ -319,3 +321,26 @@ def test_a_modulus_named_neither_e_nor_g_is_read_as_e_with_a_warning(tmp_path):
     assert d.modulus == "E" and any("neither E (tensile) nor G (shear)" in w and "G'" in w for w in d.warnings)
     q = write(tmp_path / "e.csv", ["f", "E_stor", "E_loss"], rows, ["Hz", "MPa", "MPa"])
     assert not read_material_file(q).warnings
+
+
+def test_a_small_strain_in_percent_under_a_plain_strain_name_is_warned_and_strict_refuses(tmp_path):
+    """A 0.5 % relaxation test whose strain column is in percent but named 'strain': read as a fraction, the modulus
+    comes out 100 times too small (some 800 Pa), softer than any elastomer of a muscle: warned, --strict exits 2."""
+    src = Path(__file__).resolve().parents[1] / "datasets" / "relaxation" / "relax_300mmmin_15pct.csv"
+    log = pd.read_csv(src, comment="#")
+    t, e, s = (log[c].to_numpy() for c in ("time_s", "strain", "stress_mpa"))
+    k = 0.005 / e.max()
+    pct = tmp_path / "pct.csv"
+    rows = "".join(f"{a:.10g},{b * k * 100:.10g},{c * k:.10g}\n" for a, b, c in zip(t, e, s))
+    pct.write_text("time_s,strain,stress_mpa\n" + rows)
+    res, out = fit(tmp_path, pct, "--terms", "1")
+    assert res.exit_code == 0 and "strain column in percent" in res.output and "strain_pct" in res.output
+    assert any("instantaneous modulus" in w for w in yaml.safe_load(out.read_text())["warnings"])
+    out.unlink()
+    res, out = fit(tmp_path, pct, "--terms", "1", "--strict")
+    assert res.exit_code == 2 and not out.exists()
+    # the same column named strain_pct: the modulus of a rubber, no warning
+    ok = tmp_path / "ok.csv"
+    ok.write_text(pct.read_text().replace("time_s,strain,", "time_s,strain_pct,", 1))
+    res, out = fit(tmp_path, ok, "--terms", "1")
+    assert res.exit_code == 0 and "instantaneous modulus" not in res.output

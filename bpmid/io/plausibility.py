@@ -32,6 +32,9 @@ from bpmid.errors import InputError
 
 #: a fit or prediction with R^2 below this is flagged
 R2_MIN = 0.5
+#: an instantaneous modulus (MPa) below this is softer than the elastomers a muscle is made of (the softest
+#: silicones, Ecoflex 00-10 class, are some 0.05 MPa): a unit slip, e.g. a strain in percent read as a fraction
+E0_SOFTEST_MPA = 1e-2
 #: peak gauge pressure (Pa) of a pneumatic muscle run: below or above is flagged as a likely unit slip
 PRESSURE_RANGE_PA = (2e3, 2e6)
 #: a degree column whose largest |angle| stays at or below this while the pressure moves looks like radians
@@ -283,10 +286,14 @@ def relax_warnings(records: Sequence, fit) -> list[str]:
         out.append(f"the relaxation fit explains little (R^2 {r2:.3g} < {R2_MIN:g}): check the stress and time units "
                    f"(--time-unit, io.units) and the columns used (--columns)")
     E0 = float(fit.E_inf + np.sum(fit.E))
-    if E0 > 1e4 or 0 < E0 < 1e-4:
-        out.append(f"the instantaneous modulus is {E0:.4g} MPa, outside what rubbers and soft polymers have "
-                   f"(1e-4 to 1e4 MPa): likely a stress, load or strain unit slip; state the units in the header "
-                   f"(stress_mpa, load_n, strain or strain_pct)")
+    if E0 > 1e4 or 0 < E0 < E0_SOFTEST_MPA:
+        out.append(f"the instantaneous modulus is {E0:.4g} MPa, outside what the elastomers of a muscle have "
+                   f"({E0_SOFTEST_MPA:g} to 1e4 MPa; the softest silicones are some 0.05 MPa): likely a stress, load "
+                   f"or strain unit slip; state the units in the header (stress_mpa, load_n, strain or strain_pct)"
+                   + (" - a strain column in percent under a plain 'strain' name reads 100 times too large and the "
+                      "modulus 100 times too small" if E0 < E0_SOFTEST_MPA and any(
+                          r.strain is not None and r.strain.size and float(np.max(r.strain)) <= 1.0
+                          for r in records) else ""))
     return out
 
 

@@ -552,7 +552,9 @@ def code_fingerprint() -> str:
 
     root = Path(bpmid.__file__).resolve().parent
     h = hashlib.sha256()
-    for f in sorted(p for ext in ("*.py", "*.yaml") for p in root.rglob(ext) if not {"__pycache__", "_data"} & set(p.relative_to(root).parts)):
+    files = (p for ext in ("*.py", "*.yaml") for p in root.rglob(ext)
+             if not {"__pycache__", "_data"} & set(p.relative_to(root).parts))
+    for f in sorted(files):
         h.update(f.relative_to(root).as_posix().encode() + b"\0" + f.read_bytes() + b"\0")
     return h.hexdigest()[:16]
 
