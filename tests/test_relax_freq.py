@@ -121,6 +121,14 @@ def test_cli_frequency_fit_writes_readable_result(repo_root, tmp_path):
     f = np.array(body["data"]["f_min_hz"]) * np.array([1.0, 1e6, 1e12])
     s, _ = complex_modulus(f, p.E_inf, p.E, p.tau)
     assert np.all(s > 0) and p.mode == "frequency"
+    # a glassy polymer (9 GPa) under the default Poisson's ratio of the paper's rubber: said, with what follows from
+    # it; a ratio given by the user is not questioned
+    assert "Poisson's ratio is the default 0.49933" in res.output and "--poisson" in res.output
+    assert any("glassy polymer" in w for w in body["warnings"])
+    res = runner.invoke(app, ["fit", "relax", ref(repo_root, "freq_user_master.csv"), "--terms", "8", "--no-figure",
+                              "--poisson", "0.35", "--out", str(tmp_path / "nu.yaml")])
+    assert res.exit_code == 0 and "Poisson" not in res.output
+    assert yaml.safe_load((tmp_path / "nu.yaml").read_text())["poisson_ratio"] == 0.35
 
 
 def test_cli_max_error_prints_each_candidate(tmp_path):

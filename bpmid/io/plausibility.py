@@ -35,6 +35,8 @@ R2_MIN = 0.5
 #: an instantaneous modulus (MPa) below this is softer than the elastomers a muscle is made of (the softest
 #: silicones, Ecoflex 00-10 class, are some 0.05 MPa): a unit slip, e.g. a strain in percent read as a fraction
 E0_SOFTEST_MPA = 1e-2
+#: an instantaneous modulus (MPa) above this is a glassy polymer's, not a rubber's (Poisson's ratio near 0.35)
+GLASSY_MPA = 1e3
 #: peak gauge pressure (Pa) of a pneumatic muscle run: below or above is flagged as a likely unit slip
 PRESSURE_RANGE_PA = (2e3, 2e6)
 #: a degree column whose largest |angle| stays at or below this while the pressure moves looks like radians
@@ -295,6 +297,19 @@ def relax_warnings(records: Sequence, fit) -> list[str]:
                           r.strain is not None and r.strain.size and float(np.max(r.strain)) <= 1.0
                           for r in records) else ""))
     return out
+
+
+def poisson_warnings(fit, nu: float, stated: bool) -> list[str]:
+    """A warning when Poisson's ratio is the default (the paper's rubber, nearly incompressible) but the fitted
+    instantaneous modulus is a glassy polymer's (above 1 GPa): G and K, and the FEA cards' bulk modulus, follow it."""
+    E0 = float(fit.E_inf + np.sum(fit.E))
+    if stated or E0 <= GLASSY_MPA:
+        return []
+    K = E0 / (3.0 * (1.0 - 2.0 * nu))
+    return [f"Poisson's ratio is the default {nu:g} (the paper's rubber, nearly incompressible), but the instantaneous "
+            f"modulus is {E0 / 1e3:.3g} GPa, a glassy polymer's, whose ratio is nearer 0.35: the shear and bulk "
+            f"moduli follow it (K0 = {K / 1e3:.3g} GPa here, as in the FEA cards `bpmid export` writes); give the "
+            f"material's own with --poisson (config relax.poisson)"]
 
 
 def reader_warnings(logs: Iterable) -> list[str]:

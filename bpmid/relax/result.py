@@ -343,9 +343,11 @@ def _fit_material(paths, material, config, *, terms, mode, poisson, max_error_pc
     mf = fit_material(datas, terms=_terms_option(terms, cfg, flags), max_error_pct=max_error_pct,
                       ref_temp=ref_temp, shift_file=shift, config=cfg)
     from bpmid.io import plausibility as plaus
+    from bpmid.relax import PAPER_POISSON
 
     # implausible values under a stated unit, shift factors the data do not determine: --strict refuses them
-    checks = [w for d in datas for w in d.warnings] + list(getattr(mf, "checks", []))
+    checks = ([w for d in datas for w in d.warnings] + list(getattr(mf, "checks", []))
+              + plaus.poisson_warnings(mf.fit, nu, stated=poisson is not None or cfg.poisson != PAPER_POISSON))
     if checks and config.section("io").strict:
         plaus.emit(checks, strict=True, what="the relaxation fit")
     mf.fit.warnings = list(mf.fit.warnings) + [w for w in checks if w not in mf.fit.warnings]
@@ -404,12 +406,14 @@ def fit_relax_files(logs: Sequence[str | Path], *, terms: str | int | None = Non
     fit = fit_relaxation(records, terms=terms, mode=mode, config=cfg, max_error_pct=max_error_pct)
     from bpmid.fitting import check_explained  # R^2 <= 0 or NaN: no constants are written
     from bpmid.io import plausibility as plaus
+    from bpmid.relax import PAPER_POISSON
 
     check_explained(np.concatenate([lf.y for lf in fit.logs]), np.concatenate([lf.y_fit for lf in fit.logs]),
                     quantity=fit.quantity, unit="MPa", paths=paths,
                     hint="a relaxation log needs a stress (or modulus) that follows a strain step and relaxes; "
                          "check the stress column and its unit")
-    checks = plaus.reader_warnings(records) + plaus.relax_warnings(records, fit)
+    checks = (plaus.reader_warnings(records) + plaus.relax_warnings(records, fit)
+              + plaus.poisson_warnings(fit, nu, stated=poisson is not None or cfg.poisson != PAPER_POISSON))
     if checks and config.section("io").strict:  # --strict: refuse before anything is written
         plaus.emit(checks, strict=True, what="the relaxation fit")
     fit.warnings = list(fit.warnings) + checks
