@@ -455,3 +455,27 @@ def test_an_ambient_column_under_a_one_word_name_is_the_ambient_pressure(tmp_pat
     t = _write(tmp_path, "amb_t.csv", "# pressure_reference: absolute\ntime_s,pressure_bar,Ambient (C)\n"
                + "".join(f"{0.1 * k:.1f},{1.2 + 0.05 * k:.3f},21\n" for k in range(10)))
     assert read_motion_log(t).pressure_pa[0] == pytest.approx(120000 - 101325.0)
+
+
+# ---- a column map's unit against the header's; a refused cell quoted as written -----------------------------------
+def test_a_column_map_unit_that_contradicts_the_header_is_refused_and_the_names_reference_kept(tmp_path):
+    body = "".join(f"{0.1 * k:.1f},{20 + 5 * k:.3f},{3 * k:.3f}\n" for k in range(20))
+    log = _write(tmp_path, "k.csv", "time_s,Pressure (kPa g),angle_deg\n" + body)
+    with pytest.raises(InputError, match="a unit stated twice must agree") as e:
+        read_motion_log(log, IOConfig(columns={"Pressure (kPa g)": "pressure_psig"}))
+    assert e.value.key == "Pressure (kPa g)" and "pressure_psig" in e.value.message
+    # the same unit under another spelling, or no unit in the map: read, the name's gauge reference kept
+    for target in ("pressure_kpa", "pressure", "pressure_kpa_gauge"):
+        lg = read_motion_log(log, IOConfig(columns={"Pressure (kPa g)": target}))
+        assert lg.pressure_pa[1] == pytest.approx(25e3)
+    res = runner.invoke(app, ["predict", str(log), "--params", str(_params(tmp_path)), "--out", str(tmp_path / "o"),
+                              "--columns", "pressure_psig=Pressure (kPa g)"])
+    assert res.exit_code == 2 and "k.csv:1, key 'Pressure (kPa g)'" in res.output
+
+
+def test_a_cell_that_is_no_number_is_quoted_as_written_in_a_decimal_comma_file(tmp_path):
+    log = _write(tmp_path, "d.csv", "# pressure_reference: gauge\ntime_s;pressure_kpa;angle_deg\n0,0;20,5;1,0\n"
+                 "0,1;1.201,0;2,0\n")
+    with pytest.raises(InputError) as e:
+        read_motion_log(log)
+    assert "'1.201,0' is not a number" in e.value.message and e.value.line == 4

@@ -685,7 +685,8 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
                 raise InputError(f"mixed decimal separators: {first_comma[1]!r} (line {row_lines[first_comma[0]]}) "
                                  f"and {dot[1]!r}; export the log with one decimal separator", path=where,
                                  line=row_lines[dot[0]])
-            rows = [[c.replace(",", ".") for c in row] for row in rows]  # text cells are never used as numbers
+            # only the cells that are numbers with a decimal comma: any other cell is quoted as written when refused
+            rows = [[c.replace(",", ".") if _COMMA_NUM.match(c.strip()) else c for c in row] for row in rows]
     cols = [list(c) for c in zip(*rows)] if rows else [[] for _ in header]
     if delim != "," and decimal == ".":
         _refuse_thousands_points(header, cols, row_lines, where)
@@ -1190,6 +1191,17 @@ def _resolve(grid: Grid, cmap: dict[str, tuple[str, str]], units: Mapping[str, s
                     unit_from = None
             else:
                 unit_from = "column map"
+                _raw, unit_h = _unit_part(h)
+                unit_h = unit_h if unit_h is not None else (ur or None)
+                hu, href = _unit_ref(q, unit_h) if unit_h is not None else (None, None)
+                if hu is not None and hu in UNITS[q] and (UNITS[q][hu] != UNITS[q].get(unit)
+                                                           or (ref is not None and href is not None and ref != href)):
+                    said = "the units row under it says" if _unit_part(h)[1] is None else "its name says"
+                    raise InputError(f"the column map sends {h!r} to {mapped!r}, but {said} {unit_h}: a unit stated "
+                                     f"twice must agree; map it to {q} alone (the file's unit is read) or correct the "
+                                     f"map", path=grid.where, line=grid.header_line or None, key=h)
+                if ref is None and href is not None and hu is not None:
+                    ref = href   # 'Pressure (kPa g)' mapped to pressure_kpa: the name's reference still holds
         else:
             q, unit, ref, derived = _parse(h, ur)
             if q is None:
