@@ -431,3 +431,20 @@ def test_seventh_round_creep_tests_and_one_channel_in_two_rounded_units(tmp_path
         f"{t:.12g},{p:.12g},{p * 1e3 / psi:.2f},{a:.12g},{np.radians(a):.4f}\n" for t, p, a in zip(T, P_KPA * 10, A)),
         pressure_reference="gauge")
     np.testing.assert_allclose(lg.pressure_pa, P_KPA * 1e4, atol=1e-6)
+
+
+def test_a_decimal_comma_stored_as_text_in_a_sheet_is_told_to_be_formatted_as_a_number(tmp_path):
+    import openpyxl
+
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws.append(["# pressure_reference: gauge"])
+    ws.append(["time_s", "pressure_kpa", "angle_deg"])
+    for k in range(5):
+        ws.append([0.1 * k, "20,5" if k == 2 else 20.0 + k, float(k)])
+    wb.save(tmp_path / "text.xlsx")
+    with pytest.raises(InputError) as e:
+        read_motion_log(tmp_path / "text.xlsx")
+    msg = e.value.message
+    assert "'20,5' is not a number" in msg and "format the column's cells as numbers" in msg
+    assert "comma-separated file" not in msg

@@ -1279,7 +1279,7 @@ def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tup
     return secs, ts.iloc[0].isoformat()
 
 
-def _numbers(values: list, where: str, header: str, lines: list[int]) -> np.ndarray:
+def _numbers(values: list, where: str, header: str, lines: list[int], excel: bool = False) -> np.ndarray:
     if not any(type(v) is bool for v in values):  # Excel TRUE/FALSE cells are not numbers
         # the fast path: every cell a number (numpy parses the strings); NaN, inf, empty: the loop below names the line
         try:
@@ -1300,7 +1300,10 @@ def _numbers(values: list, where: str, header: str, lines: list[int]) -> np.ndar
                 x = float(cell)
             except ValueError:
                 what = "an empty cell" if not cell else f"{cell!r} is not a number"
-                if _COMMA_NUM.match(cell):
+                if _COMMA_NUM.match(cell) and excel:
+                    what += ("; a number stored as text with a decimal comma: format the column's cells as numbers "
+                             "in the spreadsheet (or export it as a ';'-separated text file)")
+                elif _COMMA_NUM.match(cell):
                     what += ("; a decimal comma in a comma-separated file (the cell is quoted)? Export with a point "
                              "as the decimal separator, or separate the columns with ';'")
                 raise InputError(f"column {header!r}: {what}", path=where,
@@ -1567,7 +1570,7 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
                                                                    "first"}
             unit = "iso8601"
         else:
-            raw = _numbers(vals, where, h, lines)
+            raw = _numbers(vals, where, h, lines, excel=grid.info.get("format", "").startswith("excel"))
             with np.errstate(over="ignore"):
                 arr = raw * UNITS[q][unit]
             bad = np.flatnonzero(~np.isfinite(arr))
@@ -1636,7 +1639,8 @@ def _check_rivals(grid: Grid, columns: dict, headers: dict, units_in_file: dict,
             if u is None or set(words) & DERIVED_WORDS or any(w.startswith(_DERIVED_PREFIXES) for w in words):
                 continue
             try:
-                vals = _numbers(grid.cols[j], grid.where, h2, lines) * UNITS[q][u]
+                vals = _numbers(grid.cols[j], grid.where, h2, lines,
+                                excel=grid.info.get("format", "").startswith("excel")) * UNITS[q][u]
             except InputError:
                 continue
             a = columns[q]
