@@ -448,3 +448,23 @@ def test_a_decimal_comma_stored_as_text_in_a_sheet_is_told_to_be_formatted_as_a_
     msg = e.value.message
     assert "'20,5' is not a number" in msg and "format the column's cells as numbers" in msg
     assert "comma-separated file" not in msg
+
+
+def test_dotted_day_first_date_times_are_read_and_slashed_dates_refused(tmp_path):
+    """'30.03.2025 01:59:40,0' (a German instrument's stamp, with the decimal comma of a ';' file) is day-first by
+    its form: read as seconds since the first. '03/04/2025 12:59:40.0 PM' may be 3 April or 4 March: refused."""
+    t = np.array([0.0, 0.1, 0.25, 1.5, 61.0])
+    stamps = ["30.03.2025 01:59:40,0", "30.03.2025 01:59:40,1", "30.03.2025 01:59:40,25", "30.03.2025 01:59:41,5",
+              "30.03.2025 02:00:41,0"]
+    f = tmp_path / "de.csv"
+    f.write_text("# pressure_reference: gauge\nZeit;Druck (kPa);Winkel (deg)\n"
+                 + "".join(f"{s};{20 + k},5;{k},0\n" for k, s in enumerate(stamps)))
+    lg = read_motion_log(f)
+    np.testing.assert_allclose(lg.time_s, t, atol=1e-9)
+    assert lg.pressure_pa[1] == pytest.approx(21.5e3)
+    g = tmp_path / "us.csv"
+    g.write_text("# pressure_reference: gauge\nTime,pressure_kpa,angle_deg\n"
+                 + "".join(f"03/04/2025 12:59:4{k}.0 PM,{20 + k},{k}\n" for k in range(4)))
+    with pytest.raises(InputError, match="date with slashes") as e:
+        read_motion_log(g)
+    assert e.value.line == 3 and "ISO 8601" in e.value.message

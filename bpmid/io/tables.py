@@ -136,6 +136,10 @@ _CLOCK = re.compile(r"^\s*\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?\s*$")
 #: MATLAB's default datetime text ('01-Mar-2026 10:00:00.125')
 _MATLAB_DATE = re.compile(r"^\s*\d{1,2}-[A-Za-z]{3}-\d{4}(?:\s+\d{1,2}:\d{2}:\d{2}(?:\.\d+)?)?\s*$")
 _MMSS = re.compile(r"^\s*(\d{1,4}):(\d{2}[.,]\d+)\s*$")
+#: a dotted date (always day-first: German, Swiss, Russian instruments) and a time: 30.03.2025 01:59:40,0
+_DOTTED_DATE = re.compile(r"^\s*(\d{1,2})\.(\d{1,2})\.(\d{4})[ T]+(\d{1,2}):(\d{2})(?::(\d{2})(?:[.,](\d+))?)?\s*$")
+#: a date with slashes: day-first in some locales, month-first in others (03/04/2025), never guessed
+_SLASH_DATE = re.compile(r"^\s*\d{1,2}/\d{1,2}/\d{2,4}\b")
 _SEP_LINE = re.compile(r'^\s*"?sep=(.)"?\s*$', re.IGNORECASE)
 _META = re.compile(r"^\s*([A-Za-z][\w \-./()\[\]]*?)\s*[:=]\s*(.*)$")
 #: a metadata key standing in a cell of its own ('Pressure Reference' | 'Gauge'): the key of :data:`_META`
@@ -1261,6 +1265,18 @@ def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tup
         # a clock that passes midnight starts the day again: a step back of more than half a day is the next day
         secs = secs + 86400.0 * np.concatenate([[0], np.cumsum(np.diff(secs) < -43200.0)])
         return secs - secs[0], f"clock time {texts[0]}"
+    shown = list(texts)   # quoted as written in messages
+    if texts and _SLASH_DATE.match(texts[0]):
+        raise InputError(f"column {header!r}: {texts[0]!r} is a date with slashes, day-first in some locales and "
+                         f"month-first in others, and bpmid does not guess which; export the time as elapsed seconds "
+                         f"(time_s) or as ISO 8601 (2025-04-03T12:59:40.0)", path=where,
+                         line=lines[0] if lines else None)
+    if texts and all(_DOTTED_DATE.match(x) for x in texts):   # day.month.year: read as ISO 8601
+        texts = []
+        for x in shown:
+            d, mo, y, hh, mm, ss, frac = _DOTTED_DATE.match(x).groups()
+            texts.append(f"{y}-{int(mo):02d}-{int(d):02d}T{int(hh):02d}:{mm}:{ss or '00'}"
+                         + (f".{frac}" if frac else ""))
     try:
         if texts and all(_MATLAB_DATE.match(x) for x in texts):
             fmt = "%d-%b-%Y %H:%M:%S.%f" if "." in texts[0] else ("%d-%b-%Y %H:%M:%S" if ":" in texts[0] else
@@ -1273,8 +1289,9 @@ def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tup
     bad = np.flatnonzero(ts.isna().to_numpy())
     if bad.size:
         k = int(bad[0])
-        raise InputError(f"column {header!r}: {texts[k]!r} is neither a number nor an ISO-8601 timestamp "
-                         f"(2024-05-01T12:00:00.125)", path=where, line=lines[k] if k < len(lines) else None)
+        raise InputError(f"column {header!r}: {shown[k]!r} is neither a number nor a date and time bpmid reads "
+                         f"(ISO 8601, 2024-05-01T12:00:00.125, or day.month.year 01.05.2024 12:00:00,125)",
+                         path=where, line=lines[k] if k < len(lines) else None)
     secs = (ts - ts.iloc[0]).dt.total_seconds().to_numpy(dtype=float)
     return secs, ts.iloc[0].isoformat()
 
@@ -1765,7 +1782,8 @@ def _time_is_text(vals: list) -> bool:
         if isinstance(v, str) and (_CLOCK.match(v) or _MMSS.match(v)):
             return True
         if isinstance(v, str) and v.strip() and not _is_number(v) and (
-                re.match(r"^\s*\d{4}-\d{2}-\d{2}", v) or _MATLAB_DATE.match(v)):
+                re.match(r"^\s*\d{4}-\d{2}-\d{2}", v) or _MATLAB_DATE.match(v) or _DOTTED_DATE.match(v)
+                or _SLASH_DATE.match(v)):
             return True
     return False
 
