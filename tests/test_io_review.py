@@ -479,3 +479,12 @@ def test_a_cell_that_is_no_number_is_quoted_as_written_in_a_decimal_comma_file(t
     with pytest.raises(InputError) as e:
         read_motion_log(log)
     assert "'1.201,0' is not a number" in e.value.message and e.value.line == 4
+
+
+def test_a_column_with_a_pressure_unit_but_an_unknown_name_is_refused_with_its_own_units_name(tmp_path):
+    log = _write(tmp_path, "a.csv", _motion("# pressure_reference: absolute\n", "time_s,Absolutdruck (bar),angle_deg"))
+    with pytest.raises(InputError) as e:
+        read_motion_log(log)
+    msg = e.value.message
+    assert e.value.key == "Absolutdruck (bar)" and "has a pressure unit" in msg
+    assert "--columns pressure=Absolutdruck (bar)" in msg and "rename it pressure_bar" in msg

@@ -1416,10 +1416,12 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
         if cands:
             h = cands[0]
             note = grid.info.get("map_note", "")
-            raise InputError(f"missing column for {q}: no name bpmid knows, but {h!r} has {'an' if q[0] in 'aeiou' else 'a'} {q} unit: map it with "
-                             f"--columns "
-                             f"{q}={h} (config io.columns: {{'{h}': {q}}}), or rename it {BPMID_NAME[q]}{note}",
-                             path=where, line=hline, key=h)
+            own = split_unit(q, _unit_part(h)[1] or "")[0]   # the name bpmid would give it, in its own unit
+            rename = _column_name(q, own) if own else BPMID_NAME[q]
+            article = "an" if q[0] in "aeiou" else "a"
+            raise InputError(f"missing column for {q}: no name bpmid knows, but {h!r} has {article} {q} unit: map it "
+                             f"with --columns {q}={h} (config io.columns: {{'{h}': {q}}}), or rename it "
+                             f"{rename}{note}", path=where, line=hline, key=h)
     missing = [q for q in required if q not in found]
     if missing:
         cols = ", ".join(repr(h) for h in grid.header)
