@@ -8,6 +8,7 @@ import yaml
 from typer.testing import CliRunner
 
 from bpmid.cli import app
+from bpmid.errors import InputError
 from bpmid.io.relax_logs import read_material_file
 from bpmid.relax import tts
 from bpmid.relax.freq import complex_modulus
@@ -74,6 +75,14 @@ def test_reference_temperature_between_sets_and_user_shift(tmp_path):
     sf.write_text("T,log_aT\nK,-\n" + "".join(f"{T + 273.15:.2f},{-0.1 * (T - 20):.3f}\n" for T in TEMPS))
     mf = fit_material([d], ref_temp=20.0, shift_file=sf, terms=4)
     assert mf.shift.source == "user" and np.allclose(mf.shift.log_aT, -0.1 * (TEMPS - 20))
+    # the unit in the header's brackets reads as in a units row; no unit at all is refused (C, K or F?)
+    rows = "".join(f"{T + 273.15:.2f},{-0.1 * (T - 20):.3f}\n" for T in TEMPS)
+    sf.write_text("T (K),log_aT\n" + rows)
+    assert np.allclose(tts.read_shift_file(sf)[0], TEMPS)
+    sf.write_text("T,log_aT\n" + rows)
+    with pytest.raises(InputError, match="states no unit") as e:
+        tts.read_shift_file(sf)
+    assert e.value.key == "T" and e.value.line == 1
 
 
 def _wlf_at(T_new):

@@ -644,21 +644,28 @@ def read_shift_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
     Returns (T, log_aT); errors name the file and line.
     """
-    from bpmid.io.relax_logs import _csv_rows, _is_num
+    from bpmid.io.relax_logs import _csv_rows, _is_num, _split_unit
 
     path = Path(path)
     header, units, rows, hline = _csv_rows(path)
-    names = [h.strip().lower().replace(" ", "") for h in header]
+    parts = [_split_unit(h) for h in header]   # 'T (K)' -> ('T', 'k')
+    names = [b.strip().lower().replace(" ", "") for b, _u in parts]
     try:
-        jt = next(j for j, h in enumerate(names) if h in ("t", "temp", "temperature", "t(c)", "temperature(c)"))
+        jt = next(j for j, h in enumerate(names) if h in ("t", "temp", "temperature"))
         ja = next(j for j, h in enumerate(names) if h in ("log_at", "logat", "log10_at", "log10(at)", "log(at)"))
     except StopIteration:
         raise InputError(f"a shift-factor file needs columns T (C) and log_aT; found {header}", path=path,
                          line=hline) from None
-    unit = (units[jt].strip().lower() if units is not None and jt < len(units) else "c")
-    offset = {"c": 0.0, "°c": 0.0, "degc": 0.0, "": 0.0, "k": -273.15}.get(unit)
+    row_unit = units[jt].strip().lower() if units is not None and jt < len(units) and units[jt].strip() else None
+    unit = parts[jt][1] if parts[jt][1] is not None else row_unit
+    if unit is None:   # C, K or F: never guessed (as the material files' temperature column)
+        raise InputError(f"column {header[jt]!r} states no unit: name it 'T (C)' or 'T (K)', or add a units row "
+                         f"under the header (pyvisco's 'C, -'); degrees F: convert to C", path=path, line=hline,
+                         key=header[jt])
+    offset = {"c": 0.0, "°c": 0.0, "degc": 0.0, "k": -273.15}.get(unit)
     if offset is None:
-        raise InputError(f"unknown temperature unit {unit!r} (C or K)", path=path, line=hline + 1, key=header[jt])
+        raise InputError(f"unknown temperature unit {unit!r} (C or K)", path=path,
+                         line=hline + (1 if parts[jt][1] is None else 0), key=header[jt])
     T, a = [], []
     for ln, r in rows:
         for j in (jt, ja):
