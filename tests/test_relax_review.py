@@ -344,3 +344,11 @@ def test_a_small_strain_in_percent_under_a_plain_strain_name_is_warned_and_stric
     ok.write_text(pct.read_text().replace("time_s,strain,", "time_s,strain_pct,", 1))
     res, out = fit(tmp_path, ok, "--terms", "1")
     assert res.exit_code == 0 and "instantaneous modulus" not in res.output
+
+
+def test_an_omega_header_written_with_the_greek_letter_is_angular_frequency(tmp_path):
+    rows = master_rows()
+    hz = read_material_file(write(tmp_path / "hz.csv", ["f (Hz)", "E_stor (MPa)", "E_loss (MPa)"], rows))
+    w = read_material_file(write(tmp_path / "w.csv", ["ω (rad/s)", "E_stor (MPa)", "E_loss (MPa)"],
+                                 [(2 * np.pi * f, s, l) for f, s, l in rows]))
+    assert np.allclose(w.x, hz.x) and np.allclose(w.storage, hz.storage)

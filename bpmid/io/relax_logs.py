@@ -208,7 +208,7 @@ def read_relax_logs(paths: Sequence[str | Path], *, column_map: Mapping[str, str
 #: header name (lower case, spaces, underscores, dashes and dots removed) -> role
 _MAT_NAMES = {
     "f": "f", "freq": "f", "frequency": "f", "fset": "f", "omega": "omega", "angularfrequency": "omega",
-    "w": "omega",
+    "w": "omega", "ω": "omega",
     "estor": "storage", "e'": "storage", "estorage": "storage", "storagemodulus": "storage", "eprime": "storage",
     "eloss": "loss", "e''": "loss", "lossmodulus": "loss", "edoubleprime": "loss",
     "gstor": "storage_g", "g'": "storage_g", "gstorage": "storage_g", "shearstoragemodulus": "storage_g",
