@@ -37,8 +37,8 @@ def test_hidden_effect_is_named_first_and_the_gap_halves(effect_id, seed):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", SEEDS)   # a third seed cost 3 s of the 100 s budget; nulls by the hundred: the
-def test_null_data_gets_no_effect(seed):  # out-of-family draws (0 named on 350 held-out nulls, docs/validation.md)
+@pytest.mark.parametrize("seed", SEEDS[:1])   # each seed costs 3-4 s of the 100 s budget; nulls by the hundred: the
+def test_null_data_gets_no_effect(seed):      # out-of-family draws (1 named on 481 held-out nulls, docs/validation.md)
     fit, ho = paper_sized_set(None, seed=seed, noise_deg=0.15)
     res = discover(fit, start_model(), holdout=ho)
     assert res.named_effects == [], res.verdict

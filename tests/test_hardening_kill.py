@@ -260,6 +260,10 @@ def _config(path: Path, repo_root: str, terms: int) -> Path:
     return path
 
 
+# the SIGTERM below is raised by bpmid's handler in whatever Python code runs at that instant; when that is a gc
+# callback of a test plugin (hypothesis times its gc), Python reports the exception as unraisable and the run goes
+# on to its end (exit 0, which the test accepts): a note about the test's process, not about bpmid
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 def test_bpmid_run_killed_inside_its_stage_leaves_old_or_new(repo_root, tmp_path):
     from typer.testing import CliRunner
 
