@@ -98,18 +98,22 @@ def _vbmm(params, model_cfg):
 # logs
 # --------------------------------------------------------------------------------------------------
 def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None = None,
-                reference: str | None = None, name: str = "log", atmosphere_pa: float = ATMOSPHERE_PA):
+                reference: str | None = None, name: str = "log", atmosphere_pa: float = ATMOSPHERE_PA,
+                time_unit: str = "s", angle_unit: str = "deg"):
     """A motion log from arrays, with the pressure's unit and reference stated.
 
     Parameters
     ----------
-    time_s : (N,) seconds, strictly increasing
+    time_s : (N,) times, strictly increasing, in ``time_unit`` (seconds unless stated)
     pressure : (N,) pressure in ``pressure_unit``
-    angle_deg : (N,) measured bending angle in degrees, or None (a pressure-only log, e.g. for ``predict``)
+    angle_deg : (N,) measured bending angle in ``angle_unit`` (degrees unless stated), or None (a pressure-only
+        log, e.g. for ``predict``)
     pressure_unit : ``"bar"``, ``"kPa"``, ``"Pa"``, ``"MPa"``, ``"mbar"`` or ``"psi"`` (required)
     reference : ``"gauge"`` or ``"absolute"`` (required)
     name : the log's name (output file names)
-    atmosphere_pa : ambient pressure (Pa) for an absolute reference
+    atmosphere_pa : ambient pressure (Pa) for an absolute reference (50-120 kPa)
+    time_unit : ``"s"``, ``"ms"`` or ``"min"``: the unit of ``time_s``
+    angle_unit : ``"deg"`` or ``"rad"``: the unit of ``angle_deg``
 
     Raises
     ------
@@ -118,8 +122,9 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
     """
     import numpy as np
 
+    from bpmid.io.ambient import AMBIENT_RANGE_PA
     from bpmid.io.motion_logs import MotionLog
-    from bpmid.units import PRESSURE_UNITS, to_gauge_pa
+    from bpmid.units import ANGLE_UNITS, PRESSURE_UNITS, TIME_UNITS, to_gauge_pa
 
     if pressure_unit is None:
         raise InputError("state the pressure's unit: from_arrays(..., pressure_unit='bar'|'kPa'|'Pa', ...)",
@@ -127,12 +132,21 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
     if reference is None:
         raise InputError("state the pressure's reference: from_arrays(..., reference='gauge'|'absolute')",
                          key="reference")
+    for key, value, known in (("time_unit", time_unit, TIME_UNITS), ("angle_unit", angle_unit, ANGLE_UNITS)):
+        if not isinstance(value, str) or value.strip().lower() not in known:
+            raise InputError(f"unknown {key.split('_')[0]} unit {value!r} (known: {', '.join(known)})", key=key)
+    if isinstance(atmosphere_pa, bool) or not isinstance(atmosphere_pa, (int, float, np.number)) \
+            or not AMBIENT_RANGE_PA[0] <= float(atmosphere_pa) <= AMBIENT_RANGE_PA[1]:
+        raise InputError(f"atmosphere_pa must be an ambient pressure in Pa, {AMBIENT_RANGE_PA[0]:g} to "
+                         f"{AMBIENT_RANGE_PA[1]:g} (101325 at sea level), found {atmosphere_pa!r}", key="atmosphere_pa")
     if not isinstance(name, str) or not name.strip() or name in (".", "..") or any(c in name for c in "/\\\0"):
         raise InputError(f"a log's name names its output files: give a plain file stem, found {name!r}", key="name")
     try:
-        t = np.asarray(time_s, float)
+        if any(np.iscomplexobj(x) for x in (time_s, pressure, angle_deg) if x is not None):
+            raise TypeError("complex numbers")
+        t = np.asarray(time_s, float) * TIME_UNITS[time_unit.strip().lower()]
         given = np.asarray(pressure, float)
-        a = None if angle_deg is None else np.asarray(angle_deg, float)
+        a = None if angle_deg is None else np.asarray(angle_deg, float) * ANGLE_UNITS[angle_unit.strip().lower()]
     except (TypeError, ValueError) as exc:
         raise InputError(f"time_s, pressure and angle_deg must be arrays of numbers ({exc})", key=name) from None
     if t.ndim != 1 or given.shape != t.shape or (a is not None and a.shape != t.shape):
@@ -157,8 +171,17 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
     if unit not in PRESSURE_UNITS:  # to_gauge_pa read it: only a spelling it accepts and this table does not
         raise InputError(f"unknown pressure unit {pressure_unit!r} (known: {', '.join(sorted(PRESSURE_UNITS))})",
                          key="pressure_unit")
+    # what the plausibility checks read (a whole-number time a second apart in seconds: milliseconds?), with where
+    # each unit came from, so that their hints name this function's arguments
+    said = "from_arrays"
+    reading = {"format": "arrays (bpmid.from_arrays)",
+               "columns": {"time": {"column": "time_s", "unit": time_unit.strip().lower(), "unit_from": said},
+                           "pressure": {"column": "pressure", "unit": unit, "unit_from": said},
+                           **({"angle": {"column": "angle_deg", "unit": angle_unit.strip().lower(),
+                                         "unit_from": said}} if a is not None else {})}}
     return MotionLog(name=name, time_s=t, pressure_pa=gauge, angle_deg=a, pressure_reference=reference,
-                     pressure_unit=unit, pressure_as_given=given.copy(), atmosphere_pa=atmosphere_pa)
+                     pressure_unit=unit, pressure_as_given=given.copy(), atmosphere_pa=float(atmosphere_pa),
+                     reading=reading)
 
 
 def read_motion_logs(paths, *, config=None, require_angle: bool = False) -> list:

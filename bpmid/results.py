@@ -258,7 +258,8 @@ class Result:
         self.body.pop("provenance", None)
         self.provenance = _normalised(dict(provenance or {}))
         self.raw = raw
-        self.source = None if source is None else Path(source)
+        # absolute: a loaded result finds the files beside it after the working directory changes
+        self.source = None if source is None else Path(source).resolve()
 
     # ----- identity -------------------------------------------------------------------------------
     @property
@@ -664,8 +665,14 @@ class PredictionResult(Result):
         import pandas as pd
 
         base = self.source.parent if self.source is not None else Path(".")
-        return {name: pd.read_csv(base / d["file"], comment="#")["angle_pred_deg"].to_numpy()
-                for name, d in (self.body.get("logs") or {}).items() if (base / d["file"]).is_file()}
+        out = {}
+        for name, d in (self.body.get("logs") or {}).items():
+            f = base / d["file"]
+            if not f.is_file():   # never a shorter dict than the metrics it sits beside
+                raise InputError(f"the prediction of log {name!r} is not beside its result (it was written to "
+                                 f"{d['file']!r}): copy or move the whole output folder", path=f)
+            out[name] = pd.read_csv(f, comment="#")["angle_pred_deg"].to_numpy()
+        return out
 
     def _headline(self) -> str:
         return f"{len(self.body.get('logs') or {})} log(s)"

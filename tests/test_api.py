@@ -57,6 +57,30 @@ def test_from_arrays_needs_units_and_converts_them():
         bpmid.from_arrays(t, p_bar - 1.4, pressure_unit="bar", reference="gauge")
 
 
+def test_from_arrays_takes_time_and_angle_units_and_checks_the_ambient_pressure():
+    log = bpmid.read_motion_logs([sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))[0]])[0]
+    t, p, a = log.time_s, log.pressure_pa, log.angle_deg
+    same = bpmid.from_arrays(t * 1e3, p, np.radians(a), pressure_unit="Pa", reference="gauge", time_unit="ms",
+                             angle_unit="rad")
+    np.testing.assert_allclose(same.time_s, t, rtol=1e-12)
+    np.testing.assert_allclose(same.angle_deg, a, rtol=1e-12)
+    from bpmid.io import plausibility as plaus
+
+    # milliseconds passed as seconds, radians as degrees: said, with the argument that states the unit
+    said = plaus.motion_data_warnings([bpmid.from_arrays(t * 1e3, p, a, pressure_unit="Pa", reference="gauge")])
+    assert len(said) == 1 and "give from_arrays(..., time_unit='ms')" in said[0]
+    said = plaus.motion_data_warnings([bpmid.from_arrays(t, p, np.radians(a), pressure_unit="Pa", reference="gauge")])
+    assert len(said) == 1 and "give from_arrays(..., angle_unit='rad')" in said[0]
+    for key, kw in (("time_unit", {"time_unit": "sec0"}), ("angle_unit", {"angle_unit": "grad"}),
+                    ("atmosphere_pa", {"atmosphere_pa": 1.01325}), ("atmosphere_pa", {"atmosphere_pa": float("nan")}),
+                    ("atmosphere_pa", {"atmosphere_pa": "101325"}), ("atmosphere_pa", {"atmosphere_pa": 0})):
+        with pytest.raises(InputError) as e:
+            bpmid.from_arrays(t, p + 101325.0, a, pressure_unit="Pa", reference="absolute", **kw)
+        assert e.value.key == key
+    with pytest.raises(InputError, match="complex"):
+        bpmid.from_arrays(t, p + 0j, a, pressure_unit="Pa", reference="gauge")
+
+
 # ---------------------------------------------------------------------------------------------
 # save -> load round trip of every result type (property test over the file's contents)
 # ---------------------------------------------------------------------------------------------
@@ -142,6 +166,20 @@ def test_relaxation_and_motion_fit_and_predict(relax, tmp_path):
     np.testing.assert_allclose(pred.predictions["mem"], pred.predictions[Path(logs[0]).stem])
     _round_trip(pred, tmp_path / "pred")
     assert (tmp_path / "pred" / "mem.csv").is_file()
+    # loaded by a relative path, its predictions are found after the working directory changes; a missing one is
+    # named, never left out of a shorter dict
+    here = os.getcwd()
+    try:
+        os.chdir(tmp_path)
+        loaded = bpmid.load("pred")
+        os.chdir(REPO)
+        np.testing.assert_allclose(loaded.predictions["mem"], pred.predictions["mem"], atol=1e-6)
+        (tmp_path / "pred" / "mem.csv").unlink()
+        with pytest.raises(InputError, match="copy or move the whole output folder") as e:
+            loaded.predictions
+        assert e.value.path.endswith("mem.csv")
+    finally:
+        os.chdir(here)
 
 
 def test_simulate_and_control(tmp_path):

@@ -76,6 +76,9 @@ def unit_fix(lg, q: str, unit: str) -> str:
     h, src = col.get("column"), col.get("unit_from")
     name = _name_with_unit(q, unit)
     flag = UNIT_FLAGS.get(q)
+    if src == "from_arrays":   # a log made by bpmid.from_arrays: its arguments, not a file's
+        arg = {"time": "time_unit", "angle": "angle_unit", "pressure": "pressure_unit"}.get(q, f"{q}_unit")
+        return f"give from_arrays(..., {arg}={unit!r})"
     if h is None or src is None:
         return f"state {flag} {unit} (or name the column {name})" if flag else f"name the column {name}"
     mapped = f"{columns_arg(f'{name}={h}')} (config io.columns: {{'{h}': {name}}})"
@@ -100,6 +103,8 @@ def reference_fix(lg, reference: str) -> str:
     from bpmid.io.motion_logs import REFERENCE_KEYS
     from bpmid.io.tables import columns_arg
 
+    if _column(lg, "pressure").get("unit_from") == "from_arrays":
+        return f"give from_arrays(..., reference={reference!r})"
     meta = getattr(lg, "meta", {}) or {}
     fixes = [f"correct the line '# {k}: {meta[k]}' to {reference}" for k in REFERENCE_KEYS if k in meta]
     col = _column(lg, "pressure")
@@ -118,7 +123,8 @@ def milliseconds_warnings(lg) -> list[str]:
     t = np.asarray(lg.time_s, float)
     if t.size > 2 and _column(lg, "time").get("unit") == "s":
         dt = float(np.median(np.diff(t)))
-        if dt >= 0.5 and np.all(t == np.round(t)):
+        # whole numbers up to rounding (times scaled in floating point: 0.1 * 1000 is 100.00000000000001)
+        if dt >= 0.5 and np.all(np.abs(t - np.round(t)) <= 1e-9 * np.maximum(1.0, np.abs(t))):
             return [f"{_name(lg)}: samples are {dt:g} s apart and every time is a whole number: if the times are "
                     f"milliseconds, {unit_fix(lg, 'time', 'ms')}"]
     return []
