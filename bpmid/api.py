@@ -10,7 +10,7 @@ defaults. Logs are paths (read with the config's ``io`` section) or already-read
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Iterable, Mapping, Sequence
 
 from bpmid.errors import InputError
 from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR
@@ -20,12 +20,15 @@ from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR
 # helpers
 # --------------------------------------------------------------------------------------------------
 def _config(config):
-    from bpmid.config import Config, load_config
+    from bpmid.config import Config, load_config, parse_config
 
     if config is None or isinstance(config, (str, Path)):
         return load_config(config)
+    if isinstance(config, Mapping):   # the sections as a YAML file holds them: {"discover": {...}}
+        return parse_config(dict(config))
     if not isinstance(config, Config):
-        raise InputError(f"config must be a Config, a path or None, found {type(config).__name__}", key="config")
+        raise InputError(f"config must be a Config, a mapping of sections ({{'discover': {{...}}}}), a path or None, "
+                         f"found {type(config).__name__}", key="config")
     return config
 
 
@@ -37,13 +40,14 @@ def _as_list(x) -> list:
     return list(x)
 
 
-def _motion_logs(logs, cfg, *, require_angle: bool = False) -> tuple[list, list[Path]]:
-    """(MotionLog list, the paths among the inputs) from paths and/or MotionLog objects."""
+def _motion_logs(logs, cfg, *, require_angle: bool = False, key: str = "logs") -> tuple[list, list[Path]]:
+    """(MotionLog list, the paths among the inputs) from paths and/or MotionLog objects (``key``: the argument, for
+    messages)."""
     from bpmid.io.motion_logs import MotionLog, read_motion_logs
 
     items = _as_list(logs)
     if not items:
-        raise InputError("no logs given", key="logs")
+        raise InputError("no logs given", key=key)
     paths = [Path(x) for x in items if isinstance(x, (str, Path))]
     for p in paths:
         if not p.is_file():
@@ -59,10 +63,10 @@ def _motion_logs(logs, cfg, *, require_angle: bool = False) -> tuple[list, list[
             out.append(x)
         else:
             raise InputError(f"a log is a path or a MotionLog (bpmid.from_arrays), found {type(x).__name__}",
-                             key="logs")
+                             key=key)
     from bpmid.io.motion_logs import check_distinct_names
 
-    check_distinct_names(out, key="logs")   # outputs are named by the log: two of one name would be one
+    check_distinct_names(out, key=key)   # outputs are named by the log: two of one name would be one
     return out, paths
 
 
@@ -380,7 +384,11 @@ def discover(logs, *, holdout=None, init=None, config=None):
 
     cfg = _config(config)
     fit_logs, paths = _motion_logs(logs, cfg, require_angle=True)
-    ho_logs, ho_paths = _motion_logs(holdout, cfg, require_angle=True) if holdout is not None else (None, [])
+    ho_logs, ho_paths = (_motion_logs(holdout, cfg, require_angle=True, key="holdout") if holdout is not None
+                         else (None, []))
+    if init is not None and not isinstance(init, (str, Path)) and not hasattr(init, "to_dict"):
+        raise InputError(f"init is a bpmid.vbmm/1 or bpmid.relax/1 file, or a fit result (bpmid.fit_motion, "
+                         f"bpmid.fit_relaxation, bpmid.load), found {type(init).__name__}", key="init")
     base, base_from, init_path = starting_vbmm(init, cfg.section("model"))
     res = _discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
     body = res.to_yaml()

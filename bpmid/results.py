@@ -404,6 +404,9 @@ class Result:
         from bpmid.io.results import write_result
 
         path = Path(path)
+        if not self.main_file and path.suffix.lower() not in (".yaml", ".yml"):
+            raise InputError(f"a {type(self).__name__} is written as YAML: give a path ending .yaml (found "
+                             f"{path.name!r})", path=path)
         target = path / self.main_file if self.main_file else path
         write_result(target, self.schema, self.body, self.provenance)
         return path

@@ -293,8 +293,13 @@ def test_library_saves_never_replace_an_input_and_logs_are_named_safely(relax, t
     mine = tmp_path / "my_log.csv"
     shutil.copy(src, mine)
     before = mine.read_bytes()
-    fit = bpmid.fit_motion([mine])
+    start = relax.save(tmp_path / "start.yaml")
+    start_bytes = start.read_bytes()
+    fit = bpmid.fit_motion([mine], init=start)
     with pytest.raises(InputError, match="would replace the input"):
+        fit.save(start)
+    assert start.read_bytes() == start_bytes
+    with pytest.raises(InputError, match="written as YAML: give a path ending .yaml"):   # nor YAML under .csv
         fit.save(mine)
     with pytest.raises(InputError, match="would replace the input"):
         bpmid.predict([mine], fit).save(tmp_path)
@@ -371,6 +376,16 @@ def test_calls_that_read_files_say_so_for_other_inputs():
         bpmid.fit_relaxation(log)
     with pytest.raises(InputError, match="init must be a relaxation fit"):
         bpmid.fit_motion(log, init=3)
+    with pytest.raises(InputError, match="init is a bpmid.vbmm/1 or bpmid.relax/1 file") as e:
+        bpmid.discover(log, init={"K_inf": 1})
+    assert e.value.key == "init"
+    with pytest.raises(InputError, match="no logs given") as e:
+        bpmid.discover(log, holdout=[])
+    assert e.value.key == "holdout"
+    # a config as the mapping a YAML file holds: read, its keys checked as a file's are
+    with pytest.raises(InputError) as e:
+        bpmid.discover(log, config={"discover": {"max_efects": 1}})
+    assert e.value.key == "discover.max_efects"
 
 
 def test_a_conditional_standard_error_is_shown_with_the_estimate():
@@ -387,8 +402,8 @@ def test_a_conditional_standard_error_is_shown_with_the_estimate():
 
 
 def test_a_saved_results_inputs_are_known_by_content_wherever_it_is_saved_from(tmp_path, monkeypatch):
-    """A fit made in another folder records its log by a relative path: saved from here, the log is still refused
-    (by its content), and an unrelated file of the same name here is not."""
+    """A fit made in another folder records its inputs by relative paths: saved from here over its starting fit,
+    that input is still refused (by its content), and an unrelated file of the same name here is not."""
     import shutil
 
     from typer.testing import CliRunner
@@ -399,14 +414,17 @@ def test_a_saved_results_inputs_are_known_by_content_wherever_it_is_saved_from(t
     w.mkdir()
     shutil.copy(sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))[0], w / "b.csv")
     monkeypatch.chdir(w)
-    assert CliRunner().invoke(app, ["fit", "motion", "b.csv", "--out", "fit.yaml", "--no-plot"]).exit_code == 0
+    relax = sorted(glob.glob(str(REPO / "datasets/relaxation/relax_*_[23]0pct.csv")))
+    assert CliRunner().invoke(app, ["fit", "relax", *relax, "--out", "r.yaml", "--no-figure"]).exit_code == 0
+    assert CliRunner().invoke(app, ["fit", "motion", "b.csv", "--init", "r.yaml", "--out", "fit.yaml",
+                                    "--no-plot"]).exit_code == 0
     monkeypatch.chdir(tmp_path)
-    before = (w / "b.csv").read_bytes()
+    before = (w / "r.yaml").read_bytes()
     with pytest.raises(InputError, match="would replace the input"):
-        bpmid.load("w/fit.yaml").save("w/b.csv")
-    assert (w / "b.csv").read_bytes() == before
-    (tmp_path / "b.csv").write_text("an unrelated file\n")
-    bpmid.load("w/fit.yaml").save("b.csv")   # not the input: replaced as asked
+        bpmid.load("w/fit.yaml").save("w/r.yaml")
+    assert (w / "r.yaml").read_bytes() == before
+    (tmp_path / "r.yaml").write_text("an unrelated file\n")
+    bpmid.load("w/fit.yaml").save("r.yaml")   # not the input: replaced as asked
 
 
 def test_help_on_a_workflow_shows_the_call_first():
