@@ -165,6 +165,18 @@ def test_comsol_parameter_list_branch_table_and_no_shift(tmp_path):
     G_back = vals["G_inf"] + np.exp(-T[:, None] / tau[None, :]) @ G
     assert np.allclose(G_back, params.G_inf + np.exp(-T[:, None] / params.tau[None, :]) @ params.G, rtol=1e-9)
     assert "T_ref" not in vals and "C1_WLF" not in vals
+    # the bulk modulus COMSOL keeps elastic at K0: the long-term E the card implies, said with its difference
+    K0 = params.K_inf + params.K.sum()
+    E_long = 9 * K0 * vals["G_inf"] / (3 * K0 + vals["G_inf"])
+    m = re.search(r"long-term tensile modulus of this card is (\S+) Pa, ([-+0-9.]+) % from the fit's E_inf",
+                  out.read_text())
+    assert m and float(m.group(1)) == pytest.approx(E_long, rel=1e-9)
+    assert float(m.group(2)) == pytest.approx(100 * (E_long / params.E_inf - 1), abs=0.01) and float(m.group(2)) > 1
+
+
+def test_comsol_export_says_when_its_elastic_bulk_departs_from_the_fit(tmp_path, capsys):
+    export_fea(fit_file(tmp_path, wlf=False), "comsol", tmp_path / "fea")     # nu 0.45: E_inf some 3 % off
+    assert "COMSOL keeps the bulk modulus elastic" in capsys.readouterr().err
 
 
 def test_bad_input_is_refused_naming_the_key(tmp_path):

@@ -141,13 +141,32 @@ def comsol_branch_table(params) -> str:
     return "".join(f"{j} {_num(Gj)} {_num(tj)}\n" for j, (Gj, tj) in enumerate(zip(params.G, params.tau), start=1))
 
 
+def comsol_bulk_shift(params) -> tuple[float, float]:
+    """(the long-term tensile modulus a COMSOL card implies, Pa; its difference from the fit's E_inf, %).
+
+    COMSOL's Viscoelasticity node relaxes the shear modulus only and keeps the bulk modulus elastic at K0, where
+    the fit (and the Abaqus and ANSYS cards) relax both: E(t -> inf) = 9 K0 G_inf / (3 K0 + G_inf) instead of the
+    fit's E_inf. Nearly incompressible (nu -> 0.5) the two agree; at nu 0.45 they differ by some 2 %."""
+    _G0, K0, _, _ = _ratios(params)
+    E_long = 9.0 * K0 * params.G_inf / (3.0 * K0 + params.G_inf)
+    E_inf = 9.0 * params.K_inf * params.G_inf / (3.0 * params.K_inf + params.G_inf)
+    return E_long, 100.0 * (E_long / E_inf - 1.0) if E_inf > 0 else float("nan")
+
+
+#: a COMSOL card whose long-term E differs from the fit's by more than this (%) is said on stderr too
+COMSOL_BULK_WARN_PCT = 0.5
+
+
 def comsol_text(params, wlf: dict | None, prov: list[str], branches: str | None = None) -> str:
     G0, K0, _, _ = _ratios(params)
+    E_long, pct = comsol_bulk_shift(params)
     out = [f"# {ln}" for ln in prov]
     if branches:
         out.append(f"# the same branches as a table for the Viscoelasticity node (Load from File): {branches}")
     out.append('# generalized Maxwell model: G(t) = G_inf + sum_i G_i exp(-t/tau_i); the bulk modulus is elastic '
                "(the instantaneous K0)")
+    out.append(f"# so the long-term tensile modulus of this card is {_num(E_long)} Pa, {pct:+.3g} % from the fit's "
+               f"E_inf (the Abaqus and ANSYS cards relax the bulk modulus too and match the fit)")
     out.append(f'G_inf {_num(params.G_inf)}[Pa] "long-term shear modulus"')
     out.append(f'K_bulk {_num(K0)}[Pa] "bulk modulus (instantaneous)"')
     out.append(f'nu_inst {params.poisson_ratio:.10g} "Poisson\'s ratio of the fit"')
@@ -204,6 +223,13 @@ def export_fea(fit_path: Path, tool: str, out_dir: Path) -> list[Path]:
     write_text(out, text)
     if tool != "comsol":
         return [out]
+    _E_long, pct = comsol_bulk_shift(params)
+    if abs(pct) > COMSOL_BULK_WARN_PCT:
+        from bpmid.io.plausibility import emit
+
+        emit([f"{out.name}: COMSOL keeps the bulk modulus elastic (K0), so at Poisson's ratio "
+              f"{params.poisson_ratio:g} the card's long-term tensile modulus is {pct:+.3g} % from the fit's E_inf "
+              f"(the Abaqus and ANSYS cards match the fit); nearly incompressible (nu near 0.5) the two agree"])
     table = out_dir / f"{stem}{COMSOL_BRANCHES}"
     write_text(table, comsol_branch_table(params))
     return [out, table]
