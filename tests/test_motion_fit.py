@@ -196,3 +196,20 @@ def test_unknown_parameter_name_in_config():
         params_from_material(Material.paper_mat(), cfg.motion)
     with pytest.raises(InputError, match="motion.branches"):
         initial_material(MotionFitConfig(branches=1), Material(1e4, 6e6, (1e4, 1e4), (1e7, 1e7), (0.2, 2.0)))
+
+
+def test_a_sampling_step_not_small_against_the_shortest_time_constant_is_noted_with_the_constants():
+    """The hereditary sum takes each step as a jump at its sample: a fit says which step its constants hold for
+    when dt / (2 tau) is above 5 % (10 Hz against tau 0.4 s: 13 %), and says nothing at 200 Hz."""
+    import types
+
+    from bpmid.models.vbmm import Material, sampling_note
+
+    mat = Material(9050.0, 6.1e6, (18300.0,), (1.35e7,), (0.4,))
+    log = lambda hz: types.SimpleNamespace(time_s=np.arange(0.0, 20.0, 1.0 / hz))   # noqa: E731
+    note = sampling_note(mat, [log(10)])
+    assert note is not None and "0.1 s (10 Hz)" in note and "0.4 s" in note and "some 12 % apart" in note
+    assert "from 25 Hz" in note
+    assert sampling_note(mat, [log(200)]) is None
+    split = Material(9050.0, 6.1e6, (18300.0,), (1.35e7,), (0.4,), tauK=(0.05,))   # the shortest of both
+    assert "0.05 s" in sampling_note(split, [log(50)])

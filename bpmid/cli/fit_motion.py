@@ -51,6 +51,9 @@ def fit_motion_command(
     geometry_note = paper_geometry_note(cfg.section("model").geometry)
     if geometry_note:   # after the inputs were judged: not beside an error
         typer.echo("note: " + geometry_note, err=True)
+    for extra in result.body.get("notes") or []:   # the fit's other notes (the sampling step its constants hold for)
+        if extra != geometry_note:
+            typer.echo("note: " + extra, err=True)
     from bpmid.io import plausibility as plaus
 
     plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out))

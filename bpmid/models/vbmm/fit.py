@@ -36,7 +36,8 @@ from bpmid.errors import InputError
 from bpmid.fitting import FitResult, fit_least_squares
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models import _vbmm_kernels as VK
-from bpmid.models.vbmm import VBMM, Material, VBMMConfig, material_params, paper_geometry_note, vbmm_yaml_body
+from bpmid.models.vbmm import (VBMM, Material, VBMMConfig, material_params, paper_geometry_note, sampling_note,
+                               vbmm_yaml_body)
 from bpmid.params import ParamSet
 from bpmid.progress import note
 from bpmid.relax._blas import one_blas_thread
@@ -496,7 +497,10 @@ class MotionFit:
             "uncertainty": unc,
             # the geometry the constants belong to, when it is the paper's (also what a run without one gets):
             # recorded with them, not a warning (the paper's muscle is a muscle too)
-            **({"notes": [note]} if (note := paper_geometry_note(self.model.geometry)) else {}),
+            # and the sampling step they hold for, when it is not small against the shortest time constant
+            **({"notes": notes} if (notes := [n for n in (paper_geometry_note(self.model.geometry),
+                                                          sampling_note(self.model.material, self.logs)) if n])
+               else {}),
         }
 
     _cfg: MotionFitConfig = dataclasses.field(default_factory=MotionFitConfig, repr=False)
