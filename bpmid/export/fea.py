@@ -223,7 +223,7 @@ def export_fea(fit_path: Path, tool: str, out_dir: Path) -> list[Path]:
     write_text(out, text)
     if tool != "comsol":
         return [out]
-    _E_long, pct = comsol_bulk_shift(params)
+    pct = comsol_bulk_shift(params)[1]
     if abs(pct) > COMSOL_BULK_WARN_PCT:
         from bpmid.io.plausibility import emit
 

@@ -227,8 +227,8 @@ _MAT_UNITS = {
     "T": {"c": 0.0, "°c": 0.0, "degc": 0.0, "deg c": 0.0, "celsius": 0.0, "k": -273.15, "": 0.0},  # offsets added: C = K - 273.15
     "set": {"-": 1.0, "": 1.0, "1": 1.0},
 }
-#: unit families a material file must state (in the header or a units row): why, and how to state it. A test
-#: temperature of 20 is C, K (no: refused as a mistake only above 150) or F alike, and a modulus of 3 is MPa or GPa
+#: unit families a material file must state (in the header or a units row): why, and how to state it (a test
+#: temperature of 70 may be C or F, one of 300 C or K; a modulus of 3 may be MPa or GPa)
 _STATED = {"T": ("degrees C, kelvin and degrees F all read as plausible test temperatures",
                  "name the column '{h} (C)' or '{h} (K)' (degrees F: convert to C)"),
            "modulus": ("a modulus of 3 is a soft rubber in MPa and a glassy polymer in GPa",

@@ -219,6 +219,11 @@ class Grid:
     #: line (sheet row) of the units row, or None
     unit_row_line: int | None = None
 
+    @property
+    def excel(self) -> bool:
+        """Whether the grid is a spreadsheet's (its cells typed by Excel, not split from text)."""
+        return str(self.info.get("format", "")).startswith("excel")
+
 
 # ---------------------------------------------------------------------------------------------------------
 # names and units
@@ -1195,12 +1200,12 @@ def _resolve(grid: Grid, cmap: dict[str, tuple[str, str]], units: Mapping[str, s
                     unit_from = None
             else:
                 unit_from = "column map"
-                _raw, unit_h = _unit_part(h)
-                unit_h = unit_h if unit_h is not None else (ur or None)
+                _raw, named = _unit_part(h)
+                unit_h = named if named is not None else (ur or None)
                 hu, href = _unit_ref(q, unit_h) if unit_h is not None else (None, None)
                 if hu is not None and hu in UNITS[q] and (UNITS[q][hu] != UNITS[q].get(unit)
                                                            or (ref is not None and href is not None and ref != href)):
-                    said = "the units row under it says" if _unit_part(h)[1] is None else "its name says"
+                    said = "its name says" if named is not None else "the units row under it says"
                     raise InputError(f"the column map sends {h!r} to {mapped!r}, but {said} {unit_h}: a unit stated "
                                      f"twice must agree; map it to {q} alone (the file's unit is read) or correct the "
                                      f"map", path=grid.where, line=grid.header_line or None, key=h)
@@ -1589,7 +1594,7 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
                                                                    "first"}
             unit = "iso8601"
         else:
-            raw = _numbers(vals, where, h, lines, excel=grid.info.get("format", "").startswith("excel"))
+            raw = _numbers(vals, where, h, lines, excel=grid.excel)
             with np.errstate(over="ignore"):
                 arr = raw * UNITS[q][unit]
             bad = np.flatnonzero(~np.isfinite(arr))
@@ -1658,8 +1663,7 @@ def _check_rivals(grid: Grid, columns: dict, headers: dict, units_in_file: dict,
             if u is None or set(words) & DERIVED_WORDS or any(w.startswith(_DERIVED_PREFIXES) for w in words):
                 continue
             try:
-                vals = _numbers(grid.cols[j], grid.where, h2, lines,
-                                excel=grid.info.get("format", "").startswith("excel")) * UNITS[q][u]
+                vals = _numbers(grid.cols[j], grid.where, h2, lines, excel=grid.excel) * UNITS[q][u]
             except InputError:
                 continue
             a = columns[q]
