@@ -19,7 +19,7 @@ import importlib
 
 __version__ = "0.1.0"
 
-from bpmid.errors import InputError  # noqa: E402  (standard library only)
+from bpmid.errors import BpmidWarning, InputError  # noqa: E402  (standard library only)
 
 #: modules that moved, old name -> new name: ``import bpmid.motion_fit`` gives the very module object of
 #: ``bpmid.models.vbmm.fit`` (so patches and isinstance checks see one module)
@@ -102,7 +102,7 @@ _LAZY: dict[str, str] = {
 #: public subpackages/modules reachable as attributes (``bpmid.units``, ``bpmid.data``)
 _SUBMODULES = ("units", "data", "results", "api", "models", "effects", "metrics")
 
-__all__ = ["__version__", "InputError", *_LAZY, *_SUBMODULES]
+__all__ = ["__version__", "InputError", "BpmidWarning", *_LAZY, *_SUBMODULES]
 
 
 def __getattr__(name: str):

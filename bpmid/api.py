@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Iterable, Mapping, Sequence
 
-from bpmid.errors import InputError
+from bpmid.errors import InputError, warn_caller
 from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR
 
 
@@ -226,7 +226,8 @@ def fit_relaxation(logs, *, terms: int | str | None = None, mode: str | None = N
 
     Returns
     -------
-    bpmid.results.RelaxationResult : ``.raw`` is the live fit (its ``warnings`` are not printed here);
+    bpmid.results.RelaxationResult : ``.raw`` is the live fit (its ``warnings`` are raised as
+    :class:`bpmid.BpmidWarning` too);
     ``.save(path, figure=True)`` writes what ``bpmid fit relax`` writes
     """
     from bpmid.relax.result import fit_relax_files
@@ -239,6 +240,7 @@ def fit_relaxation(logs, *, terms: int | str | None = None, mode: str | None = N
                           max_error_pct=max_error_pct, ref_temp=ref_temp, shift=shift, flags=_flags)
     result = RelaxationResult(run.body, run.provenance, raw=run.fit)
     result._synthetic = run.synthetic
+    warn_caller(getattr(run.fit, "warnings", None) or getattr(getattr(run.fit, "fit", None), "warnings", None) or [])
     return result
 
 
@@ -276,6 +278,7 @@ def fit_motion(logs, *, init=None, config=None):
                          f"{type(init).__name__}", key="init")
     fit = _fit(motion, config=cfg, init=init)
     warnings = plaus.reader_warnings(motion) + plaus.motion_fit_warnings(fit)
+    warn_caller(warnings)
     body = {**fit.yaml_body(), "warnings": warnings}
     return VBMMFitResult(body, plaus.attach(provenance(inputs, config=cfg), motion, warnings), raw=fit)
 
@@ -315,6 +318,7 @@ def predict(logs, params, *, config=None):
                                    model.base if hasattr(model, "base") else model)
         if note:
             warnings.insert(0, f"{ppath}: {note}")
+    warn_caller(warnings)
     body = {**predict_yaml_body(preds, params=ppath, model=model), "warnings": warnings}
     prov = plaus.attach(provenance(list(paths) + ([ppath] if ppath else []), config=cfg), motion, warnings)
     out = PredictionResult(body, prov, raw=preds)

@@ -6,7 +6,11 @@ Anything else escaping a command is an internal failure (exit code 1).
 """
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import warnings as _warnings
 from pathlib import Path
+from typing import Iterable
 
 
 class InputError(Exception):
@@ -58,3 +62,30 @@ def interrupted(exc: BaseException | None) -> bool:
         seen.add(id(exc))
         exc = exc.__cause__ or exc.__context__
     return False
+
+
+class BpmidWarning(UserWarning):
+    """What a result's ``warnings`` hold (a likely unit slip, a poor fit, a constant at a bound), said to a library
+    caller through Python's warnings too: a script that prints only ``.params`` still sees them."""
+
+
+#: set while a command runs: the command prints the warnings itself (``warning: ...`` on stderr), once
+_IN_COMMAND = contextvars.ContextVar("bpmid_in_command", default=False)
+
+
+@contextlib.contextmanager
+def command_prints_warnings():
+    """The CLI's commands run inside this: the library calls they make do not also raise Python warnings."""
+    token = _IN_COMMAND.set(True)
+    try:
+        yield
+    finally:
+        _IN_COMMAND.reset(token)
+
+
+def warn_caller(messages: Iterable[str], *, stacklevel: int = 3) -> None:
+    """Each message as a :class:`BpmidWarning` to the library's caller (not inside a CLI command)."""
+    if _IN_COMMAND.get():
+        return
+    for m in messages:
+        _warnings.warn(str(m), BpmidWarning, stacklevel=stacklevel)

@@ -57,6 +57,25 @@ def test_from_arrays_needs_units_and_converts_them():
         bpmid.from_arrays(t, p_bar - 1.4, pressure_unit="bar", reference="gauge")
 
 
+def test_a_results_warnings_reach_a_library_caller_once_and_a_command_prints_them_once(tmp_path):
+    """A script that prints only ``.params`` still sees a likely unit slip (a BpmidWarning); a command prints each
+    warning once, on stderr, not also as a Python warning."""
+    from typer.testing import CliRunner
+
+    from bpmid.cli import app
+
+    log = bpmid.read_motion_logs([sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))[0]])[0]
+    ms = bpmid.from_arrays(log.time_s * 1e3, log.pressure_pa, log.angle_deg, pressure_unit="Pa", reference="gauge")
+    with pytest.warns(bpmid.BpmidWarning, match="time_unit='ms'") as said:
+        fit = bpmid.fit_motion([ms])
+    assert [str(w.message) for w in said if w.category is bpmid.BpmidWarning] == fit.warnings
+    master = REPO / "datasets/reference/pyvisco-frequency/freq_user_master.csv"
+    r = CliRunner().invoke(app, ["fit", "relax", str(master), "--terms", "4", "--no-figure", "--out",
+                                 str(tmp_path / "m.yaml")])
+    assert r.exit_code == 0 and r.stderr.count("Poisson's ratio is the default") == 1
+    assert "BpmidWarning" not in r.stderr
+
+
 def test_from_arrays_takes_time_and_angle_units_and_checks_the_ambient_pressure():
     log = bpmid.read_motion_logs([sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))[0]])[0]
     t, p, a = log.time_s, log.pressure_pa, log.angle_deg
@@ -358,7 +377,8 @@ def test_results_of_shear_data_fitted_from_files_and_bad_settings(tmp_path):
     src = (REPO / "datasets/reference/pyvisco-frequency/freq_user_master.csv").read_text().splitlines()
     src[0] = src[0].replace("E_stor", "G_stor").replace("E_loss", "G_loss")
     (tmp_path / "G_master.csv").write_text("\n".join(src) + "\n")
-    g = bpmid.fit_relaxation([tmp_path / "G_master.csv"], terms=6)
+    with pytest.warns(bpmid.BpmidWarning, match="Poisson's ratio is the default"):   # a glassy polymer's moduli
+        g = bpmid.fit_relaxation([tmp_path / "G_master.csv"], terms=6)
     assert g.params["G_inf"].identifiability in ("estimated",) or g.params["G_inf"].identifiability.startswith("not")
     assert g.params["E_inf"].identifiability == "derived (Poisson's ratio)"
     assert g.params["G_1"].identifiability != "derived (Poisson's ratio)"

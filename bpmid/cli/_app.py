@@ -76,13 +76,16 @@ def command(typer_app: typer.Typer, name: str, **kw):
     def deco(fn):
         @functools.wraps(fn)
         def wrapper(*args, **kwargs):
+            from bpmid.errors import command_prints_warnings
             from bpmid.io.atomic import Terminated, guard_inputs, sigterm_as_interrupt
             from bpmid.plots.options import figure_format_kept
 
             try:
                 # the output discipline (bpmid.io.atomic): no input replaced, SIGTERM rolls back like Ctrl-C,
-                # leftovers of a killed command in the output folder recovered first
-                with sigterm_as_interrupt(), guard_inputs(_path_inputs(kwargs)), figure_format_kept():
+                # leftovers of a killed command in the output folder recovered first; the command prints the
+                # results' warnings itself (not also as Python warnings)
+                with sigterm_as_interrupt(), guard_inputs(_path_inputs(kwargs)), figure_format_kept(), \
+                        command_prints_warnings():
                     _recover_outputs(kwargs)
                     return fn(*args, **kwargs)
             except Terminated as exc:
