@@ -211,6 +211,16 @@ def test_unexplained_remainder_is_attributed_to_log_to_log_variation_only_when_i
     assert f"the held-out error of the model as fitted, with no per-log factor ({res.heldout_raw_after:.2f} deg)" \
         in line, line
     assert f"each held-out log with its own small factors: {res.heldout_after:.2f} deg" in line, line
+    # the per-log bars of heldout_error.png are scored as the totals are (the per-log factors that scored them):
+    # pooled over the logs' samples they give the totals the legend quotes
+    from bpmid.plots.discover import heldout_figure
+
+    fig = heldout_figure(res)
+    heights = np.array([p.get_height() for p in fig.axes[0].patches])
+    n = np.array([lg.n for lg in res.holdout_logs], float)
+    k = n.size
+    for bars, total in ((heights[:k], res.heldout_before), (heights[k:2 * k], res.heldout_after)):
+        assert float(np.sqrt(np.sum(n * bars ** 2) / n.sum())) == pytest.approx(total, rel=1e-9)
 
     friction = get_effect("braid_friction", elements=4)
     fit2, ho2 = paper_sized_set(friction, size=1.5, seed=5, noise_deg=0.15)

@@ -56,7 +56,7 @@ def residual_figure(result):
     for ax in axes:
         ax.set_ylabel("model − measured (°)")
         ax.axhspan(-floor, floor, color="0.85", zorder=0)
-    axes[0].set_title("residual before and after, every log")
+    axes[0].set_title("residual before and after, every log (raw: no per-log factors, unlike the held-out scores)")
     return fig
 
 
@@ -82,16 +82,21 @@ def ranking_figure(result):
         ax.grid(axis="y", visible=False)
     import matplotlib.patches as mpatches
 
-    hs = [mpatches.Patch(color=AFTER), mpatches.Patch(color=BEFORE), mpatches.Patch(color="0.65")]
-    outside_legend(fig, hs, ["accepted", "confirmation tried", "screened only"], ncol=3)
+    kinds = [(AFTER, "accepted"), (BEFORE, "confirmation tried"), ("0.65", "screened only")]
+    shown = {c for ax in axes[0] for p in ax.patches for c in [p.get_facecolor()]}   # only the kinds drawn
+    from matplotlib.colors import to_rgba
+
+    kinds = [(c, w) for c, w in kinds if to_rgba(c) in shown] or kinds[:1]
+    outside_legend(fig, [mpatches.Patch(color=c) for c, _w in kinds], [w for _c, w in kinds], ncol=3)
     return fig
 
 
 def heldout_figure(result):
     """Held-out RMSE per log, base VBMM vs VBMM + named effects, with the noise floor."""
     logs = result.holdout_logs
-    # scored as the totals are: with each held-out log's own gain when discovery scored that way (per_log_gain)
-    gain = bool(getattr(result, "per_log_gain", False))
+    # scored as the totals are: with the per-log factors (LogNuisance) that scored them, when discovery scored so
+    gain = getattr(result, "per_log_gain", False)
+    gain = False if gain is None else gain
 
     def per_log(state):
         parts = gained_residuals(simulate(state, logs), logs, per_log_gain=gain, normalise=False)
@@ -107,7 +112,7 @@ def heldout_figure(result):
            label=f"+ {' + '.join(result.named_effects) or 'nothing'} (all: {result.heldout_after:.2f}°)")
     ax.axhline(result.noise_floor_deg, color="k", ls="--", lw=1, label=f"noise floor {result.noise_floor_deg:.2f}°")
     ax.set_xticks(x, [lg.name for lg in logs], rotation=30, ha="right")
-    ax.set_ylabel("held-out RMSE, each log's gain fitted (°)" if gain else "held-out RMSE (°)")
+    ax.set_ylabel("held-out RMSE, each log's own factors fitted (°)" if gain is not False else "held-out RMSE (°)")
     ax.set_title("Held-out error per log")
     outside_legend(fig, ax=ax)
     return fig

@@ -52,6 +52,16 @@ def history_figure(study, *, synthetic: bool = True):
     return finish(fig, synthetic)
 
 
+def _modulus_unit(values) -> tuple[float, str]:
+    """(Pa per unit, unit) in which the largest of ``values`` (Pa) reads between 1 and 1000: kPa for a rubber's E,
+    MPa for its nearly incompressible K, GPa for a glassy polymer; MPa when there is nothing to show."""
+    top = float(np.nanmax(np.abs(values))) if values is not None and np.size(values) else 0.0
+    for factor, unit in ((1e9, "GPa"), (1e6, "MPa"), (1e3, "kPa"), (1.0, "Pa")):
+        if top >= factor:
+            return factor, unit
+    return 1e6, "MPa"
+
+
 def modulus_curves(relax: Mapping, *, paper: Mapping | None = None, synthetic: bool = True):
     """Relaxation moduli E(t), G(t), K(t) of a ``bpmid.relax/1`` fit (dicts as in the file), with the
     paper's published one-term E(t) as a dashed, labelled line when ``paper`` is given
@@ -70,24 +80,27 @@ def modulus_curves(relax: Mapping, *, paper: Mapping | None = None, synthetic: b
     fig, axes = new_figure(1, 3, width=12.5, height=3.5, legend="top", legend_size=0.45, wgap=0.9)
     a, b, k_ax = axes
     e = curve("prony", "E", "E_inf", t)
+    fe, ue = _modulus_unit(e)   # each panel in the unit its values read best in (E and G of a rubber: kPa)
     if e is not None:
-        a.semilogx(t, e / 1e6, color=OKABE_ITO["blue"], lw=2, label="fitted here")
+        a.semilogx(t, e / fe, color=OKABE_ITO["blue"], lw=2, label="fitted here")
     if paper:
         ep = paper["E_inf"] + paper["E_1"] * np.exp(-t / paper["tau_1"])
-        a.semilogx(t, ep / 1e6, "--", color="0.35", lw=1.3, label="paper's published fit (quoted, paper's data)")
+        a.semilogx(t, ep / fe, "--", color="0.35", lw=1.3, label="paper's published fit (quoted, paper's data)")
     a.set_xlabel("time (s)")
-    a.set_ylabel("E(t) (MPa)")
+    a.set_ylabel(f"E(t) ({ue})")
     a.set_title("(a) tensile relaxation modulus")
     g = curve("shear", "G", "G_inf", t)
     k = curve("bulk", "K", "K_inf", t)
+    fg, ug = _modulus_unit(g)
     if g is not None:
-        b.semilogx(t, g / 1e6, color=OKABE_ITO["blue"], lw=2)
-    b.set_ylabel("G(t) (MPa)")
+        b.semilogx(t, g / fg, color=OKABE_ITO["blue"], lw=2)
+    b.set_ylabel(f"G(t) ({ug})")
     b.set_xlabel("time (s)")
     b.set_title(f"(b) shear modulus (ν = {relax.get('poisson_ratio', float('nan')):.5g})")
+    fk, uk = _modulus_unit(k)
     if k is not None:
-        k_ax.semilogx(t, k / 1e6, color=OKABE_ITO["blue"], lw=2)
-    k_ax.set_ylabel("K(t) (MPa)")
+        k_ax.semilogx(t, k / fk, color=OKABE_ITO["blue"], lw=2)
+    k_ax.set_ylabel(f"K(t) ({uk})")
     k_ax.set_xlabel("time (s)")
     k_ax.set_title("(c) bulk modulus")
     outside_legend(fig, ax=a, ncol=2)

@@ -12,10 +12,13 @@ KEY = "discovery"
 TITLE = "Discovery of missing effects"
 
 CAPTIONS = {"residual_before_after": "Residual before (base VBMM, solid) and after (with the named effects, dashed) "
-            "against time, gauge pressure and pressure rate; grey band: sensor-noise floor.",
+            "against time, gauge pressure and pressure rate, raw: one set of constants for every log, without the "
+            "per-log factors the held-out scores allow for log-to-log variation (so larger than those scores); "
+            "grey band: sensor-noise floor.",
             "screening_ranking": "Screening: share of the residual each catalogue effect's signature explains, per "
             "round; accepted and tried effects coloured.",
-            "heldout_error": "Held-out RMSE per log before and after, with the sensor-noise floor."}
+            "heldout_error": "Held-out RMSE per log before and after, scored as discovery scored them (each log's "
+            "own per-log factors), with the sensor-noise floor; the legend's totals pool these bars."}
 
 
 def build(doc, st, figs) -> None:
