@@ -29,7 +29,9 @@ OKABE_ITO = {"blue": "#0072B2", "vermillion": "#D55E00", "green": "#009E73", "pu
 MODEL_COLORS = {
     "measured": "black", "vbmm-mat": OKABE_ITO["sky"], "vbmm-fit": OKABE_ITO["blue"], "gpi": OKABE_ITO["green"],
     "maxwell-slip": OKABE_ITO["purple"], "three-element": OKABE_ITO["orange"], "two-branch": OKABE_ITO["vermillion"],
-    "vbmm+effects": OKABE_ITO["vermillion"],
+    # the eight Okabe-Ito colours are taken (yellow reads poorly on white): Paul Tol's wine, also colour-blind safe,
+    # so that a discovered model never shares the two-branch model's colour
+    "vbmm+effects": "#882255",
 }
 #: a line style per model family, so that lines lying on each other stay distinguishable
 MODEL_STYLES = {"measured": "-", "vbmm-mat": (0, (5, 2)), "vbmm-fit": "-", "gpi": "-.", "maxwell-slip": (0, (1, 1.5)),
