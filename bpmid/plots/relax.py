@@ -54,7 +54,12 @@ def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
         if t_end < max(float(lg.t[-1]) for lg in fit.logs):
             ax_a.set_xlim(float(min(lg.t[0] for lg in fit.logs)), t_end)
             ax_a.set_title(f"(a) {what}: data (dots), fit (first {t_end:.0f} s)")
-    # (b) data as markers, fit as a line on top: both visible even when the data are one dense master curve
+    # (b) data as markers, fit as a line on top: both visible even when the data are one dense master curve. A ramp
+    # relaxes while it loads, so a hold's sigma/eps starts below the step modulus E(0): in ramp mode each log gets
+    # the fit's own sigma/eps over its hold, and E(t) of a step is drawn dashed, as the material function
+    ramp_hold = fit.mode == "ramp" and fit.quantity == "stress" and all(
+        np.isfinite(lg.hold.strain_level) and lg.hold.strain_level > 0 and lg.y_fit.size >= lg.hold.start + lg.hold.t.size
+        for lg in fit.logs)
     for lg, c in zip(fit.logs, colors):
         h = lg.hold
         keep = h.t > 0 if log_time else h.t <= min(span, 10.0)  # the window panel (b) shows
@@ -67,11 +72,17 @@ def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
         elif tt.size > 4 * n_show:
             tt, ee = tt[:: tt.size // (4 * n_show)], ee[:: ee.size // (4 * n_show)]
         ax_b.plot(tt, ee * scale, "o", ms=4.5, mfc="none", mec=c, mew=0.9, ls="none")
+        if ramp_hold:   # the fit's own sigma/eps over this hold: the relaxation during the ramp included
+            idx = np.arange(h.start, h.start + h.t.size)[keep]
+            ax_b.plot(h.t[keep], lg.y_fit[idx] / h.strain_level * scale, "-", color=c, lw=0.9)
     if pos.size == 0:
         pos = np.array([1e-3, span])
     grid = (np.logspace(np.log10(pos.min()), np.log10(pos.max()), 400) if log_time
             else np.linspace(0.0, min(span, 10.0), 400))
-    ax_b.plot(grid, fit.modulus(grid) * scale, "-", color="black", lw=1.0, label=f"fitted E(t), {fit.m} term(s)")
+    if ramp_hold:
+        ax_b.plot([], [], "-", color=colors[0], lw=0.9, label="fit: σ/ε of each hold (the ramp's relaxation in)")
+    ax_b.plot(grid, fit.modulus(grid) * scale, "--" if ramp_hold else "-", color="black", lw=1.0,
+              label=f"fitted E(t) of a step, {fit.m} term(s)" if ramp_hold else f"fitted E(t), {fit.m} term(s)")
     ax_b.plot([], [], "o", ms=4.5, mfc="none", mec=colors[0], ls="none", label="E(t) data (σ/ε of each hold)" if fit.mode == "ramp"
               else "E(t) data")
     ax_b.set(xlabel="time since hold start (s)", ylabel=f"E(t) ({unit})", title="(b) relaxation modulus: data and fit")
