@@ -90,3 +90,21 @@ def test_figures_option_on_a_drawing_command(tmp_path, repo_root):
     assert "synthetic" in text or "glyph" in text  # text as paths: the stamp is drawn, not a font reference
     r = CliRunner().invoke(app, ["fit", "relax", *logs, "--out", str(tmp_path / "b.yaml"), "--figures", "gif"])
     assert r.exit_code == 2 and "--figures" in r.output and "gif" in r.output
+
+
+def test_a_vector_figure_keeps_its_text_as_text_and_draws_dense_dots_as_an_image(tmp_path):
+    """SVG and PDF for a paper: labels stay text (searchable, editable), a layer of tens of thousands of dots is
+    one image instead of megabytes of paths; sparse markers and lines stay vector."""
+    import numpy as np
+
+    from bpmid.plots.common import DENSE_POINTS, new_figure, save_figure
+
+    rng = np.random.default_rng(3)
+    fig, ax = new_figure()
+    ax.plot(rng.normal(size=20 * DENSE_POINTS), rng.normal(size=20 * DENSE_POINTS), ".", ls="none")
+    ax.plot([0, 1], [0, 1], "o-")
+    ax.set_xlabel("time (s)")
+    path = save_figure(fig, tmp_path / "dense.svg")
+    text = path.read_text()
+    assert "<image" in text and ">time (s)</text>" in text
+    assert path.stat().st_size < 400_000     # 40 000 dots as paths: several MB

@@ -177,6 +177,22 @@ def finish(fig, synthetic: bool):
     return fig
 
 
+#: a marker-only layer with more points than this is drawn as an image inside a vector figure (SVG, PDF): tens of
+#: thousands of residual dots as vector paths make a file of megabytes that editors and browsers crawl through
+DENSE_POINTS = 2000
+
+
+def rasterize_dense(fig) -> None:
+    """Rasterize the dense marker-only layers of ``fig`` (lines, axes, text and sparse markers stay vector)."""
+    for ax in fig.axes:
+        for line in ax.get_lines():
+            if line.get_linestyle() in ("None", "none", "", " ") and len(line.get_xdata()) > DENSE_POINTS:
+                line.set_rasterized(True)
+        for coll in ax.collections:
+            if len(getattr(coll, "get_offsets", lambda: [])()) > DENSE_POINTS:
+                coll.set_rasterized(True)
+
+
 def save_figure(fig, path: str | Path, *, dpi: int = 120, png_twin: bool = False) -> Path:
     """Write ``fig`` atomically and close it; returns the path written.
 
@@ -185,9 +201,13 @@ def save_figure(fig, path: str | Path, *, dpi: int = 120, png_twin: bool = False
     page; the HTML report embeds the twin of the figures it draws itself)."""
     path = figure_path(path)
     fmt = path.suffix.lstrip(".").lower() or "png"
+    if fmt in ("svg", "pdf"):
+        rasterize_dense(fig)
     try:
         with staged_file(path) as tmp:
-            fig.savefig(tmp, dpi=dpi, format=fmt, metadata={"Date": None} if fmt == "svg" else None)
+            # a vector figure's rasterized layers at print resolution (the dpi sets nothing else there)
+            fig.savefig(tmp, dpi=max(dpi, 300) if fmt in ("svg", "pdf") else dpi, format=fmt,
+                        metadata={"Date": None} if fmt == "svg" else None)
         if fmt == "pdf" and png_twin:
             with staged_file(path.with_suffix(".png")) as tmp:
                 fig.savefig(tmp, dpi=dpi, format="png")
