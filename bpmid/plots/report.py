@@ -116,11 +116,12 @@ def error_bands(sets: Mapping[str, Sequence[pd.DataFrame]], models: Sequence[str
     models = [m for m in models if any(f"pred_{m}_deg" in fr for v in sets.values() for fr in v)] or list(models)
     nm = max(len(models), 1)
     fig, axes = new_figure(len(names), nm, width=1.2 + 2.3 * nm, height=1.9 * len(names) + 0.9, squeeze=False,
-                           sharey=True, sharex="row", wgap=0.2, hgap=0.75, left=0.95)
+                           sharey=True, sharex="row", wgap=0.2, hgap=0.75, left=0.95, legend="top", legend_size=0.35)
     for r, s in enumerate(names):
         frames = sets[s]
         n = min(len(f) for f in frames)
         t = frames[0]["time_s"].to_numpy()[:n] - frames[0]["time_s"].iloc[0]
+        cut = any(len(f) > n for f in frames)
         for c, m in enumerate(models):
             ax = axes[r, c]
             col = f"pred_{m}_deg"
@@ -135,7 +136,13 @@ def error_bands(sets: Mapping[str, Sequence[pd.DataFrame]], models: Sequence[str
             ax.set_title(m if r == 0 else "")
             if c == 0:
                 ax.set_ylabel(f"{s}\n({len(frames)} log(s))\nerror (°)")
-            ax.set_xlabel("time in log (s)")
+            ax.set_xlabel("time in log (s)" + (f", the first {t[-1]:.0f} s of each" if cut else ""))
+    import matplotlib.patches as mpatches
+    from matplotlib.lines import Line2D
+
+    outside_legend(fig, [Line2D([], [], color="0.3", lw=1.0), mpatches.Patch(color="0.3", alpha=0.25)],
+                   ["mean error over the set's logs, sample by sample (aligned by time in log, not by cycle)",
+                    "smallest to largest error across the logs"], ncol=2)
     return finish(fig, synthetic)
 
 
