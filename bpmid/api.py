@@ -240,7 +240,7 @@ def fit_relaxation(logs, *, terms: int | str | None = None, mode: str | None = N
                           max_error_pct=max_error_pct, ref_temp=ref_temp, shift=shift, flags=_flags)
     result = RelaxationResult(run.body, run.provenance, raw=run.fit)
     result._synthetic = run.synthetic
-    warn_caller(getattr(run.fit, "warnings", None) or getattr(getattr(run.fit, "fit", None), "warnings", None) or [])
+    warn_caller(run.body.get("warnings") or [])   # the file's warnings, for time-domain and material fits alike
     return result
 
 
