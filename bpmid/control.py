@@ -140,6 +140,8 @@ class Reference:
     time_s: np.ndarray
     angle_deg: np.ndarray
     path: Path | None = None
+    #: how a file's samples were put on the control grid (None: the file was on it already), in words
+    resampled: str | None = None
 
 
 def shipped_dir() -> Path:
@@ -201,11 +203,19 @@ def read_reference(path: Path, rate_hz: float, name: str | None = None, io=None)
         k = int(np.flatnonzero((a < 0) | (a > 180))[0])
         raise InputError(f"angle {a[k]:g} deg is outside 0..180 deg", path=path, line=table.line_of(k), key="angle_deg")
     dt = 1.0 / rate_hz
-    if not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-9):
+    resampled = None
+    steps = np.diff(t)
+    if not np.allclose(steps, dt, rtol=1e-6, atol=1e-9):
         grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) / dt + 1e-9)) + 1) * dt
+        lo, hi = float(np.min(steps)), float(np.max(steps))
+        logged = (f"every {lo:.4g} s ({1.0 / lo:.4g} Hz)" if np.isclose(lo, hi, rtol=1e-6)
+                  else f"every {lo:.4g}-{hi:.4g} s (uneven)")
+        resampled = (f"logged {logged}: {t.size} samples interpolated linearly onto the {rate_hz:g} Hz control "
+                     f"grid ({grid.size} samples"
+                     + (f"; detail faster than {rate_hz / 2:g} Hz is not followed)" if lo < dt * (1 - 1e-6) else ")"))
         a = np.interp(grid, t, a)
         t = grid
-    return Reference(name or path.stem, t - t[0], a, path)
+    return Reference(name or path.stem, t - t[0], a, path, resampled)
 
 
 def load_references(spec: str, rate_hz: float = 10.0, io=None) -> list[Reference]:
@@ -533,6 +543,7 @@ class ControlResult:
     feedforward_cost: dict
     ms_feedforward: MSFeedforward | None
     warnings: list[str]
+    references: list[Reference] = dataclasses.field(default_factory=list)
 
 
 def summary_table(runs: Sequence[Run], cfg: ControlConfig) -> pd.DataFrame:
@@ -629,7 +640,7 @@ def run_control(model: VBMM, plant: Plant, references: Sequence[Reference], cfg:
                                 "term): no controller can follow it there, and its scores say more about the "
                                 "limit than the controller")
     cost = feedforward_cost(model, period_s=1.0 / cfg.rate_hz) if measure_cost else {}
-    return ControlResult(runs, table, cost, ms_ff, warnings)
+    return ControlResult(runs, table, cost, ms_ff, warnings, list(references))
 
 
 def control_yaml_body(result: ControlResult, cfg: ControlConfig, *, model: VBMM, plant: Plant) -> dict:
@@ -654,6 +665,9 @@ def control_yaml_body(result: ControlResult, cfg: ControlConfig, *, model: VBMM,
                   "sensors": dataclasses.asdict(plant.sensors),
                   "pressure_dynamics": plant.pressure_dynamics,
                   "pneumatics": dataclasses.asdict(plant.pneumatics) if plant.pressure_dynamics else None},
+        "references": [{"name": ref.name, "source": str(ref.path) if ref.path is not None else "built in",
+                        "samples": int(ref.time_s.size), "duration_s": float(ref.time_s[-1]),
+                        "resampled": ref.resampled} for ref in result.references],
         "summary": result.table.to_dict(orient="records"),
         "warnings": result.warnings,
     }

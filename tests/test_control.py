@@ -241,3 +241,35 @@ def test_a_reference_beyond_the_plants_reach_is_named():
     near = Reference("near", t, np.where(t < 5.0, 45.0, 60.0))
     assert not any("asks up to" in w for w in run_control(MODEL, build_plant(MODEL, cfg=cfg), [near], cfg,
                                                             measure_cost=False).warnings)
+
+
+def test_a_reference_off_the_control_grid_is_resampled_and_says_so(tmp_path):
+    # a reference logged at 50 Hz runs on the 10 Hz grid: the command prints how, control.yaml records it; one on
+    # the grid says nothing
+    from bpmid.cli import app
+    from bpmid.control import read_reference
+    from bpmid.io.results import provenance, write_result
+
+    ref = builtin_reference("sines")
+    on = tmp_path / "on.csv"
+    pd.DataFrame({"time_s": ref.time_s[:100], "angle_deg": ref.angle_deg[:100]}).to_csv(on, index=False)
+    fast_t = np.arange(0.0, 9.9, 0.02)
+    fast = tmp_path / "fast.csv"
+    pd.DataFrame({"time_s": fast_t, "angle_deg": np.interp(fast_t, ref.time_s, ref.angle_deg)}).to_csv(fast, index=False)
+    assert read_reference(on, 10.0).resampled is None
+    r = read_reference(fast, 10.0)
+    assert r.time_s.size == 99 and np.allclose(np.diff(r.time_s), 0.1)
+    assert "50 Hz" in r.resampled and "495 samples" in r.resampled and "5 Hz is not followed" in r.resampled
+
+    params = tmp_path / "vbmm.yaml"
+    write_result(params, "bpmid.vbmm/1", vbmm_yaml_body(MODEL), provenance(timestamp=False))
+    res = CliRunner().invoke(app, ["control", "--params", str(params), "--reference", f"{on},{fast}",
+                                   "--controller", "pi", "--no-figure", "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    assert "note: reference fast: logged every 0.02 s (50 Hz)" in res.output and "reference on:" not in res.output
+    import yaml
+
+    refs = {r["name"]: r for r in yaml.safe_load((tmp_path / "o" / "control.yaml").read_text())["references"]}
+    assert refs["on"]["resampled"] is None and refs["on"]["samples"] == 100
+    assert refs["fast"]["samples"] == 99 and "interpolated linearly" in refs["fast"]["resampled"]
+    assert refs["fast"]["source"].endswith("fast.csv")

@@ -90,6 +90,9 @@ def control(
     cost = result.feedforward_cost
     typer.echo(f"feedforward (incremental inverse VBMM): {cost['incremental_kernel_us_per_step']:.2f} us per step "
                f"= {cost['share_of_period_pct']:.4f} % of the {1e3 / cfg.rate_hz:g} ms control period")
+    for ref in result.references:
+        if ref.resampled:
+            typer.echo(f"note: reference {ref.name}: {ref.resampled}")
     for w in result.warnings:
         typer.echo(f"warning: {w}", err=True)
     typer.echo(f"wrote {out}/summary.csv, control.yaml, traces/, {figure_path('fig18.png')}" if not no_figure else
