@@ -8,9 +8,31 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import re
 import warnings as _warnings
 from pathlib import Path
 from typing import Iterable
+
+
+#: set while a command runs: the command prints the warnings itself (``warning: ...`` on stderr), once; and its
+#: errors name its flags (outside a command, the reading flags are also named by their config keys)
+_IN_COMMAND = contextvars.ContextVar("bpmid_in_command", default=False)
+
+#: the reading flags a log's error may name -> the config key a library caller sets instead
+_FLAG_KEYS = {"--columns": "io.columns ({'<header in the file>': '<bpmid name>'})",
+              "--pressure-unit": "io.units.pressure", "--time-unit": "io.units.time",
+              "--angle-unit": "io.units.angle", "--pressure-reference": "io.pressure_reference",
+              "--sheet": "io.sheet", "--max-gap": "io.max_gap_s", "--strict": "io.strict"}
+_FLAG_NOTE = "from Python, pass these in config={'io': {...}}"
+
+
+def _library_words(message: str) -> str:
+    """``message`` with the config key of each reading flag it names, for a caller outside the command line."""
+    named = [f"{flag} is {key}" for flag, key in _FLAG_KEYS.items()
+             if re.search(re.escape(flag) + r"(?![\w-])", message)]
+    if not named or _FLAG_NOTE in message:
+        return message
+    return f"{message} ({_FLAG_NOTE}: {'; '.join(named)})"
 
 
 class InputError(Exception):
@@ -30,7 +52,7 @@ class InputError(Exception):
 
     def __init__(self, message: str, *, path: str | Path | None = None,
                  line: int | None = None, key: str | None = None):
-        self.message = message
+        self.message = message if _IN_COMMAND.get() else _library_words(message)
         self.path = None if path is None else str(path)
         self.line = line
         self.key = key
@@ -67,10 +89,6 @@ def interrupted(exc: BaseException | None) -> bool:
 class BpmidWarning(UserWarning):
     """What a result's ``warnings`` hold (a likely unit slip, a poor fit, a constant at a bound), said to a library
     caller through Python's warnings too: a script that prints only ``.params`` still sees them."""
-
-
-#: set while a command runs: the command prints the warnings itself (``warning: ...`` on stderr), once
-_IN_COMMAND = contextvars.ContextVar("bpmid_in_command", default=False)
 
 
 @contextlib.contextmanager

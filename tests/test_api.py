@@ -451,3 +451,25 @@ def test_help_on_a_workflow_shows_the_call_first():
     for name in ("predict", "compare", "control", "discover"):
         doc = getattr(bpmid, name).__doc__
         assert doc.startswith(f"bpmid.{name}(") and "Returns" in doc and f"The module bpmid.{name}" in doc, name
+
+
+def test_a_library_callers_error_names_the_config_key_of_each_reading_flag(tmp_path):
+    """Outside a command, an error that names a reading flag also names the config key a script sets; following
+    it reads the file. A command's own error names only its flags."""
+    from typer.testing import CliRunner
+
+    from bpmid.cli import app
+
+    f = tmp_path / "bare.csv"
+    f.write_text("t,p,a\n0,0.1,1\n0.1,0.5,3\n0.2,0.9,5\n")
+    with pytest.raises(InputError) as e:
+        bpmid.read_motion_logs([f])
+    msg = str(e.value)
+    assert "--pressure-unit" in msg and "--pressure-unit is io.units.pressure" in msg
+    assert "--time-unit is io.units.time" in msg and "config={'io'" in msg and msg.count("from Python") == 1
+    io = {"units": {"time": "s", "pressure": "bar", "angle": "deg"}, "pressure_reference": "gauge",
+          "columns": {"t": "time", "p": "pressure", "a": "angle"}}
+    (log,) = bpmid.read_motion_logs([f], config={"io": io})
+    np.testing.assert_allclose(log.pressure_pa, [1e4, 5e4, 9e4])
+    r = CliRunner().invoke(app, ["fit", "motion", str(f), "--out", str(tmp_path / "m.yaml")])
+    assert r.exit_code == 2 and "--columns" in r.output and "from Python" not in r.output
