@@ -74,6 +74,7 @@ class LogOptions:
         """``--columns time=Zeit,pressure=Druck`` -> ``{"Zeit": "time", "Druck": "pressure"}``."""
         if self.columns is None:
             return {}
+        from bpmid.io.relax_logs import material_role
         from bpmid.io.tables import parse_header
 
         out: dict[str, str] = {}
@@ -86,9 +87,10 @@ class LogOptions:
                 raise InputError(f"--columns takes quantity=column pairs separated by commas "
                                  f"(time=Zeit,pressure=Druck), found {item.strip()!r}", key="--columns")
             q, _unit = parse_header(name)
-            if q is None:
+            if q is None and material_role(name)[0] is None:
                 raise InputError(f"--columns: {name!r} is no bpmid quantity (time, pressure, angle, strain, stress, "
-                                 f"load, extension, modulus; optionally with a unit: time_ms)", key="--columns")
+                                 f"load, extension, modulus; optionally with a unit: time_ms; in material files also "
+                                 f"f, omega, E_stor, E_loss, G_stor, G_loss, E_relax, T, Set)", key="--columns")
             if header in out:
                 raise InputError(f"--columns names the column {header!r} twice", key="--columns")
             out[header] = name

@@ -62,6 +62,8 @@ class RelaxLog:
     first_data_line : file line of the first sample (for messages)
     reading : what the reader found and assumed (format, columns, units and where they came from)
     warnings : reader warnings (gaps, ignored columns)
+    temperature_c : the mean of a test log's temperature column (C), or None (no such column, or no unit of it
+        that bpmid knows)
     """
 
     name: str
@@ -75,6 +77,7 @@ class RelaxLog:
     first_data_line: int = 2
     reading: dict = dataclasses.field(default_factory=dict)
     warnings: list = dataclasses.field(default_factory=list)
+    temperature_c: float | None = None
 
     @property
     def is_modulus_curve(self) -> bool:
@@ -170,7 +173,7 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
     t = check_time(table, kind=KIND, gap_factor=None if need[1] == "modulus" else gap_factor,
                    max_gap_s=None if io_cfg is None or need[1] == "modulus" else io_cfg.max_gap_s)
     common = dict(name=path.stem, time_s=t, path=path, meta=dict(table.meta), first_data_line=table.first_data_line,
-                  reading=dict(table.reading), warnings=list(table.warnings))
+                  reading=dict(table.reading), warnings=list(table.warnings), temperature_c=_test_temperature(table))
     if need[1] == "modulus":
         E = table.columns["modulus"]
         bad = np.flatnonzero(E < 0)
@@ -189,14 +192,52 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
                     source="load-extension", **common)
 
 
+def _test_temperature(table) -> float | None:
+    """The mean of a set-aside temperature column in C (``Temperature (°C)``, ``T [K]``), or None."""
+    for h, (cells, unit) in table.ignored_cells.items():
+        role, named = _mat_role(h)
+        if role != "T":
+            continue
+        unit = named or unit
+        offset = _MAT_UNITS["T"].get(_unit_cell(unit or "").strip().lower())
+        vals = []
+        for c in cells:
+            try:
+                vals.append(float(str(c).strip().replace(",", ".")))
+            except ValueError:
+                continue
+        vals = np.asarray(vals, float)
+        vals = vals[np.isfinite(vals)]
+        if offset is not None and unit and vals.size:
+            return float(np.mean(vals)) + offset
+    return None
+
+
+def check_one_temperature(logs: Sequence[RelaxLog]) -> None:
+    """Refuse test logs whose temperature columns differ by more than :data:`SET_T_SPAN_C`: a ramp-and-hold fit
+    pools its logs as one material at one temperature (time-temperature superposition is for modulus curves)."""
+    temps = [(lg, lg.temperature_c) for lg in logs if lg.temperature_c is not None]
+    if len(temps) < 2:
+        return
+    lo, hi = min(temps, key=lambda p: p[1]), max(temps, key=lambda p: p[1])
+    if hi[1] - lo[1] > SET_T_SPAN_C:
+        said = ", ".join(f"{lg.path.name if lg.path else lg.name} {T:.3g} C" for lg, T in temps)
+        raise InputError(f"the logs were tested at different temperatures ({said}): a ramp-and-hold fit pools its "
+                         "logs as one material at one temperature, so fit each temperature on its own; for a master "
+                         "curve, give relaxation modulus curves (t, E_relax, T) or frequency sweeps with their "
+                         "temperatures", path=hi[0].path, key="T")
+
+
 def read_relax_logs(paths: Sequence[str | Path], *, column_map: Mapping[str, str] | None = None,
                     gauge_length_mm: float | None = None, cross_section_mm2: float | None = None,
                     gap_factor: float | None = None, io_cfg=None) -> list[RelaxLog]:
     """Read several relaxation logs (same options for each)."""
     if not paths:
         raise InputError("no relaxation logs given")
-    return [read_relax_log(p, column_map=column_map, gauge_length_mm=gauge_length_mm,
+    logs = [read_relax_log(p, column_map=column_map, gauge_length_mm=gauge_length_mm,
                            cross_section_mm2=cross_section_mm2, gap_factor=gap_factor, io_cfg=io_cfg) for p in paths]
+    check_one_temperature(logs)
+    return logs
 
 
 # ---- material data: frequency sweeps, master curves and raw sets at several temperatures ------------------------
@@ -220,7 +261,8 @@ _MAT_NAMES = {
     "set": "set", "setid": "set", "sweep": "set", "segment": "set",
 }
 _MAT_UNITS = {
-    "f": {"hz": 1.0, "1/s": 1.0, "khz": 1e3, "mhz": 1e6, "rad/s": 1.0 / (2 * np.pi), "": 1.0},
+    "f": {"hz": 1.0, "1/s": 1.0, "khz": 1e3, "mhz": 1e6, "rad/s": 1.0 / (2 * np.pi), "rad s-1": 1.0 / (2 * np.pi),
+          "": 1.0},
     "omega": {"rad/s": 1.0 / (2 * np.pi), "1/s": 1.0 / (2 * np.pi), "": 1.0 / (2 * np.pi)},
     "t": {"s": 1.0, "sec": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0, "": 1.0},
     "modulus": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3, "": 1.0},
@@ -231,6 +273,8 @@ _MAT_UNITS = {
 #: temperature of 70 may be C or F, one of 300 C or K; a modulus of 3 may be MPa or GPa)
 _STATED = {"T": ("degrees C, kelvin and degrees F all read as plausible test temperatures",
                  "name the column '{h} (C)' or '{h} (K)' (degrees F: convert to C)"),
+           "f": ("a DMA frequency may be in Hz or in rad/s, 2 pi apart",
+                 "name the column '{h} (Hz)' or '{h} (rad/s)'"),
            "modulus": ("a modulus of 3 is a soft rubber in MPa and a glassy polymer in GPa",
                        "name the column '{h} (MPa)' (or Pa, kPa, GPa)")}
 #: header names that say neither E nor G (read as E, with a warning)
@@ -240,6 +284,14 @@ MAX_PLAUSIBLE_MPA = 1e5
 #: fewest samples of one set of raw data (bpmid.relax.tts.MIN_OVERLAP: a shift is judged on at least 3 overlapping
 #: samples, and a set's smooth curve needs 3 points to be more than a line through 2)
 MIN_SET_SAMPLES = 3
+#: without a Set column, a temperature step larger than this (C) from one sample to the next starts a new set
+SET_T_JUMP_C = 2.0
+#: without a Set column, sets are told apart by the sweep restarting and the temperature jumping (messages say so)
+_SET_HINT = ("; without a Set column, a new set starts where the sweep restarts or the temperature jumps by over "
+             f"{SET_T_JUMP_C:g} C: if the file holds sweeps logged in alternating directions (up, then down), add a "
+             "Set column numbering them")
+#: a set whose temperatures span more than this (C) is not one isothermal sweep: refused
+SET_T_SPAN_C = 5.0
 #: role -> unit family
 _ROLE_UNIT = {"f": "f", "omega": "omega", "t": "t", "storage": "modulus", "loss": "modulus", "storage_g": "modulus",
               "loss_g": "modulus", "relax": "modulus", "relax_g": "modulus", "T": "T", "set": "set"}
@@ -254,26 +306,44 @@ def _split_unit(name: str) -> tuple[str, str | None]:
     return (m.group(1), m.group(2).strip().lower()) if m else (name.strip(), None)
 
 
-def _mat_role(name: str) -> tuple[str | None, str | None]:
-    """``'E_stor'`` -> ``('storage', None)``; ``'Frequency (Hz)'`` -> ``('f', 'hz')``; ``'T'`` -> ``('T', None)``."""
-    base, unit = _split_unit(name)
+def _base_role(base: str) -> str | None:
     if base.strip().strip('"') == "T":  # upper-case T is temperature, lower-case t is time (pyvisco's headers)
-        return "T", unit
-    key = _mat_key(base)
-    if key in _MAT_NAMES:
-        return _MAT_NAMES[key], unit
+        return "T"
+    return _MAT_NAMES.get(_mat_key(base))
+
+
+def _mat_role(name: str) -> tuple[str | None, str | None]:
+    """``'E_stor'`` -> ``('storage', None)``; ``'Frequency (Hz)'`` -> ``('f', 'hz')``; ``'T'`` -> ``('T', None)``;
+    instruments' ``'Freq./Hz'`` and ``"E'/MPa"`` (Netzsch) or ``'Temperature °C'`` (Mettler) -> the role and unit."""
+    base, unit = _split_unit(name)
+    role = _base_role(base)
+    if role is not None:
+        return role, unit
     parts = base.strip().lower().rsplit("_", 1)  # suffix style: f_hz, e_stor_mpa, t_s, temperature_c
     if len(parts) == 2 and _mat_key(parts[0]) in _MAT_NAMES:
         role = _MAT_NAMES[_mat_key(parts[0])]
         if parts[1] in _MAT_UNITS[_ROLE_UNIT[role]]:
             return role, parts[1] if unit is None else unit
+    if unit is None:  # a unit after a slash or a space: only a known name with a known unit of its kind
+        for left, right in (base.split("/", 1) if "/" in base else (None, None),
+                            base.strip().rsplit(" ", 1) if " " in base.strip() else (None, None)):
+            role = _base_role(left) if left else None
+            if role is not None and right.strip() and right.strip().lower() in _MAT_UNITS[_ROLE_UNIT[role]]:
+                return role, right.strip().lower()
     return None, None
 
 
-def is_material_file(path: str | Path) -> bool:
+def material_role(name: str) -> tuple[str | None, str | None]:
+    """The role a material file's column name gives (``'f'``, ``'storage'``, ``'T'`` ...) and the unit it states."""
+    return _mat_role(name)
+
+
+def is_material_file(path: str | Path, column_map: Mapping[str, str] | None = None) -> bool:
     """True for a CSV or Excel file whose header names a frequency or storage/loss column, or a relaxation-modulus
-    curve with a temperature column (time-domain test logs are left to :func:`read_relax_log`)."""
+    curve with a temperature column (time-domain test logs are left to :func:`read_relax_log`). ``column_map``:
+    file header -> bpmid name, as :func:`read_material_file` takes it."""
     path = Path(path)
+    cmap = {str(k).strip(): str(v) for k, v in (column_map or {}).items()}
     try:
         if path.suffix.lower() in (".xls", ".xlsx"):
             header = _xls_rows(path)[0]
@@ -281,7 +351,7 @@ def is_material_file(path: str | Path) -> bool:
             header = _csv_rows(path)[0]
     except InputError:
         return False
-    roles = {_mat_role(h)[0] for h in header}
+    roles = {_mat_role(cmap.get(h, h))[0] for h in header}
     if roles & {"f", "omega", "storage", "loss", "storage_g", "loss_g"}:
         return True
     # relaxation curves at several temperatures (t, E_relax, T[, Set]); a test log with a temperature column is not
@@ -307,26 +377,70 @@ def _decimal_comma(cell: str) -> str:
     return cell
 
 
+def _delimiter(head: str) -> str:
+    return "\t" if "\t" in head and "," not in head else (";" if ";" in head and "," not in head else ",")
+
+
+def _unit_cell(cell) -> str:
+    """A units row's cell: ``'[1/s]'`` or ``'(MPa)'`` (Anton Paar, Netzsch) -> ``'1/s'``, ``'MPa'``."""
+    c = str(cell).strip()
+    m = re.fullmatch(r"[\[\(]\s*(.*?)\s*[\]\)]", c)
+    return m.group(1) if m else c
+
+
+#: roles that make a row a material file's header (an axis or a modulus)
+_HEADER_ROLES = frozenset({"f", "omega", "storage", "loss", "storage_g", "loss_g", "relax", "relax_g"})
+#: how far below the first line a header is looked for (an instrument's export block: sample, geometry, step names)
+_HEADER_SEARCH_LINES = 80
+
+
+def _header_roles(cells) -> set:
+    return {_mat_role(str(c))[0] for c in cells if str(c).strip()} - {None}
+
+
+def _material_header_line(lines: list[str], start: int) -> int:
+    """The line of a material file's header: the first line from ``start`` naming an axis or a modulus among two
+    or more known columns, with numbers within the next two lines (instrument software writes sample, geometry and
+    step lines above it: TRIOS, RheoCompass, Proteus). ``start`` when no line qualifies (the caller's errors then
+    name the first line)."""
+    import csv
+
+    for k in range(start, min(len(lines), start + _HEADER_SEARCH_LINES)):
+        if lines[k].lstrip().startswith("#") or not lines[k].strip():
+            continue
+        cells = next(csv.reader([lines[k]], delimiter=_delimiter(lines[k])), [])
+        roles = _header_roles(cells)
+        if len(roles) < 2 or not roles & _HEADER_ROLES:
+            continue
+        below = [ln for ln in lines[k + 1:k + 4] if ln.strip()][:2]
+        if any(sum(_is_num(_decimal_comma(c.strip())) for c in next(csv.reader([ln], delimiter=_delimiter(lines[k])),
+                                                                        [])) >= 2 for ln in below):
+            return k
+    return start
+
+
 def _csv_rows(path: Path) -> tuple[list[str], list[str] | None, list[tuple[int, list[str]]], int]:
     """Header, unit row (or None), data rows with their file line numbers, header line (CSV/TSV/semicolon; in a
     semicolon- or tab-separated file a numeric cell with a decimal comma, 1,5e-05, reads as 1.5e-05)."""
     if not path.is_file():
         raise InputError("file not found", path=path)
+    raw = path.read_bytes()
     try:
-        text = path.read_text("utf-8-sig")
+        if raw.startswith((b"\xff\xfe", b"\xfe\xff")):  # UTF-16 with its byte-order mark (instrument software)
+            text = raw.decode("utf-16")
+        else:
+            text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
-        try:
-            text = path.read_text("latin-1")
-        except UnicodeDecodeError as exc:  # pragma: no cover - latin-1 decodes every byte
-            raise InputError("not a text file", path=path) from exc
+        text = raw.decode("latin-1")  # decodes every byte
     lines = text.splitlines()
     i = 0
     while i < len(lines) and (lines[i].lstrip().startswith("#") or not lines[i].strip()):
         i += 1
     if i >= len(lines):
         raise InputError("empty file: no header row", path=path)
+    i = _material_header_line(lines, i)
     head = lines[i]
-    delim = "\t" if "\t" in head and "," not in head else (";" if ";" in head and "," not in head else ",")
+    delim = _delimiter(head)
     import csv
     import io as _io
 
@@ -337,10 +451,45 @@ def _csv_rows(path: Path) -> tuple[list[str], list[str] | None, list[tuple[int, 
         rows = [(ln, [_decimal_comma(c) for c in r]) for ln, r in rows]
     units = None
     if rows and rows[0][1] and not any(_is_num(c) for c in rows[0][1] if c.strip()):
-        units = [c.strip() for c in rows[0][1]]
+        units = [_unit_cell(c) for c in rows[0][1]]
         rows = rows[1:]
     rows = [(ln, r) for ln, r in rows if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
-    return header, units, rows, i + 1
+    return header, units, _drop_repeated_tables(rows, header, units, path), i + 1
+
+
+def _data_like(cells) -> bool:
+    return sum(_is_num(str(c).strip()) for c in cells if str(c).strip()) >= 2
+
+
+def _drop_repeated_tables(rows, header, units, path: Path):
+    """The data rows of a file that repeats its table once per step (TRIOS: ``[step]``, the step's name, the header
+    and units again, then its data): a run of rows that are not data is dropped when it repeats the header, and
+    its units row must repeat the first. Any other row that is not data stays (its cells are refused by line)."""
+    want = [h for h in header if h]
+    out, k = [], 0
+    while k < len(rows):
+        if _data_like(rows[k][1]):
+            out.append(rows[k])
+            k += 1
+            continue
+        j = k
+        while j < len(rows) and not _data_like(rows[j][1]):
+            j += 1
+        block = rows[k:j]
+        heads = [n for n, (_, r) in enumerate(block) if [c.strip() for c in r if c.strip()] == want]
+        if not heads:
+            out.extend(block)
+        else:
+            after = block[heads[-1] + 1:]
+            if units is not None and after:
+                again = [_unit_cell(c) for c in after[0][1]]
+                if [u.lower() for u in again if u] != [u.lower() for u in units if u]:
+                    raise InputError(f"the table repeated at line {block[heads[-1]][0]} states the units "
+                                     f"{', '.join(u for u in again if u)}, the first table "
+                                     f"{', '.join(u for u in units if u)}: give each column one unit", path=path,
+                                     line=after[0][0])
+        k = j
+    return out
 
 
 def _xls_rows(path: Path) -> tuple[list[str], list[str] | None, list[tuple[int, list]], int, str]:
@@ -368,20 +517,21 @@ def _xls_rows(path: Path) -> tuple[list[str], list[str] | None, list[tuple[int, 
             raise InputError(f"cannot read this Excel workbook ({exc})", path=path) from None
         sheets = [(s.name, [s.row_values(r) for r in range(s.nrows)]) for s in wb.sheets()]
     for name, rows in sheets:
-        if not rows:
+        # the header: the first row naming a frequency or time column (title rows above it are the sheet's notes)
+        top = next((k for k, r in enumerate(rows[:_HEADER_SEARCH_LINES])
+                    if _header_roles(r) & {"f", "omega", "t"} and len(_header_roles(r)) >= 2), None)
+        if top is None:
             continue
-        header = [str(h).strip() for h in rows[0]]
-        roles = {_mat_role(h)[0] for h in header}
-        if not roles & {"f", "omega", "t"}:
-            continue
-        data = [(k + 1, r) for k, r in enumerate(rows) if k > 0]
+        header = [str(h).strip() for h in rows[top]]
+        data = [(k + 1, r) for k, r in enumerate(rows) if k > top]
         units = None
         if data and not any(_is_num(c) for c in data[0][1] if str(c).strip()):
-            units = [str(c).strip() for c in data[0][1]]
+            units = [_unit_cell(c) for c in data[0][1]]
             data = data[1:]
         data = [(ln, r) for ln, r in data if any(str(c).strip() for c in r)]
-        return header, units, data, 1, name
-    raise InputError("no sheet with a frequency (f, Hz) or time (t, s) column in its first row", path=path)
+        return header, units, data, top + 1, name
+    raise InputError("no sheet with a frequency (f, Hz) or time (t, s) column beside a modulus in its header row",
+                     path=path)
 
 
 @dataclasses.dataclass
@@ -437,13 +587,13 @@ class MaterialData:
         The set temperature is the mean measured temperature of the set, rounded to a whole degree (as pyvisco does).
         """
         if self.set_id is None:
-            T = float(np.round(np.mean(self.temperature_c))) if self.temperature_c is not None else math.nan
+            T = float(np.round(np.mean(self.temperature_c))) + 0.0 if self.temperature_c is not None else math.nan
             return [(T, np.arange(self.n))]
         out = []
         _, first = np.unique(self.set_id, return_index=True)
         for s in self.set_id[np.sort(first)]:
             idx = np.flatnonzero(self.set_id == s)
-            out.append((float(np.round(np.mean(self.temperature_c[idx]))), idx))
+            out.append((float(np.round(np.mean(self.temperature_c[idx]))) + 0.0, idx))  # + 0.0: never -0
         return out
 
 
@@ -472,10 +622,24 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                                               header_line + 1)):
             if (slip := millipascal_slip(text)) is not None:
                 raise InputError(f"the unit of column {h!r}: {slip}", path=path, line=line, key=h)
-        if units is not None and unit is None and j < len(units):
-            unit = units[j].strip().lower()
-        unit = (unit or "").strip()
         fam = _ROLE_UNIT[role]
+        # every place that states this column's unit must agree: the column map's name, the header, the units row
+        stated = []
+        if unit is not None:
+            stated.append((unit, "the column map (--columns, config columns)" if h in cmap else "its name", header_line))
+        if h in cmap:
+            hunit = _mat_role(h)[1] if _mat_role(h)[0] is not None else _split_unit(h)[1]
+            if hunit is not None:
+                stated.append((hunit, "its name", header_line))
+        if units is not None and j < len(units) and units[j].strip():
+            stated.append((units[j].strip().lower(), "the units row under the header", header_line + 1))
+        for (u1, w1, _), (u2, w2, l2) in zip(stated, stated[1:]):
+            same = u1 == u2 or (u1 in _MAT_UNITS[fam] and u2 in _MAT_UNITS[fam]
+                                and _MAT_UNITS[fam][u1] == _MAT_UNITS[fam][u2])
+            if not same:
+                raise InputError(f"column {h!r}: {w1} says {u1!r} and {w2} says {u2!r}; a column has one unit: "
+                                 "correct the one that is wrong", path=path, line=l2, key=h)
+        unit = (stated[0][0] if stated else "").strip()
         if unit not in _MAT_UNITS[fam]:
             raise InputError(f"unknown unit {unit!r} for column {h!r} (known: "
                              f"{', '.join(sorted(u for u in _MAT_UNITS[fam] if u))})", path=path,
@@ -507,8 +671,9 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
             raise InputError(f"time-domain data need a relaxation modulus column ({modulus}_relax); found columns "
                              f"{found}", path=path, line=header_line, key=f"{modulus}_relax")
     else:
-        raise InputError(f"no frequency (f, Hz) or time (t, s) column; found columns {found}", path=path,
-                         line=header_line)
+        raise InputError(f"no frequency (f, Hz) or time (t, s) column; found columns {found}: name the axis 'f (Hz)' "
+                         "or 't (s)', or map it with --columns f=<your column> (or t=...; config io.columns)",
+                         path=path, line=header_line)
     if has("set") and not has("T"):
         raise InputError("a raw set without temperatures: the file has a Set column but no temperature column T "
                          "(C); add the test temperature of every row", path=path, line=header_line, key="T")
@@ -525,7 +690,8 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
     def column(role: str) -> np.ndarray:
         j, unit = index[role]
         fam = _ROLE_UNIT[role]
-        if unit == "" and fam in _STATED:   # C, K or F; MPa, Pa or GPa: a factor (or an offset) bpmid never guesses
+        canonical_f = fam == "f" and _split_unit(cmap.get(header[j], header[j]))[0].strip() == "f"  # documented: Hz
+        if unit == "" and fam in _STATED and not canonical_f:  # C, K or F; MPa or GPa; Hz or rad/s: never guessed
             raise InputError(f"column {header[j]!r} states no unit, and bpmid does not guess one "
                              f"({_STATED[fam][0]}): {_STATED[fam][1].format(h=header[j])}, or add a units row "
                              f"under the header", path=path, line=header_line, key=header[j])
@@ -586,10 +752,11 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
         sid = sid.astype(int)
     elif T is not None:
         # consecutive sweeps: a new set starts where the sweep direction restarts (the dominant direction is the sign
-        # of the median step: an instrument sweeping high to low restarts where the frequency jumps back up)
+        # of the median step: an instrument sweeping high to low restarts where the frequency jumps back up) or
+        # where the temperature jumps from one sample to the next (a sweep continued at another temperature)
         step = np.diff(x)
         direction = -1.0 if step.size and float(np.median(step)) < 0 else 1.0
-        sid = np.concatenate([[0], np.cumsum(direction * step < 0)]).astype(int)
+        sid = np.concatenate([[0], np.cumsum((direction * step < 0) | (np.abs(np.diff(T)) > SET_T_JUMP_C))]).astype(int)
     else:
         sid = None
         step = np.diff(x)
@@ -608,7 +775,8 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
         else:
             i = int(np.flatnonzero(step * np.sign(np.median(step) or 1.0) <= 0)[0]) + 1
             raise InputError(f"the {what} falls back ({x[i - 1]:g} then {x[i]:g}): several sweeps in one file are raw "
-                             "sets, which need a temperature column T (C) to be shifted into a master curve; or, for "
+                             "sets, which need a temperature column T (C) to be shifted into a master curve (map yours with "
+                             "--columns T=<column>); or, for "
                              "one master curve joined from parts that overlap, remove the rows the parts repeat",
                              path=path, line=int(lines[i]), key="T")
     out = MaterialData(path.stem, path, domain, modulus, x, stor, loss, T, sid, lines, sheet,
@@ -620,9 +788,20 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                 raise InputError(f"the set at {Tset:g} C (from line {int(lines[idx[0]])}) has {idx.size} sample(s): a "
                                  f"set needs at least {MIN_SET_SAMPLES} to be overlaid on its neighbours (shift factors "
                                  f"are judged on at least {MIN_SET_SAMPLES} overlapping samples); drop it or measure "
-                                 f"more {what}s", path=path, line=int(lines[idx[0]]))
+                                 f"more {'frequencies' if freq else 'times'}{_SET_HINT if not has('set') else ''}",
+                                 path=path, line=int(lines[idx[0]]))
+            Tspan = float(np.ptp(T[idx]))
+            if Tspan > SET_T_SPAN_C:
+                raise InputError(f"the set from line {int(lines[idx[0]])} to line {int(lines[idx[-1]])} spans "
+                                 f"{T[idx].min():.4g} to {T[idx].max():.4g} C: a set is one isothermal sweep (within "
+                                 f"{SET_T_SPAN_C:g} C), and a sweep across temperatures cannot be shifted as one; "
+                                 "number the sweeps in a Set column, or fit a temperature sweep at one frequency with "
+                                 "another tool", path=path, line=int(lines[idx[0]]), key=header[index["T"][0]])
             xs = x[idx]
             if np.unique(xs).size < xs.size:
-                k = idx[int(np.flatnonzero(np.diff(np.sort(xs)) == 0)[0])]
-                raise InputError(f"the set at {Tset:g} C repeats the {what} {x[k]:g}", path=path, line=int(lines[k]))
+                o = np.argsort(xs, kind="stable")
+                k = idx[o[int(np.flatnonzero(np.diff(xs[o]) == 0)[0]) + 1]]
+                hint = "" if has("set") else _SET_HINT
+                raise InputError(f"the set at {Tset:g} C repeats the {what} {x[k]:g}{hint}", path=path,
+                                 line=int(lines[k]))
     return out

@@ -187,6 +187,9 @@ class Table:
     #: quantity -> why its column could not be read, for a quantity only some readers need (the ambient pressure:
     #: an absolute log's); the column is listed as ignored, and the reader that needs it raises this
     deferred: dict = dataclasses.field(default_factory=dict)
+    #: header -> (cells, unit stated in its name or the units row, or None) of each column bpmid set aside, for a
+    #: reader that checks one (a relaxation log's test temperature)
+    ignored_cells: dict = dataclasses.field(default_factory=dict)
 
     def has(self, quantity: str) -> bool:
         return quantity in self.columns
@@ -1481,8 +1484,12 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     warns = rival_warns + ([f"the file ends in {grid.info['nul_bytes_at_end']} NUL bytes (a logger that lost power?): "
                             f"read the rows before them; check that its last row (line {lines[n_rows - 1]}) is "
                             f"complete"] if grid.info.get("nul_bytes_at_end") and n_rows else [])
+    set_aside = set(ignored) | set(unknown)
+    cells = {h: (list(grid.cols[j][:n_rows]), (_unit_part(h)[1] or (grid.unit_row[j].strip() if grid.unit_row
+                                                                    and j < len(grid.unit_row) else "") or None))
+             for j, h in enumerate(grid.header) if h in set_aside and j < len(grid.cols)}
     table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
-                  reading, warns, where, grid.info.get("map_note", ""), dict(grid.meta_lines or {}), deferred)
+                  reading, warns, where, grid.info.get("map_note", ""), dict(grid.meta_lines or {}), deferred, cells)
     return table
 
 

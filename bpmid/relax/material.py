@@ -107,6 +107,10 @@ def _pooled_sets(datas: Sequence[MaterialData]):
         if d.temperature_c is None and len(datas) > 1 and any(x.is_raw for x in datas):
             raise InputError("a master curve without temperatures cannot be pooled with raw sets at several "
                              "temperatures", path=d.path)
+        if d.temperature_c is None and len(datas) > 1:
+            raise InputError(f"{len(datas)} files are pooled as sets at their temperatures, and {_label(d)} has no "
+                             "temperature column (a '# Temperature:' comment line is not read): add a column T (C) "
+                             "to each file, or fit one file at a time", path=d.path, key="T")
         for T, idx in d.sets():
             out.append((T, d, idx))
     return out
@@ -151,10 +155,12 @@ def build_master(datas: Sequence[MaterialData], *, ref_temp: float | None = None
         return _shifted(pooled, log_aT, tts.shift_result(T, log_aT, ref_temp, "user"), domain)
     T = np.array([p[0] for p in pooled])
     if np.unique(T).size < T.size:
-        dup = T[np.flatnonzero(np.diff(np.sort(T)) == 0)[0]]
+        Ts = np.sort(T)
+        dup = float(Ts[np.flatnonzero(np.diff(Ts) == 0)[0]])
         src = [p for p in pooled if p[0] == dup]
-        raise InputError(f"two sets at {dup:g} C (set temperatures are rounded to whole degrees); merge or drop one",
-                         path=src[-1][1].path, line=src[-1][1].where(int(src[-1][2][0])))
+        at = ", ".join(f"{_label(d)} line {d.where(int(idx[0]))}" for _, d, idx in src)
+        raise InputError(f"two sets at {dup:g} C ({at}; set temperatures are rounded to whole degrees); merge or "
+                         "drop one", path=src[-1][1].path, line=src[-1][1].where(int(src[-1][2][0])))
     if ref_temp is None:
         ref_temp = float(T[np.argmin(np.abs(T - np.median(T)))])
         note(f"reference temperature {ref_temp:g} C (the median set temperature; set it with --ref-temp)")

@@ -326,7 +326,9 @@ def _fit_material(paths, material, config, *, terms, mode, poisson, max_error_pc
     cfg = config.section("relax")
     nu = check_poisson(cfg.poisson if poisson is None else poisson, key=_opt("poisson", flags) if poisson is not None
                        else "relax.poisson")
-    datas = [read_material_file(p, column_map=cfg.columns) for p in material]
+    # the column map of the io section (--columns) and of the relax section (the relax map wins per header)
+    cmap = {**config.section("io").columns, **cfg.columns}
+    datas = [read_material_file(p, column_map=cmap) for p in material]
     others = [p for p in paths if p not in material]
     if others:
         gap = cfg.max_gap_factor if cfg.max_gap_factor is not None else config.section("io").max_gap_factor
@@ -384,7 +386,8 @@ def fit_relax_files(logs: Sequence[str | Path], *, terms: str | int | None = Non
     check_mode(mode, flags=flags)
     config = config if config is not None else load_config(None)
     paths = [Path(p) for p in logs]
-    material = [p for p in paths if is_material_file(p)]
+    cmap = {**config.section("io").columns, **config.section("relax").columns}
+    material = [p for p in paths if is_material_file(p, cmap)]
     if material:
         return _fit_material(paths, material, config, terms=terms, mode=mode, poisson=poisson,
                              max_error_pct=max_error_pct, ref_temp=ref_temp, shift=shift, flags=flags)

@@ -1,0 +1,174 @@
+"""Material-test files as instrument software writes them (TRIOS, RheoCompass, Proteus, STARe, Excel with title
+rows), read against a known Prony series and WLF shift; and the ways such files used to give a wrong number
+without a word (a units row against the header, sets merged across temperatures, ramp-and-hold logs pooled across
+temperatures, a frequency without a unit, a column map that was ignored)."""
+import numpy as np
+import pytest
+import yaml
+
+from bpmid.errors import InputError
+from bpmid.io.relax_logs import read_material_file, read_relax_logs
+from tests.test_relax_review import C1, C2, E_INF, T_REF, fit, sweeps
+
+F = np.logspace(-1, 2, 10)
+TS = (20.0, 30.0, 40.0, 50.0, 60.0)
+
+
+def _table(rows, header, units=None, delim="\t", above=(), between=None):
+    """Text of an export: lines ``above`` the header, then the header, units row and data; with ``between``, the
+    header (and units) repeated before each set after lines ``between(T)``, as TRIOS writes one step per set."""
+    out, last = list(above), None
+    for r in rows:
+        if last is None or (between is not None and r[3] != last):
+            if last is not None or between is not None:
+                out += between(r[3]) if between is not None else []
+            if last is None or between is not None:
+                out.append(delim.join(header))
+                out += [delim.join(units)] if units else []
+        last = r[3]
+        out.append(delim.join(f"{v:.6g}" for v in r[:4]))
+    return "\n".join(out) + "\n"
+
+
+def _check_master(res, out):
+    assert res.exit_code == 0, res.output
+    body = yaml.safe_load(out.read_text())
+    wlf = body["shift"]["wlf"]
+    assert abs(wlf["C1"] - C1) < 0.3 and abs(wlf["C2"] - C2) < 3.0
+    return body
+
+
+def test_instrument_block_above_the_header_utf16_and_step_tables_are_read(tmp_path):
+    rows = [(f, s, l, T) for f, s, l, T, _ in sweeps(TS, F)]
+    head, units = ["Angular frequency", "Storage modulus E'", "Loss modulus E''", "Temperature"], \
+        ["rad/s", "MPa", "MPa", "°C"]
+    rad = [(2 * np.pi * f, s, l, T) for f, s, l, T in rows]
+    head = ["Angular frequency", "E'", "E''", "Temperature"]
+    trios = _table(rad, head, units, above=["Filename\tsample_7", "Instrument\tDMA 850", "Geometry\tTension", ""],
+                   between=lambda T: ["[step]", f"Frequency sweep ({T:.0f} °C)"])
+    (tmp_path / "trios.txt").write_text(trios)
+    res, out = fit(tmp_path, tmp_path / "trios.txt", "--ref-temp", T_REF)
+    _check_master(res, out)
+    # the same export in UTF-16 (with its byte-order mark), as some instrument software saves text
+    (tmp_path / "u16.txt").write_bytes(trios.encode("utf-16"))
+    res, out = fit(tmp_path, tmp_path / "u16.txt", "--ref-temp", T_REF)
+    _check_master(res, out)
+    # Netzsch-style slash units and Mettler-style space units, semicolons and decimal commas, a units row in brackets
+    net = _table(rows, ["Freq./Hz", "E'/MPa", "E''/MPa", "Temp./°C"], delim=";", above=["Project;PU foam"])
+    lines = net.splitlines()
+    (tmp_path / "net.csv").write_text("\n".join(lines[:2] + [ln.replace(".", ",") for ln in lines[2:]]) + "\n")
+    _check_master(*fit(tmp_path, tmp_path / "net.csv", "--ref-temp", T_REF))
+    met = _table(rows, ["Frequency Hz", "E' MPa", "E'' MPa", "Temperature °C"])
+    (tmp_path / "met.txt").write_text(met)
+    _check_master(*fit(tmp_path, tmp_path / "met.txt", "--ref-temp", T_REF))
+    ap = _table(rows, ["Frequency", "E'", "E''", "Temperature"], ["[Hz]", "[MPa]", "[MPa]", "[°C]"],
+                above=["Project:\tPU", "Test:\tFS_TTS"])
+    (tmp_path / "ap.txt").write_text(ap)
+    _check_master(*fit(tmp_path, tmp_path / "ap.txt", "--ref-temp", T_REF))
+
+
+def test_excel_title_rows_above_the_header_are_skipped(tmp_path):
+    openpyxl = pytest.importorskip("openpyxl")
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws.title = "Data"
+    ws.append(["DMA frequency sweep, sample 7"])
+    ws.append([])
+    ws.append(["Frequency (Hz)", "E' (MPa)", "E'' (MPa)", "Temperature (°C)"])
+    for f, s, l, T, _ in sweeps(TS, F):
+        ws.append([f, s, l, T])
+    wb.save(tmp_path / "x.xlsx")
+    d = read_material_file(tmp_path / "x.xlsx")
+    assert d.n == len(TS) * F.size and d.lines[0] == 4 and len(d.sets()) == len(TS)
+    _check_master(*fit(tmp_path, tmp_path / "x.xlsx", "--ref-temp", T_REF))
+
+
+def test_a_units_row_against_the_header_is_refused_naming_both(tmp_path):
+    rows = [(f, s, l, T) for f, s, l, T, _ in sweeps(TS, F)]
+    for head, units, said in ((["Frequency (Hz)", "E' (kPa)", "E'' (kPa)", "T (C)"], ["Hz", "MPa", "MPa", "C"],
+                               "its name says 'kpa' and the units row under the header says 'mpa'"),
+                              (["Frequency (Hz)", "E' (MPa)", "E'' (MPa)", "T (C)"], ["rad/s", "MPa", "MPa", "C"],
+                               "its name says 'hz' and the units row under the header says 'rad/s'")):
+        p = tmp_path / "c.csv"
+        p.write_text(_table(rows, head, units, delim=","))
+        with pytest.raises(InputError) as e:
+            read_material_file(p)
+        assert said in str(e.value) and e.value.line == 2
+    # units that agree in other spellings are fine
+    p.write_text(_table(rows, ["Frequency (Hz)", "E' (MPa)", "E'' (MPa)", "T (C)"], ["1/s", "N/mm2", "MPa", "°C"],
+                        delim=","))
+    assert read_material_file(p).n == len(rows)
+
+
+def test_a_frequency_without_a_unit_is_refused_but_the_documented_f_is_hz(tmp_path):
+    rows = [(f, s, l, T) for f, s, l, T, _ in sweeps((20.0,), F)]
+    p = tmp_path / "nu.csv"
+    p.write_text(_table(rows, ["Frequency", "E' (MPa)", "E'' (MPa)", "T (C)"], delim=","))
+    with pytest.raises(InputError, match="'Frequency' states no unit.*Hz or in rad/s") as e:
+        read_material_file(p)
+    assert e.value.key == "Frequency"
+    p.write_text(_table(rows, ["f", "E' (MPa)", "E'' (MPa)", "T (C)"], delim=","))
+    np.testing.assert_allclose(read_material_file(p).x, F, rtol=1e-5)
+
+
+def test_a_sweep_continued_at_another_temperature_is_two_sets_and_a_drifting_set_is_refused(tmp_path):
+    # 40 C from 0.1 to 3 Hz, then 30 C from 4 to 100 Hz, no Set column: two sets, not one at 35 C
+    lo, hi = np.logspace(-1, 0.5, 7), np.logspace(0.6, 2, 7)
+    rows = [(f, s, l, T) for f, s, l, T, _ in sweeps((40.0,), lo)] + [(f, s, l, T) for f, s, l, T, _ in
+                                                                      sweeps((30.0,), hi)]
+    p = tmp_path / "cont.csv"
+    p.write_text(_table(rows, ["f (Hz)", "E' (MPa)", "E'' (MPa)", "T (C)"], delim=","))
+    assert [T for T, _ in read_material_file(p).sets()] == [40.0, 30.0]
+    # one frequency while the temperature ramps 20 -> 30 C in 1 C steps: not an isothermal sweep
+    ramp = [(1.0, 10.0 - 0.1 * k, 1.0, 20.0 + k) for k in range(11)]
+    p.write_text(_table(ramp, ["f (Hz)", "E' (MPa)", "E'' (MPa)", "T (C)"], delim=","))
+    with pytest.raises(InputError, match="spans 20 to 30 C: a set is one isothermal sweep"):
+        read_material_file(p)
+
+
+def test_files_without_temperatures_and_a_repeated_set_are_refused_naming_the_right_ones(tmp_path):
+    rows = sweeps(TS, F)
+    for T in TS:
+        part = [(f, s, l, t) for f, s, l, t, _ in rows if abs(t - T) < 1]
+        (tmp_path / f"s{T:.0f}.csv").write_text(_table(part, ["f (Hz)", "E' (MPa)", "E'' (MPa)", "T (C)"], delim=","))
+        (tmp_path / f"n{T:.0f}.csv").write_text(f"# Temperature: {T:.0f} C\n" + _table(
+            [r[:3] + (0,) for r in part], ["f (Hz)", "E' (MPa)", "E'' (MPa)"], delim=",").replace(",0\n", "\n"))
+    res, _ = fit(tmp_path, tmp_path / "n20.csv", tmp_path / "n30.csv")
+    assert res.exit_code == 2 and "n20.csv has no temperature column" in res.output and "Traceback" not in res.output
+    (tmp_path / "s30b.csv").write_text((tmp_path / "s30.csv").read_text())
+    res, _ = fit(tmp_path, *(tmp_path / f"s{T:.0f}.csv" for T in TS), tmp_path / "s30b.csv", "--ref-temp", T_REF)
+    assert res.exit_code == 2 and "two sets at 30 C (s30.csv line 2, s30b.csv line 2" in res.output
+
+
+def test_ramp_and_hold_logs_at_different_temperatures_are_not_pooled(tmp_path):
+    t = np.arange(0.0, 60.0, 0.1)
+    strain = np.minimum(t, 1.0) * 0.05
+    paths = []
+    for T in (20.0, 40.0):
+        stress = 2.0 * strain + 1.0 * strain * np.exp(-t / (5.0 * (1 if T == 20 else 0.1)))
+        p = tmp_path / f"rh{T:.0f}.csv"
+        p.write_text("Time (s),Strain,Stress (MPa),Temperature (°C)\n" + "".join(
+            f"{a:.3f},{b:.6f},{c:.6f},{T + 0.02 * (k % 3):.2f}\n" for k, (a, b, c) in enumerate(zip(t, strain,
+                                                                                               stress))))
+        paths.append(p)
+    with pytest.raises(InputError, match=r"tested at different temperatures \(rh20.csv 20 C, rh40.csv 40 C\)"):
+        read_relax_logs(paths)
+    res, _ = fit(tmp_path, *paths)
+    assert res.exit_code == 2 and "fit each temperature on its own" in res.output
+    assert read_relax_logs(paths[:1])[0].temperature_c == pytest.approx(20.02, abs=0.02)
+
+
+def test_the_column_map_reaches_material_files_and_keeps_the_headers_unit(tmp_path):
+    rows = [(f, s, l, T) for f, s, l, T, _ in sweeps(TS, F)]
+    p = tmp_path / "odd.csv"
+    p.write_text(_table(rows, ["Stimulus (rad/s)", "E' (MPa)", "E'' (MPa)", "Chamber (C)"], delim=","))
+    res, _ = fit(tmp_path, p, "--ref-temp", T_REF)
+    assert res.exit_code == 2 and "--columns f=<your column>" in res.output
+    # mapped to f, the header's rad/s still holds (not the f's documented Hz)
+    res, out = fit(tmp_path, p, "--ref-temp", T_REF, "--columns", "f=Stimulus (rad/s),T=Chamber (C)")
+    body = _check_master(res, out)
+    assert body["data"]["units_in_file"]["odd.csv"]["f"] == "rad/s"
+    res, _ = fit(tmp_path, p, "--ref-temp", T_REF, "--columns", "f_hz=Stimulus (rad/s),T=Chamber (C)")
+    assert res.exit_code == 2 and "the column map (--columns, config columns) says 'hz' and its name says 'rad/s'" \
+        in res.output
+    assert E_INF > 0
