@@ -87,6 +87,34 @@ def _states_kernel(t, x, tau):  # pragma: no cover - compiled
 
 
 @lazy_njit(cache=True)
+def _ramp_states_kernel(t, x, tau):  # pragma: no cover - compiled
+    n = t.size
+    m = tau.size
+    h = np.zeros((n, m))
+    for k in range(1, n):
+        dt = t[k] - t[k - 1]
+        dx = x[k] - x[k - 1]
+        for j in range(m):
+            r = dt / tau[j]
+            a = np.exp(-r)
+            b = -np.expm1(-r) / r if r > 1e-8 else 1.0 - 0.5 * r  # (tau/dt)(1 - exp(-dt/tau))
+            h[k, j] = a * h[k - 1, j] + b * dx
+    return h
+
+
+def ramp_states(t, x, tau) -> np.ndarray:
+    """The branch states for a strain that moves linearly between samples (a crosshead ramp): the recursion of
+    :func:`hereditary_states` with each increment scaled by its own interval's (tau/dt)(1 - exp(-dt/tau)), exact on
+    uneven sampling too. Shapes as :func:`hereditary_states`."""
+    t = np.ascontiguousarray(t, float)
+    x = np.ascontiguousarray(x, float)
+    tau = np.ascontiguousarray(np.atleast_1d(tau), float)
+    if tau.size == 0:
+        return np.zeros((t.size, 0))
+    return _ramp_states_kernel(t, x, tau)
+
+
+@lazy_njit(cache=True)
 def _uniform_states_kernel(dx, a):  # pragma: no cover - compiled
     n = dx.size
     m = a.size
@@ -99,7 +127,7 @@ def _uniform_states_kernel(dx, a):  # pragma: no cover - compiled
     return h
 
 
-def _is_uniform(t: np.ndarray) -> bool:
+def is_uniform(t: np.ndarray) -> bool:
     if t.size < 3:
         return True
     dt = np.diff(t)
@@ -124,7 +152,7 @@ def hereditary_states(t, x, tau) -> np.ndarray:
     tau = np.ascontiguousarray(np.atleast_1d(tau), float)
     if tau.size == 0:
         return np.zeros((t.size, 0))
-    if _is_uniform(t) and t.size > 1:
+    if is_uniform(t) and t.size > 1:
         # each branch is the first-order filter h_k = a h_{k-1} + dx_k, a = exp(-dt/tau)
         # (what scipy.signal.lfilter([1], [1, -a], dx) computes, bit for bit, without importing scipy.signal)
         dx = np.diff(x, prepend=x[0])

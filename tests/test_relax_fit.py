@@ -111,6 +111,29 @@ def test_ramp_basis_is_exact_for_piecewise_linear_strain():
     assert np.allclose((Ap[:, 1] - Am[:, 1]) / 2e-2, dA[:, 0], rtol=1e-3, atol=1e-9)
 
 
+def test_ramp_basis_is_exact_on_uneven_sampling_and_the_fit_recovers_the_truth():
+    # a machine that logs 100 Hz during the ramp and 2 Hz in the hold: each interval takes its own first-order-hold
+    # factor (one factor from the median step read E_1 57 % high on such a log)
+    test = RelaxationTest(crosshead_mm_per_min=300, strain_level=0.2, hold_s=120.0, rate_hz=50.0)
+    end = test.pre_s + test.ramp_s
+    t = np.unique(np.r_[np.arange(0.0, end, 0.01), end, np.arange(end, end + test.hold_s, 0.5)])
+    eps, sig = ramp_hold_stress(t, test, TWO)
+    A, _ = RampBasis([t], [eps]).columns(np.log(TWO.tau_s))
+    assert np.allclose(A @ np.r_[TWO.E_inf_mpa, TWO.E_mpa], sig, rtol=0, atol=1e-9)
+    # on an even grid the per-interval recursion is the even-step filter times one factor per branch
+    te = np.arange(0.0, 5.0, 0.02)
+    ee, _ = ramp_hold_stress(te, test, TWO)
+    from bpmid.viscoelastic import ramp_states
+
+    np.testing.assert_allclose(ramp_states(te, ee, TWO.tau_s),
+                               hereditary_states(te, ee, TWO.tau_s) * branch_scale(np.array(TWO.tau_s), 0.02),
+                               rtol=1e-10, atol=1e-14)
+    rng = np.random.default_rng(21)
+    log = RelaxLog("uneven", t, eps, sig + 2e-5 * rng.standard_normal(t.size))
+    fit = fit_relaxation([log], mode="ramp", terms=2)
+    np.testing.assert_allclose(constants(fit), truth_vector(TWO), rtol=0.02)
+
+
 def test_hold_curve_finds_the_ramp():
     test = RelaxationTest(crosshead_mm_per_min=300, strain_level=0.25)
     df = simulate_relaxation_test(test, ONE, np.random.default_rng(5))
