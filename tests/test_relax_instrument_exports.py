@@ -151,11 +151,12 @@ def test_ramp_and_hold_logs_at_different_temperatures_are_not_pooled(tmp_path):
             f"{a:.3f},{b:.6f},{c:.6f},{T + 0.02 * (k % 3):.2f}\n" for k, (a, b, c) in enumerate(zip(t, strain,
                                                                                                stress))))
         paths.append(p)
-    with pytest.raises(InputError, match=r"tested at different temperatures \(rh20.csv 20 C, rh40.csv 40 C\)"):
+    with pytest.raises(InputError, match=r"tested at different temperatures \(rh20.csv 20 C \('Temperature \(°C\)'\), rh40.csv 40 C"):
         read_relax_logs(paths)
     res, _ = fit(tmp_path, *paths)
     assert res.exit_code == 2 and "fit each temperature on its own" in res.output
-    assert read_relax_logs(paths[:1])[0].temperature_c == pytest.approx(20.02, abs=0.02)
+    T, unit, column = read_relax_logs(paths[:1])[0].temperature
+    assert T == pytest.approx(20.02, abs=0.02) and unit == "C" and column == "Temperature (°C)"
 
 
 def test_the_column_map_reaches_material_files_and_keeps_the_headers_unit(tmp_path):
@@ -172,3 +173,108 @@ def test_the_column_map_reaches_material_files_and_keeps_the_headers_unit(tmp_pa
     assert res.exit_code == 2 and "the column map (--columns, config columns) says 'hz' and its name says 'rad/s'" \
         in res.output
     assert E_INF > 0
+
+
+def test_second_review_of_the_reader(tmp_path):
+    """A second trial's files: each was read wrong, refused for the wrong reason, or refused with advice that did not
+    work."""
+    rows = [(f, s, l, T) for f, s, l, T, _ in sweeps(TS, F)]
+
+    def write(name, text):
+        (tmp_path / name).write_text(text)
+        return tmp_path / name
+
+    # millihertz and megahertz are one spelling once lower-cased: refused, never read 1e9 off
+    with pytest.raises(InputError, match="mHz or MHz"):
+        read_material_file(write("m.csv", _table([(1e3 * f, s, l, T) for f, s, l, T in rows],
+                                                 ["Frequency (mHz)", "E' (MPa)", "E'' (MPa)", "T (C)"], delim=",")))
+    # a parameters line naming two known columns above the header; Proteus's '##' header; a comment line between
+    # header and units row; a Set column's '1' in the units row; an elapsed clock time beside the frequency
+    above = ["Parameters", "Temperature\tFrequency", "25\t1", ""]
+    d = read_material_file(write("p.txt", _table(rows, ["Frequency", "E'", "E''", "Temperature"],
+                                                 ["Hz", "MPa", "MPa", "°C"], above=above)))
+    assert d.n == len(rows) and len(d.sets()) == len(TS)
+    pro = _table(rows, ["Freq./Hz", "E'/MPa", "E''/MPa", "Temp./°C"], delim=";", above=["#Instrument: DMA 303"])
+    assert read_material_file(write("pro.csv", pro.replace("Freq./Hz", "##Freq./Hz"))).n == len(rows)
+    text = _table(rows, ["f", "E_stor", "E_loss", "T", "Set"][:4], ["Hz", "MPa", "MPa", "C"], delim=",")
+    lines = text.splitlines()
+    assert read_material_file(write("c.csv", "\n".join([lines[0], "# exported by DMA v2"] + lines[1:]))).n == len(rows)
+    with_set = [r + (k // F.size,) for k, r in enumerate(rows)]
+    t2 = "f,E_stor,E_loss,T,Set\nHz,MPa,MPa,C,1\n" + "".join(",".join(f"{v:.6g}" for v in r) + "\n" for r in with_set)
+    assert read_material_file(write("u1.csv", t2)).n == len(rows)
+    clock = "Time\tFrequency\tE'\tE''\tTemperature\n[hh:mm:ss]\t[Hz]\t[MPa]\t[MPa]\t[°C]\n" + "".join(
+        f"00:00:{k % 60:02d}\t{f:.6g}\t{s:.6g}\t{l:.6g}\t{T:.4g}\n" for k, (f, s, l, T) in enumerate(rows))
+    assert read_material_file(write("clock.txt", clock)).n == len(rows)
+    # UTF-16 without a byte-order mark; a step table whose units change is refused as such, not misrouted
+    (tmp_path / "nobom.txt").write_bytes(_table(rows, ["Frequency", "E'", "E''", "Temperature"],
+                                                ["Hz", "MPa", "MPa", "°C"]).encode("utf-16-le"))
+    assert read_material_file(tmp_path / "nobom.txt").n == len(rows)
+    steps = _table(rows, ["Frequency", "E'", "E''", "Temperature"], ["Hz", "MPa", "MPa", "°C"],
+                   between=lambda T: ["[step]"])
+    k = steps.index("[step]", steps.index("[step]") + 1)
+    res, _ = fit(tmp_path, write("s.txt", steps[:k] + steps[k:].replace("MPa", "Pa")), "--ref-temp", T_REF)
+    assert res.exit_code == 2 and "the table repeated at line" in res.output and "Pa, Pa" in res.output
+    summary = _table(rows, ["Frequency", "E'", "E''", "Temperature"], ["Hz", "MPa", "MPa", "°C"]) + "[Summary]\tx\n"
+    with pytest.raises(InputError, match=r"starts a section '\[Summary\]'"):
+        read_material_file(write("sum.txt", summary))
+
+
+def test_the_map_picks_one_of_two_temperatures_and_long_names_keep_their_units(tmp_path):
+    rows = [(f, s, l, T) for f, s, l, T, _ in sweeps(TS, F)]
+    text = "Frequency (Hz),Storage modulus E' MPa,Loss modulus E'' MPa,Temperature (°C),Sample temp °C\n" + "".join(
+        f"{f:.6g},{s:.6g},{l:.6g},{T + 3:.4g},{T:.4g}\n" for f, s, l, T in rows)
+    (tmp_path / "two.csv").write_text(text)
+    d = read_material_file(tmp_path / "two.csv")  # the furnace's: said, with the other set aside
+    assert np.allclose(d.temperature_c, [T + 3 for *_, T in rows], atol=0.01)
+    assert any("'Sample temp °C' set aside" in w for w in d.warnings)
+    d = read_material_file(tmp_path / "two.csv", column_map={"Sample temp °C": "T"})  # its °C holds
+    assert np.allclose(d.temperature_c, [T for *_, T in rows], atol=0.01)
+    assert any("'Temperature (°C)' set aside" in w for w in d.warnings)
+    openpyxl = pytest.importorskip("openpyxl")
+    wb = openpyxl.Workbook()
+    wb.active.title = "Parameters"
+    wb.active.append(["Frequency (Hz)", "Temperature (°C)"])
+    wb.active.append([1.0, 25.0])
+    ws = wb.create_sheet("Exported Data")
+    ws.append(["Frequency (Hz)", "E' (MPa)", "E'' (MPa)", "Temperature (°C)"])
+    for r in rows:
+        ws.append(list(r))
+    wb.save(tmp_path / "two.xlsx")
+    assert read_material_file(tmp_path / "two.xlsx").sheet == "Exported Data"
+    with pytest.raises(InputError, match="no sheet 'Data'"):
+        read_material_file(tmp_path / "two.xlsx", sheet="Data")
+
+
+def test_a_set_whose_temperature_drifts_while_it_is_swept_is_warned(tmp_path):
+    rng = np.random.default_rng(5)
+    rows = []
+    for f, s, l, T, _ in sweeps(TS, F, noise=0.002):
+        k = int(np.argmin(np.abs(F - f)))
+        rows.append((f, s, l, T + (1.5 * (k / (F.size - 1) - 0.5) if abs(T - 30.0) < 0.5 else 0.0) + 0.01 * rng.standard_normal()))
+    (tmp_path / "drift.csv").write_text(_table(rows, ["f (Hz)", "E' (MPa)", "E'' (MPa)", "T (C)"], delim=","))
+    res, out = fit(tmp_path, tmp_path / "drift.csv", "--ref-temp", T_REF)
+    assert res.exit_code == 0, res.output
+    said = [w for w in yaml.safe_load(out.read_text())["warnings"] if "drifts" in w]
+    assert len(said) == 1 and "the set at 30 C" in said[0] and "drifts over 1.5 C" in said[0]
+
+
+def test_ramp_and_hold_temperatures_in_f_without_a_unit_or_under_another_name_are_compared(tmp_path):
+    t = np.arange(0.0, 30.0, 0.1)
+    strain = np.minimum(t, 1.0) * 0.05
+
+    def log(name, head, T):
+        p = tmp_path / name
+        p.write_text(f"time_s,strain,stress_mpa,{head}\n" + "".join(
+            f"{a:.3f},{b:.6f},{2 * b + b * np.exp(-a / 5):.6f},{T:.2f}\n" for a, b in zip(t, strain)))
+        return p
+
+    base = log("c20.csv", "Temperature (°C)", 20.0)
+    for name, head, T in (("f104.csv", "Temperature °F", 104.0), ("bare.csv", "Temperature", 40.0),
+                          ("ch.csv", "Chamber temperature (°C)", 40.0)):
+        with pytest.raises(InputError, match="tested at different temperatures"):
+            read_relax_logs([base, log(name, head, T)])
+    assert len(read_relax_logs([base, log("f70.csv", "Temperature (°F)", 70.0)])) == 2  # 21.1 C: one temperature
+    # a map that names the test temperature: read as a temperature (a T would otherwise be the time), and compared
+    ch = log("ch2.csv", "Chamber (°C)", 40.0)
+    with pytest.raises(InputError, match=r"ch2.csv 40 C \('Chamber \(°C\)'\)"):
+        read_relax_logs([base, ch], column_map={"Chamber (°C)": "T"})

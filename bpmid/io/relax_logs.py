@@ -62,8 +62,8 @@ class RelaxLog:
     first_data_line : file line of the first sample (for messages)
     reading : what the reader found and assumed (format, columns, units and where they came from)
     warnings : reader warnings (gaps, ignored columns)
-    temperature_c : the mean of a test log's temperature column (C), or None (no such column, or no unit of it
-        that bpmid knows)
+    temperature : (mean, unit, column) of a test log's temperature column: the mean in C (unit ``"C"``), or as
+        written (unit None) when the column states no unit of C, K or F; None without such a column
     """
 
     name: str
@@ -77,7 +77,7 @@ class RelaxLog:
     first_data_line: int = 2
     reading: dict = dataclasses.field(default_factory=dict)
     warnings: list = dataclasses.field(default_factory=list)
-    temperature_c: float | None = None
+    temperature: tuple | None = None
 
     @property
     def is_modulus_curve(self) -> bool:
@@ -122,13 +122,18 @@ def _check_tension(values: np.ndarray, table, path: Path, what: str, unit: str) 
 
 
 
-def _table_options(column_map, io_cfg) -> dict:
-    """read_table keywords from the relax column map and the io section (the relax map wins per header)."""
+def _table_options(column_map, io_cfg) -> tuple[dict, str | None]:
+    """read_table keywords from the relax column map and the io section (the relax map wins per header), and the
+    header the map names as the test temperature (``T=Chamber (°C)``: set aside by the table reader, where a ``T``
+    would be read as time, and checked by :func:`check_one_temperature`)."""
     cmap = dict(io_cfg.columns) if io_cfg is not None else {}
     cmap.update(column_map or {})
+    temp = next((h for h, v in cmap.items() if _base_role(_split_unit(str(v))[0]) == "T"), None)
+    cmap = {h: v for h, v in cmap.items() if h != temp}
     if io_cfg is None:
-        return {"column_map": cmap}
-    return {"column_map": cmap, "units": io_cfg.units, "unit_sources": io_cfg.unit_sources(), "sheet": io_cfg.sheet}
+        return {"column_map": cmap}, temp
+    return ({"column_map": cmap, "units": io_cfg.units, "unit_sources": io_cfg.unit_sources(), "sheet": io_cfg.sheet},
+            temp)
 
 
 def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = None,
@@ -155,7 +160,7 @@ def read_relax_log(path: str | Path, *, column_map: Mapping[str, str] | None = N
 
 
 def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, gap_factor, io_cfg) -> RelaxLog:
-    opts = _table_options(column_map, io_cfg)
+    opts, temp_column = _table_options(column_map, io_cfg)
     table = read_table(path, kind=KIND, optional=("time",), **opts)
     if table.has("modulus"):
         need = ("time", "modulus")
@@ -173,7 +178,8 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
     t = check_time(table, kind=KIND, gap_factor=None if need[1] == "modulus" else gap_factor,
                    max_gap_s=None if io_cfg is None or need[1] == "modulus" else io_cfg.max_gap_s)
     common = dict(name=path.stem, time_s=t, path=path, meta=dict(table.meta), first_data_line=table.first_data_line,
-                  reading=dict(table.reading), warnings=list(table.warnings), temperature_c=_test_temperature(table))
+                  reading=dict(table.reading), warnings=list(table.warnings),
+                  temperature=_test_temperature(table, temp_column))
     if need[1] == "modulus":
         E = table.columns["modulus"]
         bad = np.flatnonzero(E < 0)
@@ -192,14 +198,26 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
                     source="load-extension", **common)
 
 
-def _test_temperature(table) -> float | None:
-    """The mean of a set-aside temperature column in C (``Temperature (°C)``, ``T [K]``), or None."""
+_F_UNITS = frozenset({"f", "°f", "degf", "deg f", "fahrenheit"})
+
+
+def _f_to_c(v: float) -> float:
+    """Degrees F to C, for comparing the test temperatures of logs only (material files refuse F)."""
+    return (v - 32.0) * 5.0 / 9.0
+
+
+def _test_temperature(table, chosen: str | None = None) -> tuple[float, str | None, str] | None:
+    """(mean, unit, header) of a log's test-temperature column: the one the column map names, else a set-aside
+    column whose name is a temperature (``Temperature (°C)``, ``T [K]``, ``Chamber temp (°F)``). The mean is in C
+    for C, K and F, and as written (unit None) for a column whose unit is not stated or not known."""
+    chosen = chosen if chosen in table.ignored_cells else None  # a map for other files names a column not here
     for h, (cells, unit) in table.ignored_cells.items():
         role, named = _mat_role(h)
-        if role != "T":
+        if h != chosen and (chosen is not None or (role != "T" and "temp" not in h.lower())):
             continue
-        unit = named or unit
-        offset = _MAT_UNITS["T"].get(_unit_cell(unit or "").strip().lower())
+        tail = (h.rsplit("/", 1)[-1] if "/" in h else h.strip().rsplit(" ", 1)[-1]).strip().lower()
+        unit = _unit_cell(named or _split_unit(h)[1] or _unit_in_name(h, "T") or (tail if tail in _F_UNITS else None)
+                          or unit or "").strip().lower()
         vals = []
         for c in cells:
             try:
@@ -208,23 +226,34 @@ def _test_temperature(table) -> float | None:
                 continue
         vals = np.asarray(vals, float)
         vals = vals[np.isfinite(vals)]
-        if offset is not None and unit and vals.size:
-            return float(np.mean(vals)) + offset
+        if not vals.size:
+            continue
+        mean = float(np.mean(vals))
+        if unit in _MAT_UNITS["T"] and unit:
+            return mean + _MAT_UNITS["T"][unit], "C", h
+        if unit in _F_UNITS:
+            return _f_to_c(mean), "C", h
+        return mean, None, h
     return None
 
 
 def check_one_temperature(logs: Sequence[RelaxLog]) -> None:
     """Refuse test logs whose temperature columns differ by more than :data:`SET_T_SPAN_C`: a ramp-and-hold fit
-    pools its logs as one material at one temperature (time-temperature superposition is for modulus curves)."""
-    temps = [(lg, lg.temperature_c) for lg in logs if lg.temperature_c is not None]
+    pools its logs as one material at one temperature (time-temperature superposition is for modulus curves).
+    Columns without a unit bpmid reads are compared as written."""
+    temps = [(lg, lg.temperature) for lg in logs if lg.temperature is not None]
     if len(temps) < 2:
         return
-    lo, hi = min(temps, key=lambda p: p[1]), max(temps, key=lambda p: p[1])
+    known = all(u == "C" for _, (_, u, _) in temps)
+    vals = [(lg, T) for lg, (T, _, _) in temps]
+    lo, hi = min(vals, key=lambda p: p[1]), max(vals, key=lambda p: p[1])
     if hi[1] - lo[1] > SET_T_SPAN_C:
-        said = ", ".join(f"{lg.path.name if lg.path else lg.name} {T:.3g} C" for lg, T in temps)
-        raise InputError(f"the logs were tested at different temperatures ({said}): a ramp-and-hold fit pools its "
-                         "logs as one material at one temperature, so fit each temperature on its own; for a master "
-                         "curve, give relaxation modulus curves (t, E_relax, T) or frequency sweeps with their "
+        said = ", ".join(f"{lg.path.name if lg.path else lg.name} {T:.3g}{' C' if u == 'C' else ''} ({h!r})"
+                         for lg, (T, u, h) in temps)
+        how = "" if known else " (a column without a unit of C, K or F is compared as written)"
+        raise InputError(f"the logs were tested at different temperatures ({said}){how}: a ramp-and-hold fit pools "
+                         "its logs as one material at one temperature, so fit each temperature on its own; for a "
+                         "master curve, give relaxation modulus curves (t, E_relax, T) or frequency sweeps with their "
                          "temperatures", path=hi[0].path, key="T")
 
 
@@ -327,10 +356,21 @@ def _mat_role(name: str) -> tuple[str | None, str | None]:
     if unit is None:  # a unit after a slash or a space: only a known name with a known unit of its kind
         for left, right in (base.split("/", 1) if "/" in base else (None, None),
                             base.strip().rsplit(" ", 1) if " " in base.strip() else (None, None)):
-            role = _base_role(left) if left else None
+            role = (_base_role(left) or _modulus_symbol(left)) if left else None
             if role is not None and right.strip() and right.strip().lower() in _MAT_UNITS[_ROLE_UNIT[role]]:
                 return role, right.strip().lower()
-    return None, None
+    role = _modulus_symbol(base)
+    return (role, unit) if role is not None else (None, None)
+
+
+def _modulus_symbol(name: str) -> str | None:
+    """A long name that ends in a modulus symbol: ``"Storage modulus E'"`` -> ``'storage'`` (a modulus only: a
+    last word 'temperature' or 'time' may be a setpoint's or a step's)."""
+    words = name.strip().split()
+    if len(words) < 2:
+        return None
+    key = _mat_key(words[-1])
+    return _MAT_NAMES[key] if key in _MODULUS_SYMBOLS else None
 
 
 def material_role(name: str) -> tuple[str | None, str | None]:
@@ -338,17 +378,30 @@ def material_role(name: str) -> tuple[str | None, str | None]:
     return _mat_role(name)
 
 
-def is_material_file(path: str | Path, column_map: Mapping[str, str] | None = None) -> bool:
+def _unit_in_name(name: str, fam: str) -> str | None:
+    """The unit a column's own name states, for a column the map gives another name: in parentheses or brackets,
+    after a slash or after the last space when it is a unit of ``fam`` (``'Temp. sample °C'`` -> ``'°c'``)."""
+    unit = _split_unit(name)[1]
+    if unit is not None:
+        return unit
+    for tail in (name.rsplit("/", 1)[-1] if "/" in name else None,
+                 name.strip().rsplit(" ", 1)[-1] if " " in name.strip() else None):
+        if tail and tail.strip().lower() in _MAT_UNITS[fam] and tail.strip():
+            return tail.strip().lower()
+    return None
+
+
+def is_material_file(path: str | Path, column_map: Mapping[str, str] | None = None, sheet: str | None = None) -> bool:
     """True for a CSV or Excel file whose header names a frequency or storage/loss column, or a relaxation-modulus
-    curve with a temperature column (time-domain test logs are left to :func:`read_relax_log`). ``column_map``:
-    file header -> bpmid name, as :func:`read_material_file` takes it."""
+    curve with a temperature column (time-domain test logs are left to :func:`read_relax_log`). ``column_map``
+    (file header -> bpmid name) and ``sheet`` as :func:`read_material_file` takes them."""
     path = Path(path)
     cmap = {str(k).strip(): str(v) for k, v in (column_map or {}).items()}
-    try:
+    try:  # the header alone: a material file's own errors (rows, units) are raised by read_material_file
         if path.suffix.lower() in (".xls", ".xlsx"):
-            header = _xls_rows(path)[0]
+            header = _xls_rows(path, cmap, sheet=sheet)[0]
         else:
-            header = _csv_rows(path)[0]
+            header = _csv_rows(path, cmap, header_only=True)[0]
     except InputError:
         return False
     roles = {_mat_role(cmap.get(h, h))[0] for h in header}
@@ -388,73 +441,108 @@ def _unit_cell(cell) -> str:
     return m.group(1) if m else c
 
 
-#: roles that make a row a material file's header (an axis or a modulus)
-_HEADER_ROLES = frozenset({"f", "omega", "storage", "loss", "storage_g", "loss_g", "relax", "relax_g"})
+#: modulus symbols a long column name may end in ("Storage modulus E'"); plain words (modulus) are not symbols
+_MODULUS_SYMBOLS = frozenset({"e'", "e''", "g'", "g''", "estor", "eloss", "gstor", "gloss", "erelax", "grelax", "e(t)",
+                              "g(t)"})
+#: a material file's header names one of each
+_AXIS_ROLES = frozenset({"f", "omega", "t"})
+_MODULUS_ROLES = frozenset({"storage", "loss", "storage_g", "loss_g", "relax", "relax_g"})
 #: how far below the first line a header is looked for (an instrument's export block: sample, geometry, step names)
 _HEADER_SEARCH_LINES = 80
 
 
-def _header_roles(cells) -> set:
-    return {_mat_role(str(c))[0] for c in cells if str(c).strip()} - {None}
+def _header_roles(cells, column_map: Mapping[str, str] | None = None) -> set:
+    cmap = column_map or {}
+    return {_mat_role(str(cmap.get(str(c).strip(), c)))[0] for c in cells if str(c).strip()} - {None}
 
 
-def _material_header_line(lines: list[str], start: int) -> int:
-    """The line of a material file's header: the first line from ``start`` naming an axis or a modulus among two
-    or more known columns, with numbers within the next two lines (instrument software writes sample, geometry and
-    step lines above it: TRIOS, RheoCompass, Proteus). ``start`` when no line qualifies (the caller's errors then
-    name the first line)."""
+def _is_header(cells, column_map=None) -> bool:
+    """A material table's header names an axis (frequency or time) and a modulus."""
+    roles = _header_roles(cells, column_map)
+    return bool(roles & _AXIS_ROLES) and bool(roles & _MODULUS_ROLES)
+
+
+def _material_header_line(lines: list[str], start: int,
+                          column_map: Mapping[str, str] | None = None) -> int | None:
+    """The line of a material file's header: the first line from ``start`` naming an axis and a modulus, with
+    numbers within the next three lines (instrument software writes sample, geometry, parameter and step lines
+    above it: TRIOS, RheoCompass, Proteus, whose header line starts '##'); None when no line qualifies."""
     import csv
 
     for k in range(start, min(len(lines), start + _HEADER_SEARCH_LINES)):
-        if lines[k].lstrip().startswith("#") or not lines[k].strip():
+        text = lines[k].strip()
+        if not text or (text.startswith("#") and not text.startswith("##")):
             continue
-        cells = next(csv.reader([lines[k]], delimiter=_delimiter(lines[k])), [])
-        roles = _header_roles(cells)
-        if len(roles) < 2 or not roles & _HEADER_ROLES:
+        text = text.lstrip("#")
+        cells = next(csv.reader([text], delimiter=_delimiter(text)), [])
+        if not _is_header(cells, column_map):
             continue
-        below = [ln for ln in lines[k + 1:k + 4] if ln.strip()][:2]
-        if any(sum(_is_num(_decimal_comma(c.strip())) for c in next(csv.reader([ln], delimiter=_delimiter(lines[k])),
+        below = [ln for ln in lines[k + 1:k + 6] if ln.strip() and not ln.lstrip().startswith("#")][:3]
+        if any(sum(_is_num(_decimal_comma(c.strip())) for c in next(csv.reader([ln], delimiter=_delimiter(text)),
                                                                         [])) >= 2 for ln in below):
             return k
-    return start
+    return None
 
 
-def _csv_rows(path: Path) -> tuple[list[str], list[str] | None, list[tuple[int, list[str]]], int]:
+def _decode(raw: bytes) -> str:
+    """Text of a material file: UTF-8 (with or without BOM), UTF-16 (with its byte-order mark, or without one when
+    every other byte is NUL, as some instrument software saves text), else Latin-1 (decodes every byte)."""
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return raw.decode("utf-16")
+    head = raw[:4000]
+    if len(head) >= 4 and head.count(b"\x00") > 0.3 * len(head):
+        even, odd = head[0::2].count(b"\x00"), head[1::2].count(b"\x00")
+        try:
+            return raw.decode("utf-16-le" if odd > even else "utf-16-be")
+        except UnicodeDecodeError:
+            pass
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return raw.decode("latin-1")
+
+
+def _csv_rows(path: Path, column_map: Mapping[str, str] | None = None, *,
+              header_only: bool = False) -> tuple[list[str], list[str] | None, list[tuple[int, list[str]]], int]:
     """Header, unit row (or None), data rows with their file line numbers, header line (CSV/TSV/semicolon; in a
-    semicolon- or tab-separated file a numeric cell with a decimal comma, 1,5e-05, reads as 1.5e-05)."""
+    semicolon- or tab-separated file a numeric cell with a decimal comma, 1,5e-05, reads as 1.5e-05).
+    ``header_only``: the header and units row only (routing a file: nothing below them is checked)."""
     if not path.is_file():
         raise InputError("file not found", path=path)
-    raw = path.read_bytes()
-    try:
-        if raw.startswith((b"\xff\xfe", b"\xfe\xff")):  # UTF-16 with its byte-order mark (instrument software)
-            text = raw.decode("utf-16")
-        else:
-            text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        text = raw.decode("latin-1")  # decodes every byte
-    lines = text.splitlines()
+    lines = _decode(path.read_bytes()).splitlines()
     i = 0
     while i < len(lines) and (lines[i].lstrip().startswith("#") or not lines[i].strip()):
         i += 1
+    found = _material_header_line(lines, 0, column_map)  # from the top: a '##' line may be the header (Proteus)
+    i = found if found is not None else i
     if i >= len(lines):
         raise InputError("empty file: no header row", path=path)
-    i = _material_header_line(lines, i)
-    head = lines[i]
+    head = lines[i].lstrip()
+    head = head.lstrip("#") if head.startswith("##") else head  # Proteus writes its header as '##Temp./°C;...'
     delim = _delimiter(head)
     import csv
     import io as _io
 
-    parsed = list(csv.reader(_io.StringIO("\n".join(lines[i:])), delimiter=delim))
+    parsed = list(csv.reader(_io.StringIO("\n".join([head] + lines[i + 1:])), delimiter=delim))
     header = [h.strip().lstrip("\ufeff") for h in parsed[0]]
     rows = [(i + 1 + k, r) for k, r in enumerate(parsed) if k > 0]
     if delim != ",":  # a decimal comma (1,5e-05) where the delimiter leaves the comma free
         rows = [(ln, [_decimal_comma(c) for c in r]) for ln, r in rows]
+    rows = [(ln, r) for ln, r in rows if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
     units = None
-    if rows and rows[0][1] and not any(_is_num(c) for c in rows[0][1] if c.strip()):
+    if rows and rows[0][1] and _units_like(rows[0][1]):
         units = [_unit_cell(c) for c in rows[0][1]]
         rows = rows[1:]
-    rows = [(ln, r) for ln, r in rows if any(c.strip() for c in r) and not r[0].lstrip().startswith("#")]
+    if header_only:
+        return header, units, [], i + 1
     return header, units, _drop_repeated_tables(rows, header, units, path), i + 1
+
+
+def _units_like(cells) -> bool:
+    """A units row: no numbers, except a Set column's dimensionless '1' beside two or more units."""
+    cells = [str(c).strip() for c in cells if str(c).strip()]
+    nums = [c for c in cells if _is_num(c)]
+    return not nums or (all(c == "1" for c in nums) and len(cells) - len(nums) >= 2)
 
 
 def _data_like(cells) -> bool:
@@ -492,9 +580,11 @@ def _drop_repeated_tables(rows, header, units, path: Path):
     return out
 
 
-def _xls_rows(path: Path) -> tuple[list[str], list[str] | None, list[tuple[int, list]], int, str]:
-    """The same from an Excel workbook: the first sheet whose first row names a frequency or time column
-    (an Eplexor export: sheet ``Exported Data``, names in row 1, units in row 2). Lines are sheet rows (1-based)."""
+def _xls_rows(path: Path, column_map: Mapping[str, str] | None = None, *,
+              sheet: str | None = None) -> tuple[list[str], list[str] | None, list[tuple[int, list]], int, str]:
+    """The same from an Excel workbook: the first sheet (or ``sheet``) with a header row naming a frequency or
+    time column and a modulus (an Eplexor export: sheet ``Exported Data``, names in row 1, units in row 2; title
+    rows above the header are skipped). Lines are sheet rows (1-based)."""
     if path.suffix.lower() == ".xlsx":
         try:
             import openpyxl
@@ -516,22 +606,28 @@ def _xls_rows(path: Path) -> tuple[list[str], list[str] | None, list[tuple[int, 
         except Exception as exc:
             raise InputError(f"cannot read this Excel workbook ({exc})", path=path) from None
         sheets = [(s.name, [s.row_values(r) for r in range(s.nrows)]) for s in wb.sheets()]
+    if sheet is not None:
+        names = [n for n, _ in sheets]
+        if sheet not in names:
+            raise InputError(f"no sheet {sheet!r} (sheets: {', '.join(repr(n) for n in names)})", path=path,
+                             key="--sheet")
+        sheets = [(n, r) for n, r in sheets if n == sheet]
     for name, rows in sheets:
-        # the header: the first row naming a frequency or time column (title rows above it are the sheet's notes)
-        top = next((k for k, r in enumerate(rows[:_HEADER_SEARCH_LINES])
-                    if _header_roles(r) & {"f", "omega", "t"} and len(_header_roles(r)) >= 2), None)
+        # the header: the first row naming an axis and a modulus (title rows above it are the sheet's notes)
+        top = next((k for k, r in enumerate(rows[:_HEADER_SEARCH_LINES]) if _is_header(r, column_map)), None)
         if top is None:
             continue
         header = [str(h).strip() for h in rows[top]]
         data = [(k + 1, r) for k, r in enumerate(rows) if k > top]
+        data = [(ln, r) for ln, r in data if any(str(c).strip() for c in r)]
         units = None
-        if data and not any(_is_num(c) for c in data[0][1] if str(c).strip()):
+        if data and _units_like(data[0][1]):
             units = [_unit_cell(c) for c in data[0][1]]
             data = data[1:]
-        data = [(ln, r) for ln, r in data if any(str(c).strip() for c in r)]
         return header, units, data, top + 1, name
-    raise InputError("no sheet with a frequency (f, Hz) or time (t, s) column beside a modulus in its header row",
-                     path=path)
+    where = f"sheet {sheet!r} has no" if sheet is not None else "no sheet with a"
+    raise InputError(f"{where} header row naming a frequency (f, Hz) or time (t, s) column beside a modulus "
+                     "(E', E'', E_relax or G ...)", path=path, key="--sheet" if sheet is not None else None)
 
 
 @dataclasses.dataclass
@@ -597,7 +693,8 @@ class MaterialData:
         return out
 
 
-def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None = None) -> MaterialData:
+def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None = None,
+                       sheet: str | None = None) -> MaterialData:
     """Read frequency-domain moduli or raw relaxation sets at several temperatures (CSV or Excel).
 
     Columns (names in the first header row, units in a second row or in parentheses):
@@ -607,16 +704,26 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
     sweeps. Every error names the file and line (sheet row).
     """
     path = Path(path)
-    sheet = None
-    if path.suffix.lower() in (".xls", ".xlsx"):
-        header, units, rows, header_line, sheet = _xls_rows(path)
-    else:
-        header, units, rows, header_line = _csv_rows(path)
     cmap = {str(k).strip(): str(v) for k, v in (column_map or {}).items()}
+    if path.suffix.lower() in (".xls", ".xlsx"):
+        header, units, rows, header_line, sheet = _xls_rows(path, cmap, sheet=sheet)
+    else:
+        header, units, rows, header_line = _csv_rows(path, cmap)
+        sheet = None
     index: dict[str, tuple[int, str]] = {}
+    roles = [_mat_role(cmap.get(h, h)) for h in header]
+    # a role the column map gives is that column's alone: another column whose own name says the same is set aside
+    # (a furnace 'Temperature (°C)' beside the mapped 'Sample temperature (°C)')
+    mapped = {r for h, (r, _) in zip(header, roles) if h in cmap and r is not None}
+    on_freq = bool({r for r, _ in roles} & {"f", "omega"})
+    set_aside = []
     for j, h in enumerate(header):
-        role, unit = _mat_role(cmap.get(h, h))
-        if role is None:
+        role, unit = roles[j]
+        if role is None or (role in mapped and h not in cmap):
+            if role is not None:
+                set_aside.append(h)
+            continue
+        if role == "t" and on_freq:  # a frequency file's elapsed test time (Eplexor, RheoCompass): not used
             continue
         for text, line in ((h, header_line), (units[j] if units is not None and j < len(units) else None,
                                               header_line + 1)):
@@ -627,12 +734,15 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
         stated = []
         if unit is not None:
             stated.append((unit, "the column map (--columns, config columns)" if h in cmap else "its name", header_line))
-        if h in cmap:
-            hunit = _mat_role(h)[1] if _mat_role(h)[0] is not None else _split_unit(h)[1]
-            if hunit is not None:
-                stated.append((hunit, "its name", header_line))
+        if h in cmap and (hunit := _unit_in_name(h, fam)) is not None:
+            stated.append((hunit, "its name", header_line))
         if units is not None and j < len(units) and units[j].strip():
             stated.append((units[j].strip().lower(), "the units row under the header", header_line + 1))
+        if fam == "f" and any(u.replace(" ", "") == "mhz" for u, _, _ in stated):
+            said = next(w for u, w, _ in stated if u.replace(" ", "") == "mhz")
+            raise InputError(f"column {h!r}: {said} says mHz or MHz: millihertz and megahertz are 1e9 apart and "
+                             "read alike once case is lost; give the frequency in Hz", path=path,
+                             line=next(ln for u, _, ln in stated if u.replace(" ", "") == "mhz"), key=h)
         for (u1, w1, _), (u2, w2, l2) in zip(stated, stated[1:]):
             same = u1 == u2 or (u1 in _MAT_UNITS[fam] and u2 in _MAT_UNITS[fam]
                                 and _MAT_UNITS[fam][u1] == _MAT_UNITS[fam][u2])
@@ -645,8 +755,8 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                              f"{', '.join(sorted(u for u in _MAT_UNITS[fam] if u))})", path=path,
                              line=header_line + (1 if units is not None else 0), key=h)
         if role in index:
-            raise InputError(f"two columns give {role}: {header[index[role][0]]!r} and {h!r}", path=path,
-                             line=header_line, key=h)
+            raise InputError(f"two columns give {role}: {header[index[role][0]]!r} and {h!r}; choose one with "
+                             f"--columns {role}=<column> (config io.columns)", path=path, line=header_line, key=h)
         index[role] = (j, unit)
     has = index.__contains__
     freq = has("f") or has("omega")
@@ -679,6 +789,12 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                          "(C); add the test temperature of every row", path=path, line=header_line, key="T")
 
     warnings: list[str] = []
+    if has("T"):  # another column that names a temperature: which one is the sample's is the user's to say
+        other = [h for j, h in enumerate(header) if j != index["T"][0] and "temp" in h.lower()]
+        if other:
+            warnings.append(f"{path.name}: the temperature is read from {header[index['T'][0]]!r}; "
+                            f"{', '.join(repr(h) for h in other)} set aside (if that is the sample's temperature, "
+                            f"map it with --columns T=<column>)")
     # a name that says neither E nor G ("Storage Modulus", as rheometers and DMA software both write it)
     vague = [header[index[r][0]] for r in ("storage", "loss", "relax") if has(r)
              and _mat_key(_split_unit(cmap.get(header[index[r][0]], header[index[r][0]]))[0]) in _VAGUE_MODULUS]
@@ -701,6 +817,12 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
             try:
                 v = float(cell if not isinstance(cell, str) else cell.strip())
             except ValueError:
+                first = str(row[0]).strip() if row else ""
+                if re.fullmatch(r"\[.*\]", first):  # an export's next section ('[step]', '[Summary]', '[Interval]')
+                    raise InputError(f"line {ln} starts a section {first!r} that does not repeat the table's header "
+                                     "(the same columns in the same order): bpmid reads one table per file; export "
+                                     "every step with the same columns, or cut the file where the data end",
+                                     path=path, line=ln) from None
                 raise InputError(f"column {header[j]!r}: {cell!r} is not a number", path=path, line=ln) from None
             if not np.isfinite(v):
                 raise InputError(f"column {header[j]!r}: {cell!r} (NaN or infinite values are not allowed)", path=path,

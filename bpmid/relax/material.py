@@ -202,6 +202,36 @@ def _shifted(pooled, log_aT, shift, domain):
     return x[o], np.concatenate(ss)[o], loss, shift, sets
 
 
+#: a set whose temperature drift moves the shift by more than this (decades) across the set is warned about
+DRIFT_BLUR_DECADES = 0.1
+
+
+def drift_warnings(datas: Sequence[MaterialData], shift) -> list[str]:
+    """A set whose measured temperature drifts while it is swept shares one shift factor across temperatures whose
+    own shifts differ: its points are misplaced on the master curve by up to slope x span decades (the slope of
+    log a_T between the neighbouring sets). Said for each set where that exceeds :data:`DRIFT_BLUR_DECADES`."""
+    if shift is None or shift.T.size < 2:
+        return []
+    o = np.argsort(shift.T)
+    Ts, aT = shift.T[o], shift.log_aT[o]
+    slope = np.abs(np.diff(aT) / np.maximum(np.diff(Ts), 1e-9))
+    out = []
+    for d in datas:
+        if d.temperature_c is None:
+            continue
+        for T, idx in d.sets():
+            span = float(np.ptp(d.temperature_c[idx]))
+            k = int(np.argmin(np.abs(Ts - T)))
+            near = slope[max(k - 1, 0):k + 1]
+            blur = span * float(np.max(near)) if near.size else 0.0
+            if blur > DRIFT_BLUR_DECADES:
+                out.append(f"{_label(d)}: the set at {T:g} C (from line {d.where(int(idx[0]))}) drifts over "
+                           f"{span:.2g} C while it is swept; the shift changes by about {blur:.2g} decades over that "
+                           "span there, and the set takes one shift for all its points, so its points sit up to that "
+                           "far off the master curve (hold the temperature steadier, or drop the drifting part)")
+    return out
+
+
 def fit_material(datas: Sequence[MaterialData], *, terms="auto", max_error_pct: float | None = None,
                  ref_temp: float | None = None, shift_file=None, config=None) -> MaterialFit:
     """Shift (if raw) and fit (see the module docstring)."""
@@ -227,5 +257,5 @@ def fit_material(datas: Sequence[MaterialData], *, terms="auto", max_error_pct: 
     one = None
     if len(datas) == 1 and not datas[0].is_raw and datas[0].temperature_c is not None:
         one = {"T": datas[0].sets()[0][0], "mean_measured": round(float(np.mean(datas[0].temperature_c)), 4)}
-    checks = tts.shift_warnings(shift) if shift is not None else []
+    checks = (tts.shift_warnings(shift) + drift_warnings(datas, shift)) if shift is not None else []
     return MaterialFit(domain, fit, shift, sets, datas[0].modulus, [d.path for d in datas], units, one, checks)

@@ -328,7 +328,7 @@ def _fit_material(paths, material, config, *, terms, mode, poisson, max_error_pc
                        else "relax.poisson")
     # the column map of the io section (--columns) and of the relax section (the relax map wins per header)
     cmap = {**config.section("io").columns, **cfg.columns}
-    datas = [read_material_file(p, column_map=cmap) for p in material]
+    datas = [read_material_file(p, column_map=cmap, sheet=config.section("io").sheet) for p in material]
     others = [p for p in paths if p not in material]
     if others:
         gap = cfg.max_gap_factor if cfg.max_gap_factor is not None else config.section("io").max_gap_factor
@@ -387,7 +387,7 @@ def fit_relax_files(logs: Sequence[str | Path], *, terms: str | int | None = Non
     config = config if config is not None else load_config(None)
     paths = [Path(p) for p in logs]
     cmap = {**config.section("io").columns, **config.section("relax").columns}
-    material = [p for p in paths if is_material_file(p, cmap)]
+    material = [p for p in paths if is_material_file(p, cmap, config.section("io").sheet)]
     if material:
         return _fit_material(paths, material, config, terms=terms, mode=mode, poisson=poisson,
                              max_error_pct=max_error_pct, ref_temp=ref_temp, shift=shift, flags=flags)
