@@ -394,12 +394,17 @@ def discover(logs, *, holdout=None, init=None, config=None):
         raise InputError(f"init is a bpmid.vbmm/1 or bpmid.relax/1 file, or a fit result (bpmid.fit_motion, "
                          f"bpmid.fit_relaxation, bpmid.load), found {type(init).__name__}", key="init")
     base, base_from, init_path = starting_vbmm(init, cfg.section("model"))
+    from bpmid.io import plausibility as plaus
+
+    every = list(fit_logs) + list(ho_logs or [])
+    warnings = plaus.reader_warnings(every) + plaus.motion_data_warnings(every)   # what `bpmid discover` prints
     res = _discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
+    warn_caller(warnings + [f"discovery: {c}" for c in res.cautions])
     body = res.to_yaml()
     body["base_from"] = base_from
     prov = provenance(list(paths) + list(ho_paths) + ([init_path] if init_path else [])
                       + ([Path(res.thresholds_file)] if res.thresholds_file else []), config=cfg)
-    return DiscoveryResult(body, prov, raw=res)
+    return DiscoveryResult(body, plaus.attach(prov, every, warnings), raw=res)
 
 
 def simulate(protocol, *, params=None, effects: Sequence[str] = (), seed: int | None = None,

@@ -139,23 +139,32 @@ def overlap_warnings(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> l
     return list(overlapping_logs(train, test).values())
 
 
-def overlapping_logs(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> dict[str, str]:
-    """Test log name -> message, for test logs that are also training logs (same file, or identical content)."""
+def same_logs(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> dict[str, tuple[str, bool]]:
+    """Test log name -> (the training log it repeats, whether it is the same file), for test logs that are also
+    training logs (the same file, or identical content under another name)."""
     def key(lg: MotionLog):
         return (lg.n, hash(np.asarray(lg.time_s).tobytes()), hash(np.asarray(lg.pressure_pa).tobytes()),
                 hash(b"" if lg.angle_deg is None else np.asarray(lg.angle_deg).tobytes()))
 
     train_paths = {Path(lg.path).resolve(): lg.name for lg in train if lg.path is not None}
     train_keys = {key(lg): lg.name for lg in train}
-    msgs = {}
-    apart = (f": its score is not a test of prediction; metrics.csv keeps it as set '{FITTED_SET}', left out of "
-             "the summaries and the ranking")
+    out = {}
     for lg in test:
         if lg.path is not None and Path(lg.path).resolve() in train_paths:
-            msgs[lg.name] = f"test log {lg.path} is also a training log" + apart
+            out[lg.name] = (train_paths[Path(lg.path).resolve()], True)
         elif key(lg) in train_keys:
-            msgs[lg.name] = f"test log {lg.name} has the same data as training log {train_keys[key(lg)]}" + apart
-    return msgs
+            out[lg.name] = (train_keys[key(lg)], False)
+    return out
+
+
+def overlapping_logs(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> dict[str, str]:
+    """Test log name -> message, for test logs that are also training logs (same file, or identical content)."""
+    apart = (f": its score is not a test of prediction; metrics.csv keeps it as set '{FITTED_SET}', left out of "
+             "the summaries and the ranking")
+    paths = {lg.name: lg.path for lg in test}
+    return {name: (f"test log {paths[name]} is also a training log" if same_file else
+                   f"test log {name} has the same data as training log {other}") + apart
+            for name, (other, same_file) in same_logs(train, test).items()}
 
 
 def check_test_logs(test: Sequence[MotionLog]) -> None:

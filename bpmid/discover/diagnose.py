@@ -82,13 +82,18 @@ def _fit_ar1(v: np.ndarray, hs: Sequence[int], w: np.ndarray) -> tuple[float, fl
     return best[1], best[2]
 
 
-def _pressure_corners(p: np.ndarray) -> np.ndarray:
-    """Samples where the logged pressure changes slope (profile corners), robust to pressure noise."""
+def _pressure_corners(p: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
+    """Samples where the logged pressure changes slope (profile corners), robust to pressure noise. With the
+    times ``t`` of an unevenly sampled log, the slope change is taken in time (per median step)."""
     p = np.asarray(p, float)
     c = np.zeros(p.size, bool)
     if p.size < 3:
         return c
-    d2 = np.abs(np.diff(p, 2))
+    if t is not None and _uneven(t):
+        dt = np.diff(np.asarray(t, float))
+        d2 = np.abs(np.diff(np.diff(p) / dt)) * float(np.median(dt))
+    else:
+        d2 = np.abs(np.diff(p, 2))
     s = 1.4826 * float(np.median(np.abs(d2 - np.median(d2))))
     d1 = np.abs(np.diff(p))
     moving = d1[d1 > 1e-9 * (float(np.ptp(p)) + 1e-300)]
@@ -98,14 +103,36 @@ def _pressure_corners(p: np.ndarray) -> np.ndarray:
     return c
 
 
+#: a log whose time steps differ from their median by more than this share is unevenly sampled
+_UNEVEN_STEP_SHARE = 0.01
+
+
+def _uneven(t: np.ndarray) -> bool:
+    dt = np.diff(np.asarray(t, float))
+    med = float(np.median(dt)) if dt.size else 0.0
+    return bool(dt.size and med > 0 and np.max(np.abs(dt - med)) > _UNEVEN_STEP_SHARE * med)
+
+
 def _spaced_differences(lg: MotionLog, order: int, h: int, w: np.ndarray) -> np.ndarray:
     y = np.asarray(lg.angle_deg, float)
     span = order * h
     n = y.size - span
     if n < 1:
         return np.zeros(0)
-    d = sum(w[k] * y[k * h:k * h + n] for k in range(order + 1))
-    cum = np.concatenate([[0], np.cumsum(_pressure_corners(lg.pressure_pa))])
+    if _uneven(lg.time_s):
+        # on uneven times a difference by sample index leaves the signal in (a ramp is no longer a polynomial of the
+        # index): each window takes the divided-difference weights of its own times, which remove any polynomial of
+        # degree < order in time, scaled to the even weights' norm so that the noise model below still holds
+        t = np.asarray(lg.time_s, float)
+        T = np.stack([t[k * h:k * h + n] for k in range(order + 1)], axis=1)
+        diff = T[:, :, None] - T[:, None, :]
+        np.einsum("ijj->ij", diff)[...] = 1.0
+        ww = 1.0 / np.prod(diff, axis=2)
+        ww *= (np.linalg.norm(w) / np.linalg.norm(ww, axis=1))[:, None]
+        d = np.sum(ww * np.stack([y[k * h:k * h + n] for k in range(order + 1)], axis=1), axis=1)
+    else:
+        d = sum(w[k] * y[k * h:k * h + n] for k in range(order + 1))
+    cum = np.concatenate([[0], np.cumsum(_pressure_corners(lg.pressure_pa, lg.time_s))])
     idx = np.arange(n)
     clean = (cum[idx + span + 1] - cum[idx]) == 0
     return d[clean] if clean.sum() >= 0.1 * n else d

@@ -54,6 +54,7 @@ from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS
                                       winner_rank)
 from bpmid.discover.confirm import (Confirmation, PairTrial, confirm, excess_deg, heldout_drop_sigma, holm_adjusted,
                                    p_note, p_words, pair_trial)
+from bpmid.discover.cautions import ambient_cautions, data_cautions
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import (IMITATES, RIVALS, adds_beside, beats, check_rival, held_against, own_shape,
                                    rival_constants)
@@ -65,6 +66,7 @@ from bpmid.effects.base import Effect, held
 from bpmid.errors import ConvergenceError, InputError
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models.vbmm import VBMM
+from bpmid.models.vbmm.fit import check_angle_range
 from bpmid.progress import Progress, note
 from bpmid.relax._blas import one_blas_thread
 
@@ -410,6 +412,8 @@ class DiscoveryResult:
     thresholds_file: Optional[str] = None
     #: the gate's keys a config's discover section (or a calibration) set over the file's
     overridden: tuple = ()
+    #: what a careful user should know before trusting the verdict (:mod:`bpmid.discover.cautions`)
+    cautions: tuple = ()
 
     @property
     def noise_floor_deg(self) -> float:
@@ -466,6 +470,7 @@ class DiscoveryResult:
                             "left_out_logs": list(self.noise.get("left_out") or []),
                             "caution": list(self.noise.get("caution") or [])},
             "base_fit": self.base_fit,
+            "cautions": list(self.cautions),
             "split": {"how": self.split, "fitting_logs": [lg.name for lg in self.fit_logs],
                       "heldout_logs": [lg.name for lg in self.holdout_logs]},
             "thresholds": {k: (float(f"{v:.6g}") if isinstance(v, float) else v) for k, v in self.thresholds.items()},
@@ -601,7 +606,8 @@ HELDOUT_ABOVE = 1.3
 def make_verdict(named: list[str], rounds: list[Round], before: float, after: float, floor: float,
                  unexplained: bool, variation: Optional[dict] = None, thr: Optional[dict] = None,
                  base_fit: Optional[dict] = None, raw_after: Optional[float] = None,
-                 noise: Optional[dict] = None, unexplained_margin: float = 0.5, final=None) -> str:
+                 noise: Optional[dict] = None, unexplained_margin: float = 0.5, final=None,
+                 cautions: Sequence[str] = (), held_out_odd: bool = False) -> str:
     lines = []
     for r in rounds:
         if r.accepted:
@@ -654,7 +660,7 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
     if base_fit is not None:
         fit_rmse = (base_fit.get("per_log_constants") or {}).get("rmse_deg", base_fit.get("rmse_deg"))
     if (not named and unexplained and fit_rmse is not None and floor > 0 and fit_rmse <= FIT_AT_FLOOR * floor
-            and after >= HELDOUT_ABOVE * floor):
+            and after >= HELDOUT_ABOVE * floor and not held_out_odd):
         # a cause the user can act on: what the held-out logs show, the fitting logs never asked of the model
         lines.append(f"the fitting logs do not show it: the base model fits them to {fit_rmse:.2f} deg "
                      f"({fit_rmse / floor:.2f} noise floors) while the held-out logs stay at {after:.2f} deg "
@@ -664,6 +670,7 @@ def make_verdict(named: list[str], rounds: list[Round], before: float, after: fl
                      f"pass a test on the fitting logs; fit on logs like the held-out ones as well")
     if base_fit is not None and not base_fit.get("converged", True):
         lines.append(f"caution: the base fit did not converge ({base_fit.get('message')})")
+    lines += [f"caution: {c}" for c in cautions]
     for c in (noise or {}).get("caution") or []:
         lines.append(f"caution on the noise floor: {c}")
     if thr is not None:
@@ -683,6 +690,7 @@ def split_logs(logs: Sequence[MotionLog], holdout: Sequence[MotionLog] | None, c
         if lg.n < cfg.min_log_samples:
             raise InputError(f"cannot judge: the log has {lg.n} samples, fewer than {cfg.min_log_samples}",
                              path=lg.path or lg.name)
+        check_angle_range(lg)   # a sign flipped or a sensor zeroed elsewhere, named before any fit
     if holdout:
         fit, ho, how = logs, list(holdout), "held-out logs given with --holdout"
     else:
@@ -781,17 +789,16 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     if cfg.hold:
         effects = [held(e, cfg.hold) for e in effects]
     fit_logs, ho_logs, how = split_logs(logs, holdout, cfg)
-    if holdout is not None:  # a held-out score on a fitting log tests nothing: the verdict would rest on it
-        from bpmid.compare import overlap_warnings
+    # a held-out score on a fitting log tests nothing: the verdict would rest on it (given twice, or a copy)
+    from bpmid.compare import same_logs
 
-        same = overlap_warnings(fit_logs, ho_logs)
-        if same:
-            bad = next((lg for lg in ho_logs if lg.path is not None and str(lg.path) in same[0]), None)
-            raise InputError(same[0].replace("test log", "held-out log").replace("training log", "fitting log")
-                             .replace("its score is not a test of prediction",
-                                      "the held-out check would score the fit on its own data")
-                             + "; give it either as a LOG or after --holdout, not both",
-                             path=None if bad is None else bad.path)
+    for name, (other, same_file) in same_logs(fit_logs, ho_logs).items():
+        bad = next(lg for lg in ho_logs if lg.name == name)
+        raise InputError(f"the held-out log {bad.path or name} " + ("is also a fitting log" if same_file else
+                         f"has the same data as the fitting log {other}") + ": the held-out check would score the "
+                         "fit on its own data; " + ("give it either as a LOG or after --holdout, not both"
+                                                    if holdout is not None else "give each log once"),
+                         path=bad.path)
     noise = noise_floor(list(fit_logs) + list(ho_logs))
     floor = noise["sigma_deg"]
     if not (np.isfinite(floor) and floor > NOISE_FLOOR_MIN_DEG):
@@ -837,6 +844,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                      + [f"the floor used is {res.rmse:.3g} deg, the base fit's RMSE on the fitting logs: the noise "
                         f"reading above ({noise['sigma_deg']:.3g} deg) cannot exceed what the model leaves"])
         floor = noise["sigma_deg"]
+    cautions, held_out_odd = data_cautions(base_state, fit_logs, ho_logs, floor)
     base_gain = gain
     before = scored_rmse(state, ho_logs, per_log_gain=base_gain)
     raw_before = rmse_deg(residuals(state, ho_logs))
@@ -1045,14 +1053,17 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     # a round withheld for a rival outside the catalogue leaves a systematic residual the catalogue cannot explain
     unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor or any(r.withheld for r in rounds))
     variation = log_to_log_variation(state, ho_logs, raw_after, floor, cfg) if unexplained else None
+    cautions = cautions + ambient_cautions(all_logs, named)
     verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after,
-                           noise, cfg.unexplained_gap_sigma, final=state)
+                           noise, cfg.unexplained_gap_sigma, final=state, cautions=cautions,
+                           held_out_odd=held_out_odd)
     return DiscoveryResult(named, rounds, noise, base_state, state, list(fit_logs), list(ho_logs), before, after,
                            thr, unexplained, verdict, how, time.perf_counter() - t0, variation, base_report,
                            raw_before, raw_after, base_gain, thresholds_file=cfg.thresholds_file,
                            overridden=tuple(sorted({k for k in GATE_KEYS if getattr(cfg, k, None) is not None}
                                                    | ({BY_EFFECT_KEY} if cfg.to_floor_drop_by_effect is not None
-                                                      else set()) | {k for k in (thresholds or {}) if k in thr})))
+                                                      else set()) | {k for k in (thresholds or {}) if k in thr})),
+                           cautions=tuple(cautions))
 
 
 def log_to_log_variation(state: ModelState, ho_logs: Sequence[MotionLog], after: float, floor: float,

@@ -251,8 +251,7 @@ def _read_motion_log(path: Path, io_cfg: IOConfig, require_angle: bool) -> Motio
     atm_mean = float(np.mean(atm))
     if ref == "absolute":
         reading["pressure_reference"]["atmosphere_pa"] = atm_mean
-        if not atm_from.startswith("io.atmosphere_pa"):   # the log stated it (a column or a line)
-            reading["pressure_reference"]["atmosphere_from"] = atm_from
+        reading["pressure_reference"]["atmosphere_from"] = atm_from   # a column, a line, the config or assumed
     warnings = list(table.warnings)
     if ref == "absolute" and atm_from.startswith("io.atmosphere_pa"):
         warnings += unread_ambient_lines(table, io_cfg.atmosphere_pa)

@@ -1,0 +1,118 @@
+"""What a careful user should know before trusting a verdict, said beside it: a log that sits far off the base model
+(a sensor mounted or zeroed differently), a base model that explains little of the fitting logs, a few samples that
+carry a log's error (a sensor glitch), and absolute pressures read against an ambient pressure nothing states.
+
+These never change what discovery names; they are lines of the verdict (``caution: ...``) and ``cautions`` in
+``discovery.yaml``. A helper's trial found each giving a confident wrong reading without a word: a +90 deg log blamed
+on log-to-log variation, five +40 deg samples in a held-out log turning a clear 2 deg offset into "unexplained" with
+the advice to fit on other logs, and a lab at 950 hPa read as a 5 deg angle offset.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from bpmid.discover.model import ModelState, residuals
+from bpmid.io.motion_logs import MotionLog
+from bpmid.io.plausibility import R2_MIN
+
+#: a sample this many robust noise widths from its neighbours' mean residual is a glitch, not the model's miss
+GLITCH_Z = 8.0
+#: glitches are a few samples: at most this share of a log (or this many, in a short log)
+GLITCH_MAX_SHARE = 0.01
+GLITCH_MAX_COUNT = 5
+#: ... and said when they carry at least this share of the log's squared error
+GLITCH_ERROR_SHARE = 0.2
+#: a log whose RMSE from the base model is this many times the other logs' median (and 5 noise floors) is odd
+ODD_LOG_RATIO = 5.0
+#: a log whose mean angle against the base model sits this many noise floors (and degrees) off the other logs'
+ODD_SHIFT_FLOORS = 10.0
+ODD_SHIFT_MIN_DEG = 5.0
+#: the ambient pressure io.atmosphere_pa takes when nothing states the lab's (the reader's words start so)
+_ASSUMED = "io.atmosphere_pa (the standard atmosphere"
+
+
+def _name(lg: MotionLog) -> str:
+    return lg.path.name if lg.path is not None else lg.name
+
+
+def _glitches(lg: MotionLog, r: np.ndarray) -> np.ndarray:
+    """Indices of isolated samples far from their neighbours' residual, away from the log's fastest pressure steps
+    (where a model that lags or leads misses a sample or two honestly)."""
+    if r.size < 5:
+        return np.zeros(0, int)
+    local = r[1:-1] - 0.5 * (r[:-2] + r[2:])   # a sample against its neighbours: a spike stands out whole
+    width = 1.4826 * float(np.median(np.abs(local - np.median(local))))   # robust sd of that
+    if not width > 0:
+        return np.zeros(0, int)
+    z = np.abs(local)
+    # a spike also lifts its two neighbours' reading by half: keep the peak of each
+    peak = np.r_[True, z[1:] >= z[:-1]] & np.r_[z[:-1] >= z[1:], True]
+    k = np.flatnonzero((z > GLITCH_Z * width) & peak) + 1
+    dp = np.abs(np.diff(np.asarray(lg.pressure_pa, float)))
+    if dp.size and k.size:
+        steep = dp >= np.quantile(dp, 0.99)
+        near = steep[np.clip(k - 1, 0, dp.size - 1)] | steep[np.clip(k, 0, dp.size - 1)]
+        k = k[~near]
+    return k
+
+
+def data_cautions(state: ModelState, fit_logs: Sequence[MotionLog], ho_logs: Sequence[MotionLog],
+                  floor: float) -> tuple[list[str], bool]:
+    """Sentences about the logs against the base model, and whether a held-out log's error rests on a few samples
+    or on the whole log sitting off (the verdict then does not blame the fitting logs' coverage)."""
+    out: list[str] = []
+    held_out_odd = False
+    fit_res = residuals(state, fit_logs)
+    ho_res = residuals(state, ho_logs)
+    r = np.concatenate(fit_res) if fit_res else np.zeros(0)
+    a = np.concatenate([lg.angle_deg for lg in fit_logs]) if fit_logs else np.zeros(0)
+    ss = float(np.sum((a - np.mean(a)) ** 2)) if a.size else 0.0
+    r2 = 1.0 - float(np.sum(r ** 2)) / ss if ss > 0 else float("nan")
+    if np.isfinite(r2) and r2 < R2_MIN:
+        out.append(f"the base model explains little of the fitting logs' angle (R^2 {r2:.2f} < {R2_MIN:g}): its "
+                   "constants, and any verdict resting on them, are not to be trusted; look for a log that is off, "
+                   "or a unit or reference slip")
+    every = [(lg, p, "fitting") for lg, p in zip(fit_logs, fit_res)] + [(lg, p, "held-out")
+                                                                        for lg, p in zip(ho_logs, ho_res)]
+    rms = np.array([float(np.sqrt(np.mean(p ** 2))) for _, p, _ in every])
+    level = np.array([-float(np.mean(p)) for _, p, _ in every])   # measurement minus model, on average
+    for i, (lg, p, role) in enumerate(every):
+        others = np.delete(rms, i)
+        typical = float(np.median(others)) if others.size else floor
+        k = _glitches(lg, p)
+        share = float(np.sum(p[k] ** 2) / max(float(np.sum(p ** 2)), 1e-300)) if k.size else 0.0
+        shift = level[i] - float(np.median(np.delete(level, i))) if rms.size > 1 else 0.0
+        if 0 < k.size <= max(GLITCH_MAX_SHARE * p.size, GLITCH_MAX_COUNT) and share >= GLITCH_ERROR_SHARE:
+            out.append(f"{role} log {_name(lg)}: {k.size} isolated sample(s) (the first at t = "
+                       f"{float(lg.time_s[k[0]]):.4g} s) sit far from their neighbours and carry {share:.0%} of "
+                       f"its squared error: a sensor glitch or a knock? Leave them out and run again"
+                       + (": the held-out score rests on them" if role == "held-out" else ""))
+        elif abs(shift) > max(ODD_SHIFT_FLOORS * floor, ODD_SHIFT_MIN_DEG):
+            out.append(f"{role} log {_name(lg)} sits {shift:+.3g} deg off the other logs against the base model "
+                       f"(a sensor mounted or zeroed differently?): check it before reading the verdict")
+        elif rms[i] > ODD_LOG_RATIO * max(typical, floor) and rms[i] > 5.0 * floor:
+            out.append(f"{role} log {_name(lg)}: {rms[i]:.3g} deg from the base model, {rms[i] / typical:.0f} times "
+                       f"the other logs' typical {typical:.3g} deg: check it before reading the verdict")
+        else:
+            continue
+        held_out_odd |= role == "held-out"
+    return out, held_out_odd
+
+
+def ambient_cautions(logs: Sequence[MotionLog], named: Sequence[str]) -> list[str]:
+    """A sentence when an angle offset is named on absolute pressures turned into gauge with the standard atmosphere,
+    which nothing in the logs or the config states: a lab's ambient pressure 60 hPa lower reads every gauge pressure
+    6 kPa high, which the fit takes up as an angle offset."""
+    assumed = [lg for lg in logs if lg.pressure_reference == "absolute"
+               and str(((lg.reading or {}).get("pressure_reference") or {}).get("atmosphere_from", "")).startswith(
+                   _ASSUMED)]
+    if not assumed or "angle_offset" not in named:
+        return []
+    names = ", ".join(_name(lg) for lg in assumed[:4]) + (", ..." if len(assumed) > 4 else "")
+    return [f"{len(assumed)} of the {len(logs)} logs ({names}) hold absolute pressures turned into gauge with the "
+            f"standard atmosphere, 101325 Pa, which nothing states: in a lab at 950 hPa every gauge pressure reads "
+            f"6.3 kPa high, which bends the muscle further at every pressure, and the angle_offset named here may be "
+            "that, not the sensor. State the lab's ambient pressure (io.atmosphere_pa in the config, a "
+            "'# atmosphere_pa:' line or an ambient column) and run again"]

@@ -1,0 +1,82 @@
+"""What discovery says beside its verdict about the logs themselves (never changing what it names): a log off by a
+mounting offset, a few glitch samples carrying a held-out log's error, a base model that explains little, an angle
+offset named on absolute pressures read against an assumed ambient pressure; the noise floor on unevenly sampled
+logs; and logs it refuses before fitting (a flipped sign, a copy held out against itself)."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from bpmid.discover import DiscoverConfig
+from bpmid.discover.calibrate import paper_sized_set, truth_model
+from bpmid.discover.cautions import ambient_cautions, data_cautions
+from bpmid.discover.diagnose import noise_floor
+from bpmid.discover.model import ModelState
+from bpmid.discover.workflow import discover, split_logs
+from bpmid.errors import InputError
+from bpmid.models.vbmm import VBMM, Material
+
+
+@pytest.fixture(scope="module")
+def logs():
+    return paper_sized_set(None, seed=11, noise_deg=0.2)
+
+
+def _with(lg, **kw):
+    return dataclasses.replace(lg, **kw)
+
+
+def test_clean_logs_get_no_caution_and_odd_logs_are_named(logs):
+    fit, ho = logs
+    state = ModelState.start(truth_model())
+    said, odd = data_cautions(state, fit, ho, 0.2)
+    assert said == [] and not odd
+    # a fitting log mounted 30 deg off; five glitch samples of +40 deg in a held-out log
+    a = ho[0].angle_deg.copy()
+    a[np.linspace(20, a.size - 20, 5).astype(int)] += 40.0
+    fit2 = [_with(fit[0], angle_deg=fit[0].angle_deg + 30.0)] + fit[1:]
+    said, odd = data_cautions(state, fit2, [_with(ho[0], angle_deg=a)] + ho[1:], 0.2)
+    assert len(said) == 2 and odd
+    assert f"fitting log {fit[0].name} sits +30 deg off the other logs" in said[0]
+    assert f"held-out log {ho[0].name}: 5 isolated sample(s)" in said[1] and "the held-out score rests on them" in said[1]
+    # a base model far from the logs explains little of them
+    soft = ModelState.start(VBMM(material=dataclasses.replace(Material.paper_fit(),
+                                                               K_inf=5 * Material.paper_fit().K_inf)))
+    said, _ = data_cautions(soft, fit, ho, 0.2)
+    assert any("explains little of the fitting logs' angle" in s for s in said)
+
+
+def test_an_angle_offset_on_absolute_logs_with_an_assumed_ambient_is_questioned(logs):
+    fit, _ = logs
+    assumed = {"pressure_reference": {"reference": "absolute", "from": "header",
+                                      "atmosphere_from": "io.atmosphere_pa (the standard atmosphere; set it for your lab)"}}
+    stated = {"pressure_reference": {"reference": "absolute", "from": "header", "atmosphere_from": "line 2"}}
+    ab = [_with(lg, pressure_reference="absolute", reading=assumed) for lg in fit]
+    assert ambient_cautions(ab, ["angle_offset"]) and "may be that, not the sensor" in ambient_cautions(
+        ab, ["angle_offset"])[0]
+    assert ambient_cautions(ab, ["second_relaxation"]) == []
+    assert ambient_cautions([_with(lg, pressure_reference="absolute", reading=stated) for lg in fit],
+                            ["angle_offset"]) == []
+
+
+def test_the_noise_floor_holds_on_unevenly_sampled_logs(logs):
+    fit, ho = logs
+    rng = np.random.default_rng(3)
+    uneven = []
+    for lg in fit + ho:   # a fifth of the samples dropped at random, the times as logged (the old reading: 1.58 deg)
+        keep = np.sort(np.r_[0, np.flatnonzero(rng.random(lg.n - 1) < 0.8) + 1])
+        uneven.append(_with(lg, time_s=lg.time_s[keep], pressure_pa=lg.pressure_pa[keep],
+                            angle_deg=lg.angle_deg[keep], pressure_as_given=None))
+    assert noise_floor(uneven)["sigma_deg"] == pytest.approx(0.2, rel=0.1)
+
+
+def test_a_flipped_log_and_a_copy_held_out_against_itself_are_refused_before_any_fit(logs):
+    fit, ho = logs
+    with pytest.raises(InputError, match="outside the model's range") as e:
+        split_logs([_with(fit[0], angle_deg=-fit[0].angle_deg)] + fit[1:], ho, DiscoverConfig())
+    assert e.value.path == fit[0].name
+    copy = _with(fit[1], name="copy_of_" + fit[1].name, path=None)
+    with pytest.raises(InputError, match=f"has the same data as the fitting log {fit[1].name}.*give each log once"):
+        discover(fit[:2] + [copy], truth_model(), cfg=DiscoverConfig(holdout_every=3))
