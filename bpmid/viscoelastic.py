@@ -74,20 +74,9 @@ def prony(t, M_inf: float, M, tau):
 # hereditary states (the recursion), compiled; even sampling takes exp(-dt/tau) once per branch
 # ---------------------------------------------------------------------------------------------
 @lazy_njit(cache=True)
-def _states_kernel(t, x, tau):  # pragma: no cover - compiled
-    n = t.size
-    m = tau.size
-    h = np.zeros((n, m))
-    for k in range(1, n):
-        dt = t[k] - t[k - 1]
-        dx = x[k] - x[k - 1]
-        for j in range(m):
-            h[k, j] = np.exp(-dt / tau[j]) * h[k - 1, j] + dx
-    return h
-
-
-@lazy_njit(cache=True)
-def _ramp_states_kernel(t, x, tau):  # pragma: no cover - compiled
+def _states_kernel(t, x, tau, ramp):  # pragma: no cover - compiled
+    # ramp: each increment scaled by its interval's (tau/dt)(1 - exp(-dt/tau)), the strain moving linearly between
+    # samples; else the increment applied at its sample time
     n = t.size
     m = tau.size
     h = np.zeros((n, m))
@@ -96,9 +85,10 @@ def _ramp_states_kernel(t, x, tau):  # pragma: no cover - compiled
         dx = x[k] - x[k - 1]
         for j in range(m):
             r = dt / tau[j]
-            a = np.exp(-r)
-            b = -np.expm1(-r) / r if r > 1e-8 else 1.0 - 0.5 * r  # (tau/dt)(1 - exp(-dt/tau))
-            h[k, j] = a * h[k - 1, j] + b * dx
+            b = 1.0
+            if ramp:
+                b = -np.expm1(-r) / r if r > 1e-8 else 1.0 - 0.5 * r
+            h[k, j] = np.exp(-r) * h[k - 1, j] + b * dx
     return h
 
 
@@ -111,7 +101,7 @@ def ramp_states(t, x, tau) -> np.ndarray:
     tau = np.ascontiguousarray(np.atleast_1d(tau), float)
     if tau.size == 0:
         return np.zeros((t.size, 0))
-    return _ramp_states_kernel(t, x, tau)
+    return _states_kernel(t, x, tau, True)
 
 
 @lazy_njit(cache=True)
@@ -157,7 +147,7 @@ def hereditary_states(t, x, tau) -> np.ndarray:
         # (what scipy.signal.lfilter([1], [1, -a], dx) computes, bit for bit, without importing scipy.signal)
         dx = np.diff(x, prepend=x[0])
         return _uniform_states_kernel(dx, np.exp(-(t[1] - t[0]) / tau))
-    return _states_kernel(t, x, tau)
+    return _states_kernel(t, x, tau, False)
 
 
 def hereditary_recursive(t, x, M_inf: float, M, tau) -> np.ndarray:
