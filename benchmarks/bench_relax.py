@@ -197,7 +197,7 @@ def ansys_terms(path):
 
 
 def frequency(pv: dict | None, how: str):
-    from bpmid.io.relax_logs import read_material_file
+    from bpmid.io.material_files import read_material_file
     from bpmid.relax import RelaxConfig
     from bpmid.relax.freq import complex_modulus, fit_frequency, rms_rel_pct
     from bpmid.relax.material import fit_material

@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from bpmid.cli import app
 from bpmid.errors import InputError
-from bpmid.io.relax_logs import is_material_file, read_material_file
+from bpmid.io.material_files import is_material_file, read_material_file
 from bpmid.relax import RelaxConfig, load_relax_fit
 from bpmid.relax.freq import complex_modulus, fit_frequency, rms_rel_pct
 

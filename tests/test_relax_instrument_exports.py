@@ -7,7 +7,8 @@ import pytest
 import yaml
 
 from bpmid.errors import InputError
-from bpmid.io.relax_logs import read_material_file, read_relax_logs
+from bpmid.io.material_files import read_material_file
+from bpmid.io.relax_logs import read_relax_logs
 from tests.test_relax_review import C1, C2, E_INF, T_REF, fit, sweeps
 
 F = np.logspace(-1, 2, 10)

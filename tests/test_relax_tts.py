@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from bpmid.cli import app
 from bpmid.errors import InputError
-from bpmid.io.relax_logs import read_material_file
+from bpmid.io.material_files import read_material_file
 from bpmid.relax import tts
 from bpmid.relax.freq import complex_modulus
 from bpmid.relax.material import fit_material

@@ -74,7 +74,7 @@ class LogOptions:
         """``--columns time=Zeit,pressure=Druck`` -> ``{"Zeit": "time", "Druck": "pressure"}``."""
         if self.columns is None:
             return {}
-        from bpmid.io.relax_logs import material_role
+        from bpmid.io.material_files import material_role
         from bpmid.io.tables import parse_header
 
         out: dict[str, str] = {}

@@ -13,13 +13,13 @@ sets were shifted.
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 
 from bpmid.errors import InputError
-from bpmid.io.relax_logs import MaterialData, RelaxLog
+from bpmid.io.material_files import MaterialData
+from bpmid.io.relax_logs import RelaxLog
 from bpmid.progress import note
 from bpmid.relax import tts
 

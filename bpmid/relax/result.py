@@ -320,7 +320,8 @@ class RelaxRun:
 def _fit_material(paths, material, config, *, terms, mode, poisson, max_error_pct, ref_temp, shift,
                   flags) -> RelaxRun:
     """``fit relax`` on frequency sweeps or raw sets at several temperatures (see :mod:`bpmid.relax.material`)."""
-    from bpmid.io.relax_logs import read_material_file, read_relax_logs
+    from bpmid.io.material_files import read_material_file
+    from bpmid.io.relax_logs import read_relax_logs
     from bpmid.relax.material import check_domains, fit_material
 
     cfg = config.section("relax")
@@ -380,7 +381,8 @@ def fit_relax_files(logs: Sequence[str | Path], *, terms: str | int | None = Non
     :class:`bpmid.relax.material.MaterialFit`. Warnings (``fit.warnings``) are not printed here.
     """
     from bpmid.config import load_config
-    from bpmid.io.relax_logs import is_material_file, read_relax_logs
+    from bpmid.io.material_files import is_material_file
+    from bpmid.io.relax_logs import read_relax_logs
     from bpmid.relax.fit import fit_relaxation
 
     check_mode(mode, flags=flags)

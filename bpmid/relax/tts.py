@@ -644,7 +644,7 @@ def read_shift_file(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
     Returns (T, log_aT); errors name the file and line.
     """
-    from bpmid.io.relax_logs import _csv_rows, _is_num, _split_unit
+    from bpmid.io.material_files import _csv_rows, _is_num, _split_unit
 
     path = Path(path)
     header, units, rows, hline = _csv_rows(path)
