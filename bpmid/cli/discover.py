@@ -17,8 +17,8 @@ HoldoutCommand = multi_value_command("--holdout")
 
 EPILOG = ("Without --holdout, a fixed split holds out whole logs (every 3rd, counting from the last; "
           "discover.holdout_every in a config). Example (a shipped blind case; its answer is in "
-          "datasets/discovery/ANSWERS.yaml):  bpmid discover datasets/discovery/case_01/train_*.csv --holdout "
-          "datasets/discovery/case_01/holdout_mixed.csv --out out/discover")
+          "datasets/discovery/ANSWERS.yaml):  bpmid discover datasets/discovery/case_05/train_*.csv --holdout "
+          "datasets/discovery/case_05/holdout_mixed.csv --out out/discover")
 
 
 def load_base(init: Optional[Path], cfg):
