@@ -31,21 +31,29 @@ def _with(lg, **kw):
 def test_clean_logs_get_no_caution_and_odd_logs_are_named(logs):
     fit, ho = logs
     state = ModelState.start(truth_model())
-    said, odd = data_cautions(state, fit, ho, 0.2)
+    said, odd = data_cautions(state, state, fit, ho, 0.2)
     assert said == [] and not odd
     # a fitting log mounted 30 deg off; five glitch samples of +40 deg in a held-out log
     a = ho[0].angle_deg.copy()
     a[np.linspace(20, a.size - 20, 5).astype(int)] += 40.0
     fit2 = [_with(fit[0], angle_deg=fit[0].angle_deg + 30.0)] + fit[1:]
-    said, odd = data_cautions(state, fit2, [_with(ho[0], angle_deg=a)] + ho[1:], 0.2)
+    said, odd = data_cautions(state, state, fit2, [_with(ho[0], angle_deg=a)] + ho[1:], 0.2)
     assert len(said) == 2 and odd
-    assert f"fitting log {fit[0].name} sits +30 deg off the other logs" in said[0]
+    assert f"fitting log {fit[0].name} sits +30 deg off the other logs" in said[0] and "once shifted" in said[0]
     assert f"held-out log {ho[0].name}: 5 isolated sample(s)" in said[1] and "the held-out score rests on them" in said[1]
-    # a base model far from the logs explains little of them
+    # a held-out log that drifts away over its run (a muscle warming): not a sensor's offset, no caution
+    drift = ho[-1].angle_deg + 20.0 * (ho[-1].time_s - ho[-1].time_s[0]) / np.ptp(ho[-1].time_s)
+    said, odd = data_cautions(state, state, fit, ho[:-1] + [_with(ho[-1], angle_deg=drift)], 0.2)
+    assert said == [] and not odd
+    # a base model far from the logs explains little of them; a model at the noise with a low R^2 (a small signal)
+    # is not said to
     soft = ModelState.start(VBMM(material=dataclasses.replace(Material.paper_fit(),
                                                                K_inf=5 * Material.paper_fit().K_inf)))
-    said, _ = data_cautions(soft, fit, ho, 0.2)
+    said, _ = data_cautions(soft, soft, fit, ho, 0.2)
     assert any("explains little of the fitting logs' angle" in s for s in said)
+    flat = [_with(lg, angle_deg=np.full(lg.n, 30.0) + (lg.angle_deg - np.mean(lg.angle_deg)) * 0.0
+                  + np.random.default_rng(1).normal(0, 0.2, lg.n)) for lg in fit]
+    assert not any("explains little" in s for s in data_cautions(state, state, flat, ho, 50.0)[0])
 
 
 def test_an_angle_offset_on_absolute_logs_with_an_assumed_ambient_is_questioned(logs):
@@ -70,6 +78,18 @@ def test_the_noise_floor_holds_on_unevenly_sampled_logs(logs):
         uneven.append(_with(lg, time_s=lg.time_s[keep], pressure_pa=lg.pressure_pa[keep],
                             angle_deg=lg.angle_deg[keep], pressure_as_given=None))
     assert noise_floor(uneven)["sigma_deg"] == pytest.approx(0.2, rel=0.1)
+
+
+def test_a_pressure_lag_named_on_unevenly_sampled_logs_is_questioned(logs):
+    from bpmid.discover.cautions import sampling_cautions
+
+    fit, _ = logs
+    keep = np.r_[np.arange(0, 100), np.arange(100, fit[1].n, 3)]   # fast, then a third of the rate
+    burst = _with(fit[1], time_s=fit[1].time_s[keep], pressure_pa=fit[1].pressure_pa[keep],
+                  angle_deg=fit[1].angle_deg[keep], pressure_as_given=None)
+    said = sampling_cautions([fit[0], burst], ["pressure_lag"])
+    assert len(said) == 1 and f"({burst.name}) are sampled unevenly" in said[0]
+    assert sampling_cautions([fit[0], burst], ["second_relaxation"]) == [] == sampling_cautions(fit, ["pressure_lag"])
 
 
 def test_a_flipped_log_and_a_copy_held_out_against_itself_are_refused_before_any_fit(logs):

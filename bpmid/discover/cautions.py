@@ -1,6 +1,7 @@
-"""What a careful user should know before trusting a verdict, said beside it: a log that sits far off the base model
-(a sensor mounted or zeroed differently), a base model that explains little of the fitting logs, a few samples that
-carry a log's error (a sensor glitch), and absolute pressures read against an ambient pressure nothing states.
+"""What a careful user should know before trusting a verdict, said beside it: a log that sits off the others by a
+constant (a sensor mounted or zeroed differently), a base model that explains little of the fitting logs, a few
+samples that carry a log's error (a sensor glitch), an angle offset named on absolute pressures read against an
+ambient pressure nothing states, and a pressure lag named on unevenly sampled logs.
 
 These never change what discovery names; they are lines of the verdict (``caution: ...``) and ``cautions`` in
 ``discovery.yaml``. A helper's trial found each giving a confident wrong reading without a word: a +90 deg log blamed
@@ -13,6 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
+from bpmid.discover.diagnose import uneven_steps
 from bpmid.discover.model import ModelState, residuals
 from bpmid.io.motion_logs import MotionLog
 from bpmid.io.plausibility import R2_MIN
@@ -24,11 +26,18 @@ GLITCH_MAX_SHARE = 0.01
 GLITCH_MAX_COUNT = 5
 #: ... and said when they carry at least this share of the log's squared error
 GLITCH_ERROR_SHARE = 0.2
-#: a log whose RMSE from the base model is this many times the other logs' median (and 5 noise floors) is odd
-ODD_LOG_RATIO = 5.0
-#: a log whose mean angle against the base model sits this many noise floors (and degrees) off the other logs'
+#: a log whose mean angle against the model sits this many noise floors (and degrees) off the other logs', and
+#: fits to within this many noise floors once shifted, reads as a sensor mounted or zeroed differently
 ODD_SHIFT_FLOORS = 10.0
 ODD_SHIFT_MIN_DEG = 5.0
+ODD_REST_FLOORS = 3.0
+#: the base model's poor fit is said only when its RMSE is this many noise floors (a small signal in honest noise
+#: gives a low R^2 too)
+POOR_FIT_FLOORS = 2.0
+#: a pressure change this many times the log's median change (and this share of its range) is a step, near which a
+#: sample may honestly stand out
+STEP_OVER_TYPICAL = 5.0
+STEP_MIN_SHARE = 0.01
 #: the ambient pressure io.atmosphere_pa takes when nothing states the lab's (the reader's words start so)
 _ASSUMED = "io.atmosphere_pa (the standard atmosphere"
 
@@ -38,8 +47,8 @@ def _name(lg: MotionLog) -> str:
 
 
 def _glitches(lg: MotionLog, r: np.ndarray) -> np.ndarray:
-    """Indices of isolated samples far from their neighbours' residual, away from the log's fastest pressure steps
-    (where a model that lags or leads misses a sample or two honestly)."""
+    """Indices of isolated samples far from their neighbours' residual, away from the log's pressure steps (where a
+    model that lags or leads misses a sample or two honestly)."""
     if r.size < 5:
         return np.zeros(0, int)
     local = r[1:-1] - 0.5 * (r[:-2] + r[2:])   # a sample against its neighbours: a spike stands out whole
@@ -51,54 +60,73 @@ def _glitches(lg: MotionLog, r: np.ndarray) -> np.ndarray:
     peak = np.r_[True, z[1:] >= z[:-1]] & np.r_[z[:-1] >= z[1:], True]
     k = np.flatnonzero((z > GLITCH_Z * width) & peak) + 1
     dp = np.abs(np.diff(np.asarray(lg.pressure_pa, float)))
-    if dp.size and k.size:
-        steep = dp >= np.quantile(dp, 0.99)
-        near = steep[np.clip(k - 1, 0, dp.size - 1)] | steep[np.clip(k, 0, dp.size - 1)]
-        k = k[~near]
+    if dp.size and k.size:   # a step: a pressure change far above the log's typical one (a ramp's is typical)
+        steep = (dp > STEP_OVER_TYPICAL * float(np.median(dp))) & (dp > STEP_MIN_SHARE * float(np.ptp(lg.pressure_pa)))
+        near = np.zeros(r.size, bool)
+        for off in (-1, 0, 1, 2):
+            idx = np.flatnonzero(steep) + off
+            near[idx[(idx >= 0) & (idx < r.size)]] = True
+        k = k[~near[k]]
     return k
 
 
-def data_cautions(state: ModelState, fit_logs: Sequence[MotionLog], ho_logs: Sequence[MotionLog],
-                  floor: float) -> tuple[list[str], bool]:
-    """Sentences about the logs against the base model, and whether a held-out log's error rests on a few samples
-    or on the whole log sitting off (the verdict then does not blame the fitting logs' coverage)."""
+def data_cautions(base: ModelState, final: ModelState, fit_logs: Sequence[MotionLog],
+                  ho_logs: Sequence[MotionLog], floor: float) -> tuple[list[str], bool]:
+    """Sentences about the logs, and whether a held-out log's error rests on a few samples or on the log sitting
+    off the others (the verdict then does not blame the fitting logs' coverage). A log is judged against the final
+    model (the base model with every effect named), so that an effect a log exercises more than the others is not
+    taken for a fault of the log; the fit's quality is the base model's, against the noise."""
     out: list[str] = []
     held_out_odd = False
-    fit_res = residuals(state, fit_logs)
-    ho_res = residuals(state, ho_logs)
-    r = np.concatenate(fit_res) if fit_res else np.zeros(0)
+    fit_res = residuals(final, fit_logs)
+    ho_res = residuals(final, ho_logs)
+    base_res = np.concatenate(residuals(base, fit_logs)) if fit_logs else np.zeros(0)
     a = np.concatenate([lg.angle_deg for lg in fit_logs]) if fit_logs else np.zeros(0)
     ss = float(np.sum((a - np.mean(a)) ** 2)) if a.size else 0.0
-    r2 = 1.0 - float(np.sum(r ** 2)) / ss if ss > 0 else float("nan")
-    if np.isfinite(r2) and r2 < R2_MIN:
-        out.append(f"the base model explains little of the fitting logs' angle (R^2 {r2:.2f} < {R2_MIN:g}): its "
-                   "constants, and any verdict resting on them, are not to be trusted; look for a log that is off, "
-                   "or a unit or reference slip")
+    r2 = 1.0 - float(np.sum(base_res ** 2)) / ss if ss > 0 else float("nan")
+    base_rmse = float(np.sqrt(np.mean(base_res ** 2))) if base_res.size else 0.0
     every = [(lg, p, "fitting") for lg, p in zip(fit_logs, fit_res)] + [(lg, p, "held-out")
                                                                         for lg, p in zip(ho_logs, ho_res)]
-    rms = np.array([float(np.sqrt(np.mean(p ** 2))) for _, p, _ in every])
     level = np.array([-float(np.mean(p)) for _, p, _ in every])   # measurement minus model, on average
+    shifts = [level[i] - float(np.median(np.delete(level, i))) if level.size > 1 else 0.0 for i in range(level.size)]
+    if np.isfinite(r2) and r2 < R2_MIN and base_rmse > POOR_FIT_FLOORS * floor:
+        far = int(np.argmax(np.abs(shifts))) if shifts else None
+        which = (f"; the log furthest off the others is {_name(every[far][0])} ({shifts[far]:+.3g} deg on average)"
+                 if far is not None and abs(shifts[far]) > ODD_SHIFT_MIN_DEG else "")
+        out.append(f"the base model explains little of the fitting logs' angle (R^2 {r2:.2f} < {R2_MIN:g}, RMSE "
+                   f"{base_rmse:.3g} deg against a noise floor of {floor:.3g}): its constants, and any verdict resting "
+                   f"on them, are not to be trusted; look for a log that is off, or a unit or reference slip{which}")
     for i, (lg, p, role) in enumerate(every):
-        others = np.delete(rms, i)
-        typical = float(np.median(others)) if others.size else floor
         k = _glitches(lg, p)
         share = float(np.sum(p[k] ** 2) / max(float(np.sum(p ** 2)), 1e-300)) if k.size else 0.0
-        shift = level[i] - float(np.median(np.delete(level, i))) if rms.size > 1 else 0.0
+        rest = float(np.std(p))   # what is left once the log's own mean is taken out
         if 0 < k.size <= max(GLITCH_MAX_SHARE * p.size, GLITCH_MAX_COUNT) and share >= GLITCH_ERROR_SHARE:
             out.append(f"{role} log {_name(lg)}: {k.size} isolated sample(s) (the first at t = "
                        f"{float(lg.time_s[k[0]]):.4g} s) sit far from their neighbours and carry {share:.0%} of "
                        f"its squared error: a sensor glitch or a knock? Leave them out and run again"
                        + (": the held-out score rests on them" if role == "held-out" else ""))
-        elif abs(shift) > max(ODD_SHIFT_FLOORS * floor, ODD_SHIFT_MIN_DEG):
-            out.append(f"{role} log {_name(lg)} sits {shift:+.3g} deg off the other logs against the base model "
-                       f"(a sensor mounted or zeroed differently?): check it before reading the verdict")
-        elif rms[i] > ODD_LOG_RATIO * max(typical, floor) and rms[i] > 5.0 * floor:
-            out.append(f"{role} log {_name(lg)}: {rms[i]:.3g} deg from the base model, {rms[i] / typical:.0f} times "
-                       f"the other logs' typical {typical:.3g} deg: check it before reading the verdict")
+        elif abs(shifts[i]) > max(ODD_SHIFT_FLOORS * floor, ODD_SHIFT_MIN_DEG) and rest < ODD_REST_FLOORS * floor:
+            out.append(f"{role} log {_name(lg)} sits {shifts[i]:+.3g} deg off the other logs against the model, and "
+                       f"fits to within {rest:.2g} deg once shifted (a sensor mounted or zeroed differently?): check "
+                       "it before reading the verdict")
         else:
             continue
         held_out_odd |= role == "held-out"
     return out, held_out_odd
+
+
+def sampling_cautions(logs: Sequence[MotionLog], named: Sequence[str]) -> list[str]:
+    """A sentence when a delay is named on logs whose time step changes within them: the model's hereditary sum takes
+    each pressure change as a step at its sample, so where the step grows it lags the muscle, a delay the fit can
+    take up as a pressure lag."""
+    uneven = [lg for lg in logs if uneven_steps(lg.time_s)]
+    if not uneven or "pressure_lag" not in named:
+        return []
+    names = ", ".join(_name(lg) for lg in uneven[:4]) + (", ..." if len(uneven) > 4 else "")
+    return [f"{len(uneven)} of the {len(logs)} logs ({names}) are sampled unevenly (their time steps differ by more "
+            "than 1 %): the model applies each pressure change at its sample, so where the step grows it trails the "
+            "muscle by up to half a step, and the pressure_lag named here may be that, not the rig. Log at an even "
+            "rate, or resample evenly, and run again"]
 
 
 def ambient_cautions(logs: Sequence[MotionLog], named: Sequence[str]) -> list[str]:

@@ -89,7 +89,7 @@ def _pressure_corners(p: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
     c = np.zeros(p.size, bool)
     if p.size < 3:
         return c
-    if t is not None and _uneven(t):
+    if t is not None and uneven_steps(t):
         dt = np.diff(np.asarray(t, float))
         d2 = np.abs(np.diff(np.diff(p) / dt)) * float(np.median(dt))
     else:
@@ -107,7 +107,8 @@ def _pressure_corners(p: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
 _UNEVEN_STEP_SHARE = 0.01
 
 
-def _uneven(t: np.ndarray) -> bool:
+def uneven_steps(t: np.ndarray) -> bool:
+    """Whether a log's time steps differ from their median by more than 1 %."""
     dt = np.diff(np.asarray(t, float))
     med = float(np.median(dt)) if dt.size else 0.0
     return bool(dt.size and med > 0 and np.max(np.abs(dt - med)) > _UNEVEN_STEP_SHARE * med)
@@ -119,7 +120,7 @@ def _spaced_differences(lg: MotionLog, order: int, h: int, w: np.ndarray) -> np.
     n = y.size - span
     if n < 1:
         return np.zeros(0)
-    if _uneven(lg.time_s):
+    if uneven_steps(lg.time_s):
         # on uneven times a difference by sample index leaves the signal in (a ramp is no longer a polynomial of the
         # index): each window takes the divided-difference weights of its own times, which remove any polynomial of
         # degree < order in time, scaled to the even weights' norm so that the noise model below still holds

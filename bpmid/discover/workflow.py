@@ -54,7 +54,7 @@ from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS
                                       winner_rank)
 from bpmid.discover.confirm import (Confirmation, PairTrial, confirm, excess_deg, heldout_drop_sigma, holm_adjusted,
                                    p_note, p_words, pair_trial)
-from bpmid.discover.cautions import ambient_cautions, data_cautions
+from bpmid.discover.cautions import ambient_cautions, data_cautions, sampling_cautions
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import (IMITATES, RIVALS, adds_beside, beats, check_rival, held_against, own_shape,
                                    rival_constants)
@@ -601,6 +601,9 @@ def _pair_member_explanation(c: Confirmation, rnd: Round, floor: float, s, e) ->
 FIT_AT_FLOOR = 1.15
 #: ... while the scored held-out error is at least this many
 HELDOUT_ABOVE = 1.3
+#: how far below 0 deg a measured angle may go before discovery refuses the log: angle_offset's bound (its sensor
+#: zero may sit up to 30 deg off), so only a flipped sign or a sensor mounted the other way is refused
+ANGLE_BELOW_ZERO_DEG = 30.0
 
 
 def make_verdict(named: list[str], rounds: list[Round], before: float, after: float, floor: float,
@@ -690,7 +693,8 @@ def split_logs(logs: Sequence[MotionLog], holdout: Sequence[MotionLog] | None, c
         if lg.n < cfg.min_log_samples:
             raise InputError(f"cannot judge: the log has {lg.n} samples, fewer than {cfg.min_log_samples}",
                              path=lg.path or lg.name)
-        check_angle_range(lg)   # a sign flipped or a sensor zeroed elsewhere, named before any fit
+        # a sign flipped, named before any fit; an angle offset (a catalogue effect, up to -30 deg) may dip below 0
+        check_angle_range(lg, tolerance_deg=ANGLE_BELOW_ZERO_DEG)
     if holdout:
         fit, ho, how = logs, list(holdout), "held-out logs given with --holdout"
     else:
@@ -844,7 +848,6 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                      + [f"the floor used is {res.rmse:.3g} deg, the base fit's RMSE on the fitting logs: the noise "
                         f"reading above ({noise['sigma_deg']:.3g} deg) cannot exceed what the model leaves"])
         floor = noise["sigma_deg"]
-    cautions, held_out_odd = data_cautions(base_state, fit_logs, ho_logs, floor)
     base_gain = gain
     before = scored_rmse(state, ho_logs, per_log_gain=base_gain)
     raw_before = rmse_deg(residuals(state, ho_logs))
@@ -1053,7 +1056,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     # a round withheld for a rival outside the catalogue leaves a systematic residual the catalogue cannot explain
     unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor or any(r.withheld for r in rounds))
     variation = log_to_log_variation(state, ho_logs, raw_after, floor, cfg) if unexplained else None
-    cautions = cautions + ambient_cautions(all_logs, named)
+    cautions, held_out_odd = data_cautions(base_state, state, fit_logs, ho_logs, floor)
+    cautions += ambient_cautions(all_logs, named) + sampling_cautions(all_logs, named)
     verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after,
                            noise, cfg.unexplained_gap_sigma, final=state, cautions=cautions,
                            held_out_odd=held_out_odd)
