@@ -120,6 +120,10 @@ def test_a_sweep_continued_at_another_temperature_is_two_sets_and_a_drifting_set
     p = tmp_path / "cont.csv"
     p.write_text(_table(rows, ["f (Hz)", "E' (MPa)", "E'' (MPa)", "T (C)"], delim=","))
     assert [T for T, _ in read_material_file(p).sets()] == [40.0, 30.0]
+    # a thermocouple's one-sample glitch of +2.2 C inside the 40 C sweep starts no set
+    glitch = [r[:3] + (r[3] + 2.2 if k == 3 else r[3],) for k, r in enumerate(rows)]
+    p.write_text(_table(glitch, ["f (Hz)", "E' (MPa)", "E'' (MPa)", "T (C)"], delim=","))
+    assert [T for T, _ in read_material_file(p).sets()] == [40.0, 30.0]
     # one frequency while the temperature ramps 20 -> 30 C in 1 C steps: not an isothermal sweep
     ramp = [(1.0, 10.0 - 0.1 * k, 1.0, 20.0 + k) for k in range(11)]
     p.write_text(_table(ramp, ["f (Hz)", "E' (MPa)", "E'' (MPa)", "T (C)"], delim=","))

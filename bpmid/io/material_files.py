@@ -437,6 +437,18 @@ class MaterialData:
         return out
 
 
+def _temperature_jumps(T: np.ndarray) -> np.ndarray:
+    """(N-1,) True where the temperature steps by more than :data:`SET_T_JUMP_C` from one sample to the next and
+    stays there: a single sample off and back (a thermocouple's glitch) starts no set."""
+    jump = np.abs(np.diff(T)) > SET_T_JUMP_C
+    if T.size >= 3:
+        back = np.abs(T[2:] - T[:-2]) <= SET_T_JUMP_C   # sample k off, k - 1 and k + 1 agree
+        spike = jump[:-1] & jump[1:] & back
+        jump[:-1] &= ~spike
+        jump[1:] &= ~spike
+    return jump
+
+
 def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None = None,
                        sheet: str | None = None) -> MaterialData:
     """Read frequency-domain moduli or raw relaxation sets at several temperatures (CSV or Excel).
@@ -622,7 +634,7 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
         # where the temperature jumps from one sample to the next (a sweep continued at another temperature)
         step = np.diff(x)
         direction = -1.0 if step.size and float(np.median(step)) < 0 else 1.0
-        sid = np.concatenate([[0], np.cumsum((direction * step < 0) | (np.abs(np.diff(T)) > SET_T_JUMP_C))]).astype(int)
+        sid = np.concatenate([[0], np.cumsum((direction * step < 0) | _temperature_jumps(T))]).astype(int)
     else:
         sid = None
         step = np.diff(x)
