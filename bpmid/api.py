@@ -397,7 +397,7 @@ def discover(logs, *, holdout=None, init=None, config=None):
     from bpmid.io import plausibility as plaus
 
     every = list(fit_logs) + list(ho_logs or [])
-    warnings = plaus.reader_warnings(every) + plaus.motion_data_warnings(every)   # what `bpmid discover` prints
+    warnings = plaus.log_warnings(every)   # what `bpmid discover` prints
     res = _discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
     warn_caller(warnings + [f"discovery: {c}" for c in res.cautions])
     body = res.to_yaml()

@@ -76,7 +76,7 @@ def discover_cmd(
     fit_logs = read_motion_logs(paths, cfg.section("io"), require_angle=True)
     ho_logs = read_motion_logs(ho_paths, cfg.section("io"), require_angle=True) if ho_paths else None
     all_logs = fit_logs + (ho_logs or [])
-    warnings = plaus.reader_warnings(all_logs) + plaus.motion_data_warnings(all_logs)
+    warnings = plaus.log_warnings(all_logs)
     plaus.emit(warnings, strict=cfg.section("io").strict, what=str(out))
     base, base_from = load_base(init, cfg)
     result = discover(fit_logs, base, holdout=ho_logs, cfg=dcfg)

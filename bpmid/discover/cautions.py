@@ -46,6 +46,10 @@ def _name(lg: MotionLog) -> str:
     return lg.path.name if lg.path is not None else lg.name
 
 
+def _names(logs: Sequence[MotionLog]) -> str:
+    return ", ".join(_name(lg) for lg in logs[:4]) + (", ..." if len(logs) > 4 else "")
+
+
 def _glitches(lg: MotionLog, r: np.ndarray) -> np.ndarray:
     """Indices of isolated samples far from their neighbours' residual, away from the log's pressure steps (where a
     model that lags or leads misses a sample or two honestly)."""
@@ -122,8 +126,7 @@ def sampling_cautions(logs: Sequence[MotionLog], named: Sequence[str]) -> list[s
     uneven = [lg for lg in logs if uneven_steps(lg.time_s)]
     if not uneven or "pressure_lag" not in named:
         return []
-    names = ", ".join(_name(lg) for lg in uneven[:4]) + (", ..." if len(uneven) > 4 else "")
-    return [f"{len(uneven)} of the {len(logs)} logs ({names}) are sampled unevenly (their time steps differ by more "
+    return [f"{len(uneven)} of the {len(logs)} logs ({_names(uneven)}) are sampled unevenly (their time steps differ by more "
             "than 1 %): the model applies each pressure change at its sample, so where the step grows it trails the "
             "muscle by up to half a step, and the pressure_lag named here may be that, not the rig. Log at an even "
             "rate, or resample evenly, and run again"]
@@ -138,8 +141,7 @@ def ambient_cautions(logs: Sequence[MotionLog], named: Sequence[str]) -> list[st
                    _ASSUMED)]
     if not assumed or "angle_offset" not in named:
         return []
-    names = ", ".join(_name(lg) for lg in assumed[:4]) + (", ..." if len(assumed) > 4 else "")
-    return [f"{len(assumed)} of the {len(logs)} logs ({names}) hold absolute pressures turned into gauge with the "
+    return [f"{len(assumed)} of the {len(logs)} logs ({_names(assumed)}) hold absolute pressures turned into gauge with the "
             f"standard atmosphere, 101325 Pa, which nothing states: in a lab at 950 hPa every gauge pressure reads "
             f"6.3 kPa high, which bends the muscle further at every pressure, and the angle_offset named here may be "
             "that, not the sensor. State the lab's ambient pressure (io.atmosphere_pa in the config, a "

@@ -98,8 +98,7 @@ def _mat_role(name: str) -> tuple[str | None, str | None]:
         if parts[1] in _MAT_UNITS[_ROLE_UNIT[role]]:
             return role, parts[1] if unit is None else unit
     if unit is None:  # a unit after a slash or a space: only a known name with a known unit of its kind
-        for left, right in (base.split("/", 1) if "/" in base else (None, None),
-                            base.strip().rsplit(" ", 1) if " " in base.strip() else (None, None)):
+        for left, right in _name_tails(base):
             role = (_base_role(left) or _modulus_symbol(left)) if left else None
             if role is not None and right.strip() and right.strip().lower() in _MAT_UNITS[_ROLE_UNIT[role]]:
                 return role, right.strip().lower()
@@ -122,15 +121,26 @@ def material_role(name: str) -> tuple[str | None, str | None]:
     return _mat_role(name)
 
 
-def _unit_in_name(name: str, fam: str) -> str | None:
+def _name_tails(name: str) -> list[tuple[str, str]]:
+    """(name, unit) splits where instruments write a unit after a name: at the first slash (``Freq./Hz``,
+    ``Frequency/rad/s``) and at the last space (``Temperature °C``)."""
+    out = []
+    if "/" in name:
+        out.append(tuple(name.split("/", 1)))
+    if " " in name.strip():
+        out.append(tuple(name.strip().rsplit(" ", 1)))
+    return out
+
+
+def _unit_in_name(name: str, fam: str, also: frozenset = frozenset()) -> str | None:
     """The unit a column's own name states, for a column the map gives another name: in parentheses or brackets,
-    after a slash or after the last space when it is a unit of ``fam`` (``'Temp. sample °C'`` -> ``'°c'``)."""
+    or after a slash or the last space when it is a unit of ``fam`` (or in ``also``): ``'Temp. sample °C'`` ->
+    ``'°c'``."""
     unit = _split_unit(name)[1]
     if unit is not None:
         return unit
-    for tail in (name.rsplit("/", 1)[-1] if "/" in name else None,
-                 name.strip().rsplit(" ", 1)[-1] if " " in name.strip() else None):
-        if tail and tail.strip().lower() in _MAT_UNITS[fam] and tail.strip():
+    for _, tail in _name_tails(name):
+        if tail.strip() and (tail.strip().lower() in _MAT_UNITS[fam] or tail.strip().lower() in also):
             return tail.strip().lower()
     return None
 

@@ -329,6 +329,12 @@ def reader_warnings(logs: Iterable) -> list[str]:
     return out
 
 
+def log_warnings(logs: Sequence) -> list[str]:
+    """What reading and a first look at motion logs say (the readers' own warnings, then unit and reference slips),
+    before any model runs on them."""
+    return reader_warnings(logs) + motion_data_warnings(logs)
+
+
 def reading_block(logs: Iterable) -> dict:
     """log name -> what its reader found and assumed (for the output's provenance)."""
     return {str(lg.name): dict(getattr(lg, "reading", {}) or {}) for lg in logs}

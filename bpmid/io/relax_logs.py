@@ -214,9 +214,7 @@ def _test_temperature(table, chosen: str | None = None) -> tuple[float, str | No
         role, named = _mat_role(h)
         if h != chosen and (chosen is not None or (role != "T" and "temp" not in h.lower())):
             continue
-        tail = (h.rsplit("/", 1)[-1] if "/" in h else h.strip().rsplit(" ", 1)[-1]).strip().lower()
-        unit = _unit_cell(named or _split_unit(h)[1] or _unit_in_name(h, "T") or (tail if tail in _F_UNITS else None)
-                          or unit or "").strip().lower()
+        unit = _unit_cell(named or _unit_in_name(h, "T", also=_F_UNITS) or unit or "").strip().lower()
         vals = []
         for c in cells:
             try:
