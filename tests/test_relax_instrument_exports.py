@@ -164,6 +164,33 @@ def test_ramp_and_hold_logs_at_different_temperatures_are_not_pooled(tmp_path):
     assert T == pytest.approx(20.02, abs=0.02) and unit == "C" and column == "Temperature (°C)"
 
 
+def test_a_ramp_and_hold_log_whose_temperature_moves_during_the_test_is_refused(tmp_path):
+    t = np.arange(0.0, 60.0, 0.1)
+    strain = np.minimum(t, 1.0) * 0.05
+    stress = 2.0 * strain + 1.0 * strain * np.exp(-t / 5.0)
+
+    def log(name, temps, head="Temperature (°C)"):
+        p = tmp_path / name
+        p.write_text(f"Time (s),Strain,Stress (MPa),{head}\n" + "".join(
+            f"{a:.3f},{b:.6f},{c:.6f},{T:.2f}\n" for a, b, c, T in zip(t, strain, stress, temps)))
+        return p
+
+    warming = log("warming.csv", 20.0 + 10.0 * t / t[-1])           # 20 -> 30 C while it relaxes
+    with pytest.raises(InputError, match=r"column 'Temperature \(°C\)' moves from 20.1 C to 29.9 C during the test"):
+        read_relax_logs([warming])
+    res, _ = fit(tmp_path, warming)
+    assert res.exit_code == 2 and "warming.csv" in res.output and "one temperature" in res.output
+    assert "Traceback" not in res.output
+    kelvin = log("kelvin.csv", 293.15 + 8.0 * t / t[-1], head="T [K]")  # 8 K is 8 C
+    with pytest.raises(InputError, match="moves from 20.1 C to 27.9 C"):
+        read_relax_logs([kelvin])
+    glitch = np.full(t.size, 25.0)
+    glitch[100] = 85.0                                               # one bad sample is no temperature change
+    assert read_relax_logs([log("glitch.csv", glitch)])[0].temperature[0] == pytest.approx(25.1, abs=0.05)
+    steady = log("steady.csv", 25.0 + 2.0 * t / t[-1])              # 2 C of drift: within one temperature
+    assert read_relax_logs([steady])[0].temperature[1] == "C"
+
+
 def test_the_column_map_reaches_material_files_and_keeps_the_headers_unit(tmp_path):
     rows = [(f, s, l, T) for f, s, l, T, _ in sweeps(TS, F)]
     p = tmp_path / "odd.csv"

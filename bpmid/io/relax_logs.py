@@ -178,7 +178,7 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
                    max_gap_s=None if io_cfg is None or need[1] == "modulus" else io_cfg.max_gap_s)
     common = dict(name=path.stem, time_s=t, path=path, meta=dict(table.meta), first_data_line=table.first_data_line,
                   reading=dict(table.reading), warnings=list(table.warnings),
-                  temperature=_test_temperature(table, temp_column))
+                  temperature=_test_temperature(table, path, temp_column))
     if need[1] == "modulus":
         E = table.columns["modulus"]
         bad = np.flatnonzero(E < 0)
@@ -205,9 +205,9 @@ def _f_to_c(v: float) -> float:
     return (v - 32.0) * 5.0 / 9.0
 
 
-def _test_temperature(table, chosen: str | None = None) -> tuple[float, str | None, str] | None:
-    """(mean, unit, header) of a log's test-temperature column: the one the column map names, else a set-aside
-    column whose name is a temperature (``Temperature (°C)``, ``T [K]``, ``Chamber temp (°F)``). The mean is in C
+def _temperature_values(table, chosen: str | None = None) -> tuple[np.ndarray, str | None, str] | None:
+    """(values, unit, header) of a log's test-temperature column: the one the column map names, else a set-aside
+    column whose name is a temperature (``Temperature (°C)``, ``T [K]``, ``Chamber temp (°F)``). The values are in C
     for C, K and F, and as written (unit None) for a column whose unit is not stated or not known."""
     chosen = chosen if chosen in table.ignored_cells else None  # a map for other files names a column not here
     for h, (cells, unit) in table.ignored_cells.items():
@@ -225,13 +225,31 @@ def _test_temperature(table, chosen: str | None = None) -> tuple[float, str | No
         vals = vals[np.isfinite(vals)]
         if not vals.size:
             continue
-        mean = float(np.mean(vals))
         if unit in _MAT_UNITS["T"] and unit:
-            return mean + _MAT_UNITS["T"][unit], "C", h
+            return vals + _MAT_UNITS["T"][unit], "C", h
         if unit in _F_UNITS:
-            return _f_to_c(mean), "C", h
-        return mean, None, h
+            return _f_to_c(vals), "C", h
+        return vals, None, h
     return None
+
+
+def _test_temperature(table, path: Path, chosen: str | None = None) -> tuple[float, str | None, str] | None:
+    """(mean, unit, header) of a log's test-temperature column (:func:`_temperature_values`); refused when the
+    temperature moves by more than :data:`SET_T_SPAN_C` during the test (between its 1st and 99th percentiles, so
+    that a glitch of a sample or two does not count): the test is then not at one temperature."""
+    got = _temperature_values(table, chosen)
+    if got is None:
+        return None
+    vals, unit, h = got
+    lo, hi = np.percentile(vals, [1.0, 99.0])
+    if hi - lo > SET_T_SPAN_C:
+        c = " C" if unit == "C" else ""
+        how = "" if unit == "C" else " (a column without a unit of C, K or F is read as written)"
+        raise InputError(f"the temperature in column {h!r} moves from {lo:.3g}{c} to {hi:.3g}{c} during the test, "
+                         f"more than {SET_T_SPAN_C:g} C{how}: a ramp-and-hold fit takes each log at one temperature; "
+                         "cut the log to the part at one temperature, or fit a master curve from relaxation modulus "
+                         "curves (t, E_relax, T) or frequency sweeps with their temperatures", path=path, key=h)
+    return float(np.mean(vals)), unit, h
 
 
 def check_one_temperature(logs: Sequence[RelaxLog]) -> None:
