@@ -191,6 +191,31 @@ def test_a_ramp_and_hold_log_whose_temperature_moves_during_the_test_is_refused(
     assert read_relax_logs([steady])[0].temperature[1] == "C"
 
 
+def test_a_bare_T_beside_a_time_column_is_set_aside_as_a_temperature_and_said(tmp_path):
+    from bpmid.io.motion_logs import read_motion_log
+
+    t = np.arange(0.0, 60.0, 0.1)
+    strain = np.minimum(t, 1.0) * 0.05
+    stress = 2.0 * strain + 1.0 * strain * np.exp(-t / 5.0)
+    paths = []
+    for T in (20.0, 40.0):
+        p = tmp_path / f"bare{T:.0f}.csv"
+        p.write_text("Time (s),Strain,Stress (MPa),T\n" + "".join(
+            f"{a:.3f},{b:.6f},{c:.6f},{T:.1f}\n" for a, b, c in zip(t, strain, stress)))
+        paths.append(p)
+    log = read_relax_logs(paths[:1])[0]
+    assert np.allclose(log.time_s, t) and log.temperature == (pytest.approx(20.0), None, "T")
+    assert any("set aside the column 'T'" in w and "--columns time=T" in w for w in log.warnings)
+    with pytest.raises(InputError, match="tested at different temperatures"):
+        read_relax_logs(paths)                       # the set-aside T is still compared, as written
+    m = tmp_path / "motion.csv"
+    m.write_text("time_s,T,pressure_kpa_g,angle_deg\n" + "".join(f"{k * 0.1:.1f},23.5,{k:.1f},{k / 10:.2f}\n"
+                                                               for k in range(50)))
+    ml = read_motion_log(m)
+    assert np.allclose(ml.time_s, np.arange(50) * 0.1)
+    assert any("set aside the column 'T'" in w for w in ml.warnings)
+
+
 def test_the_column_map_reaches_material_files_and_keeps_the_headers_unit(tmp_path):
     rows = [(f, s, l, T) for f, s, l, T, _ in sweeps(TS, F)]
     p = tmp_path / "odd.csv"

@@ -1451,6 +1451,7 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     # the ambient pressure matters only to an absolute pressure: a column of it that cannot be read is set aside
     # here, and its error raised by the reader that needs it (bpmid.io.ambient.ambient_pressure)
     deferred: dict[str, InputError] = {}
+    pre_warns = _set_aside_bare_t(found, ignored, where)
     unstated = [(q, ents[0][2]) for q, ents in found.items()
                 if ents[0][1] is None and q not in units and f"{q}_unit" not in meta and q not in ("strain", "ambient")
                 and not (q == "time" and _time_is_text(grid.cols[ents[0][0]]))]
@@ -1481,7 +1482,7 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     reading["columns"] = col_info
     if ignored or unknown:
         reading["ignored_columns"] = list(ignored) + list(unknown)
-    warns = rival_warns + ([f"the file ends in {grid.info['nul_bytes_at_end']} NUL bytes (a logger that lost power?): "
+    warns = pre_warns + rival_warns + ([f"the file ends in {grid.info['nul_bytes_at_end']} NUL bytes (a logger that lost power?): "
                             f"read the rows before them; check that its last row (line {lines[n_rows - 1]}) is "
                             f"complete"] if grid.info.get("nul_bytes_at_end") and n_rows else [])
     set_aside = set(ignored) | set(unknown)
@@ -1491,6 +1492,21 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
                   reading, warns, where, grid.info.get("map_note", ""), dict(grid.meta_lines or {}), deferred, cells)
     return table
+
+
+def _set_aside_bare_t(found: dict, ignored: list, where) -> list[str]:
+    """A bare upper-case ``T`` column beside another time column is set aside, not read as a second time: ``T`` is
+    as often a temperature (material tests write it so), and the other column states the time. Returns the
+    warning that says so (never in silence)."""
+    ents = found.get("time") or []
+    bare = [e for e in ents if str(e[2]).strip().strip('"') == "T" and e[1] is None]
+    rest = [e for e in ents if e not in bare]
+    if not bare or not rest:
+        return []
+    found["time"] = rest
+    ignored.extend(e[2] for e in bare)
+    return [f"{where}: took {rest[0][2]!r} as the time and set aside the column 'T' beside it (a temperature?); if "
+            f"'T' is the time, take it with {columns_arg('time=T')} and state its unit"]
 
 
 def _refuse_millipascal(grid: Grid, found: dict, units: Mapping[str, str], unit_sources: Mapping[str, str],
