@@ -342,6 +342,17 @@ def test_maxwell_slip_forward_equals_python_and_its_inverse_is_a_right_inverse(t
         assert np.max(np.abs(ang - ref)) < 1e-9
         p = lib.run_inverse(lg.time_s, ang)
         assert np.max(np.abs(lib.run_forward(lg.time_s, p) - ang)) < 1e-9
+    # no fitted range, but what no rig gives is flagged (it said status 0 to -200 kPa gauge and to -5 deg asked)
+    lib.reset()
+    lib.forward(0.0, 20000.0)
+    assert lib.status == 0
+    lib.forward(0.1, -200000.0)
+    assert lib.status == 1
+    lib.reset()
+    lib.inverse(0.0, 20.0)
+    assert lib.status == 0
+    lib.inverse(0.1, -5.0)
+    assert lib.status == 1
 
 
 QUIET = dataclasses.replace(ControlConfig(), sensors=dataclasses.replace(ControlConfig().sensors, angle_noise_deg=0.05))
@@ -383,8 +394,18 @@ def test_filter_refuses_bad_lines(plain):
         res = subprocess.run([str(exe), *flag], input=f"{head}\n0,1.2\n0.1,1.3\n", capture_output=True, text=True)
         assert res.returncode == 2 and res.stdout == "", res.stderr
         assert f"line 1: the header names '{head}'" in res.stderr and "time in s" in res.stderr
-    # the header it reads, with spaces, quotes or CRLF, and no header at all: read
-    for text in ('"time_s", "pressure_gauge_pa"\r\n0,20000\r\n', "0,20000\n"):
+    # a value the model refuses (status 3) stops the filter naming the line, printing nothing for it (it printed
+    # the previous angle again and went on); a hexadecimal number is refused, not read as 16 Pa
+    for text, what, printed in (("0,50000\n0.1,5e10\n0.2,60000\n", "line 2: input refused", 1),
+                                ("0,5e10\n", "line 1: input refused", 0),
+                                ("0,0x10\n", "line 1: a hexadecimal number", 0)):
+        res = subprocess.run([str(exe)], input=text, capture_output=True, text=True)
+        assert res.returncode == 2 and what in res.stderr and len(res.stdout.split()) == printed, res.stderr
+    res = subprocess.run([str(exe), "-i"], input="0,30\n0.1,2e6\n0.2,40\n", capture_output=True, text=True)
+    assert res.returncode == 2 and "line 2: input refused" in res.stderr and len(res.stdout.split()) == 1
+    # the header it reads, with spaces, quotes, CRLF or Excel's UTF-8 byte-order mark, and no header at all: read
+    for text in ('"time_s", "pressure_gauge_pa"\r\n0,20000\r\n', "0,20000\n",
+                 "\ufefftime_s,pressure_gauge_pa\n0,20000\n"):
         res = subprocess.run([str(exe)], input=text, capture_output=True, text=True)
         assert res.returncode == 0 and len(res.stdout.split()) == 1, res.stderr
 
@@ -430,6 +451,12 @@ def test_a_refused_input_leaves_the_state_and_says_so(plain):
     assert lib.status == 1
     lib.inverse(float(t[7]), 1000.0)
     assert lib.status == 1
+    lib.reset()                     # a gauge pressure below vacuum, which no valve gives: answered, flagged
+    lib.forward(0.0, 0.0)
+    lib.forward(0.1, -200000.0)
+    assert lib.status == 1
+    lib.forward(0.2, -50000.0)
+    assert lib.status == 0
 
 
 def test_cli_export_and_refusals(plain, tmp_path):
@@ -454,13 +481,30 @@ def test_cli_export_and_refusals(plain, tmp_path):
     assert res.exit_code == 2 and "schema" in res.output
     res = CliRunner().invoke(app, ["export", str(fit), "--to", "fortran", "--out", str(tmp_path / "o4")])
     assert res.exit_code == 2 and "--to" in res.output
-    # a comparison or control file without --model, a material fit to C: told what to give instead
-    for schema, what in (("bpmid.compare/1", "--model (vbmm-fit, vbmm-mat or maxwell-slip)"),
-                         ("bpmid.control/1", "--model (maxwell-slip)"), ("bpmid.relax/1", "--to abaqus, ansys or comsol")):
+    # a file of another kind (with or without --model, to C or to an FEA tool): told what it is and what to do
+    for schema, args, what in (
+            ("bpmid.compare/1", [], "--to c --model vbmm-fit, vbmm-mat or maxwell-slip"),
+            ("bpmid.compare/1", ["--model", "vbmm"], "--to c --model vbmm-fit, vbmm-mat or maxwell-slip"),
+            ("bpmid.control/1", [], "--to c --model maxwell-slip"),
+            ("bpmid.relax/1", [], "--to abaqus, ansys or comsol"),
+            ("bpmid.relax/1", ["--model", "maxwell-slip"], "--to abaqus, ansys or comsol"),
+            ("bpmid.discovery/1", [], "discover/model.yaml, with --to c"),
+            ("bpmid.run/1", [], "relax_fit.yaml (--to abaqus, ansys or comsol), vbmm_fit.yaml (--to c)"),
+            ("bpmid.vbmm/1", ["--to", "abaqus"], "a motion fit (bpmid fit motion, or discover's model.yaml); --to "
+                                                 "abaqus takes a bpmid.relax/1 file: export it with --to c")):
         (tmp_path / "other.yaml").write_text(f"schema: {schema}\n")
-        res = CliRunner().invoke(app, ["export", str(tmp_path / "other.yaml"), "--to", "c", "--out", str(tmp_path / "o5")])
-        assert res.exit_code == 2 and what in res.output and "schema" in res.output, res.output
+        to = [] if "--to" in args else ["--to", "c"]
+        res = CliRunner().invoke(app, ["export", str(tmp_path / "other.yaml"), *to, *args, "--out",
+                                       str(tmp_path / "o5")])
+        assert res.exit_code == 2 and what in " ".join(res.output.split()) and "schema" in res.output, res.output
     assert not any((tmp_path / f"o{i}").exists() for i in (2, 3, 4, 5))
+    # the target's name in any case; a folder that held other files is said, and they are left as they were
+    (tmp_path / "o6").mkdir()
+    (tmp_path / "o6" / "notes.txt").write_text("mine\n")
+    res = CliRunner().invoke(app, ["export", str(fit), "--to", "C", "--out", str(tmp_path / "o6")])
+    assert res.exit_code == 0 and (tmp_path / "o6" / "bpmid_model.c").is_file(), res.output
+    assert "already held 1 other file (notes.txt), left as they were" in res.output
+    assert (tmp_path / "o6" / "notes.txt").read_text() == "mine\n"
 
 
 def test_vbmm_model_of_a_comparison_equals_its_simulate(tmp_path_factory, logs):

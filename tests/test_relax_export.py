@@ -176,7 +176,7 @@ def test_comsol_parameter_list_branch_table_and_no_shift(tmp_path):
 
 def test_comsol_export_says_when_its_elastic_bulk_departs_from_the_fit(tmp_path, capsys):
     export_fea(fit_file(tmp_path, wlf=False), "comsol", tmp_path / "fea")     # nu 0.45: E_inf some 3 % off
-    assert "COMSOL keeps the bulk modulus elastic" in capsys.readouterr().err
+    assert "this COMSOL card keeps the bulk modulus elastic" in capsys.readouterr().err
 
 
 def test_bad_input_is_refused_naming_the_key(tmp_path):
@@ -185,6 +185,10 @@ def test_bad_input_is_refused_naming_the_key(tmp_path):
         export_fea(p, "abaqus", tmp_path / "fea")
     assert e.value.key == "prony.E_inf" and "zero.yaml" in str(e.value)
     assert export_fea(p, "ansys", tmp_path / "fea")[0].exists()  # ANSYS takes a zero long-term modulus
+    card, _table = export_fea(p, "comsol", tmp_path / "fea")      # and COMSOL (a ZeroDivisionError before)
+    text = card.read_text()
+    assert "G_inf 0.0000000000e+00[Pa]" in text and "long-term tensile modulus of this card is 0.0000000000e+00 Pa" in text
+    assert "no hyperelastic law and no density" in text and "hybrid (mixed u-P) elements" not in text  # nu 0.45
     with pytest.raises(InputError) as e:
         export_fea(fit_file(tmp_path), "nastran", tmp_path / "fea")
     assert e.value.key == "--to"

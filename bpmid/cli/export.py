@@ -31,6 +31,7 @@ def export_command(
     from bpmid.export import TARGETS, export
 
     existing_files([fit], "fit")
+    to = to.strip().lower()   # --to Abaqus is abaqus
     if to not in TARGETS:
         raise InputError(f"unknown target {to!r} (known: {', '.join(TARGETS)})", key="--to")
     out = Path(out)
@@ -40,7 +41,13 @@ def export_command(
         from bpmid.export.c import FILES
 
         check_outputs([out / f for f in FILES], [fit])
+    others = sorted(q.name for q in out.iterdir()) if out.is_dir() else []
     written = export(fit, to, out, model=model)
+    others = [n for n in others if n not in {q.name for q in written}]
+    if others:   # never in silence: the folder had more in it, left as it was
+        typer.echo(f"note: {out} already held {len(others)} other file{'s' if len(others) != 1 else ''} "
+                   f"({', '.join(others[:4])}{', ...' if len(others) > 4 else ''}), left as they were; give an empty "
+                   "or new folder to keep the export on its own", err=True)
     typer.echo(f"wrote {len(written)} file{'s' if len(written) != 1 else ''} to {out}: {', '.join(p.name for p in written)}")
     if to == "c":
         typer.echo(f"build: cc -std=c99 -O2 {out}/bpmid_model.c {out}/main.c -lm -o bpmid_model")

@@ -26,6 +26,7 @@ def export(fit_path: str | Path, to: str, out_dir: str | Path, *, model: str | N
     """
     from bpmid.io.results import read_result
 
+    to = str(to).strip().lower()   # --to Abaqus is abaqus
     if to not in TARGETS:
         raise InputError(f"unknown target {to!r} (known: {', '.join(TARGETS)})", key="--to")
     fit_path = Path(fit_path)
@@ -40,20 +41,7 @@ def export(fit_path: str | Path, to: str, out_dir: str | Path, *, model: str | N
         else:
             raise InputError(f"unknown model {model!r} for --to c (known: vbmm, vbmm-fit, vbmm-mat, maxwell-slip)",
                              key="--model")
-    if to == "c" and (model is None or model == "vbmm"):
-        # say what a file of another kind needs, rather than only that it is not a motion fit
-        from bpmid.config import read_yaml
-
-        data, _sha = read_yaml(fit_path)
-        schema = str(data.get("schema", "")) if isinstance(data, dict) else ""
-        if schema.startswith(("bpmid.compare/", "bpmid.control/")):
-            which = "vbmm-fit, vbmm-mat or maxwell-slip" if schema.startswith("bpmid.compare/") else "maxwell-slip"
-            raise InputError(f"a {schema} file: say which of its models to export with --model ({which}); "
-                             "--to c without --model takes a bpmid.vbmm/1 fit (bpmid fit motion, bpmid discover)",
-                             path=fit_path, key="schema")
-        if schema.startswith("bpmid.relax/"):
-            raise InputError(f"a {schema} file is a material fit: export it with --to abaqus, ansys or comsol; "
-                             "--to c takes a motion fit (bpmid.vbmm/1)", path=fit_path, key="schema")
+    _say_what_fits(fit_path, to, model, schemas)
     read_result(fit_path, schemas)
     if to == "c":
         from bpmid.export.c import export_c
@@ -64,6 +52,41 @@ def export(fit_path: str | Path, to: str, out_dir: str | Path, *, model: str | N
     from bpmid.export.fea import export_fea  # the material-fits helper's module, loaded only for FEA targets
 
     return export_fea(fit_path, to, Path(out_dir))
+
+
+#: what each kind of bpmid file is, and what to export instead (for a file the target does not take)
+_KIND_WORDS = {
+    "bpmid.vbmm/": ("a motion fit (bpmid fit motion, or discover's model.yaml)", "export it with --to c"),
+    "bpmid.compare/": ("a comparison", "export one of its models with --to c --model vbmm-fit, vbmm-mat or "
+                                       "maxwell-slip"),
+    "bpmid.control/": ("a control result", "export its MS-PI feedforward with --to c --model maxwell-slip"),
+    "bpmid.relax/": ("a material fit (bpmid fit relax)", "export it with --to abaqus, ansys or comsol"),
+    "bpmid.discovery/": ("discover's verdict", "export the fit beside it instead, discover/model.yaml, with --to c"),
+    "bpmid.run/": ("a study's record", "export one of its fits instead: relax_fit.yaml (--to abaqus, ansys or "
+                                       "comsol), vbmm_fit.yaml (--to c) or compare/compare.yaml (--to c --model ...)"),
+}
+
+
+def _say_what_fits(fit_path: Path, to: str, model: str | None, schemas: tuple[str, ...]) -> None:
+    """Refuse a fit file the target (and model) does not take, saying what the file is and what to do with it;
+    silent for a file it takes (read_result then checks it whole)."""
+    from bpmid.config import read_yaml
+
+    data, _sha = read_yaml(fit_path)
+    schema = str(data.get("schema", "")) if isinstance(data, dict) else ""
+    if not schema or schema.startswith(schemas):
+        return
+    kind = next((k for k in _KIND_WORDS if schema.startswith(k)), None)
+    asked = f"--to {to}" + (f" --model {model}" if model else "")
+    wants = " or ".join(x.rstrip("/") + "/1" for x in schemas)
+    if kind is None:
+        raise InputError(f"a {schema} file: {asked} takes a {wants} file", path=fit_path, key="schema")
+    what, how = _KIND_WORDS[kind]
+    if to == "c" and model in (None, "vbmm") and kind in ("bpmid.compare/", "bpmid.control/"):
+        raise InputError(f"a {schema} file is {what}: {how} "
+                         f"(--to c without --model, or with --model vbmm, takes a bpmid.vbmm/1 motion fit)",
+                         path=fit_path, key="schema")
+    raise InputError(f"a {schema} file is {what}; {asked} takes a {wants} file: {how}", path=fit_path, key="schema")
 
 
 __all__ = ["export", "TARGETS"]

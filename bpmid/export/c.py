@@ -699,16 +699,26 @@ def _ms_sources(ms: MaxwellSlipMap, meta: dict) -> dict[str, str]:
                    "    static const bpmid_real DD[NEL] = {" + ", ".join(_lit(v) for v in ms.D) + "};\n")
     else:
         arrays += "    static const bpmid_real kk[1] = {R(0.0)};\n    static const bpmid_real DD[1] = {R(0.0)};\n"
+    # no fitted range: the status flags what no rig gives, a gauge pressure below vacuum or a negative angle asked
+    # of the inverse (as the VBMM's code does); the map is still evaluated
+    vac = "pressure_gauge_pa < -101325.0"
     if fwd:
         forward_body = ("    const bpmid_real y = direct_map(s, (bpmid_real)(pressure_gauge_pa / 1e5), s->k == 0);\n"
-                        "    s->status = BPMID_STATUS_OK;\n    s->out_prev = (double)y;\n    return s->out_prev;")
+                        f"    s->status = {vac} ? BPMID_STATUS_OUT_OF_RANGE : BPMID_STATUS_OK;\n"
+                        "    s->out_prev = (double)y;\n    return s->out_prev;")
         inverse_body = ("    const bpmid_real x = solve_map(s, (bpmid_real)angle_deg, &s->status);\n"
-                        "    s->out_prev = (double)x * 1e5;\n    return s->out_prev;")
+                        "    s->out_prev = (double)x * 1e5;\n"
+                        "    if (angle_deg < 0.0 || s->out_prev < -101325.0) {\n"
+                        "        s->status = BPMID_STATUS_OUT_OF_RANGE;\n    }\n    return s->out_prev;")
     else:
         forward_body = ("    const bpmid_real x = solve_map(s, (bpmid_real)(pressure_gauge_pa / 1e5), &s->status);\n"
+                        f"    if ({vac}) {{\n        s->status = BPMID_STATUS_OUT_OF_RANGE;\n    }}\n"
                         "    s->out_prev = (double)x;\n    return s->out_prev;")
         inverse_body = ("    const bpmid_real y = direct_map(s, (bpmid_real)angle_deg, s->k == 0);\n"
-                        "    s->status = BPMID_STATUS_OK;\n    s->out_prev = (double)y * 1e5;\n    return s->out_prev;")
+                        "    s->out_prev = (double)y * 1e5;\n"
+                        "    s->status = angle_deg < 0.0 || s->out_prev < -101325.0 ? BPMID_STATUS_OUT_OF_RANGE\n"
+                        "                                                          : BPMID_STATUS_OK;\n"
+                        "    return s->out_prev;")
     subs = dict(meta, description=_comment(desc), state_fields="".join(f + "\n" for f in fields),
                 constants="\n".join(consts) + "\n", arrays=arrays, forward_body=forward_body,
                 inverse_body=inverse_body)

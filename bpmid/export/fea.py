@@ -75,6 +75,10 @@ def _provenance_lines(fit_path: Path, data: dict, params, wlf: dict | None) -> l
         lines.append(f"fit command: {prov['command']}")
     for name, sha in (prov.get("inputs") or {}).items():
         lines.append(f"fit input: {name} (sha256 {sha})")
+    lines.append("scope: linear viscoelastic (small strain): instantaneous moduli with Prony relaxation; no hyperelastic "
+                 "law and no density in this card: add them in the FEA model")
+    if params.poisson_ratio > 0.49:
+        lines.append(f"nu = {params.poisson_ratio:g} is nearly incompressible: use hybrid (mixed u-P) elements")
     if wlf is not None:
         lines.append(f"WLF shift: log10 aT = -C1 (T - T_ref)/(C2 + T - T_ref); T in C; T_ref = {wlf['T_ref']:g} C")
     # one comment line stays short (input readers limit line length) and free of commas
@@ -144,13 +148,19 @@ def comsol_branch_table(params) -> str:
 def comsol_bulk_shift(params) -> tuple[float, float]:
     """(the long-term tensile modulus a COMSOL card implies, Pa; its difference from the fit's E_inf, %).
 
-    COMSOL's Viscoelasticity node relaxes the shear modulus only and keeps the bulk modulus elastic at K0, where
-    the fit (and the Abaqus and ANSYS cards) relax both: E(t -> inf) = 9 K0 G_inf / (3 K0 + G_inf) instead of the
+    This card relaxes the shear modulus only (COMSOL's generalized Maxwell, deviatoric viscoelastic strain; newer
+    versions can also relax the volumetric part, which this card does not give) and keeps the bulk modulus elastic
+    at K0, where the fit (and the Abaqus and ANSYS cards) relax both: E(t -> inf) = 9 K0 G_inf / (3 K0 + G_inf) instead of the
     fit's E_inf. Nearly incompressible (nu -> 0.5) the two agree; at nu 0.45 they differ by some 2 %."""
     _G0, K0, _, _ = _ratios(params)
-    E_long = 9.0 * K0 * params.G_inf / (3.0 * K0 + params.G_inf)
-    E_inf = 9.0 * params.K_inf * params.G_inf / (3.0 * params.K_inf + params.G_inf)
-    return E_long, 100.0 * (E_long / E_inf - 1.0) if E_inf > 0 else float("nan")
+
+    def tensile(K: float, G: float) -> float:   # E = 9 K G / (3 K + G); a material that relaxes fully has E = 0
+        return 9.0 * K * G / (3.0 * K + G) if 3.0 * K + G > 0 else 0.0
+
+    E_long, E_inf = tensile(K0, params.G_inf), tensile(params.K_inf, params.G_inf)
+    if E_inf > 0:
+        return E_long, 100.0 * (E_long / E_inf - 1.0)
+    return E_long, 0.0 if E_long == 0 else float("nan")
 
 
 #: a COMSOL card whose long-term E differs from the fit's by more than this (%) is said on stderr too
@@ -227,7 +237,7 @@ def export_fea(fit_path: Path, tool: str, out_dir: Path) -> list[Path]:
     if abs(pct) > COMSOL_BULK_WARN_PCT:
         from bpmid.io.plausibility import emit
 
-        emit([f"{out.name}: COMSOL keeps the bulk modulus elastic (K0), so at Poisson's ratio "
+        emit([f"{out.name}: this COMSOL card keeps the bulk modulus elastic (K0), so at Poisson's ratio "
               f"{params.poisson_ratio:g} the card's long-term tensile modulus is {pct:+.3g} % from the fit's E_inf "
               f"(the Abaqus and ANSYS cards match the fit); nearly incompressible (nu near 0.5) the two agree"])
     table = out_dir / f"{stem}{COMSOL_BRANCHES}"
