@@ -407,13 +407,44 @@ class Result:
         if not self.main_file and path.suffix.lower() not in (".yaml", ".yml"):
             raise InputError(f"a {type(self).__name__} is written as YAML: give a path ending .yaml (found "
                              f"{path.name!r})", path=path)
+        if self.main_file and self.raw is None and self.source is not None and self.source.parent.is_dir():
+            return self._save_loaded_folder(path)
         target = path / self.main_file if self.main_file else path
         write_result(target, self.schema, self.body, self.provenance)
         return path
 
+    def _save_loaded_folder(self, path: Path) -> Path:
+        """A folder result loaded from disk, saved elsewhere: the files beside its main file (tables, predictions,
+        logs, figures) are copied with it and the main file written, all or nothing, so that the copy loads to the
+        same data (before, only the main file was written: an equal result whose tables were gone)."""
+        import shutil
+
+        from bpmid.io.atomic import staged_dir
+        from bpmid.io.results import write_result
+
+        src = self.source.parent
+        if Path(path).resolve() == src.resolve():
+            raise InputError("the result was loaded from this folder: give another folder to save it to", path=path)
+        n = sum(1 for _ in zip(range(_COPY_MAX_FILES + 1), src.rglob("*")))
+        if n > _COPY_MAX_FILES:   # not an output folder bpmid wrote: copy nothing rather than a whole tree
+            raise InputError(f"the folder the result was loaded from holds more than {_COPY_MAX_FILES} files, more "
+                             f"than a bpmid output folder: copy the files you need with {self.main_file} yourself",
+                             path=src)
+        with staged_dir(path) as tmp:
+            for item in src.iterdir():
+                if item.name == self.main_file or item.name.startswith("."):
+                    continue
+                (shutil.copytree if item.is_dir() else shutil.copy2)(item, tmp / item.name)
+            write_result(tmp / self.main_file, self.schema, self.body, self.provenance)
+        return Path(path)
+
     @classmethod
     def from_file(cls, data: dict, path: Path) -> "Result":
         return cls(data, data.get("provenance"), source=path)
+
+
+#: the most files a loaded folder result's folder may hold to be copied whole when it is saved elsewhere
+_COPY_MAX_FILES = 5000
 
 
 def _save_with_figure(result: Result, path: Path, fig_path: Path) -> None:
@@ -701,7 +732,7 @@ class PredictionResult(Result):
 
     def save(self, path: str | Path, *, figure: bool = False) -> Path:
         """Write ``DIR/<log>.csv`` per log and ``DIR/predict.yaml`` (and with ``figure`` ``DIR/predict.png``), all
-        or nothing (the paths written: ``.written``); a loaded result writes ``predict.yaml`` only."""
+        or nothing (the paths written: ``.written``); a loaded result is copied whole with its CSVs."""
         if self.raw is not None:
             from bpmid.predict import write_predictions
 
@@ -780,8 +811,8 @@ class ComparisonResult(Result):
         return fig
 
     def save(self, path: str | Path) -> Path:
-        """The whole comparison folder (tables, compare.yaml, predictions, figures) for a live result;
-        compare.yaml only for a loaded one."""
+        """The whole comparison folder (tables, compare.yaml, predictions, figures): written for a live result,
+        copied whole for a loaded one."""
         if self.raw is not None:
             from bpmid.compare import write_compare
 
@@ -829,7 +860,8 @@ class DiscoveryResult(Result):
         return self._params_figure()
 
     def save(self, path: str | Path, *, base_from: str | None = None) -> Path:
-        """discovery.yaml, verdict.txt and the figures for a live result; discovery.yaml only for a loaded one."""
+        """discovery.yaml, verdict.txt, model.yaml and the figures: written for a live result, copied whole for a
+        loaded one."""
         if self.raw is not None:
             from bpmid.discover.output import write_discovery
 
@@ -888,10 +920,12 @@ class SimulationResult(Result):
         return fig
 
     def save(self, path: str | Path) -> Path:
-        """The logs and manifest.yaml (and ANSWER.yaml of a blind case) for a live result; manifest.yaml only
+        """The logs and manifest.yaml (and ANSWER.yaml of a blind case): written for a live result, copied whole
         for a loaded one."""
         if self.raw is not None:
             return self.raw.write(path)
+        if self.source is not None:
+            return self._save_loaded_folder(Path(path))
         from bpmid.io.atomic import write_text
         from bpmid.io.results import dump_yaml
 
@@ -944,7 +978,8 @@ class ControlResult(Result):
         return fig
 
     def save(self, path: str | Path, *, figure: bool = True) -> Path:
-        """summary.csv, control.yaml, traces/ and fig18.png for a live result; control.yaml only for a loaded one."""
+        """summary.csv, control.yaml, traces/ and fig18.png: written for a live result, copied whole for a loaded
+        one."""
         ctx = getattr(self, "_write_context", None)
         if self.raw is not None and ctx is not None:
             from bpmid.control import write_control

@@ -289,6 +289,20 @@ def test_every_output_of_a_study_loads(timed_small_study):
         assert r.summary().startswith("[[")
 
 
+def test_a_loaded_folder_result_saved_elsewhere_keeps_its_files(timed_small_study, tmp_path):
+    """Saving a loaded comparison, discovery or control elsewhere copies the tables, predictions and figures
+    beside its YAML (it wrote the YAML alone: an equal result whose table was empty)."""
+    for stage, check in (("compare", lambda a, b: a.table.equals(b.table) and len(b.table) > 0),
+                         ("discover", lambda a, b: (tmp_path / "discover" / "model.yaml").is_file()),
+                         ("control", lambda a, b: (tmp_path / "control" / "summary.csv").is_file())):
+        res = bpmid.load(Path(timed_small_study) / stage)
+        res.save(tmp_path / stage)
+        back = bpmid.load(tmp_path / stage)
+        assert back == res and check(res, back), stage
+    with pytest.raises(bpmid.InputError, match="loaded from this folder"):
+        res.save(Path(timed_small_study) / "control")
+
+
 def test_run_study_returns_the_study(tmp_path):
     from test_run import make_study
 
