@@ -19,6 +19,23 @@ from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR
 # --------------------------------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------------------------------
+def _give(warnings: list, cfg, what: str, *, warn: bool = True) -> None:
+    """A workflow's warnings to the caller as :class:`bpmid.BpmidWarning`; with ``io.strict`` in the config (the
+    CLI's ``--strict``) refused instead, as the command refuses them: InputError, key ``io.strict``."""
+    from bpmid.errors import _IN_COMMAND
+
+    if _IN_COMMAND.get():   # a command prints them and applies --strict itself (plausibility.emit)
+        return
+    io = cfg.section("io") if hasattr(cfg, "section") else getattr(cfg, "io", None)
+    if warnings and getattr(io, "strict", False):
+        more = f" (and {len(warnings) - 1} more)" if len(warnings) > 1 else ""
+        raise InputError(f"{what} was refused: {len(warnings)} warning(s) under io.strict{more}; the first: "
+                         f"{warnings[0]} (fix the input, or set io.strict: false to get the result with its warnings)",
+                         key="io.strict")
+    if warn:
+        warn_caller(warnings, stacklevel=4)
+
+
 def _config(config):
     from bpmid.config import Config, load_config, parse_config
 
@@ -278,7 +295,7 @@ def fit_motion(logs, *, init=None, config=None):
                          f"{type(init).__name__}", key="init")
     fit = _fit(motion, config=cfg, init=init)
     warnings = plaus.reader_warnings(motion) + plaus.motion_fit_warnings(fit)
-    warn_caller(warnings)
+    _give(warnings, cfg, "the motion fit")
     body = {**fit.yaml_body(), "warnings": warnings}
     return VBMMFitResult(body, plaus.attach(provenance(inputs, config=cfg), motion, warnings), raw=fit)
 
@@ -318,7 +335,7 @@ def predict(logs, params, *, config=None):
                                    model.base if hasattr(model, "base") else model)
         if note:
             warnings.insert(0, f"{ppath}: {note}")
-    warn_caller(warnings)
+    _give(warnings, cfg, "the prediction")
     body = {**predict_yaml_body(preds, params=ppath, model=model), "warnings": warnings}
     prov = plaus.attach(provenance(list(paths) + ([ppath] if ppath else []), config=cfg), motion, warnings)
     out = PredictionResult(body, prov, raw=preds)
@@ -398,6 +415,7 @@ def discover(logs, *, holdout=None, init=None, config=None):
 
     every = list(fit_logs) + list(ho_logs or [])
     warnings = plaus.log_warnings(every)   # what `bpmid discover` prints
+    _give(warnings, cfg, "the discovery", warn=False)   # io.strict refuses the logs' warnings before the work
     res = _discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
     warn_caller(warnings + [f"discovery: {c}" for c in res.cautions])
     body = res.to_yaml()

@@ -487,3 +487,22 @@ def test_a_library_callers_error_names_the_config_key_of_each_reading_flag(tmp_p
     np.testing.assert_allclose(log.pressure_pa, [1e4, 5e4, 9e4])
     r = CliRunner().invoke(app, ["fit", "motion", str(f), "--out", str(tmp_path / "m.yaml")])
     assert r.exit_code == 2 and "--columns" in r.output and "from Python" not in r.output
+
+
+def test_io_strict_in_the_config_refuses_the_warnings_as_the_command_does(tmp_path):
+    """config io.strict (the CLI's --strict) raises on a warning in the library too; without it, a BpmidWarning."""
+    import warnings as _w
+
+    rad = REPO / "tests" / "data" / "rig_logs" / "radians_in_deg_column.csv"
+    strict = {"io": {"strict": True}}
+    with pytest.raises(bpmid.InputError, match="the motion fit was refused: 1 warning") as e:
+        bpmid.fit_motion([rad], config=strict)
+    assert e.value.key == "io.strict" and "radians" in str(e.value)
+    with _w.catch_warnings(record=True) as got:
+        _w.simplefilter("always")
+        fit = bpmid.fit_motion([rad])
+    assert any(issubclass(x.category, bpmid.BpmidWarning) and "radians" in str(x.message) for x in got)
+    with pytest.raises(bpmid.InputError, match="the prediction was refused"):
+        bpmid.predict([rad], fit, config=strict)
+    with pytest.raises(bpmid.InputError, match="the discovery was refused"):
+        bpmid.discover([rad], config=strict)

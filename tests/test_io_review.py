@@ -162,6 +162,17 @@ def test_a_reversed_io_columns_map_is_said_to_be_reversed(tmp_path):
     assert "the map looks reversed" in msg and "io.columns maps file column -> quantity" in msg
     assert "io.columns: {t: time_s, p_abs: pressure_bar, bend: angle_deg}" in msg
     assert "--columns time_s=t,pressure_bar=p_abs,angle_deg=bend" in msg
+    # a reversed map on a file that reads without it is said too (it was silent), and not applied
+    import warnings as _w
+
+    import bpmid
+
+    rad = Path(__file__).parent / "data" / "rig_logs" / "radians_in_deg_column.csv"
+    with _w.catch_warnings(record=True) as got:
+        _w.simplefilter("always")
+        bpmid.fit_motion([rad], config={"io": {"columns": {"angle_rad": "angle_deg"}}})
+    said = [str(x.message) for x in got if "looks reversed" in str(x.message)]
+    assert said and "io.columns: {angle_deg: angle_rad}" in said[0] and "the map was not applied" in said[0]
     # the two forms the message gives both read the file
     cfg.write_text("io:\n  columns: {t: time_s, p_abs: pressure_bar, bend: angle_deg}\n")
     for extra in (["--config", str(cfg)], ["--columns", "time_s=t,pressure_bar=p_abs,angle_deg=bend"]):

@@ -1482,6 +1482,9 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     reading["columns"] = col_info
     if ignored or unknown:
         reading["ignored_columns"] = list(ignored) + list(unknown)
+    if "looks reversed" in grid.info.get("map_note", ""):   # said on a good read too, not only in errors
+        note = grid.info["map_note"].lstrip("; ").split("; the column map names")[0]
+        pre_warns = pre_warns + [f"{where}: {note}; the map was not applied"]
     warns = pre_warns + rival_warns + ([f"the file ends in {grid.info['nul_bytes_at_end']} NUL bytes (a logger that lost power?): "
                             f"read the rows before them; check that its last row (line {lines[n_rows - 1]}) is "
                             f"complete"] if grid.info.get("nul_bytes_at_end") and n_rows else [])
