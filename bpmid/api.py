@@ -52,9 +52,23 @@ def _config(config):
 def _as_list(x) -> list:
     if x is None:
         return []
-    if isinstance(x, (str, Path)) or not isinstance(x, Iterable):
-        return [x]
+    if isinstance(x, (str, Path, Mapping)) or not isinstance(x, Iterable) or _is_table(x):
+        return [x]   # one table is one item (iterating a DataFrame gives its column names, taken for paths)
     return list(x)
+
+
+def _is_table(x) -> bool:
+    """A pandas DataFrame or Series, or a numpy array: data, not a list of logs."""
+    return type(x).__module__.split(".")[0] in ("pandas", "numpy")
+
+
+def _not_a_log(x, key: str, what: str = "a log is a path or a MotionLog (bpmid.from_arrays)") -> InputError:
+    hint = ""
+    if _is_table(x):
+        hint = ("; a table of samples goes in through bpmid.from_arrays(t, pressure, angle, pressure_unit=..., "
+                "reference=...), one log per call (e.g. from_arrays(df['time_s'], df['pressure_kpa'], "
+                "df['angle_deg'], pressure_unit='kPa', reference='gauge'))")
+    return InputError(f"{what}, found {type(x).__name__}{hint}", key=key)
 
 
 def _motion_logs(logs, cfg, *, require_angle: bool = False, key: str = "logs") -> tuple[list, list[Path]]:
@@ -79,8 +93,7 @@ def _motion_logs(logs, cfg, *, require_angle: bool = False, key: str = "logs") -
                 raise InputError("this log has no measured angle (angle_deg)", path=x.path or x.name)
             out.append(x)
         else:
-            raise InputError(f"a log is a path or a MotionLog (bpmid.from_arrays), found {type(x).__name__}",
-                             key=key)
+            raise _not_a_log(x, key)
     from bpmid.io.motion_logs import check_distinct_names
 
     check_distinct_names(out, key=key)   # outputs are named by the log: two of one name would be one
@@ -92,8 +105,10 @@ def _paths(items, what: str, key: str) -> list[Path]:
     out = []
     for x in _as_list(items):
         if not isinstance(x, (str, Path)):
-            raise InputError(f"{what} must be file paths (str or Path), found {type(x).__name__}: this call reads, hashes "
-                             "and names its inputs by file; write the data to a file first", key=key)
+            raise InputError(f"{what} must be file paths (str or Path), found {type(x).__name__}: this call reads, "
+                             "hashes and names its inputs by file; write the data to a file first"
+                             + ("" if "relaxation" in what else
+                                " (a MotionLog: bpmid.io.motion_logs.write_motion_log(path, log))"), key=key)
         out.append(Path(x))
     return out
 
@@ -369,6 +384,10 @@ def compare(train=None, test=None, *, models: Sequence[str] | str | None = None,
 
     if isinstance(relax, RelaxationResult) and relax.source is not None:
         relax = relax.source   # a loaded fit: its file
+    if isinstance(relax, RelaxationResult):
+        raise InputError("relax is a RelaxationResult not saved to a file: compare names and hashes its inputs by "
+                         "file, so save it first (relax.save('relax_fit.yaml')) and pass that path or the result "
+                         "bpmid.load gives", key="relax")
     if relax is not None and not isinstance(relax, (str, Path)):
         raise InputError(f"relax must be a bpmid.relax/1 file path (or a RelaxationResult loaded from one), found "
                          f"{type(relax).__name__}", key="relax")
@@ -510,6 +529,12 @@ def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequ
             refuse_effects_list(fit, "bpmid control", "give the plant's effects with --plant-effect ID:key=value")
     plant_base = scaled_plant_model(plant_base, cfg.plant_modulus_scale, cfg.plant_tau_scale)
     plant = build_plant(plant_base, list(_as_list(plant_effects)), cfg)
+    if not isinstance(reference, str) and (_is_table(reference) or any(
+            not isinstance(r, (str, Path)) for r in _as_list(reference))):
+        bad = reference if _is_table(reference) else next(r for r in _as_list(reference)
+                                                          if not isinstance(r, (str, Path)))
+        raise InputError(f"reference is a shipped reference's name, a CSV path (time_s, angle_deg) or 'all', found "
+                         f"{type(bad).__name__}: write the reference to a CSV first", key="reference")
     spec = reference if isinstance(reference, str) else ",".join(str(r) for r in reference)
     refs = load_references(spec, cfg.rate_hz, io=cfg_all.section("io"))
     res = run_control(model, plant, refs, cfg, controllers=controllers)

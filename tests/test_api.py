@@ -506,3 +506,24 @@ def test_io_strict_in_the_config_refuses_the_warnings_as_the_command_does(tmp_pa
         bpmid.predict([rad], fit, config=strict)
     with pytest.raises(bpmid.InputError, match="the discovery was refused"):
         bpmid.discover([rad], config=strict)
+
+
+def test_a_table_passed_as_logs_or_reference_is_told_how_it_goes_in(tmp_path):
+    """A DataFrame or an array where logs are asked: the message says from_arrays (iterating a DataFrame gave
+    its column names, read as missing files); a relaxation fit not yet saved, given to compare: save it first."""
+    import pandas as pd
+
+    df = pd.DataFrame({"time_s": [0.0, 1.0], "pressure_kpa": [0.0, 1.0], "angle_deg": [0.0, 1.0]})
+    for call in (lambda: bpmid.fit_motion(df), lambda: bpmid.predict(df, bpmid.VBMM()), lambda: bpmid.discover(df),
+                 lambda: bpmid.fit_motion(df.to_numpy())):
+        with pytest.raises(bpmid.InputError, match="found (DataFrame|ndarray); a table of samples goes in through "
+                                                   r"bpmid.from_arrays") as e:
+            call()
+        assert e.value.key == "logs" and "not found" not in str(e.value)
+    with pytest.raises(bpmid.InputError, match="relaxation logs must be file paths .* found DataFrame"):
+        bpmid.fit_relaxation(df)
+    with pytest.raises(bpmid.InputError, match="reference is a shipped reference's name.* found DataFrame"):
+        bpmid.control(bpmid.VBMM(), reference=df)
+    relax = bpmid.fit_relaxation(sorted(glob.glob(str(REPO / "datasets/relaxation/relax_*_[23]0pct.csv"))))
+    with pytest.raises(bpmid.InputError, match=r"not saved to a file.*relax.save\('relax_fit.yaml'\)"):
+        bpmid.compare(relax=relax)
