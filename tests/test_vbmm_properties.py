@@ -173,3 +173,27 @@ def test_hereditary_window_is_eq_19():
     # the lumped old history is not negligible: simply dropping it is far off
     dropped = window_reference(t, x, M_inf, M, tau, 2.0, lump=False)
     assert np.max(np.abs(got - dropped)) > 0.1 * scale
+
+
+def test_the_model_refuses_falling_times_non_finite_samples_and_a_geometry_in_mm():
+    """bpmid.VBMM computed silently on these before: falling times ran, a negative or millimetre geometry gave a
+    constant 4 pi rad, a NaN pressure stopped with 'did not converge', a NaN angle gave NaN pressures."""
+    import bpmid
+    from bpmid.errors import InputError
+
+    m = bpmid.VBMM()
+    t = np.arange(0.0, 10.0, 0.1)
+    p = np.full(t.size, 4e4)
+    with pytest.raises(InputError, match="time must rise strictly: sample 1 at t = 9.8 s after 9.9 s"):
+        m.forward(t[::-1], p)
+    with pytest.raises(InputError, match="sample 51 is not finite") as e:
+        m.forward(t, np.where(t > 5.05, np.nan, p))
+    assert e.value.key == "p_gauge_pa"
+    with pytest.raises(InputError, match="sample 51 is not finite"):
+        m.inverse(t, np.where(t > 5.05, np.nan, 0.3))
+    with pytest.raises(InputError, match="must be positive") as e:
+        bpmid.VBMM(geometry=bpmid.Geometry(th=-1.0))
+    assert e.value.key == "model.geometry.th"
+    with pytest.raises(InputError, match="look like millimetres"):
+        bpmid.VBMM(geometry=bpmid.Geometry(th=2.0, R0=16.73, l0=195.9))
+    assert np.all(np.isfinite(m.forward(t, p)))   # a good log still runs

@@ -310,6 +310,8 @@ class VBMM:
             raise InputError(f"unknown history mode {self.history!r} (recursive, window or full)", key="model.history")
         if self.fall_ratio != 1.0 and self.history != "recursive":
             raise InputError("asymmetric relaxation (fall_ratio != 1) needs history = recursive", key="model.history")
+        # a geometry in mm by mistake, or a negative one, computed silently before (a constant 4 pi rad)
+        self.geometry.validate("model.geometry")
 
     @classmethod
     def from_config(cls, material: Material, cfg: VBMMConfig | None = None, **kw) -> "VBMM":
@@ -338,6 +340,7 @@ class VBMM:
         p = np.ascontiguousarray(p_gauge_pa, float)
         if t.shape != p.shape or t.ndim != 1:
             raise ValueError("t and p must be 1-D arrays of equal length")
+        _check_samples(t, p, name, "p_gauge_pa")
         sc = np.ones_like(t) if scale is None else np.ascontiguousarray(scale, float)
         m = self.material
         beta, e1, e2, status = K.forward_kernel(
@@ -348,8 +351,9 @@ class VBMM:
         return {"beta": beta, "eps1": e1, "eps2": e2, "status": status}
 
     def forward(self, t, p_gauge_pa, *, scale=None, name: str = "log", path=None) -> np.ndarray:
-        """Bending angle beta (rad), shape (N,), for gauge pressures (Pa). Pressures needing
-        beta > 4 pi are refused (InputError naming the log and the time)."""
+        """Bending angle beta (rad), shape (N,), for times ``t`` (s, strictly increasing) and gauge pressures (Pa).
+        Pressures needing beta > 4 pi are refused (InputError naming the log and the time), as are times that do
+        not rise and values that are not finite (naming the first)."""
         out = self.forward_full(t, p_gauge_pa, scale=scale, name=name)
         bad = np.flatnonzero(out["status"] == K.STATUS_ABOVE_RANGE)
         if bad.size:
@@ -362,6 +366,8 @@ class VBMM:
         return out["beta"]
 
     def forward_deg(self, t, p_gauge_pa, **kw) -> np.ndarray:
+        """Bending angle (deg), shape (N,), for times ``t`` (s, strictly increasing) and gauge pressures (Pa):
+        :meth:`forward` in degrees."""
         return np.degrees(self.forward(t, p_gauge_pa, **kw))
 
     # -- inverse ------------------------------------------------------------------------------
@@ -391,12 +397,16 @@ class VBMM:
         return {"u3": u3, "eps1": e1, "eps2": e2, "sigma1": s * (2.0 * g1 + lam), "sigma2": s * (2.0 * g2 + lam)}
 
     def inverse(self, t, beta_rad, *, scale=None, direction=None) -> np.ndarray:
-        """Gauge pressure (Pa), shape (N,), that produces the angle history ``beta_rad`` (closed form).
+        """Gauge pressure (Pa), shape (N,), that produces the angle history ``beta_rad`` (rad) at times ``t`` (s,
+        strictly increasing; closed form).
 
         ``direction`` (N,) of +1/-1 marks rising/falling steps for asymmetric relaxation (default: the
         sign of the angle change).
         """
         beta_rad = np.asarray(beta_rad, float)
+        t = np.asarray(t, float)
+        if t.shape == beta_rad.shape and t.ndim == 1:
+            _check_samples(t, beta_rad, "log", "beta_rad")
         if direction is None and self.fall_ratio != 1.0:
             direction = np.sign(np.diff(beta_rad, prepend=beta_rad[0]))
         st = self.stresses(t, beta_rad, scale=scale, direction=direction)
@@ -420,6 +430,21 @@ class VBMM:
                                fall_ratio=1.0)
         # each pressure on its own: a one-sample log is the relaxed equilibrium (h = 0)
         return np.array([relaxed.forward(np.zeros(1), np.array([pk]))[0] for pk in p])
+
+
+def _check_samples(t: np.ndarray, x: np.ndarray, name: str, what: str) -> None:
+    """Times that rise strictly and values that are finite, or an InputError naming the first sample that is not
+    (a NaN pressure stopped the solve with 'did not converge'; a NaN angle gave NaN pressures; falling times ran)."""
+    bad = np.flatnonzero(~np.isfinite(t) | ~np.isfinite(x))
+    if bad.size:
+        k = int(bad[0])
+        raise InputError(f"{name}: sample {k} is not finite (t = {float(t[k])!r} s, {what} = {float(x[k])!r})", key=what)
+    if t.size > 1:
+        down = np.flatnonzero(np.diff(t) <= 0.0)
+        if down.size:
+            k = int(down[0]) + 1
+            raise InputError(f"{name}: time must rise strictly: sample {k} at t = {t[k]:.9g} s after "
+                             f"{t[k - 1]:.9g} s", key="t")
 
 
 def _asymmetric_states(t, x, tau, ratio, direction):
