@@ -629,7 +629,16 @@ class VBMMFitResult(Result):
     def model(self):
         """The fitted :class:`bpmid.models.vbmm.VBMM` (history settings as recorded in the file): the constants only;
         a file's ``effects`` list is run by :func:`bpmid.predict` (or
-        ``bpmid.effects.fitfile.augmented_from_file(result.model, result)``)."""
+        ``bpmid.effects.fitfile.augmented_from_file(result.model, result)``). On a fit that has effects (discover's
+        model.yaml) a :class:`bpmid.BpmidWarning` says that they are not in it: a prediction from ``.model`` alone
+        differs from the fit's own."""
+        fx = [e.get("id", "?") if isinstance(e, Mapping) else str(e) for e in (self.body.get("effects") or [])]
+        if fx:
+            from bpmid.errors import warn_caller
+
+            warn_caller([f"this fit has effects ({', '.join(fx)}) that .model leaves out (the constants only): pass "
+                         "the result itself to bpmid.predict or bpmid.compare, or use "
+                         "bpmid.effects.fitfile.augmented_from_file(result.model, result)"])
         if self.raw is not None and hasattr(self.raw, "model"):
             return self.raw.model
         from bpmid.models.vbmm import vbmm_from_mapping
@@ -645,9 +654,10 @@ class VBMMFitResult(Result):
         import numpy as np
         from matplotlib.figure import Figure
 
+        from bpmid.models.vbmm import vbmm_from_mapping
         from bpmid.units import PA_PER_BAR
 
-        model = self.model
+        model = vbmm_from_mapping(self.to_dict(), self.source)   # the constants (no warning of its effects)
         beta = np.linspace(0.05, 1.5 * np.pi, 200)
         p = model.equilibrium_pressure(beta)
         fig = Figure(figsize=(6.4, 4.0), layout="constrained")

@@ -527,3 +527,26 @@ def test_a_table_passed_as_logs_or_reference_is_told_how_it_goes_in(tmp_path):
     relax = bpmid.fit_relaxation(sorted(glob.glob(str(REPO / "datasets/relaxation/relax_*_[23]0pct.csv"))))
     with pytest.raises(bpmid.InputError, match=r"not saved to a file.*relax.save\('relax_fit.yaml'\)"):
         bpmid.compare(relax=relax)
+
+
+def test_model_of_a_fit_with_effects_says_they_are_left_out(timed_small_study, tmp_path):
+    """.model is the constants only: on discover's model.yaml (effects named) a BpmidWarning says so; on a plain
+    fit nothing is said."""
+    import warnings as _w
+
+    with_fx = bpmid.load(Path(timed_small_study) / "discover" / "model.yaml")
+    plain = bpmid.load(Path(timed_small_study) / "vbmm_fit.yaml")
+    with _w.catch_warnings(record=True) as got:
+        _w.simplefilter("always")
+        plain.model
+        plain.plot()
+    assert not [x for x in got if issubclass(x.category, bpmid.BpmidWarning)]
+    assert with_fx.body.get("effects") == []      # the small study names none: give the fit one
+    import yaml
+
+    body = yaml.safe_load((Path(timed_small_study) / "vbmm_fit.yaml").read_text())
+    body["effects"] = [{"id": "pressure_lag", "parameters": {"tau": 0.1}}]
+    lagged = tmp_path / "lagged.yaml"
+    lagged.write_text(yaml.safe_dump(body))
+    with pytest.warns(bpmid.BpmidWarning, match=r"this fit has effects \(pressure_lag\) that .model leaves out"):
+        bpmid.load(lagged).model
