@@ -154,7 +154,36 @@ def same_logs(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> dict[str
             out[lg.name] = (train_paths[Path(lg.path).resolve()], True)
         elif key(lg) in train_keys:
             out[lg.name] = (train_keys[key(lg)], False)
+        else:
+            other = next((tr.name for tr in train if _same_samples(tr, lg)), None)
+            if other is not None:
+                out[lg.name] = (other, False)
     return out
+
+
+#: share of a log's samples that must repeat another's (time from its first sample, gauge pressure and angle
+#: within rounding) for the two to count as the same data
+SAME_DATA_SHARE = 0.9
+
+
+def _same_samples(a: MotionLog, b: MotionLog) -> bool:
+    """Whether ``b`` repeats ``a``'s data re-exported: time in other units or shifted (compared from each log's first
+    sample), pressure in other units or references (compared as gauge Pa), rows dropped, values rounded as exports
+    round them (0.2 % of the range, as one channel written twice is read); at least :data:`SAME_DATA_SHARE` of
+    ``b``'s samples must find their twin in ``a``."""
+    if a.angle_deg is None or b.angle_deg is None or b.n < 3 or a.n < 3 or b.n > 1.2 * a.n:
+        return False
+    ta = np.asarray(a.time_s, float) - float(a.time_s[0])
+    tb = np.asarray(b.time_s, float) - float(b.time_s[0])
+    dt = float(np.median(np.diff(ta))) if ta.size > 1 else 1.0
+    j = np.clip(np.searchsorted(ta, tb), 1, ta.size - 1)
+    j = np.where(np.abs(ta[j - 1] - tb) < np.abs(ta[j] - tb), j - 1, j)
+    pa, pb = np.asarray(a.pressure_pa, float), np.asarray(b.pressure_pa, float)
+    aa, ab = np.asarray(a.angle_deg, float), np.asarray(b.angle_deg, float)
+    tol_p = 2e-3 * max(float(np.ptp(pa)), 1e-9)
+    tol_a = 2e-3 * max(float(np.ptp(aa)), 1e-9)
+    same = (np.abs(ta[j] - tb) <= 1e-3 * dt) & (np.abs(pa[j] - pb) <= tol_p) & (np.abs(aa[j] - ab) <= tol_a)
+    return bool(np.mean(same) >= SAME_DATA_SHARE)
 
 
 def overlapping_logs(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> dict[str, str]:

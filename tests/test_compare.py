@@ -1,6 +1,7 @@
 """bpmid compare: generic over the registry, CLI.md columns, cost per step, verdicts, bad input."""
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -203,6 +204,19 @@ def test_overlap_is_detected_by_path_and_by_content(rate_logs, tmp_path):
     msgs = overlap_warnings(train, [MotionLog(**copy)])
     assert msgs and "same data as training log train_0p2" in msgs[0]
     assert overlap_warnings(train, test) == []
+    # re-exported: time shifted by an hour, pressure rounded as an export in psi rounds it, a stretch of rows
+    # dropped: still the training log's data (only bit-identical copies were caught)
+    lg = train[0]
+    keep = np.r_[0:lg.n // 3, lg.n // 3 + 40:lg.n]
+    p_psi = np.round(lg.pressure_pa / 6894.757, 2) * 6894.757
+    redo = dataclasses.replace(lg, name="reexported", time_s=lg.time_s[keep] + 3600.0, pressure_pa=p_psi[keep],
+                               angle_deg=np.round(lg.angle_deg[keep], 3))
+    msgs = overlap_warnings(train, [redo])
+    assert msgs and "reexported has the same data as training log train_0p2" in msgs[0]
+    # the same run with other noise on the angle (a replicate) is a test
+    rng = np.random.default_rng(3)
+    rep = dataclasses.replace(lg, name="replicate", angle_deg=lg.angle_deg + rng.normal(0.0, 0.3, lg.n))
+    assert overlap_warnings(train, [rep]) == []
     with pytest.warns(CompareWarning):
         res = compare_models(train, [MotionLog(**copy), test[0]], ["two-branch"], timing=False)
     # the copy is scored, marked, and left out of the pooled score: ALL is the real test log alone

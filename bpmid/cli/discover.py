@@ -78,6 +78,9 @@ def discover_cmd(
     all_logs = fit_logs + (ho_logs or [])
     warnings = plaus.log_warnings(all_logs)
     plaus.emit(warnings, strict=cfg.section("io").strict, what=str(out))
+    ambient = plaus.assumed_ambient_note(all_logs)
+    if ambient:
+        typer.echo("note: " + ambient, err=True)
     base, base_from = load_base(init, cfg)
     result = discover(fit_logs, base, holdout=ho_logs, cfg=dcfg)
     from bpmid.models.vbmm.model import paper_geometry_note

@@ -57,6 +57,9 @@ def fit_motion_command(
     from bpmid.io import plausibility as plaus
 
     plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out))
+    ambient = plaus.assumed_ambient_note(result.raw.logs)
+    if ambient:
+        typer.echo("note: " + ambient, err=True)
     from bpmid.io.motion_logs import is_synthetic
 
     result.save(out, figure=figure, synthetic=is_synthetic(result.raw.logs))

@@ -40,6 +40,9 @@ def predict_command(
     from bpmid.io import plausibility as plaus
 
     plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out))
+    ambient = plaus.assumed_ambient_note([q.log for q in result.raw])
+    if ambient:
+        typer.echo("note: " + ambient, err=True)
     result.save(out, figure=True)
     for p in result.raw:
         if p.metrics is not None:

@@ -369,3 +369,23 @@ def compare_warnings(summary) -> list[str]:
                 f"or reference slip in the logs (--pressure-unit, --pressure-reference, --angle-unit) or the wrong "
                 f"columns (--columns)"]
     return []
+
+
+def assumed_ambient_note(logs: Iterable) -> str | None:
+    """A note for measured logs whose absolute pressures were turned to gauge with the standard atmosphere, which
+    nothing stated (no ambient line or column, no flag or config): at 950 hPa (altitude, weather) that moves every
+    gauge pressure by 6 kPa and the fitted moduli by some 10-30 %. None when every log states its ambient, is
+    gauge, or is bpmid's own synthetic data (made at the standard atmosphere)."""
+    from bpmid.io.motion_logs import is_synthetic
+
+    named = [lg.name for lg in logs
+             if str(((lg.reading or {}).get("pressure_reference") or {}).get("atmosphere_from") or "").startswith(
+                 "io.atmosphere_pa (the standard atmosphere") and not is_synthetic([lg])]
+    if not named:
+        return None
+    which = ", ".join(named[:4]) + (f" and {len(named) - 4} more" if len(named) > 4 else "")
+    return (f"pressure: the absolute pressures of {which} were turned to gauge with the standard atmosphere "
+            "(101 325 Pa), which nothing in the logs states; at another ambient (altitude, weather) state it: a line "
+            "'# ambient_pressure: 950 mbar', an ambient column (ambient_pressure_kpa), or io.atmosphere_pa in a "
+            "config (io: {atmosphere_pa: 95000})")
+
