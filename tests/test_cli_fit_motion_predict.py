@@ -258,3 +258,24 @@ def test_a_coarse_sensor_at_the_top_of_a_loop_is_not_called_clipped(tmp_path):
     q.write_text("\n".join(head) + "\n" + df.to_csv(index=False))
     res = runner.invoke(app, ["fit", "motion", str(q), "--out", str(tmp_path / "q.yaml"), "--no-plot", "--strict"])
     assert res.exit_code == 0 and "clips it" not in res.output, res.output
+
+
+def test_an_assumed_standard_atmosphere_is_noted_for_measured_logs_only(tmp_path, data):
+    """Absolute pressures with no ambient stated are turned to gauge at 101 325 Pa: said on stderr for measured
+    logs (at 950 hPa that moved the fitted moduli 14-31 %), not for bpmid's synthetic data or a stated ambient."""
+    text = data["fit"].read_text()
+    body = "\n".join(ln for ln in text.splitlines() if not ln.lower().startswith(("# atmosphere", "# ambient")))
+    bare = tmp_path / "bare.csv"
+    bare.write_text(body + "\n")
+    said = tmp_path / "said.csv"
+    said.write_text("# ambient_pressure: 1013.25 hPa\n" + body + "\n")
+    synth = tmp_path / "synth.csv"
+    synth.write_text("# synthetic: true (bpmid digital twin; not a measurement)\n" + body + "\n")
+    note = "note: pressure: the absolute pressures of bare were turned to gauge with the standard atmosphere"
+    for log, expect in ((bare, True), (said, False), (synth, False)):
+        res = runner.invoke(app, ["fit", "motion", str(log), "--out", str(tmp_path / f"{log.stem}.yaml"),
+                                  "--no-plot"])
+        assert res.exit_code == 0, res.output
+        assert ("turned to gauge with the standard atmosphere" in res.output) == expect, (log, res.output)
+        if expect:
+            assert note in " ".join(res.output.split()) and "io.atmosphere_pa" in res.output
