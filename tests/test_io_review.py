@@ -499,3 +499,20 @@ def test_a_column_with_a_pressure_unit_but_an_unknown_name_is_refused_with_its_o
     msg = e.value.message
     assert e.value.key == "Absolutdruck (bar)" and "has a pressure unit" in msg
     assert "--columns pressure=Absolutdruck (bar)" in msg and "rename it pressure_bar" in msg
+
+
+def test_a_column_without_a_name_that_holds_numbers_is_said_not_dropped(tmp_path):
+    """A blank header cell over numbers (a merged Excel header, a trailing separator in the header only of the
+    header row) was dropped without a word; a pandas row index stays unsaid."""
+    from bpmid.io.motion_logs import read_motion_log
+
+    rows = "".join(f"{k * 0.1:.1f},{1.2 + 0.01 * k:.3f},{1.25 + 0.01 * k:.3f},{k * 0.5:.2f}\n" for k in range(30))
+    blank = _write(tmp_path, "blank.csv", "# pressure_reference: absolute\nTime,Pressure,,Angle\ns,bar,bar,deg\n"
+                   + rows)
+    lg = read_motion_log(blank)
+    said = [w for w in lg.warnings if "column 3 has no name in the header but holds numbers (units row: bar)" in w]
+    assert said and "it was not read" in said[0]
+    assert "column 3" in lg.reading["ignored_columns"]
+    index = _write(tmp_path, "index.csv", "# pressure_reference: absolute\n,time_s,pressure_bar,angle_deg\n" + "".join(
+        f"{k},{k * 0.1:.1f},{1.2 + 0.01 * k:.3f},{k * 0.5:.2f}\n" for k in range(30)))
+    assert not [w for w in read_motion_log(index).warnings if "no name" in w]

@@ -1476,6 +1476,13 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
         _one_quantity(grid, q, ents, units, unit_sources, meta, lines, ignored, columns, units_in_file, headers,
                       refs, col_info)
     rival_warns = _check_rivals(grid, columns, headers, units_in_file, unknown, ignored, lines)
+    unnamed = _unnamed_numbers(grid, n_rows)
+    if unnamed:
+        ignored.extend(h for h, _ in unnamed)
+        pre_warns = pre_warns + [f"{where}: {h} has no name in the header but holds numbers{u}; it was not read: give "
+                                 "it a name in the header (a merged or blank header cell?), and if it is the muscle's "
+                                 "pressure or angle, one that says so (pressure_bar, angle_deg) or map that name with "
+                                 "--columns" for h, u in unnamed]
     first = lines[0] if lines else (grid.header_line + 1)
     reading = {k: v for k, v in grid.info.items() if k not in ("map_note", "mapped_quantities")
                and (k != "unmatched_map" or v)}
@@ -1495,6 +1502,32 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     table = Table(path, columns, units_in_file, headers, meta, first, np.asarray(lines[:n_rows], int), refs,
                   reading, warns, where, grid.info.get("map_note", ""), dict(grid.meta_lines or {}), deferred, cells)
     return table
+
+
+def _unnamed_numbers(grid: Grid, n_rows: int) -> list[tuple[str, str]]:
+    """Columns with an empty header cell whose rows hold numbers (most of them), as ('column N', ' (units row:
+    X)'): set aside, they must not go unsaid (a merged header cell over the muscle's pressure). A row index
+    (0..n-1 or 1..n, as pandas writes it) is not one."""
+    out = []
+    for j, h in enumerate(grid.header):
+        if h or j >= len(grid.cols):
+            continue
+        cells = list(grid.cols[j][:n_rows])
+        vals = []
+        for c in cells:
+            try:
+                vals.append(float(str(c).strip().replace(",", ".")))
+            except ValueError:
+                pass
+        if not cells or len(vals) < 0.5 * len(cells):
+            continue
+        v = np.asarray(vals)
+        if v.size == len(cells) and (np.array_equal(v, np.arange(v.size)) or np.array_equal(v, np.arange(1, v.size + 1))):
+            continue
+        ur = grid.unit_row[j].strip() if grid.unit_row is not None and j < len(grid.unit_row) and \
+            str(grid.unit_row[j]).strip() else ""
+        out.append((f"column {j + 1}", f" (units row: {ur})" if ur else ""))
+    return out
 
 
 def _set_aside_bare_t(found: dict, ignored: list, where) -> list[str]:
