@@ -516,3 +516,23 @@ def test_a_column_without_a_name_that_holds_numbers_is_said_not_dropped(tmp_path
     index = _write(tmp_path, "index.csv", "# pressure_reference: absolute\n,time_s,pressure_bar,angle_deg\n" + "".join(
         f"{k},{k * 0.1:.1f},{1.2 + 0.01 * k:.3f},{k * 0.5:.2f}\n" for k in range(30)))
     assert not [w for w in read_motion_log(index).warnings if "no name" in w]
+
+
+def test_clock_times_beside_a_date_column_keep_a_jump_of_days(tmp_path):
+    """Date,Time columns: the date was set aside, so a log that jumped two days read as one continuous run (no
+    gap, --max-gap could not refuse it); the two are now joined."""
+    from bpmid.io.motion_logs import read_motion_log
+
+    rows = []
+    for k in range(40):
+        day = "2025-03-01" if k < 20 else "2025-03-03"
+        rows.append(f"{day},10:00:{k * 0.5:06.3f},{1.2 + 0.01 * k:.3f},{k * 0.5:.2f}\n")
+    f = _write(tmp_path, "dated.csv", "# pressure_reference: absolute\nDate,Time,pressure_bar,angle_deg\n"
+               + "".join(rows))
+    lg = read_motion_log(f)
+    assert np.diff(lg.time_s)[19] == pytest.approx(2 * 86400.0 + 0.5)
+    assert lg.reading["columns"]["time"]["date_from"] == "Date"
+    assert any("gap of 1.728e+05 s" in w or "gap of 172800" in w for w in lg.warnings), lg.warnings
+    one_day = _write(tmp_path, "oneday.csv", "# pressure_reference: absolute\nDatum,Zeit,pressure_bar,angle_deg\n"
+                     + "".join(r.replace("2025-03-03", "2025-03-01") for r in rows))
+    assert np.allclose(np.diff(read_motion_log(one_day).time_s), 0.5)

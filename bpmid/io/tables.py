@@ -1530,6 +1530,26 @@ def _unnamed_numbers(grid: Grid, n_rows: int) -> list[tuple[str, str]]:
     return out
 
 
+#: header names of a column that gives the date beside a column of clock times
+_DATE_NAMES = {"date", "datum", "day", "fecha", "date local", "local date"}
+
+
+def _with_date_column(grid: Grid, j: int, vals: list) -> tuple[list, str | None]:
+    """Clock times (column ``j``) beside a date column (``Date``, ``Datum``): the two joined ('2025-03-01
+    10:00:00.050'), so that a log running past a day (or two) keeps its time; before, the date was set aside and a
+    jump of days vanished. Other time columns as they are."""
+    texts = [str(v).strip() for v in vals]
+    if not texts or not all(_CLOCK.match(x) for x in texts):
+        return vals, None
+    for k, h in enumerate(grid.header):
+        if k == j or not h or _norm(_unit_part(h)[0]) not in _DATE_NAMES or k >= len(grid.cols):
+            continue
+        dates = [str(c).strip() for c in grid.cols[k][:len(texts)]]
+        if len(dates) == len(texts) and all(dates) and not all(_CLOCK.match(d) for d in dates):
+            return [f"{d.split(' ')[0].split('T')[0]} {x}" for d, x in zip(dates, texts)], h
+    return vals, None
+
+
 def _set_aside_bare_t(found: dict, ignored: list, where) -> list[str]:
     """A bare upper-case ``T`` column beside another time column is set aside, not read as a second time: ``T`` is
     as often a temperature (material tests write it so), and the other column states the time. Returns the
@@ -1648,9 +1668,12 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
                              f"state it: {unit_hint(q, h)}{grid.info.get('map_note', '')}", path=where,
                              line=hline, key=h)
         if is_time_text:
-            arr, origin = _parse_times(vals, where, h, lines)
+            vals, date_col = _with_date_column(grid, j, vals)
+            arr, origin = _parse_times(vals, where, h if date_col is None else f"{date_col} + {h}", lines)
             col_info_extra = {"time_origin": origin, "timestamps": "ISO-8601 or clock times, seconds since the "
                                                                    "first"}
+            if date_col is not None:
+                col_info_extra["date_from"] = date_col
             unit = "iso8601"
         else:
             raw = _numbers(vals, where, h, lines, excel=grid.excel)
