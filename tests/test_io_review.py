@@ -536,3 +536,26 @@ def test_clock_times_beside_a_date_column_keep_a_jump_of_days(tmp_path):
     one_day = _write(tmp_path, "oneday.csv", "# pressure_reference: absolute\nDatum,Zeit,pressure_bar,angle_deg\n"
                      + "".join(r.replace("2025-03-03", "2025-03-01") for r in rows))
     assert np.allclose(np.diff(read_motion_log(one_day).time_s), 0.5)
+
+
+def test_a_table_is_read_by_its_bytes_not_its_extension(tmp_path):
+    """A TSV saved as .xls (LabVIEW, loggers) was refused with xlrd's 'Expected BOF record', and a workbook named
+    .csv as 'binary data'; both are read now, and an HTML table named .xls is refused saying what it is."""
+    import pandas as pd
+
+    from bpmid.io.motion_logs import read_motion_log
+
+    text = "time_s\tpressure_kpa_g\tangle_deg\n" + "".join(f"{k * 0.1:.1f}\t{20 + k:.1f}\t{k * 0.5:.2f}\n"
+                                                           for k in range(30))
+    tsv = _write(tmp_path, "logger.xls", text)
+    ref = read_motion_log(_write(tmp_path, "logger.tsv", text))
+    assert np.array_equal(read_motion_log(tsv).pressure_pa, ref.pressure_pa)
+    book = tmp_path / "book.xlsx"
+    pd.DataFrame({"time_s": ref.time_s, "pressure_kpa_g": ref.pressure_pa / 1e3,
+                  "angle_deg": ref.angle_deg}).to_excel(book, index=False)
+    named_csv = tmp_path / "book.csv"
+    named_csv.write_bytes(book.read_bytes())
+    assert np.allclose(read_motion_log(named_csv).angle_deg, ref.angle_deg)
+    html = _write(tmp_path, "web.xls", "<html><body><table><tr><td>time_s</td></tr></table></body></html>")
+    with pytest.raises(InputError, match="an HTML or XML table saved with the extension .xls"):
+        read_motion_log(html)

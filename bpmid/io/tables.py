@@ -1098,11 +1098,21 @@ def _mat_grid(path: Path, data: bytes, kind: str) -> Grid:
 
 
 def _file_kind(path: Path, data: bytes) -> str:
+    """By the bytes first, the extension second: a workbook saved as .csv is read as one, and a text table saved as
+    .xls (as LabVIEW and many loggers write TSV) as text; an HTML table saved as .xls is refused, saying so."""
     suffix = path.suffix.lower()
-    if data.startswith(_MAGIC_XLSX) and suffix not in (".csv", ".txt", ".tsv", ".dat"):
+    if data.startswith(_MAGIC_XLSX) and (suffix not in (".csv", ".txt", ".tsv", ".dat")
+                                         or b"[Content_Types].xml" in data[:4096] or b"xl/" in data[:4096]):
         return "xlsx"
     if data.startswith(_MAGIC_OLE):
         return "xls"
+    if suffix in (".xls", ".xlsx", ".xlsm"):
+        head = data[:2048].lstrip(b"\xef\xbb\xbf \t\r\n").lower()
+        if head.startswith((b"<html", b"<!doctype html", b"<table", b"<?xml")) or b"<table" in head:
+            raise InputError(f"an HTML or XML table saved with the extension {suffix}, not an Excel workbook: open it "
+                             "in Excel (or LibreOffice) and save it as .xlsx or CSV, then read that", path=path)
+        if b"\x00" not in data[:4096]:
+            return "text"   # a text table named as a workbook
     if data.startswith(b"MATLAB") or data[512:520] == _MAGIC_HDF5 or data.startswith(_MAGIC_HDF5):
         return "mat"
     if suffix == ".mat":
