@@ -95,16 +95,15 @@ def test_a_units_row_conflict_names_the_units_row_not_brackets(tmp_path):
 
 
 def test_an_unknown_unit_that_is_a_pressure_reference_says_what_works(tmp_path):
-    """'p_abs': 'abs' is no unit but a reference; the message offers the forms that read the file, and they do."""
+    """'p_abs': 'abs' is no unit but a reference, read as the reference (a word of the pressure's name); the unit is
+    stated nowhere, and the message offers the forms that read the file, and they do."""
     f = _write(tmp_path, "p.csv", _motion("", "time_s,p_abs,angle_deg"))
     params = str(_params(tmp_path))
     res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "o")])
     assert res.exit_code == 2, res.output
     msg = " ".join(res.output.split())
-    assert "unknown unit 'abs' for pressure" in msg and "reads as the pressure reference (absolute)" in msg
-    assert "--columns pressure_kpa_abs=p_abs" in msg
-    assert "--columns pressure=p_abs with --pressure-unit kPa (and --pressure-reference absolute" in msg
-    for flags in (["--columns", "pressure_bar_abs=p_abs"],
+    assert "the unit of column 'p_abs' (pressure) is stated nowhere" in msg and "--pressure-unit kPa" in msg
+    for flags in (["--columns", "pressure_bar_abs=p_abs"], ["--pressure-unit", "bar"],
                   ["--columns", "pressure=p_abs", "--pressure-unit", "bar", "--pressure-reference", "absolute"]):
         out = tmp_path / f"o{len(flags)}"
         res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(out), *flags])
@@ -559,3 +558,36 @@ def test_a_table_is_read_by_its_bytes_not_its_extension(tmp_path):
     html = _write(tmp_path, "web.xls", "<html><body><table><tr><td>time_s</td></tr></table></body></html>")
     with pytest.raises(InputError, match="an HTML or XML table saved with the extension .xls"):
         read_motion_log(html)
+
+
+def test_two_columns_of_one_name_are_told_to_be_renamed(tmp_path):
+    from bpmid.io.motion_logs import read_motion_log
+
+    f = _write(tmp_path, "dup.csv", "# pressure_reference: absolute\ntime_s,pressure_bar,angle_deg,angle_deg\n"
+               + "".join(f"{k * 0.1:.1f},{1.2 + 0.01 * k:.3f},{k * 0.5:.2f},{k * 0.7:.2f}\n" for k in range(20)))
+    with pytest.raises(InputError, match="two columns share the name 'angle_deg' and give different angles: rename "
+                                         "one in the header"):
+        read_motion_log(f)
+
+
+def test_a_reference_written_as_a_word_of_the_pressure_name_is_read(tmp_path):
+    """'Gauge pressure (kPa)', 'Absolute pressure (psi)', 'Druck rel. [bar]', 'Pressure (kPa) [gauge]': the word
+    states the reference (they were refused as an unknown reference, or as a conflict of kPa with gauge); a flag
+    that contradicts it is refused."""
+    from bpmid.io.motion_logs import read_motion_log
+    from bpmid.io.motion_logs import IOConfig
+
+    def log(name, head, p):
+        return _write(tmp_path, name, f"Time (s),{head},Angle (deg)\n" + "".join(
+            f"{k * 0.1:.1f},{v:.4f},{k * 0.5:.2f}\n" for k, v in enumerate(p)))
+
+    kpa = 20.0 + np.arange(30.0)
+    for name, head, vals, ref, gauge in (
+            ("g.csv", "Gauge pressure (kPa)", kpa, "gauge", kpa * 1e3),
+            ("b.csv", "Pressure (kPa) [gauge]", kpa, "gauge", kpa * 1e3),
+            ("d.csv", "Druck rel. [bar]", kpa / 100.0, "gauge", kpa * 1e3),
+            ("a.csv", "Absolute pressure (psi)", (kpa * 1e3 + 101325.0) / 6894.757, "absolute", kpa * 1e3)):
+        lg = read_motion_log(log(name, head, vals))
+        assert lg.pressure_reference == ref and np.allclose(lg.pressure_pa, gauge, atol=1e-3 * 6894.757), name
+    with pytest.raises(InputError, match="the pressure reference is stated twice and disagrees"):
+        read_motion_log(tmp_path / "g.csv", IOConfig(pressure_reference="absolute"))

@@ -127,6 +127,9 @@ _PAREN = re.compile(r"^(.*?)\s*[\(\[\{]\s*([^\)\]\}]*)\s*[\)\]\}]\s*$")
 _SLASH = re.compile(r"^(.*?\S)\s+(?:/|in)\s+(\S+)$")
 _COMMA_UNIT = re.compile(r"^(.*?\S),\s+(\S+)$")
 _PRESSURE_REF = re.compile(r"^(pa|hpa|kpa|mpa|mbar|bar|psi)(a|abs|absolute|g|gauge|gage|rel|relative)?$")
+#: words of a pressure column's name that state its reference ('Gauge pressure', 'Druck rel.', 'p abs')
+_NAME_REF_WORDS = {"gauge": "gauge", "gage": "gauge", "relative": "gauge", "rel": "gauge", "relativ": "gauge",
+                   "absolute": "absolute", "abs": "absolute", "absolut": "absolute"}
 _REF_WORDS = {"a": "absolute", "abs": "absolute", "absolute": "absolute", "g": "gauge", "gauge": "gauge",
               "gage": "gauge", "rel": "gauge", "relative": "gauge"}
 _COMMA_NUM = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
@@ -302,6 +305,23 @@ def _parse(name: str, unit_row: str | None = None):
     "unknown unit"."""
     raw, unit = _unit_part(name)
     said = "header"  # where the unit beside the name was written (messages): the header or the units row
+    word_ref = None   # a pressure's reference written as a word of its name: 'Gauge pressure (kPa)', 'Druck rel. [bar]'
+    if unit is not None and _norm(unit).rstrip(".") in _NAME_REF_WORDS:   # 'Pressure (kPa) [gauge]'
+        raw2, unit2 = _unit_part(raw)
+        word_ref, raw, unit = _NAME_REF_WORDS[_norm(unit).rstrip(".")], raw2, unit2
+    words0 = [w.rstrip(".") for w in _norm(raw).split(" ")]
+    kept = [w for w in words0 if w not in _NAME_REF_WORDS]
+    if len(kept) < len(words0) and kept and ALIASES.get(" ".join(kept)) == "pressure":
+        refs = {_NAME_REF_WORDS[w] for w in words0 if w in _NAME_REF_WORDS}
+        if len(refs) == 1 and word_ref in (None, *refs):
+            word_ref, raw = refs.pop(), " ".join(kept)
+    if word_ref is not None:
+        q, u, ref, derived = _parse(raw if unit is None else f"{raw} ({unit})", unit_row)
+        if q != "pressure":
+            return q, u, ref, derived
+        if ref is not None and ref != word_ref:   # 'Gauge pressure (kPa abs)': refused as a conflict
+            return q, f"conflict:{word_ref}|{ref}|header", None, False
+        return q, u, word_ref, derived
     base = _norm(raw)
     if base not in ALIASES and "." in base and _norm(base.rsplit(".", 1)[1]):
         base = _norm(base.rsplit(".", 1)[1])  # a MATLAB struct field: run.t -> t
@@ -1659,14 +1679,17 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
                                  f"{stated}; a unit stated twice must agree: drop {src} (the file states it) "
                                  f"or correct the line", path=where, line=grid.meta_lines.get(f"{q}_unit"),
                                  key=h)
-        if unit is None and stated_u is not None:
-            unit, ref, unit_from = stated_u, stated_ref, src
+        if unit is None and stated_u is not None:   # a reference the name states ('p_abs') stays
+            if stated_ref is not None and ref is not None and stated_ref != ref:
+                raise InputError(f"the name of column {h!r} says {ref}, {src} says {stated} ({stated_ref}); a "
+                                 "reference stated twice must agree", path=where, line=hline, key=h)
+            unit, ref, unit_from = stated_u, stated_ref if stated_ref is not None else ref, src
         if unit is None and meta_unit is not None:
             mu, mref = split_unit(q, meta_unit)
             if mu is None:
                 raise InputError(f"unknown unit {meta_unit!r} for {q} (known: {', '.join(_known(q))})",
                                  path=where, key=f"{q}_unit")
-            unit, ref, unit_from = mu, mref, f"'# {q}_unit:' line"
+            unit, ref, unit_from = mu, mref if mref is not None else ref, f"'# {q}_unit:' line"
         is_time_text = q == "time" and _time_is_text(vals)
         if unit is None and q == "strain":
             unit, unit_from = "1", "dimensionless by its name"
@@ -1709,6 +1732,10 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
         if arr2.shape != arr.shape or not (np.allclose(arr2, arr, rtol=1e-5, atol=1e-9 * max(1.0, float(np.max(
                 np.abs(arr))) if arr.size else 1.0)) or (arr.size and float(np.max(np.abs(arr2 - arr)))
                                                          <= 2e-3 * float(np.ptp(arr)))):
+            if str(h).strip() == str(h2).strip():   # a map by name cannot pick one of two equal names
+                raise InputError(f"two columns share the name {h!r} and give different {q}s: rename one in the header "
+                                 "(two runs side by side? give each its own file or sheet), then map the one to use "
+                                 f"with --columns {q}=<its name>", path=where, line=hline, key=h2)
             raise InputError(f"two columns give {q}: {h!r} and {h2!r}, and they disagree; map the one to use with "
                              f"--columns {q}=<column>", path=where, line=hline, key=h2)
         ignored.append(h2)
