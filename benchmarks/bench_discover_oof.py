@@ -1,6 +1,6 @@
 """Score ``bpmid discover`` on the held-out half of the out-of-family generator and print the table.
 
-    python benchmarks/bench_discover_oof.py                         # held-out half of configs/sweeps/draw49.yaml
+    python benchmarks/bench_discover_oof.py                         # held-out half of configs/sweeps/draw50.yaml
                                                                     # (the README's table), the shipped thresholds
     python benchmarks/bench_discover_oof.py --config configs/sweeps/full.yaml   # the first draw (seed 12)
     python benchmarks/bench_discover_oof.py --calibrate             # calibrate on the other half first
@@ -24,7 +24,7 @@ REPO = Path(__file__).resolve().parents[1]
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--config", default=str(REPO / "configs" / "sweeps" / "draw49.yaml"),
+    ap.add_argument("--config", default=str(REPO / "configs" / "sweeps" / "draw50.yaml"),
                     help="sweep config (default: the draw the README's table scores)")
     ap.add_argument("--out", default=str(REPO / "out" / "bench_discover_oof"), help="output folder (resumable)")
     ap.add_argument("--calibrate", action="store_true", help="calibrate on the calibration half first")
