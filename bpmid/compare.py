@@ -7,7 +7,7 @@ extrapolate sanely for a bending muscle, chosen on training data: see ``configs/
 overridden key by key by the config (``compare.options.<name>``); a family whose constructor takes a relaxation
 fit (``vbmm-mat``) gets the one named by ``--relax`` or ``compare.relax``.
 
-Outputs (CLI.md): ``metrics.csv`` (one row per model and test log) and ``summary.csv`` (one row per model,
+Outputs (the README's compare section): ``metrics.csv`` (one row per model and test log) and ``summary.csv`` (one row per model,
 pooled over all test logs, ``log = ALL``), with ``model, log, rmse_deg, mape_pct, r2, fit_pct,
 max_abs_err_deg, us_per_step, n_params``. Extra files: ``summary_by_set.csv`` (pooled per named test set),
 ``compare.yaml`` (fitted constants of every model, fit diagnostics, provenance), ``predictions/<log>.csv``

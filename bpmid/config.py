@@ -41,6 +41,32 @@ def _section_class(name: str) -> type:
     return lookup(SECTIONS, name, what="config section")
 
 
+
+class FrozenMap(Mapping):
+    """A read-only mapping (a config's mappings and sections: no caller changes them under a run), which, unlike
+    ``types.MappingProxyType``, pickles: a result that keeps its config can be sent to another process."""
+
+    __slots__ = ("_d",)
+
+    def __init__(self, data=()):
+        object.__setattr__(self, "_d", dict(data))
+
+    def __getitem__(self, key):
+        return self._d[key]
+
+    def __iter__(self):
+        return iter(self._d)
+
+    def __len__(self) -> int:
+        return len(self._d)
+
+    def __repr__(self) -> str:
+        return f"FrozenMap({self._d!r})"
+
+    def __reduce__(self):
+        return (FrozenMap, (self._d,))
+
+
 @dataclasses.dataclass(frozen=True)
 class Config:
     """A loaded configuration: one dataclass instance per section, plus where it came from."""
@@ -137,7 +163,7 @@ def _convert(tp, value, where: str, path):
             if kt is str and not isinstance(k, (str, int, float)) or isinstance(k, bool) or k is None:
                 raise InputError(f"a key here is a name, found {_shown(k)}", path=path, key=f"{where}.{k}")
             out[str(k)] = _convert(vt, v, f"{where}.{k}", path)
-        return types.MappingProxyType(out)
+        return FrozenMap(out)
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise InputError(f"expected a number, found {_shown(value)}", path=path, key=where)
@@ -241,7 +267,7 @@ def parse_config(data: Any, path: Path | None = None, sha256: str | None = None)
         if name not in SECTIONS:
             raise InputError(f"unknown config section (known: {', '.join(SECTIONS)})", path=path, key=str(name))
         sections[name] = build_dataclass(_section_class(name), value, name, path)
-    return Config(types.MappingProxyType(sections), path, sha256)
+    return Config(FrozenMap(sections), path, sha256)
 
 
 def read_yaml(path: str | Path, what: str = "file") -> tuple[Any, str]:
@@ -261,6 +287,6 @@ def read_yaml(path: str | Path, what: str = "file") -> tuple[Any, str]:
 def load_config(path: str | Path | None) -> Config:
     """Load a YAML config file; ``None`` gives all defaults."""
     if path is None:
-        return Config(types.MappingProxyType({}))
+        return Config(FrozenMap({}))
     data, sha = read_yaml(path, "config file")
     return parse_config(data, Path(path), sha)

@@ -1,6 +1,6 @@
 """Run a fitted VBMM on new pressure logs (``bpmid predict``).
 
-Output per log (CLI.md): ``<log stem>.csv`` with a ``# pressure_reference:`` line, ``time_s``, the pressure column exactly as given
+Output per log (README, "Fit the VBMM on motion logs, then predict another log"): ``<log stem>.csv`` with a ``# pressure_reference:`` line, ``time_s``, the pressure column exactly as given
 (``pressure_bar``, ``pressure_kpa`` or ``pressure_pa``, same reference as the input), ``angle_pred_deg``, and
 ``angle_deg`` when the log had one. When angles are present the metrics are returned too.
 """

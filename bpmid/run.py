@@ -477,6 +477,9 @@ def stage_control(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     plant = build_plant(model, [], cfg)
     refs = load_references("all", cfg.rate_hz)
     result = run_control(model, plant, refs, cfg)
+    from bpmid.io import plausibility as plaus
+
+    plaus.emit([f"control: {w}" for w in result.warnings])   # said on stderr as bpmid control says them
     inputs = [r.path for r in refs if r.path is not None] + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
     written = write_control(result, out / "control", cfg, _prov(inputs, config, cfg.seed, ctx["command"]),
                             model=model, plant=plant, figure=True)

@@ -550,3 +550,22 @@ def test_model_of_a_fit_with_effects_says_they_are_left_out(timed_small_study, t
     lagged.write_text(yaml.safe_dump(body))
     with pytest.warns(bpmid.BpmidWarning, match=r"this fit has effects \(pressure_lag\) that .model leaves out"):
         bpmid.load(lagged).model
+
+
+def test_results_and_configs_pickle(tmp_path):
+    """A config's read-only mappings were MappingProxyType, which does not pickle: a fresh DiscoveryResult (it
+    keeps its config) could not go to another process. They are a read-only mapping that pickles now."""
+    import pickle
+
+    from bpmid.config import FrozenMap, load_config
+
+    cfg_file = tmp_path / "c.yaml"
+    cfg_file.write_text("io:\n  columns: {Zeit: time_s}\ndiscover:\n  max_effects: 1\n")
+    cfg = load_config(cfg_file)
+    back = pickle.loads(pickle.dumps(cfg))
+    assert back.section("io").columns == {"Zeit": "time_s"} and back.section("discover").max_effects == 1
+    assert isinstance(back.sections, FrozenMap)
+    with pytest.raises(TypeError):
+        cfg.section("io").columns["Zeit"] = "x"          # still read-only
+    fit = bpmid.fit_motion(sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))[:1])
+    assert pickle.loads(pickle.dumps(fit)) == fit

@@ -29,7 +29,8 @@ def control(
     plant_params: Optional[Path] = typer.Option(None, "--plant-params", help="The plant's VBMM (default: the "
                                                 "controller's constants)."),
     plant_effect: Optional[List[str]] = typer.Option(None, "--plant-effect", help="Catalogue effect of the plant, "
-                                                     "ID[:key=value,...]; repeatable."),
+                                                     "ID[:key=value,...]; repeatable (ids, parameters and their "
+                                                     "units: docs/model.md section 9)."),
     plant_modulus_scale: Optional[float] = typer.Option(None, "--plant-modulus-scale", help="Plant moduli times "
                                                         "this (default 1)."),
     plant_tau_scale: Optional[float] = typer.Option(None, "--plant-tau-scale", help="Plant time constants times "

@@ -44,7 +44,7 @@ def fit_relax(
     ref_temp: Optional[float] = typer.Option(None, "--ref-temp", help="Reference temperature (C) of the master curve "
                                              "built from raw sets at several temperatures (default: the median set "
                                              "temperature)."),
-    shift: Optional[Path] = typer.Option(None, "--shift", help="CSV of shift factors (columns T in C and log_aT) to "
+    shift: Optional[Path] = typer.Option(None, "--shift", help="CSV of shift factors (header 'T (C)',log_aT: the temperature's unit in the header) to "
                                          "use instead of finding them from the data."),
     poisson: Optional[float] = typer.Option(None, "--poisson", help="Poisson's ratio for G and K, below 0.5 "
                                             "(default 0.49933, which reproduces the paper's K values)."),

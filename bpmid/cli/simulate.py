@@ -11,13 +11,17 @@ from bpmid.cli._app import app, command
 
 @command(app, "simulate", epilog="Example: bpmid simulate configs/datasets/variable_amplitude.yaml "
                                  "--effect thermal_softening:amount=0.1,T=300 --seed 7 --out sim/   (an effect "
-                                 "the protocol's rig does not already have; ids: see datasets/README.md)")
+                                 "the protocol's rig does not already have: a 10 % softening with a time constant "
+                                 "T of 300 s; ids, parameters and their units: docs/model.md section 9)")
 def simulate_cmd(
     protocol: Path = typer.Argument(..., metavar="PROTOCOL", help="Protocol file (YAML, schema bpmid.protocol/1; see datasets/README.md)."),
     out: Path = typer.Option(..., "--out", help="Folder for the logs (CSV) and manifest.yaml."),
     params: Optional[Path] = typer.Option(None, "--params", help="VBMM constants (bpmid.vbmm/1) for the plant."),
     effect: Optional[List[str]] = typer.Option(None, "--effect", help="Inject a catalogue effect: ID[:key=value,...]; "
-                                               "repeatable. Keys: the effect's parameters or settings."),
+                                               "repeatable. Keys: the effect's parameters or settings, in their "
+                                               "units (ids: second_relaxation, braid_friction, pressure_lag, "
+                                               "asymmetric_relaxation, strain_stiffening, angle_offset, "
+                                               "thermal_softening; parameters and units: docs/model.md section 9)."),
     seed: Optional[int] = typer.Option(None, "--seed", help="Seed of every random draw (default: the protocol's)."),
     no_timestamp: bool = typer.Option(False, "--no-timestamp", help="Omit the creation time (byte-reproducible)."),
 ):

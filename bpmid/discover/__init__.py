@@ -1,5 +1,5 @@
 """Discrepancy discovery: find where the VBMM and the measurement disagree, name the missing catalogue effect,
-add it, and show the held-out gap shrink (../shared/spec/DISCOVER.md).
+add it, and show the held-out gap shrink (how it decides: docs/discover.md and the README's Discovery section).
 
 Modules: :mod:`.diagnose` (residual diagnostics, noise floor), :mod:`.screen` (rank every catalogue effect by
 its signature), :mod:`.confirm` (refit, held-out score, penalised criteria, identifiability),
