@@ -17,8 +17,8 @@ EPILOG = ("Example:  bpmid run   (configs/paper.yaml on the shipped datasets, in
 @command(app, "run", epilog=EPILOG)
 def run(
     config: Optional[Path] = typer.Argument(None, metavar="CONFIG", help="Study config (sections run, compare, "
-                                            "relax, motion, model, discover, io). Default: configs/paper.yaml of the "
-                                            "source tree."),
+                                            "relax, motion, model, discover, io). Default: the shipped "
+                                            "configs/paper.yaml (`bpmid shipped` prints where it is)."),
     out: Optional[Path] = typer.Option(None, "--out", help="Output folder (default: run.out of the config, else "
                                        "out/<config name>)."),
     figures: Optional[str] = figures_option(),
