@@ -497,12 +497,23 @@ class RelaxationResult(Result):
                     out.append(judged(_entry(f"tau_{j}", term["tau"], "s", "estimated")))
         if "poisson_ratio" in self.body:
             out.append(ParamInfo("poisson_ratio", float(self.body["poisson_ratio"]), None, "1", "given"))
+        # a master curve's shift function: the WLF constants with their standard errors (shift.wlf)
+        wlf = ((self.body.get("shift") or {}).get("wlf") or {})
+        if isinstance(wlf, Mapping):
+            for name, unit in (("C1", "1"), ("C2", "C")):
+                if isinstance(wlf.get(name), (int, float)):
+                    se = wlf.get(f"se_{name}")
+                    out.append(ParamInfo(f"wlf.{name}", float(wlf[name]), float(se) if isinstance(se, (int, float))
+                                         else None, unit, "estimated (shift.wlf)"))
+            if isinstance(wlf.get("T_ref"), (int, float)):
+                out.append(ParamInfo("wlf.T_ref", float(wlf["T_ref"]), None, "C", "given (reference temperature)"))
         return Parameters(out)
 
     @property
     def metrics(self) -> dict[str, float]:
         m = self.body.get("metrics") or {}
         out = {f"rmse_{m.get('rmse_unit', 'Pa')}": m.get("rmse"), "r2": m.get("r2"), "mape_pct": m.get("mape_pct"),
+               "rms_rel_storage_pct": m.get("rms_rel_storage_pct"), "rms_rel_loss_pct": m.get("rms_rel_loss_pct"),
                "n_terms": m.get("n_terms")}
         unc = self.body.get("uncertainty") or {}
         out.update({"n_obs": unc.get("n_obs"), "n_eff": unc.get("n_eff")})

@@ -65,6 +65,16 @@ def test_recovers_known_shift_factors_and_wlf(tmp_path, domain):
     assert mf.shift.wlf["C1"] == pytest.approx(C1, rel=0.05) and mf.shift.wlf["C2"] == pytest.approx(C2, rel=0.05)
     assert mf.shift.wlf["se_C1"] > 0 and mf.shift.poly["rmse"] < 0.05 and mf.shift.source == "data"
     assert mf.fit.m == 8 and mf.domain == domain
+    if domain == "freq":   # the library's result gives the WLF constants and the E'/E'' errors as the CLI does
+        import bpmid
+
+        with pytest.warns(bpmid.BpmidWarning, match="Poisson"):   # a glassy modulus under the rubber default
+            res = bpmid.fit_relaxation([tmp_path / f"raw_{domain}.csv"], terms=8, ref_temp=TREF)
+        c1 = res.params["wlf.C1"]
+        assert c1.value == pytest.approx(mf.shift.wlf["C1"], rel=1e-9) and c1.stderr == pytest.approx(
+            mf.shift.wlf["se_C1"], rel=1e-9) and res.params["wlf.C2"].unit == "C"
+        assert res.params["wlf.T_ref"].value == TREF and "wlf.C1" in res.summary()
+        assert res.metrics["rms_rel_storage_pct"] >= 0 and "rms_rel_loss_pct" in res.metrics
 
 
 def test_reference_temperature_between_sets_and_user_shift(tmp_path):
