@@ -342,14 +342,16 @@ def predict(logs, params, *, config=None):
     motion, paths = _motion_logs(logs, cfg)
     preds = _predict(motion, model)
     warnings = plaus.reader_warnings(motion) + plaus.prediction_warnings(preds)
+    fit_body = params.to_dict() if hasattr(params, "to_dict") else None
     if ppath is not None and str(ppath).endswith((".yaml", ".yml")) and Path(ppath).is_file():
         from bpmid.io.results import read_result
         from bpmid.models.vbmm import fitted_history_note
 
-        note = fitted_history_note(read_result(ppath, "bpmid.vbmm/").get("model"),
-                                   model.base if hasattr(model, "base") else model)
+        fit_body = read_result(ppath, "bpmid.vbmm/")
+        note = fitted_history_note(fit_body.get("model"), model.base if hasattr(model, "base") else model)
         if note:
             warnings.insert(0, f"{ppath}: {note}")
+    warnings += plaus.beyond_fit_warnings(motion, fit_body)
     _give(warnings, cfg, "the prediction")
     body = {**predict_yaml_body(preds, params=ppath, model=model), "warnings": warnings}
     prov = plaus.attach(provenance(list(paths) + ([ppath] if ppath else []), config=cfg), motion, warnings)

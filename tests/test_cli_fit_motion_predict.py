@@ -279,3 +279,21 @@ def test_an_assumed_standard_atmosphere_is_noted_for_measured_logs_only(tmp_path
         assert ("turned to gauge with the standard atmosphere" in res.output) == expect, (log, res.output)
         if expect:
             assert note in " ".join(res.output.split()) and "io.atmosphere_pa" in res.output
+
+
+def test_predict_says_when_a_log_runs_far_beyond_the_fitted_pressures(tmp_path, fitted, data):
+    """A log whose pressures run far beyond those the constants were fitted on (here a kPa log under a psi
+    header's numbers, 6.9 times too high) is said; the paper's test logs (one span above the fit) are not."""
+    fit, _text = fitted
+    body = yaml.safe_load(fit.read_text())
+    lo, hi = (min(e["pressure_gauge_pa"][0] for e in body["fit"]["logs"]),
+              max(e["pressure_gauge_pa"][1] for e in body["fit"]["logs"]))
+    assert 0 <= lo < hi
+    res = runner.invoke(app, ["predict", str(data["tri20"]), "--params", str(fit), "--out", str(tmp_path / "ok")])
+    assert res.exit_code == 0 and "far beyond" not in res.output, res.output
+    text = data["tri22_kpa"].read_text().replace("pressure_kpa", "pressure_psi")   # kPa numbers read as psi
+    slip = tmp_path / "slip.csv"
+    slip.write_text(text)
+    res = runner.invoke(app, ["predict", str(slip), "--params", str(fit), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0 and "far beyond the" in " ".join(res.output.split()), res.output
+    assert "the constants were fitted on" in " ".join(res.output.split())

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import sys
-from typing import Iterable, Sequence
+from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -388,4 +388,30 @@ def assumed_ambient_note(logs: Iterable) -> str | None:
             "(101 325 Pa), which nothing in the logs states; at another ambient (altitude, weather) state it: a line "
             "'# ambient_pressure: 950 mbar', an ambient column (ambient_pressure_kpa), or io.atmosphere_pa in a "
             "config (io: {atmosphere_pa: 95000})")
+
+
+#: how far beyond the fitted pressures (a share of their span) a predicted log may go before it is said: the
+#: paper's own test logs reach some 0.4 bar (one span) above its fitting set on purpose; a unit slip goes far beyond
+BEYOND_FIT_SHARE = 1.0
+
+
+def beyond_fit_warnings(logs: Iterable, fit_body: Mapping | None) -> list[str]:
+    """Logs predicted at gauge pressures well outside those the constants were fitted on (``fit.logs[*].
+    pressure_gauge_pa`` of a ``bpmid.vbmm/1`` file; files written before it existed say nothing): the model
+    extrapolates there, and a unit slip (kPa values under a psi header) shows first as such a range."""
+    spans = [e.get("pressure_gauge_pa") for e in (((fit_body or {}).get("fit") or {}).get("logs") or [])
+             if isinstance(e, Mapping)]
+    spans = [x for x in spans if isinstance(x, (list, tuple)) and len(x) == 2]
+    if not spans:
+        return []
+    lo, hi = min(float(x[0]) for x in spans), max(float(x[1]) for x in spans)
+    pad = BEYOND_FIT_SHARE * max(hi - lo, 1.0)
+    out = []
+    for lg in logs:
+        pmin, pmax = float(np.min(lg.pressure_pa)), float(np.max(lg.pressure_pa))
+        if pmax > hi + pad or pmin < lo - pad:
+            out.append(f"{_name(lg)}: its gauge pressure runs {pmin / 1e5:.3g} to {pmax / 1e5:.3g} bar, far beyond the "
+                       f"{lo / 1e5:.3g}-{hi / 1e5:.3g} bar the constants were fitted on: the prediction extrapolates "
+                       "(check the log's pressure unit and reference; or fit on logs that cover this range)")
+    return out
 

@@ -491,7 +491,9 @@ class MotionFit:
                     "prior": {p.name: float(p.value) for p in self.prior},
                     "linear_start": self.linear,
                     "objective": "angle error (deg) of the forward model, all logs at once",
-                    "logs": [{"name": lg.name, "samples": lg.n, "duration_s": round(lg.duration_s, 6)}
+                    "logs": [{"name": lg.name, "samples": lg.n, "duration_s": round(lg.duration_s, 6),
+                              # the gauge pressures the constants were fitted on (predict says when it goes beyond)
+                              "pressure_gauge_pa": [float(np.min(lg.pressure_pa)), float(np.max(lg.pressure_pa))]}
                              for lg in self.logs],
                     "seconds": round(self.seconds, 3)},
             "uncertainty": unc,
