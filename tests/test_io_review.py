@@ -591,3 +591,21 @@ def test_a_reference_written_as_a_word_of_the_pressure_name_is_read(tmp_path):
         assert lg.pressure_reference == ref and np.allclose(lg.pressure_pa, gauge, atol=1e-3 * 6894.757), name
     with pytest.raises(InputError, match="the pressure reference is stated twice and disagrees"):
         read_motion_log(tmp_path / "g.csv", IOConfig(pressure_reference="absolute"))
+
+
+def test_year_first_slash_dates_and_12_hour_clocks_are_read(tmp_path):
+    """'2025/03/01 10:00:00.000' (year first: unambiguous) and '12:59:50.000 PM' were misreported as a column
+    without a unit, and the unit the message offered then failed on the text."""
+    from bpmid.io.motion_logs import read_motion_log
+
+    def log(name, stamps):
+        return _write(tmp_path, name, "# pressure_reference: absolute\ntime,pressure_bar,angle_deg\n" + "".join(
+            f"{s},{1.2 + 0.01 * k:.3f},{k * 0.5:.2f}\n" for k, s in enumerate(stamps)))
+
+    ymd = [f"2025/03/01 10:00:{k * 0.5:06.3f}" for k in range(20)]
+    assert np.allclose(read_motion_log(log("ymd.csv", ymd)).time_s, np.arange(20) * 0.5)
+    pm = [f"12:59:{50 + k * 0.5:06.3f} PM" if 50 + k * 0.5 < 60 else f"1:00:{50 + k * 0.5 - 60:06.3f} PM"
+          for k in range(20)]
+    assert np.allclose(read_motion_log(log("pm.csv", pm)).time_s, np.arange(20) * 0.5)
+    with pytest.raises(InputError, match="day-first in some locales"):   # day or month first: still refused
+        read_motion_log(log("dmy.csv", [f"01/03/2025 10:00:{k * 0.5:06.3f}" for k in range(20)]))

@@ -143,6 +143,10 @@ _MMSS = re.compile(r"^\s*(\d{1,4}):(\d{2}[.,]\d+)\s*$")
 _DOTTED_DATE = re.compile(r"^\s*(\d{1,2})\.(\d{1,2})\.(\d{4})[ T]+(\d{1,2}):(\d{2})(?::(\d{2})(?:[.,](\d+))?)?\s*$")
 #: a date with slashes: day-first in some locales, month-first in others (03/04/2025), never guessed
 _SLASH_DATE = re.compile(r"^\s*\d{1,2}/\d{1,2}/\d{2,4}\b")
+#: a year-first date with slashes (2025/03/01 10:00:00.125): unambiguous, read as ISO 8601
+_YMD_SLASH = re.compile(r"^\s*(\d{4})/(\d{1,2})/(\d{1,2})(?:[ T]+(.*))?\s*$")
+#: a 12-hour clock time (12:59:50.000 PM, 1:05 am)
+_CLOCK_12 = re.compile(r"^\s*(\d{1,2}):(\d{2})(?::(\d{2})(?:[.,](\d+))?)?\s*([AaPp])\.?\s*[Mm]\.?\s*$")
 _SEP_LINE = re.compile(r'^\s*"?sep=(.)"?\s*$', re.IGNORECASE)
 _META = re.compile(r"^\s*([A-Za-z][\w \-./()\[\]]*?)\s*[:=]\s*(.*)$")
 #: a metadata key standing in a cell of its own ('Pressure Reference' | 'Gauge'): the key of :data:`_META`
@@ -1273,6 +1277,22 @@ def _resolve(grid: Grid, cmap: dict[str, tuple[str, str]], units: Mapping[str, s
     return found, ignored, unknown
 
 
+def _to_24h(m) -> str:
+    """'12:59:50.000 PM' -> '12:59:50.000'; '12:05 AM' -> '00:05'."""
+    hh, mm, ss, frac, ap = m.groups()
+    h = int(hh) % 12 + (12 if ap.lower() == "p" else 0)
+    return f"{h:02d}:{mm}" + (f":{ss}" if ss else "") + (f".{frac}" if frac else "")
+
+
+def _ymd_iso(m) -> str:
+    """'2025/03/01 10:00:00.5' -> '2025-03-01T10:00:00.5' (a 12-hour time after it made 24-hour)."""
+    y, mo, d, rest = m.groups()
+    rest = (rest or "").strip()
+    if rest and _CLOCK_12.match(rest):
+        rest = _to_24h(_CLOCK_12.match(rest))
+    return f"{y}-{int(mo):02d}-{int(d):02d}" + (f"T{rest}" if rest else "")
+
+
 def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tuple[np.ndarray, str]:
     """ISO-8601 strings or datetimes -> seconds since the first, and the first as ISO text."""
     import datetime as _dt
@@ -1288,6 +1308,10 @@ def _parse_times(values: list, where: str, header: str, lines: list[int]) -> tup
             texts.append(v.isoformat())
         else:
             texts.append(str(v).strip())
+    if texts and all(_CLOCK_12.match(x) for x in texts):   # 12-hour clock times: to 24-hour ones
+        texts = [_to_24h(_CLOCK_12.match(x)) for x in texts]
+    if texts and all(_YMD_SLASH.match(x) for x in texts):   # 2025/03/01 10:00:00: year first, read as ISO
+        texts = [_ymd_iso(_YMD_SLASH.match(x)) for x in texts]
     if texts and all(_MMSS.match(x) for x in texts):  # elapsed minutes:seconds.f (Excel's mm:ss.0)
         parts = [_MMSS.match(x) for x in texts]
         secs = np.array([60.0 * float(m.group(1)) + float(m.group(2).replace(",", ".")) for m in parts])
@@ -1904,7 +1928,7 @@ def _time_is_text(vals: list) -> bool:
     for v in vals[:5]:
         if isinstance(v, (_dt.datetime, _dt.time, _dt.timedelta)):
             return True
-        if isinstance(v, str) and (_CLOCK.match(v) or _MMSS.match(v)):
+        if isinstance(v, str) and (_CLOCK.match(v) or _MMSS.match(v) or _CLOCK_12.match(v) or _YMD_SLASH.match(v)):
             return True
         if isinstance(v, str) and v.strip() and not _is_number(v) and (
                 re.match(r"^\s*\d{4}-\d{2}-\d{2}", v) or _MATLAB_DATE.match(v) or _DOTTED_DATE.match(v)
