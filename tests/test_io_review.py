@@ -609,3 +609,27 @@ def test_year_first_slash_dates_and_12_hour_clocks_are_read(tmp_path):
     assert np.allclose(read_motion_log(log("pm.csv", pm)).time_s, np.arange(20) * 0.5)
     with pytest.raises(InputError, match="day-first in some locales"):   # day or month first: still refused
         read_motion_log(log("dmy.csv", [f"01/03/2025 10:00:{k * 0.5:06.3f}" for k in range(20)]))
+
+
+def test_messages_for_an_epoch_header_a_repeated_header_and_units_in_cells(tmp_path):
+    """'epoch_ms' names its unit (it was 'no name bpmid knows ... rename it time_s', which reads ms as s); a
+    header repeated mid-file and a unit in every cell are said for what they are."""
+    from bpmid.io.motion_logs import read_motion_log
+
+    rows = [(k * 100, 1.2 + 0.01 * k, k * 0.5) for k in range(20)]
+    ep = _write(tmp_path, "ep.csv", "# pressure_reference: absolute\nepoch_ms,pressure_bar,angle_deg\n"
+                + "".join(f"{1.7e12 + t:.1f},{p:.3f},{a:.2f}\n" for t, p, a in rows))
+    assert np.allclose(read_motion_log(ep).time_s, np.arange(20) * 0.1)
+    zm = _write(tmp_path, "zm.csv", "# pressure_reference: absolute\nstamp_ms,pressure_bar,angle_deg\n"
+                + "".join(f"{t},{p:.3f},{a:.2f}\n" for t, p, a in rows))
+    with pytest.raises(InputError, match="rename it time_ms"):
+        read_motion_log(zm)
+    body = "".join(f"{t / 1000:.1f},{p:.3f},{a:.2f}\n" for t, p, a in rows)
+    head = "# pressure_reference: absolute\ntime_s,pressure_bar,angle_deg\n"
+    joined = _write(tmp_path, "joined.csv", head + body + "time_s,pressure_bar,angle_deg\n" + body)
+    with pytest.raises(InputError, match="the header again: two logs joined into one file"):
+        read_motion_log(joined)
+    cells = _write(tmp_path, "cells.csv", head + "".join(f"{t / 1000:.2f} s,{p:.4f} bar,{a:.2f} deg\n"
+                                                         for t, p, a in rows))
+    with pytest.raises(InputError, match=r"a unit written in each cell \('s' after the number\)"):
+        read_motion_log(cells)

@@ -327,6 +327,8 @@ def _parse(name: str, unit_row: str | None = None):
             return q, f"conflict:{word_ref}|{ref}|header", None, False
         return q, u, word_ref, derived
     base = _norm(raw)
+    if unit is None and base.replace(" ", "_") in EPOCH_UNITS:   # 'epoch_ms', 'unix_s': the name is the unit
+        return "time", base.replace(" ", "_"), None, False
     if base not in ALIASES and "." in base and _norm(base.rsplit(".", 1)[1]):
         base = _norm(base.rsplit(".", 1)[1])  # a MATLAB struct field: run.t -> t
     row = unit_row.strip() if unit_row is not None and unit_row.strip() else None
@@ -707,7 +709,8 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
     unit_row = unit_row_line = None
     info_rows: list = []
     rows, row_lines = _drop_name_rows(rows, row_lines, info_rows)
-    if rows and not any(_is_number(c) for c in rows[0] if c) and any(rows[0]) and not _looks_like_time(rows[0]):
+    if rows and not any(_is_number(c) for c in rows[0] if c) and any(rows[0]) and not _looks_like_time(rows[0]) \
+            and not _numbers_with_units(rows[0]):
         unit_row, unit_row_line = rows[0], row_lines[0]
         rows, row_lines = rows[1:], row_lines[1:]
     # decimal separator: a comma only where the columns are not comma-separated, and never mixed with points
@@ -884,9 +887,18 @@ def _is_unit(c: str) -> bool:
             or any(split_unit(q, c)[0] is not None for q in UNITS))
 
 
+def _numbers_with_units(cells: Sequence) -> bool:
+    """Whether most filled cells of a row start with a number ('0.00 s', '1.1998 bar'): data with a unit written in
+    each cell, not a units row (refused then as numbers, with that said)."""
+    filled = [str(c).strip() for c in cells if str(c).strip()]
+    return bool(filled) and sum(bool(re.match(r"^[+-]?(?:\d+\.?\d*|\.\d+)", c)) for c in filled) * 2 > len(filled)
+
+
 def _units_row(cells: Sequence[str]) -> bool:
     """Whether a row under a candidate header reads as units: at least half its filled cells a unit spelling."""
     filled = [c for c in cells if str(c).strip()]
+    if _numbers_with_units(filled):
+        return False   # '0.00 s', '1.1998 bar': numbers with a unit in each cell, data, not a units row
     return bool(filled) and sum(_is_unit(c) for c in filled) * 2 >= len(filled)
 
 
@@ -982,7 +994,7 @@ def _sheet_grid(rows: list[list], where: str, info: dict, map_keys: frozenset | 
     if info_rows:
         info["name_rows_skipped"] = info_rows
     if data and all(isinstance(v, str) for v in data[0]) and not any(_is_number(v) for v in data[0] if v) \
-            and any(data[0]) and not _looks_like_time(data[0]):
+            and any(data[0]) and not _looks_like_time(data[0]) and not _numbers_with_units(data[0]):
         unit_row, unit_row_line = [str(v) for v in data[0]], lines[0]
         data, lines = data[1:], lines[1:]
     cols = [list(c) for c in zip(*data)] if data else [[] for _ in header]
@@ -1385,6 +1397,14 @@ def _numbers(values: list, where: str, header: str, lines: list[int], excel: boo
                 elif _COMMA_NUM.match(cell):
                     what += ("; a decimal comma in a comma-separated file (the cell is quoted)? Export with a point "
                              "as the decimal separator, or separate the columns with ';'")
+                elif cell.lstrip("\ufeff").strip('"') == str(header).strip().strip('"'):
+                    what += ("; the header again: two logs joined into one file? Split the file where the header "
+                             "repeats, one log per file")
+                else:
+                    num = re.match(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(\S+)\s*$", cell)
+                    if num:   # '1.1998 bar', '0.00 s': a unit written in every cell
+                        what += (f"; a unit written in each cell ({num.group(2)!r} after the number): export the "
+                                 "numbers alone, with the unit in the header (e.g. 'Pressure (bar)')")
                 raise InputError(f"column {header!r}: {what}", path=where,
                                  line=lines[r] if r < len(lines) else None) from None
         if not np.isfinite(x):
@@ -1479,6 +1499,10 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
             h = cands[0]
             note = grid.info.get("map_note", "")
             own = split_unit(q, _unit_part(h)[1] or "")[0]   # the name bpmid would give it, in its own unit
+            words = _norm(_unit_part(h)[0]).split(" ")
+            for cut in (2, 1):   # a unit in the name's last words ('t_ms', 'zeit ms'): never offer seconds for it
+                if own is None and len(words) >= cut:
+                    own = split_unit(q, " ".join(words[-cut:]))[0]
             rename = _column_name(q, own) if own else BPMID_NAME[q]
             article = "an" if q[0] in "aeiou" else "a"
             raise InputError(f"missing column for {q}: no name bpmid knows, but {h!r} has {article} {q} unit: map it "
