@@ -497,7 +497,7 @@ def test_a_column_with_a_pressure_unit_but_an_unknown_name_is_refused_with_its_o
         read_motion_log(log)
     msg = e.value.message
     assert e.value.key == "Absolutdruck (bar)" and "has a pressure unit" in msg
-    assert "--columns pressure=Absolutdruck (bar)" in msg and "rename it pressure_bar" in msg
+    assert "--columns 'pressure=Absolutdruck (bar)'" in msg and "rename it pressure_bar" in msg
 
 
 def test_a_column_without_a_name_that_holds_numbers_is_said_not_dropped(tmp_path):
@@ -633,3 +633,23 @@ def test_messages_for_an_epoch_header_a_repeated_header_and_units_in_cells(tmp_p
                                                          for t, p, a in rows))
     with pytest.raises(InputError, match=r"a unit written in each cell \('s' after the number\)"):
         read_motion_log(cells)
+
+
+def test_columns_with_commas_in_brackets_and_several_candidates(tmp_path):
+    """--columns keeps data(:,1) whole (it split at the comma), and such a MATLAB matrix column has no unit in
+    its brackets; a missing pressure with two candidates by unit names both, the hint quoted for a shell."""
+    from bpmid.cli._logopts import _split_pairs
+
+    assert _split_pairs("time_s=data(:,1),pressure_bar_abs=data(:,2)") == ["time_s=data(:,1)",
+                                                                           "pressure_bar_abs=data(:,2)"]
+    from bpmid.io.tables import _unit_part
+
+    assert _unit_part("data(:,1)") == ("data(:,1)", None) and _unit_part("Time (s)") == ("Time", "s")
+    from bpmid.io.motion_logs import read_motion_log
+
+    f = _write(tmp_path, "two.csv", "# pressure_reference: absolute\ntime_s,Pressure sensor 1 (bar),Pressure sensor 2 "
+               "(bar),angle_deg\n" + "".join(f"{k * 0.1:.1f},{1.2 + 0.01 * k:.3f},{1.3:.3f},{k:.1f}\n"
+                                             for k in range(20)))
+    with pytest.raises(InputError, match=r"--columns 'pressure=Pressure sensor 1 \(bar\)'.*'Pressure sensor 2 "
+                                         r"\(bar\)' also has a pressure unit"):
+        read_motion_log(f)

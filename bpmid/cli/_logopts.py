@@ -78,7 +78,7 @@ class LogOptions:
         from bpmid.io.tables import parse_header
 
         out: dict[str, str] = {}
-        for item in self.columns.split(","):
+        for item in _split_pairs(self.columns):
             if not item.strip():
                 continue
             name, sep, header = item.partition("=")
@@ -160,3 +160,22 @@ def log_options(kind: str = "motion"):
         return wrapper
 
     return deco
+
+
+def _split_pairs(text: str) -> list[str]:
+    """``--columns`` split at its commas, but not at one inside brackets: a MATLAB matrix column ``data(:,1)`` or a
+    header ``Force (N, filtered)`` is one column name."""
+    out, depth, cur = [], 0, []
+    for ch in text:
+        if ch in "([{":
+            depth += 1
+        elif ch in ")]}" and depth:
+            depth -= 1
+        if ch == "," and depth == 0:
+            out.append("".join(cur))
+            cur = []
+        else:
+            cur.append(ch)
+    out.append("".join(cur))
+    return out
+

@@ -282,6 +282,8 @@ def _unit_part(name: str) -> tuple[str, str | None]:
     raw = str(name).strip().strip('"').strip()
     m = _PAREN.match(raw)
     if m and m.group(1).strip():
+        if re.fullmatch(r"[\d:,\s]+", m.group(2)) and ("," in m.group(2) or ":" in m.group(2)):
+            return raw, None   # a MATLAB matrix column, data(:,1): an index, no unit
         return m.group(1), m.group(2).strip()
     m = _SLASH.match(raw)
     if m:
@@ -1505,8 +1507,11 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
                     own = split_unit(q, " ".join(words[-cut:]))[0]
             rename = _column_name(q, own) if own else BPMID_NAME[q]
             article = "an" if q[0] in "aeiou" else "a"
+            if len(cands) > 1:   # say every candidate: the user picks the muscle's
+                note = f"; {', '.join(repr(c) for c in cands[1:])} also {'has' if len(cands) == 2 else 'have'} " \
+                       f"{article} {q} unit: map the one that is the muscle's" + note
             raise InputError(f"missing column for {q}: no name bpmid knows, but {h!r} has {article} {q} unit: map it "
-                             f"with --columns {q}={h} (config io.columns: {{'{h}': {q}}}), or rename it "
+                             f"with {columns_arg(f'{q}={h}')} (config io.columns: {{'{h}': {q}}}), or rename it "
                              f"{rename}{note}", path=where, line=hline, key=h)
     missing = [q for q in required if q not in found]
     if missing:
@@ -1885,7 +1890,7 @@ def _check_meta_unit(grid: Grid, q: str, h: str, unit: str, ref: str | None, uni
     if unit_from == "units row":
         src = f"the units row under the header (line {grid.unit_row_line})" if grid.unit_row_line else \
             "the units row under the header"
-        fix = f"correct the units row (or map the column with its unit: --columns {_column_name(q, mu)}={h})"
+        fix = f"correct the units row (or map the column with its unit: {columns_arg(f'{_column_name(q, mu)}={h}')})"
     else:
         src = f"the header {h!r}"
         fix = (f"rename the column {_column_name(q, mu)} (or map it with its unit: --columns "
