@@ -653,3 +653,28 @@ def test_columns_with_commas_in_brackets_and_several_candidates(tmp_path):
     with pytest.raises(InputError, match=r"--columns 'pressure=Pressure sensor 1 \(bar\)'.*'Pressure sensor 2 "
                                          r"\(bar\)' also has a pressure unit"):
         read_motion_log(f)
+
+
+def _lvm(x_columns: str, y_units: str, data_head: str, rows: list[str]) -> str:
+    head = (f"LabVIEW Measurement\t\nWriter_Version\t2\nSeparator\tTab\nDecimal_Separator\t.\nMulti_Headings\tNo\n"
+            f"X_Columns\t{x_columns}\nTime_Pref\tRelative\n***End_of_Header***\t\n\t\nChannels\t2\t\n"
+            f"Samples\t{len(rows)}\t{len(rows)}\t\nY_Unit_Label\t{y_units}\t\nX_Dimension\tTime\tTime\t\n"
+            f"X0\t0.0E+0\t0.0E+0\t\nDelta_X\t0.050000\t0.050000\t\n***End_of_Header***\t\n{data_head}\n")
+    return head + "\n".join(rows) + "\n"
+
+
+def test_labview_channel_units_and_a_file_without_x_columns_are_read(tmp_path):
+    """Units in the segment header's Y_Unit_Label were 'stated nowhere'; X_Columns No (time = X0 + k Delta_X) was
+    'missing column for time'."""
+    from bpmid.io.motion_logs import IOConfig, read_motion_log
+
+    vals = [(k * 0.05, 1.2 + 0.01 * k, 14.0 + k) for k in range(30)]
+    one = _write(tmp_path, "one.lvm", _lvm("One", "bar\tDeg", "X_Value\tPressure\tAngle\tComment",
+                                           [f"{t:.6f}\t{p:.6f}\t{a:.6f}" for t, p, a in vals]))
+    none = _write(tmp_path, "none.lvm", _lvm("No", "bar\tDeg", "Pressure\tAngle\tComment",
+                                             [f"{p:.6f}\t{a:.6f}" for _, p, a in vals]))
+    cfg = IOConfig(pressure_reference="absolute")
+    a, b = read_motion_log(one, cfg), read_motion_log(none, cfg)
+    assert np.allclose(a.time_s, np.arange(30) * 0.05) and np.allclose(b.time_s, a.time_s)
+    assert np.allclose(a.pressure_as_given, [p for _, p, _ in vals]) and a.pressure_unit == "bar"
+    assert np.array_equal(a.pressure_pa, b.pressure_pa) and np.array_equal(a.angle_deg, b.angle_deg)

@@ -555,10 +555,12 @@ def _meta_from_line(body: str, meta: dict, lines: dict | None = None, line: int 
 _LVM_END = re.compile(r"^\s*\*\*\*End_of_Header\*\*\*", re.IGNORECASE)
 
 
-def _labview_header(lines: list[str], where: str, meta: dict, meta_lines: dict) -> tuple[int, str | None]:
+def _labview_header(lines: list[str], where: str, meta: dict, meta_lines: dict,
+                    channels: dict | None = None) -> tuple[int, str | None]:
     """A LabVIEW measurement file (``.lvm``): its file header and its segment header (``key<sep>value`` lines,
     each ending at ``***End_of_Header***``) read as metadata. Returns (index of the line after them, the file's
-    separator), or (0, None) when ``lines`` are no LabVIEW measurement file."""
+    separator), or (0, None) when ``lines`` are no LabVIEW measurement file. ``channels`` receives the lines
+    with one value per channel (y_unit_label, x0, delta_x: lists)."""
     first = next((ln.strip().lstrip("\ufeff") for ln in lines if ln.strip()), "")
     if not first.lower().startswith("labview measurement"):
         return 0, None
@@ -575,7 +577,29 @@ def _labview_header(lines: list[str], where: str, meta: dict, meta_lines: dict) 
         cells = [c.strip() for c in lines[k].split(sep)]
         if len(cells) >= 2 and cells[1] and re.match(r"^[A-Za-z][\w ]*$", cells[0]):
             _meta_from_line(f"{cells[0]}: {cells[1]}", meta, meta_lines, k + 1)
+            if channels is not None and cells[0].lower() in ("y_unit_label", "delta_x", "x0"):   # per channel
+                channels[cells[0].lower()] = [c for c in cells[1:] if c]
     return ends[-1] + 1, sep
+
+
+def _labview_columns(header: list[str], body: list, meta: dict, sep: str, ch: dict) -> tuple[list[str], list]:
+    """A LabVIEW file's channel units (Y_Unit_Label) written into its column names ('Pressure' over 'bar' reads
+    as 'Pressure (bar)'), and, without an x column (X_Columns No), its time made from X0 + k Delta_X."""
+    has_x = bool(header) and header[0].lower() in ("x_value", "time (s)")
+    names = header[1:] if has_x else header
+    units = ch.get("y_unit_label") or []
+    named = [f"{h} ({u})" if u and h and h.lower() != "comment" and _unit_part(h)[1] is None else h
+             for h, u in zip(names, units + [""] * (len(names) - len(units)))]
+    header = (header[:1] if has_x else []) + named
+    if not has_x and meta.get("x_columns", "").lower() == "no" and ch.get("delta_x"):
+        try:
+            x0, dx = float((ch.get("x0") or ["0"])[0].replace(",", ".")), float(ch["delta_x"][0].replace(",", "."))
+        except ValueError:
+            return header, body
+        if meta.get("x_dimension", "time").lower().startswith("time") and dx > 0:
+            header = ["time (s)"] + header
+            body = [(ln, f"{x0 + k * dx!r}{sep}{text}") for k, (ln, text) in enumerate(body)]
+    return header, body
 
 
 def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset()) -> Grid:
@@ -589,7 +613,8 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
     lines = re.split(r"\r\n|\r|\n", text)
     meta: dict[str, str] = {}
     meta_lines: dict[str, int] = {}
-    i, delim_hint = _labview_header(lines, where, meta, meta_lines)
+    lvm_channels: dict[str, list[str]] = {}
+    i, delim_hint = _labview_header(lines, where, meta, meta_lines, lvm_channels)
     labview = i > 0
     last_comment = None
     while i < len(lines):
@@ -681,6 +706,7 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
             header[0] = "time (s)"
         if header and header[-1].lower() == "comment" and body and len(split(body[0][1])) == len(header) - 1:
             header = header[:-1]
+        header, body = _labview_columns(header, body, meta, delim or "\t", lvm_channels)
     nxt = next(((k + 1, ln) for k, ln in enumerate(lines[i + 1:], start=i + 1) if ln.strip()), None)
     if nxt is not None and nxt[1].lstrip().startswith("%") and (not body or body[0][0] > nxt[0]):
         cells = [c.strip() for c in split(nxt[1])]
