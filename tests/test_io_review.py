@@ -678,3 +678,22 @@ def test_labview_channel_units_and_a_file_without_x_columns_are_read(tmp_path):
     assert np.allclose(a.time_s, np.arange(30) * 0.05) and np.allclose(b.time_s, a.time_s)
     assert np.allclose(a.pressure_as_given, [p for _, p, _ in vals]) and a.pressure_unit == "bar"
     assert np.array_equal(a.pressure_pa, b.pressure_pa) and np.array_equal(a.angle_deg, b.angle_deg)
+
+
+def test_repeated_times_say_why_and_utf32_is_read(tmp_path):
+    """A sample written twice and a time column coarser than the sampling (mm:ss.0 at 20 Hz) are told apart; a
+    UTF-32 file (with its BOM) is read (its columns were shown as NUL-interleaved text)."""
+    from bpmid.io.motion_logs import read_motion_log
+
+    head = "# pressure_reference: absolute\ntime_s,pressure_bar,angle_deg\n"
+    rows = [f"{k * 0.05:.2f},{1.2 + 0.001 * k:.4f},{k * 0.1:.2f}\n" for k in range(40)]
+    twice = _write(tmp_path, "twice.csv", head + "".join(rows[:10] + [rows[9]] + rows[10:]))
+    with pytest.raises(InputError, match="a sample written twice"):
+        read_motion_log(twice)
+    coarse = _write(tmp_path, "coarse.csv", head + "".join(
+        f"{round(k * 0.05, 1):.1f},{1.2 + 0.001 * k:.4f},{k * 0.1:.2f}\n" for k in range(40)))
+    with pytest.raises(InputError, match="written coarser than the log is sampled"):
+        read_motion_log(coarse)
+    u32 = tmp_path / "u32.csv"
+    u32.write_bytes((head + "".join(rows)).encode("utf-32"))
+    assert np.allclose(read_motion_log(u32).time_s, np.arange(40) * 0.05)

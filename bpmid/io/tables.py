@@ -442,6 +442,8 @@ def _decode(data: bytes, where: str) -> tuple[str, str]:
     """Bytes -> text and the encoding used (BOM, UTF-16 without BOM, UTF-8, else cp1252/Latin-1)."""
     if data.startswith(b"\xef\xbb\xbf"):
         enc = "utf-8-sig"
+    elif data.startswith((b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff")):   # before UTF-16: its BOM starts alike
+        enc = "utf-32"
     elif data.startswith((b"\xff\xfe", b"\xfe\xff")):
         enc = "utf-16"
     else:
@@ -2011,7 +2013,18 @@ def check_time(table: Table, *, kind: str = "log", gap_factor: float | None = No
     if bad.size:
         r = int(bad[0]) + 1
         what = "repeats" if dt[bad[0]] == 0 else "goes backwards"
-        raise InputError(f"time {what} ({t[r - 1]:g} s then {t[r]:g} s); time must increase",
+        hint = ""
+        if dt[bad[0]] == 0:
+            pos = dt[dt > 0]
+            res = float(np.min(pos)) if pos.size else 0.0
+            if (dt == 0).sum() > 0.1 * dt.size and pos.size and np.allclose(pos / res, np.round(pos / res)):
+                # many repeats, the other steps whole multiples of one: the column is written coarser than it is
+                # sampled (mm:ss.0 at 20 Hz)
+                hint = (f"; {int((dt == 0).sum())} of {dt.size} steps repeat and the rest are multiples of {res:g} s: "
+                        "the time column is written coarser than the log is sampled; export it with more decimals")
+            else:
+                hint = "; a sample written twice? Drop one of the two rows"
+        raise InputError(f"time {what} ({t[r - 1]:g} s then {t[r]:g} s); time must increase{hint}",
                          path=table.name, line=table.line_of(r))
     if max_gap_s is not None:
         over = np.flatnonzero(dt > max_gap_s)
