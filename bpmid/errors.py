@@ -26,6 +26,11 @@ _FLAG_KEYS = {"--columns": "io.columns ({'<header in the file>': '<bpmid name>'}
 _FLAG_NOTE = "from Python, pass these in config={'io': {...}}"
 
 
+#: command-line options that are arguments of the library's calls under another name (bpmid.compare(models=...))
+_ARG_KEYS = {"--models": "models", "--reference": "reference", "--controllers": "controllers", "--train": "train",
+             "--test": "test", "--relax": "relax", "--holdout": "holdout", "--params": "params", "--init": "init"}
+
+
 def _library_words(message: str) -> str:
     """``message`` with the config key of each reading flag it names, for a caller outside the command line."""
     named = [f"{flag} is {key}" for flag, key in _FLAG_KEYS.items()
@@ -55,7 +60,8 @@ class InputError(Exception):
         self.message = message if _IN_COMMAND.get() else _library_words(message)
         self.path = None if path is None else str(path)
         self.line = line
-        self.key = key
+        # outside a command, an option that is an argument of the library's call is named as that argument
+        self.key = key if _IN_COMMAND.get() or key not in _ARG_KEYS else _ARG_KEYS[key]
         super().__init__(self.format())
 
     def format(self) -> str:

@@ -569,3 +569,10 @@ def test_results_and_configs_pickle(tmp_path):
         cfg.section("io").columns["Zeit"] = "x"          # still read-only
     fit = bpmid.fit_motion(sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))[:1])
     assert pickle.loads(pickle.dumps(fit)) == fit
+
+
+def test_library_errors_name_the_argument_not_the_option():
+    """Outside the command line, an error about --models or --reference names the call's argument."""
+    with pytest.raises(bpmid.InputError) as e:
+        bpmid.model_class("foo")
+    assert e.value.key == "models" and "key 'models'" in str(e.value)
