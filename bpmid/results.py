@@ -669,15 +669,19 @@ class VBMMFitResult(Result):
         from bpmid.units import PA_PER_BAR
 
         model = vbmm_from_mapping(self.to_dict(), self.source)   # the constants (no warning of its effects)
-        beta = np.linspace(0.05, 1.5 * np.pi, 200)
-        p = model.equilibrium_pressure(beta)
+        # over the gauge pressures the constants were fitted on (fit.logs), else the paper's working range
+        spans = [e.get("pressure_gauge_pa") for e in ((self.body.get("fit") or {}).get("logs") or [])
+                 if isinstance(e, Mapping) and isinstance(e.get("pressure_gauge_pa"), list)]
+        p_hi = max((float(x[1]) for x in spans), default=0.8 * PA_PER_BAR)
+        p = np.linspace(0.0, max(p_hi, 1e3), 60)
+        beta = model.equilibrium_angle(p)
         fig = Figure(figsize=(6.4, 4.0), layout="constrained")
         ax = fig.add_subplot()
-        ax.plot(np.asarray(p) / PA_PER_BAR, np.degrees(beta), label="long-term equilibrium (G_inf, K_inf)")
+        ax.plot(p / PA_PER_BAR, np.degrees(beta), label="long-term equilibrium (G_inf, K_inf)")
         ax.set_xlabel("pressure (bar, gauge)")
         ax.set_ylabel("bending angle (deg)")
         ax.legend()
-        ax.set_title(self.title)
+        ax.set_title(f"{self.title}: the file's constants" + (" over the fitted pressures" if spans else ""))
         return fig
 
     def save(self, path: str | Path, *, figure: str | Path | bool | None = None, synthetic: bool = False) -> Path:
