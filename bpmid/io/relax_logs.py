@@ -32,7 +32,7 @@ import numpy as np
 from bpmid.errors import InputError
 from bpmid.io.material_files import (_MAT_UNITS, SET_T_SPAN_C, _base_role, _mat_role, _split_unit, _unit_cell,
                                      _unit_in_name)
-from bpmid.io.tables import check_time, read_table
+from bpmid.io.tables import cell_numbers, check_time, read_table
 
 KIND = "relaxation log"
 
@@ -215,13 +215,7 @@ def _temperature_values(table, chosen: str | None = None) -> tuple[np.ndarray, s
         if h != chosen and (chosen is not None or (role != "T" and "temp" not in h.lower())):
             continue
         unit = _unit_cell(named or _unit_in_name(h, "T", also=_F_UNITS) or unit or "").strip().lower()
-        vals = []
-        for c in cells:
-            try:
-                vals.append(float(str(c).strip().replace(",", ".")))
-            except ValueError:
-                continue
-        vals = np.asarray(vals, float)
+        vals = cell_numbers(cells)
         vals = vals[np.isfinite(vals)]
         if not vals.size:
             continue

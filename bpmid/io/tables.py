@@ -1615,6 +1615,18 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     return table
 
 
+def cell_numbers(cells) -> np.ndarray:
+    """The cells that read as numbers (a decimal comma too), in order; the others left out (a column set aside
+    is looked at, never refused for its text)."""
+    vals = []
+    for c in cells:
+        try:
+            vals.append(float(str(c).strip().replace(",", ".")))
+        except ValueError:
+            continue
+    return np.asarray(vals, float)
+
+
 def _unnamed_numbers(grid: Grid, n_rows: int) -> list[tuple[str, str]]:
     """Columns with an empty header cell whose rows hold numbers (most of them), as ('column N', ' (units row:
     X)'): set aside, they must not go unsaid (a merged header cell over the muscle's pressure). A row index
@@ -1624,15 +1636,9 @@ def _unnamed_numbers(grid: Grid, n_rows: int) -> list[tuple[str, str]]:
         if h or j >= len(grid.cols):
             continue
         cells = list(grid.cols[j][:n_rows])
-        vals = []
-        for c in cells:
-            try:
-                vals.append(float(str(c).strip().replace(",", ".")))
-            except ValueError:
-                pass
-        if not cells or len(vals) < 0.5 * len(cells):
+        v = cell_numbers(cells)
+        if not cells or v.size < 0.5 * len(cells):
             continue
-        v = np.asarray(vals)
         if v.size == len(cells) and (np.array_equal(v, np.arange(v.size)) or np.array_equal(v, np.arange(1, v.size + 1))):
             continue
         ur = grid.unit_row[j].strip() if grid.unit_row is not None and j < len(grid.unit_row) and \
