@@ -736,6 +736,14 @@ class PredictionResult(Result):
     def _headline(self) -> str:
         return f"{len(self.body.get('logs') or {})} log(s)"
 
+    def _extra_sections(self):
+        rows = []
+        for name, d in (self.body.get("logs") or {}).items():
+            m = (d or {}).get("metrics") or {}
+            rows.append(f"{name}: " + (f"RMSE {_num(m.get('rmse_deg'))} deg, R^2 {_num(m.get('r2'))}" if m else
+                                       "no measured angle (prediction only)"))
+        return [("Logs", "\n".join(rows))] if rows else []
+
     def plot(self):
         from matplotlib.figure import Figure
 
@@ -919,6 +927,15 @@ class SimulationResult(Result):
 
     def _headline(self) -> str:
         return f"seed {self.body.get('seed')}"
+
+    def _extra_sections(self):
+        prot = self.body.get("protocol") or {}
+        fx = ", ".join(str(e.get("id")) for e in self.body.get("effects") or [] if isinstance(e, Mapping))
+        lines = [f"protocol: {prot.get('name', '?')} ({prot.get('kind', '?')}), {prot.get('path', '')}".rstrip(", "),
+                 f"seed: {self.body.get('seed')}", f"logs: {len(self.logs)} ({', '.join(self.logs[:4])}"
+                 f"{', ...' if len(self.logs) > 4 else ''})", f"injected effects: {fx or 'none'}",
+                 "synthetic: made by bpmid's digital twin, not a measurement"]
+        return [("Simulation", "\n".join(lines))]
 
     def plot(self):
         import io

@@ -576,3 +576,14 @@ def test_library_errors_name_the_argument_not_the_option():
     with pytest.raises(bpmid.InputError) as e:
         bpmid.model_class("foo")
     assert e.value.key == "models" and "key 'models'" in str(e.value)
+
+
+def test_summaries_of_a_simulation_and_a_prediction_say_what_they_hold():
+    """A simulation's summary named no protocol, seed or logs; a prediction's listed no log."""
+    sim = bpmid.load(REPO / "datasets" / "motion" / "fitting_set")
+    text = sim.summary()
+    assert "protocol: fitting_set (motion)" in text and "seed: 1001" in text and "logs: 3" in text
+    assert "synthetic: made by bpmid's digital twin" in text
+    logs = sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))
+    pred = bpmid.predict(logs[:2], bpmid.VBMM())
+    assert "[[Logs]]" in pred.summary() and "RMSE" in pred.summary().split("[[Logs]]")[1]
