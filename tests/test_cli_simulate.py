@@ -86,3 +86,16 @@ def test_bad_input_exits_2_naming_the_key_and_writes_nothing(tmp_path):
         assert key in r.output, r.output
         assert not out.exists() or not os.listdir(out)
     assert not [f for f in os.listdir(tmp_path) if f.startswith(".out")]
+
+
+def test_simulate_a_reference_protocol(tmp_path):
+    """The shipped control references (kind: reference, designed signals with no seed) crashed with KeyError
+    'seed' after writing their files."""
+    from pathlib import Path as _P
+
+    repo = _P(__file__).resolve().parents[1]
+    res = runner.invoke(app, ["simulate", str(repo / "configs" / "datasets" / "control_references.yaml"), "--out",
+                              str(tmp_path / "ref"), "--seed", "3"])
+    assert res.exit_code == 0, res.output
+    assert "wrote 5 files and manifest.yaml" in res.output and "--seed has no effect" in res.output
+    assert (tmp_path / "ref" / "manifest.yaml").is_file() and len(list((tmp_path / "ref").glob("*.csv"))) == 5

@@ -31,4 +31,9 @@ def simulate_cmd(
 
     result = simulate(protocol, params=params, effects=tuple(effect or ()), seed=seed, timestamp=not no_timestamp)
     result.save(out)
-    typer.echo(f"wrote {len(result.raw.files)} files and manifest.yaml to {out} (seed {result.body['seed']})")
+    n = len(result.raw.files)
+    if "seed" in result.body:
+        how = f"seed {result.body['seed']}"
+    else:   # a reference protocol: designed signals, nothing drawn at random
+        how = "designed signals: nothing random" + ("; --seed has no effect on them" if seed is not None else "")
+    typer.echo(f"wrote {n} file{'s' if n != 1 else ''} and manifest.yaml to {out} ({how})")
