@@ -58,8 +58,14 @@ def _as_list(x) -> list:
 
 
 def _is_table(x) -> bool:
-    """A pandas DataFrame or Series, or a numpy array: data, not a list of logs."""
-    return type(x).__module__.split(".")[0] in ("pandas", "numpy")
+    """A pandas DataFrame, or a numeric array or Series: data, not a list of logs (an array or Series of file
+    paths is a list of logs)."""
+    if type(x).__module__.split(".")[0] not in ("pandas", "numpy"):
+        return False
+    if type(x).__name__ == "DataFrame":
+        return True
+    kind = getattr(getattr(x, "dtype", None), "kind", "O")
+    return kind in "biufc"
 
 
 def _not_a_log(x, key: str, what: str = "a log is a path or a MotionLog (bpmid.from_arrays)") -> InputError:

@@ -211,12 +211,21 @@ def test_overlap_is_detected_by_path_and_by_content(rate_logs, tmp_path):
     p_psi = np.round(lg.pressure_pa / 6894.757, 2) * 6894.757
     redo = dataclasses.replace(lg, name="reexported", time_s=lg.time_s[keep] + 3600.0, pressure_pa=p_psi[keep],
                                angle_deg=np.round(lg.angle_deg[keep], 3))
-    msgs = overlap_warnings(train, [redo])
-    assert msgs and "reexported has the same data as training log train_0p2" in msgs[0]
-    # the same run with other noise on the angle (a replicate) is a test
+    from bpmid.compare import near_copies
+
+    assert overlap_warnings(train, [redo]) == []      # not set aside: a quiet rig's replicate looks the same
+    said = near_copies(train, [redo])
+    assert "test log reexported repeats training log train_0p2 within rounding" in said["reexported"]
+    cut = dataclasses.replace(redo, name="cut", time_s=redo.time_s[5:] - redo.time_s[5],
+                              pressure_pa=redo.pressure_pa[5:], angle_deg=redo.angle_deg[5:])
+    assert "cut" in near_copies(train, [cut])          # cut at the start and re-zeroed: aligned on its first sample
+    # the same run with other noise on the angle (a replicate) is a test, and said to be none of these
     rng = np.random.default_rng(3)
     rep = dataclasses.replace(lg, name="replicate", angle_deg=lg.angle_deg + rng.normal(0.0, 0.3, lg.n))
-    assert overlap_warnings(train, [rep]) == []
+    assert overlap_warnings(train, [rep]) == [] and near_copies(train, [rep]) == {}
+    with pytest.warns(CompareWarning, match="repeats training log train_0p2 within rounding"):
+        res = compare_models(train, [redo, test[0]], ["two-branch"], timing=False)
+    assert set(res.metrics["set"]) == {"test"}         # scored as a test, with the warning
     with pytest.warns(CompareWarning):
         res = compare_models(train, [MotionLog(**copy), test[0]], ["two-branch"], timing=False)
     # the copy is scored, marked, and left out of the pooled score: ALL is the real test log alone

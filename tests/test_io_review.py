@@ -697,3 +697,29 @@ def test_repeated_times_say_why_and_utf32_is_read(tmp_path):
     u32 = tmp_path / "u32.csv"
     u32.write_bytes((head + "".join(rows)).encode("utf-32"))
     assert np.allclose(read_motion_log(u32).time_s, np.arange(40) * 0.05)
+
+
+def test_review_of_the_new_readers_regressions(tmp_path):
+    """A month-first or weekday Date column beside clock times is set aside as before (the join refused such
+    logs), and said when it changes within the log; a row index that no longer starts at 0 stays unsaid; a mapped
+    column keeps the reference its name states (a contradicting flag is refused)."""
+    from bpmid.io.motion_logs import IOConfig, read_motion_log
+
+    def log(name, head, rows):
+        return _write(tmp_path, name, head + "".join(rows))
+
+    us = log("us.csv", "# pressure_reference: absolute\nDate,Time,pressure_bar,angle_deg\n",
+             [f"{'03/01/2025' if k < 10 else '03/02/2025'},10:00:{k * 0.5:06.3f},{1.2 + 0.01 * k:.3f},{k:.1f}\n"
+              for k in range(20)])
+    lg = read_motion_log(us)
+    assert np.allclose(lg.time_s, np.arange(20) * 0.5)
+    assert any("changes from '03/01/2025' to '03/02/2025'" in w and "ISO 8601" in w for w in lg.warnings)
+    idx = log("idx.csv", "# pressure_reference: absolute\n,time_s,pressure_bar,angle_deg\n",
+              [f"{k},{k * 0.1:.1f},{1.2 + 0.01 * k:.3f},{k:.1f}\n" for k in range(5, 40, 2)])
+    assert not [w for w in read_motion_log(idx).warnings if "no name" in w]
+    absp = log("absp.csv", "time_s,Absolute pressure (psi),angle_deg\n",
+               [f"{k * 0.1:.1f},{17.5 + 0.1 * k:.2f},{k:.1f}\n" for k in range(20)])
+    cols = {"Absolute pressure (psi)": "pressure"}
+    assert read_motion_log(absp, IOConfig(columns=cols)).pressure_reference == "absolute"
+    with pytest.raises(InputError, match="the pressure reference is stated twice and disagrees"):
+        read_motion_log(absp, IOConfig(columns=cols, pressure_reference="gauge"))

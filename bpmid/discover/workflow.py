@@ -803,6 +803,11 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                          "fit on its own data; " + ("give it either as a LOG or after --holdout, not both"
                                                     if holdout is not None else "give each log once"),
                          path=bad.path)
+    from bpmid.compare import near_copies
+
+    copies = [w.replace("test log", "held-out log", 1).replace("training log", "fitting log", 1)
+              .replace("give a log the models were not fitted on", "hold out a log the fit does not see")
+              for w in near_copies(fit_logs, ho_logs).values()]
     noise = noise_floor(list(fit_logs) + list(ho_logs))
     floor = noise["sigma_deg"]
     if not (np.isfinite(floor) and floor > NOISE_FLOOR_MIN_DEG):
@@ -1057,7 +1062,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor or any(r.withheld for r in rounds))
     variation = log_to_log_variation(state, ho_logs, raw_after, floor, cfg) if unexplained else None
     cautions, held_out_odd = data_cautions(base_state, state, fit_logs, ho_logs, floor)
-    cautions += ambient_cautions(all_logs, named) + sampling_cautions(all_logs, named)
+    cautions += ambient_cautions(all_logs, named) + sampling_cautions(all_logs, named) + copies
     verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after,
                            noise, cfg.unexplained_gap_sigma, final=state, cautions=cautions,
                            held_out_odd=held_out_odd)

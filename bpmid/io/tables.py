@@ -588,11 +588,15 @@ def _labview_columns(header: list[str], body: list, meta: dict, sep: str, ch: di
     """A LabVIEW file's channel units (Y_Unit_Label) written into its column names ('Pressure' over 'bar' reads
     as 'Pressure (bar)'), and, without an x column (X_Columns No), its time made from X0 + k Delta_X."""
     has_x = bool(header) and header[0].lower() in ("x_value", "time (s)")
-    names = header[1:] if has_x else header
-    units = ch.get("y_unit_label") or []
-    named = [f"{h} ({u})" if u and h and h.lower() != "comment" and _unit_part(h)[1] is None else h
-             for h, u in zip(names, units + [""] * (len(names) - len(units)))]
-    header = (header[:1] if has_x else []) + named
+    units = list(ch.get("y_unit_label") or [])
+    named = []
+    for k, h in enumerate(header):   # the channels' units in order, skipping every x column (X_Columns Multi)
+        if (k == 0 and has_x) or h.lower() in ("x_value", "comment") or not h:
+            named.append(h)
+            continue
+        u = units.pop(0) if units else ""
+        named.append(f"{h} ({u})" if u and _unit_part(h)[1] is None else h)
+    header = named
     if not has_x and meta.get("x_columns", "").lower() == "no" and ch.get("delta_x"):
         try:
             x0, dx = float((ch.get("x0") or ["0"])[0].replace(",", ".")), float(ch["delta_x"][0].replace(",", "."))
@@ -1177,8 +1181,8 @@ def _file_kind(path: Path, data: bytes) -> str:
         if head.startswith((b"<html", b"<!doctype html", b"<table", b"<?xml")) or b"<table" in head:
             raise InputError(f"an HTML or XML table saved with the extension {suffix}, not an Excel workbook: open it "
                              "in Excel (or LibreOffice) and save it as .xlsx or CSV, then read that", path=path)
-        if b"\x00" not in data[:4096]:
-            return "text"   # a text table named as a workbook
+        if b"\x00" not in data[:4096] or data.startswith((b"\xff\xfe", b"\xfe\xff")):
+            return "text"   # a text table named as a workbook (UTF-16 with its BOM too)
     if data.startswith(b"MATLAB") or data[512:520] == _MAGIC_HDF5 or data.startswith(_MAGIC_HDF5):
         return "mat"
     if suffix == ".mat":
@@ -1296,6 +1300,9 @@ def _resolve(grid: Grid, cmap: dict[str, tuple[str, str]], units: Mapping[str, s
                 (ignored if derived else unknown).append(h)
                 continue
             unit_from = None if unit is None else ("header" if _parse(h, None)[1] is not None else "units row")
+        if mapped is not None and q == "pressure" and ref is None:
+            # a reference the mapped column's name states still holds (a map that states one corrects the name)
+            ref = _parse(h, None)[2] if _parse(h, None)[0] == "pressure" else None
         found.setdefault(q, []).append([j, unit, h, unit_from, ref])
         if mapped is not None:
             mapped_js.add(j)
@@ -1595,11 +1602,13 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
                                  "pressure or angle, one that says so (pressure_bar, angle_deg) or map that name with "
                                  "--columns" for h, u in unnamed]
     first = lines[0] if lines else (grid.header_line + 1)
-    reading = {k: v for k, v in grid.info.items() if k not in ("map_note", "mapped_quantities")
+    reading = {k: v for k, v in grid.info.items() if k not in ("map_note", "mapped_quantities", "date_warning")
                and (k != "unmatched_map" or v)}
     reading["columns"] = col_info
     if ignored or unknown:
         reading["ignored_columns"] = list(ignored) + list(unknown)
+    if grid.info.get("date_warning"):
+        pre_warns = pre_warns + [grid.info.pop("date_warning")]
     if "looks reversed" in grid.info.get("map_note", ""):   # said on a good read too, not only in errors
         note = grid.info["map_note"].lstrip("; ").split("; the column map names")[0]
         pre_warns = pre_warns + [f"{where}: {note}; the map was not applied"]
@@ -1639,13 +1648,18 @@ def _unnamed_numbers(grid: Grid, n_rows: int) -> list[tuple[str, str]]:
         v = cell_numbers(cells)
         if not cells or v.size < 0.5 * len(cells):
             continue
-        if v.size == len(cells) and (np.array_equal(v, np.arange(v.size)) or np.array_equal(v, np.arange(1, v.size + 1))):
+        if j == 0 and v.size == len(cells) and np.all(v == np.round(v)) and np.all(np.diff(v) > 0):
+            # a row index in the first column (pandas writes one; after a filter or a decimation it no longer
+            # runs 0..n-1): whole numbers, rising
             continue
         ur = grid.unit_row[j].strip() if grid.unit_row is not None and j < len(grid.unit_row) and \
             str(grid.unit_row[j]).strip() else ""
         out.append((f"column {j + 1}", f" (units row: {ur})" if ur else ""))
     return out
 
+
+#: a date alone in a form read without guessing: ISO (2025-03-01), year first with slashes, day.month.year
+_UNAMBIGUOUS_DATE = re.compile(r"^(?:\d{4}-\d{1,2}-\d{1,2}|\d{4}/\d{1,2}/\d{1,2}|\d{1,2}\.\d{1,2}\.\d{4}|\d{1,2}-[A-Za-z]{3}-\d{4})$")
 
 #: header names of a column that gives the date beside a column of clock times
 _DATE_NAMES = {"date", "datum", "day", "fecha", "date local", "local date"}
@@ -1656,14 +1670,25 @@ def _with_date_column(grid: Grid, j: int, vals: list) -> tuple[list, str | None]
     10:00:00.050'), so that a log running past a day (or two) keeps its time; before, the date was set aside and a
     jump of days vanished. Other time columns as they are."""
     texts = [str(v).strip() for v in vals]
-    if not texts or not all(_CLOCK.match(x) for x in texts):
+    if not texts or not all(_CLOCK.match(x) or _CLOCK_12.match(x) for x in texts):
         return vals, None
     for k, h in enumerate(grid.header):
         if k == j or not h or _norm(_unit_part(h)[0]) not in _DATE_NAMES or k >= len(grid.cols):
             continue
-        dates = [str(c).strip() for c in grid.cols[k][:len(texts)]]
-        if len(dates) == len(texts) and all(dates) and not all(_CLOCK.match(d) for d in dates):
-            return [f"{d.split(' ')[0].split('T')[0]} {x}" for d, x in zip(dates, texts)], h
+        dates = [str(c).strip().split(" ")[0].split("T")[0] for c in grid.cols[k][:len(texts)]]
+        # only a date bpmid reads without guessing (ISO, year first with slashes, day.month.year); another form
+        # (03/01/2025, 'Sat 01 Mar') is set aside as before: a date is never guessed
+        if len(dates) == len(texts) and all(_UNAMBIGUOUS_DATE.match(d) for d in dates):
+            clock = [_to_24h(_CLOCK_12.match(x)) if _CLOCK_12.match(x) else x for x in texts]
+            return [f"{d} {x}" for d, x in zip(dates, clock)], h
+        changes = [r for r in range(1, len(dates)) if dates[r] != dates[r - 1]]
+        if changes:   # a date that changes but is not read: said, the time taken from the clock alone
+            r = changes[0]
+            grid.info["date_warning"] = (
+                f"{grid.where}: the column {h!r} changes from {dates[r - 1]!r} to {dates[r]!r} (line "
+                f"{grid.lines[r] if r < len(grid.lines) else '?'}) but is written in a form bpmid does not read "
+                "without guessing (day or month first?); the time is taken from the clock alone, so a jump of days "
+                "is not seen: write the dates as ISO 8601 (2025-03-01)")
     return vals, None
 
 
