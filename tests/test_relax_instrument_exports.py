@@ -335,3 +335,18 @@ def test_ramp_and_hold_temperatures_in_f_without_a_unit_or_under_another_name_ar
     ch = log("ch2.csv", "Chamber (°C)", 40.0)
     with pytest.raises(InputError, match=r"ch2.csv 40 C \('Chamber \(°C\)'\)"):
         read_relax_logs([base, ch], column_map={"Chamber (°C)": "T"})
+
+
+def test_a_short_glitch_and_a_machine_temperature_do_not_refuse_a_ramp_and_hold_log(tmp_path):
+    """Two glitch samples in a short log (the 1st-99th percentiles alone let them through in long logs only), and
+    a motor's temperature rising, refused the log; a rolling median and the specimen's columns only."""
+    t = np.arange(0.0, 12.5, 0.1)
+    strain = np.minimum(t, 1.0) * 0.05
+    stress = 2.0 * strain + 1.0 * strain * np.exp(-t / 5.0)
+    temps = np.full(t.size, 25.0)
+    temps[[40, 41]] = 90.0
+    p = tmp_path / "short.csv"
+    p.write_text("Time (s),Strain,Stress (MPa),Temperature (°C),Motor temperature (°C)\n" + "".join(
+        f"{a:.3f},{b:.6f},{c:.6f},{T:.2f},{30 + 2 * a:.2f}\n" for a, b, c, T in zip(t, strain, stress, temps)))
+    lg = read_relax_logs([p])[0]
+    assert lg.temperature[2] == "Temperature (°C)" and lg.temperature[0] == pytest.approx(26.0, abs=1.5)

@@ -24,6 +24,7 @@ Every error names the file and the line (or the config key).
 from __future__ import annotations
 
 import dataclasses
+import re
 from pathlib import Path
 from typing import Mapping, Sequence
 
@@ -205,6 +206,10 @@ def _f_to_c(v: float) -> float:
     return (v - 32.0) * 5.0 / 9.0
 
 
+#: temperature columns of the machine, not of the specimen (a motor's, the oil's, the room's): never the test's
+_NOT_THE_SPECIMEN = re.compile(r"motor|oil|drive|electronic|cpu|board|room|amplifier|coolant", re.IGNORECASE)
+
+
 def _temperature_values(table, chosen: str | None = None) -> tuple[np.ndarray, str | None, str] | None:
     """(values, unit, header) of a log's test-temperature column: the one the column map names, else a set-aside
     column whose name is a temperature (``Temperature (°C)``, ``T [K]``, ``Chamber temp (°F)``). The values are in C
@@ -212,7 +217,8 @@ def _temperature_values(table, chosen: str | None = None) -> tuple[np.ndarray, s
     chosen = chosen if chosen in table.ignored_cells else None  # a map for other files names a column not here
     for h, (cells, unit) in table.ignored_cells.items():
         role, named = _mat_role(h)
-        if h != chosen and (chosen is not None or (role != "T" and "temp" not in h.lower())):
+        if h != chosen and (chosen is not None or (role != "T" and "temp" not in h.lower())
+                            or _NOT_THE_SPECIMEN.search(h)):
             continue
         unit = _unit_cell(named or _unit_in_name(h, "T", also=_F_UNITS) or unit or "").strip().lower()
         vals = cell_numbers(cells)
@@ -235,7 +241,11 @@ def _test_temperature(table, path: Path, chosen: str | None = None) -> tuple[flo
     if got is None:
         return None
     vals, unit, h = got
-    lo, hi = np.percentile(vals, [1.0, 99.0])
+    # a rolling median over a few samples first: a glitch or an open thermocouple for a moment is no change
+    w = int(min(max(5, vals.size // 50), 101)) | 1
+    smooth = vals if vals.size < w else np.array([np.median(vals[max(0, k - w // 2):k + w // 2 + 1])
+                                                  for k in range(vals.size)])
+    lo, hi = np.percentile(smooth, [1.0, 99.0])
     if hi - lo > SET_T_SPAN_C:
         c = " C" if unit == "C" else ""
         how = "" if unit == "C" else " (a column without a unit of C, K or F is read as written)"
