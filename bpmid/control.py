@@ -208,13 +208,17 @@ def read_reference(path: Path, rate_hz: float, name: str | None = None, io=None)
     if not np.allclose(steps, dt, rtol=1e-6, atol=1e-9):
         grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) / dt + 1e-9)) + 1) * dt
         lo, hi = float(np.min(steps)), float(np.max(steps))
-        logged = (f"every {lo:.4g} s ({1.0 / lo:.4g} Hz)" if np.isclose(lo, hi, rtol=1e-6)
+        even = np.isclose(lo, hi, rtol=1e-4, atol=1e-7)   # a file's rounding of a steady step is no unevenness
+        logged = (f"every {float(np.median(steps)):.4g} s ({1.0 / float(np.median(steps)):.4g} Hz)" if even
                   else f"every {lo:.4g}-{hi:.4g} s (uneven)")
         resampled = (f"logged {logged}: {t.size} samples interpolated linearly onto the {rate_hz:g} Hz control "
                      f"grid ({grid.size} samples"
                      + (f"; detail faster than {rate_hz / 2:g} Hz is not followed)" if lo < dt * (1 - 1e-6) else ")"))
         a = np.interp(grid, t, a)
         t = grid
+    if abs(float(t[0])) > 1e-9:   # the run starts at the reference's first sample: said, with its shift
+        shift = f"its time starts at {float(t[0]):.6g} s and runs from 0 here (shifted by {-float(t[0]):.6g} s)"
+        resampled = f"{resampled}; {shift}" if resampled else shift
     return Reference(name or path.stem, t - t[0], a, path, resampled)
 
 
@@ -714,7 +718,19 @@ def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig
             fig = save_figure(fig18(result.runs, limits_bar=(cfg.p_min_bar_abs, cfg.p_max_bar_abs),
                                     atmosphere_bar=cfg.atmosphere_bar), tmp / "fig18.png")
             written.append(out_dir / fig.name)
+    _drop_stale(Path(out_dir), written)
     return written
+
+
+def _drop_stale(out_dir: Path, written: Sequence[Path]) -> None:
+    """A control run into a folder an earlier one wrote: its figure and traces that this run did not write are
+    removed (a report read the earlier figure beside this run's numbers; traces of references not run now stayed
+    beside the new ones). Only bpmid control's own file names; nothing else in the folder is touched."""
+    keep = {Path(p).resolve() for p in written}
+    old = [out_dir / f"fig18.{ext}" for ext in ("png", "svg", "pdf")] + sorted((out_dir / "traces").glob("*.csv"))
+    for f in old:
+        if f.is_file() and f.resolve() not in keep:
+            f.unlink()
 
 
 __all__ = ["ControlConfig", "write_control", "control_yaml_body", "build_plant", "causal_terms", "Reference", "Plant", "PlantTerms", "MSFeedforward", "Run", "ControlResult",

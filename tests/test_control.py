@@ -273,3 +273,30 @@ def test_a_reference_off_the_control_grid_is_resampled_and_says_so(tmp_path):
     assert refs["on"]["resampled"] is None and refs["on"]["samples"] == 100
     assert refs["fast"]["samples"] == 99 and "interpolated linearly" in refs["fast"]["resampled"]
     assert refs["fast"]["source"].endswith("fast.csv")
+
+
+def test_a_rerun_into_the_same_folder_drops_its_stale_figure_and_traces_and_says_a_shifted_start(tmp_path):
+    """An earlier run's fig18.png (read by the report beside the new numbers) and the traces of references not run
+    again are removed; a reference that starts at t = 5 s says it is shifted; a steady 7 Hz log is not 'uneven'."""
+    from bpmid.cli import app
+    from bpmid.control import read_reference
+    from bpmid.io.results import provenance, write_result
+
+    params = tmp_path / "vbmm.yaml"
+    write_result(params, "bpmid.vbmm/1", vbmm_yaml_body(MODEL), provenance(timestamp=False))
+    out = tmp_path / "o"
+    (out / "traces").mkdir(parents=True)
+    (out / "fig18.png").write_bytes(b"old figure")
+    (out / "traces" / "sines.csv").write_text("old\n")
+    (out / "notes.txt").write_text("mine\n")
+    res = CliRunner().invoke(app, ["control", "--params", str(params), "--reference", "steps", "--controller", "pi",
+                                   "--no-figure", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert not (out / "fig18.png").exists() and not (out / "traces" / "sines.csv").exists()
+    assert (out / "traces" / "steps.csv").is_file() and (out / "notes.txt").read_text() == "mine\n"
+    late = tmp_path / "late.csv"
+    pd.DataFrame({"time_s": 5.0 + np.arange(50) * 0.1, "angle_deg": np.full(50, 40.0)}).to_csv(late, index=False)
+    assert "its time starts at 5 s and runs from 0 here" in read_reference(late, 10.0).resampled
+    seven = tmp_path / "seven.csv"
+    seven.write_text("time_s,angle_deg\n" + "".join(f"{k / 7:.6f},40\n" for k in range(70)))
+    assert "(uneven)" not in read_reference(seven, 10.0).resampled and "7 Hz" in read_reference(seven, 10.0).resampled
