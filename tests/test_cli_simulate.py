@@ -99,3 +99,7 @@ def test_simulate_a_reference_protocol(tmp_path):
     assert res.exit_code == 0, res.output
     assert "wrote 5 files and manifest.yaml" in res.output and "--seed has no effect" in res.output
     assert (tmp_path / "ref" / "manifest.yaml").is_file() and len(list((tmp_path / "ref").glob("*.csv"))) == 5
+    (tmp_path / "ref" / "earlier_run.csv").write_text("time_s,pressure_bar,angle_deg\n0,1.2,10\n")
+    res = runner.invoke(app, ["simulate", str(repo / "configs" / "datasets" / "control_references.yaml"), "--out",
+                              str(tmp_path / "ref")])
+    assert res.exit_code == 0 and "already held 1 other log file (earlier_run.csv)" in res.output, res.output

@@ -30,7 +30,13 @@ def simulate_cmd(
     from bpmid.api import simulate
 
     result = simulate(protocol, params=params, effects=tuple(effect or ()), seed=seed, timestamp=not no_timestamp)
+    before = {q.name for q in Path(out).glob("*.csv")} if Path(out).is_dir() else set()
     result.save(out)
+    others = sorted(before - set(result.raw.files))
+    if others:   # never in silence: `fit motion DIR/*.csv` would mix them with this run's logs
+        typer.echo(f"note: {out} already held {len(others)} other log file{'s' if len(others) != 1 else ''} "
+                   f"({', '.join(others[:4])}{', ...' if len(others) > 4 else ''}), not in this manifest and left as "
+                   "they were: give an empty or new folder, or DIR/*.csv mixes them with these logs", err=True)
     n = len(result.raw.files)
     if "seed" in result.body:
         how = f"seed {result.body['seed']}"
