@@ -477,3 +477,21 @@ def test_the_ideal_plant_line_needs_the_whole_model_the_same():
     other = dict(model, geometry={"th": 0.002, "l0": 0.25})
     moved = ControlInfo(_P("."), pd.DataFrame(), {}, 10.0, {}, [], {}, {"model": other, "effects": []}, model)
     assert same.plant_is_the_model and not moved.plant_is_the_model
+
+
+def test_the_control_lines_name_the_user_s_references_and_the_plant():
+    """The summary said 'the shipped references' for a user's CSV, and named no plant effect or scale."""
+    from pathlib import Path as _P
+
+    from bpmid.report.inputs import ControlInfo
+
+    plant = {"model": {}, "modulus_scale": 1.05, "tau_scale": 0.9,
+             "effects": [{"id": "pressure_lag", "parameters": {"tau": {"value": 0.1, "unit": "s"}}}]}
+    mine = ControlInfo(_P("."), pd.DataFrame(), {}, 10.0, {}, [], {}, plant, {},
+                       [{"name": "ref100hz", "source": "/home/me/ref100hz.csv", "resampled": "logged every 0.01 s"}])
+    shipped = ControlInfo(_P("."), pd.DataFrame(), {}, 10.0, {}, [], {}, {"model": {}}, {},
+                          [{"name": "steps", "source": "built in"},
+                           {"name": "sines", "source": "/x/bpmid/datasets/control/sines.csv"}])
+    assert not mine.references_shipped and shipped.references_shipped
+    assert mine.plant_words() == "moduli x 1.05; time constants x 0.9; pressure_lag (tau = 0.1 s)"
+    assert shipped.plant_words() == ""

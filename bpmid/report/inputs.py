@@ -232,6 +232,14 @@ class DiscoveryInfo:
     scoring: str = ""
 
 
+def fmt_value(v) -> str:
+    """A parameter as control.yaml holds it ({value, unit} or a number), in words."""
+    if isinstance(v, dict):
+        val, unit = v.get("value"), v.get("unit")
+        return f"{val:.4g} {unit}".strip() if isinstance(val, (int, float)) else str(val)
+    return f"{v:.4g}" if isinstance(v, (int, float)) else str(v)
+
+
 @dataclasses.dataclass
 class ControlInfo:
     dir: Path
@@ -243,6 +251,31 @@ class ControlInfo:
     provenance: dict
     plant: dict = dataclasses.field(default_factory=dict)              # control.yaml's plant block
     controller_model: dict = dataclasses.field(default_factory=dict)   # ... and the controller's model
+    references: list = dataclasses.field(default_factory=list)         # ... and its references block
+
+    @property
+    def references_shipped(self) -> bool:
+        """Every reference is built in or one of bpmid's shipped files (datasets/control)."""
+        def shipped(r) -> bool:
+            src = str((r or {}).get("source", ""))
+            return src == "built in" or "/datasets/control/" in src.replace("\\", "/")
+        return bool(self.references) and all(shipped(r) for r in self.references)
+
+    def plant_words(self) -> str:
+        """The plant's departures from the controller's model, in words ('' when none is recorded)."""
+        pl = self.plant or {}
+        out = []
+        for key, what in (("modulus_scale", "moduli"), ("tau_scale", "time constants")):
+            v = pl.get(key)
+            if isinstance(v, (int, float)) and v != 1.0:
+                out.append(f"{what} x {v:g}")
+        for e in pl.get("effects") or []:
+            if isinstance(e, dict):
+                prm = ", ".join(f"{k} = {fmt_value(v)}" for k, v in (e.get("parameters") or {}).items())
+                out.append(f"{e.get('id', '?')}" + (f" ({prm})" if prm else ""))
+        if pl.get("pressure_dynamics"):
+            out.append("valve and line dynamics")
+        return "; ".join(out)
 
     @property
     def plant_is_the_model(self) -> bool:
@@ -539,7 +572,8 @@ def load_control(rd: _Reader) -> ControlInfo | None:
         return None
     return ControlInfo(cdir, tab, _dict(cy.get("gains")), _num(cy.get("rate_hz")),
                        _dict(_dict(cy.get("feedforward")).get("cost")), [str(w) for w in _list(cy.get("warnings"))],
-                       _dict(cy.get("provenance")), _dict(cy.get("plant")), _dict(cy.get("controller_model")))
+                       _dict(cy.get("provenance")), _dict(cy.get("plant")), _dict(cy.get("controller_model")),
+                       [r for r in _list(cy.get("references")) if isinstance(r, dict)])
 
 
 #: stage name -> Study attribute

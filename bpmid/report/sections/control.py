@@ -27,6 +27,13 @@ def build(doc, st, figs) -> None:
           f"P = {fmt(kp)} bar/°, I = {fmt(ki)} bar/(° s). References: {', '.join(refs)}. The controller's model is "
           "this study's VBMM-fit where there is one; the plant adds sensor noise. RMSE is of the true angle against "
           "the reference.")
+    plant = k.plant_words()
+    if plant:
+        doc.p(f"The plant departs from the controller's model: {plant}.")
+    notes = [f"{r.get('name')}: {r.get('resampled')}" for r in k.references if r.get("resampled")]
+    if notes:
+        doc.p("References read from files, as they were run:")
+        doc.list(notes, css="muted")
     if k.plant_is_the_model:
         doc.p("The plant here is the controller's own model (the same constants, no effects, no valve dynamics): the "
               "feedforward inverts the plant exactly, an ideal case a real muscle does not offer. The reductions "

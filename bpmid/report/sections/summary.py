@@ -98,8 +98,11 @@ def build(doc, st, figs) -> None:
                 red = "" if name == "PI" or row.reduction_pct != row.reduction_pct else \
                     f" ({fmt(row.reduction_pct)} % below PI)"
                 parts.append(f"{name} {fmt(row.rmse_deg)}°{red}")
-        items.append(f"Control{_stale(st, 'control')} (closed loop on the shipped references, tracking RMSE): "
-                     + ", ".join(parts) + ".")
+        refs = "the shipped references" if k.references_shipped or not k.references else \
+            "references " + ", ".join(str(r.get("name")) for r in k.references)
+        plant = k.plant_words()
+        items.append(f"Control{_stale(st, 'control')} (closed loop on {refs}"
+                     + (f", plant {plant}" if plant else "") + ", tracking RMSE): " + ", ".join(parts) + ".")
     if st.history is not None:
         h = st.history
         items.append(f"History modes{_stale(st, 'history')}: window (T_win = {fmt(h.window_s)} s) vs full history "
