@@ -190,3 +190,24 @@ def test_bad_effect_arguments_name_the_key(tmp_path):
     # it says where the id already is and how to change it instead
     assert exc.value.key == "plant.effects.braid_friction"
     assert "plant.effects and --effect" in str(exc.value) and "edit plant.effects.braid_friction" in str(exc.value)
+
+
+def test_the_pressure_limit_is_the_protocol_preset_s(tmp_path):
+    """The check took paper_mat's limit for a paper_fit plant: 24.4 bar passed it and the run then failed with a
+    pressure at a time, in Pa; the protocol's own preset decides now, naming the key."""
+    import pytest as _pytest
+
+    from bpmid.errors import InputError
+    from bpmid.twin.simulate import _max_gauge_pa, simulate
+
+    soft, stiff = _max_gauge_pa(None, "paper_fit"), _max_gauge_pa(None, "paper_mat")
+    assert soft < stiff
+    high = (soft + 101325.0) / 1e5 + 0.5     # between the two limits, bar absolute
+    assert high < (stiff + 101325.0) / 1e5
+    p = tmp_path / "high.yaml"
+    p.write_text("schema: bpmid.protocol/1\nname: high\nkind: motion\nunit: bar\npressure_reference: absolute\n"
+                 "sampling_hz: 10\nseed: 1\nlogs:\n  - name: tri\n    program:\n      - triangle: {low: 1.2, "
+                 f"high: {high:.3f}, rate: 0.5, cycles: 1}}\n")
+    with _pytest.raises(InputError, match=r"above the model's range \(at most") as e:
+        simulate(p)
+    assert e.value.key == "logs[0].program[0].triangle.high"

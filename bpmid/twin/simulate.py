@@ -177,7 +177,9 @@ def simulate(protocol: Protocol | str | Path, *, params_path: str | Path | None 
     timestamp : record the creation time (False for byte-reproducible datasets)
     """
     if not isinstance(protocol, Protocol):
-        protocol = load_protocol(protocol, max_gauge_pa=_max_gauge_pa(params_path))
+        preset = load_protocol(protocol)   # its plant preset first: the pressure limit is that material's
+        material = getattr(getattr(preset, "plant", None), "material", "paper_fit")
+        protocol = load_protocol(protocol, max_gauge_pa=_max_gauge_pa(params_path, material))
     proto = protocol
     seed = proto.seed if seed is None else int(seed)
     if seed < 0:
@@ -198,8 +200,13 @@ def simulate(protocol: Protocol | str | Path, *, params_path: str | Path | None 
     return _simulate_motion(proto, params_path, effects, seed, prov)
 
 
-def _max_gauge_pa(params_path) -> float:
-    model = load_vbmm(params_path) if params_path is not None else VBMM(material=Material.paper_mat())
+def _max_gauge_pa(params_path, material: str = "paper_fit") -> float:
+    """The largest gauge pressure the plant takes: the one that holds it near 4 pi rad relaxed (its material: the
+    fit file's, else the protocol's preset; the softer preset reached its limit below the other's)."""
+    if params_path is not None:
+        model = load_vbmm(params_path)
+    else:
+        model = VBMM(material=Material.paper_fit() if material == "paper_fit" else Material.paper_mat())
     return float(model.equilibrium_pressure(4.0 * math.pi * 0.99)[0])
 
 
