@@ -126,6 +126,9 @@ def _convert(tp, value, where: str, path):
     if origin in (typing.Union, types.UnionType):
         if value is None and type(None) in args:
             return None
+        given = [a for a in args if a is not type(None)]
+        if len(given) == 1 and value is not None:   # Optional[X]: X's own error, with its own key
+            return _convert(given[0], value, where, path)
         errors = []
         for a in args:
             if a is type(None):
@@ -214,6 +217,12 @@ def build_dataclass(cls: type, data: Any, where: str = "", path=None):
         full = f"{where}.{k}" if where else str(k)
         kwargs[k] = _convert(hints[k], v, full, path)
         check_config_value(full, kwargs[k], path=path)  # stated resource limits (bpmid.limits)
+    missing = [f.name for f in dataclasses.fields(cls) if f.init and f.name not in data
+               and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+    if missing:   # named as a key, not as Python's 'missing 1 required positional argument'
+        m = missing[0]
+        raise InputError(f"missing key {m!r} (required here{', with ' + ', '.join(map(repr, missing[1:])) if missing[1:] else ''})",
+                         path=path, key=f"{where}.{m}" if where else m)
     try:
         obj = cls(**kwargs)
     except InputError:

@@ -211,3 +211,19 @@ def test_the_pressure_limit_is_the_protocol_preset_s(tmp_path):
     with _pytest.raises(InputError, match=r"above the model's range \(at most") as e:
         simulate(p)
     assert e.value.key == "logs[0].program[0].triangle.high"
+
+
+def test_protocol_errors_name_the_key(tmp_path):
+    """A missing required field said Python's 'Hold.__init__() missing 1 required positional argument'; a bad
+    value in the relaxation block named only 'relaxation' with a dump of the block."""
+    import pytest as _pytest
+
+    from bpmid.errors import InputError
+    from bpmid.twin.protocol import load_protocol
+
+    p = tmp_path / "miss.yaml"
+    p.write_text("schema: bpmid.protocol/1\nkind: motion\nunit: bar\nsampling_hz: 10\nlogs:\n  - name: a\n    start: 1.2\n"
+                 "    program:\n      - hold: {}\n")
+    with _pytest.raises(InputError, match="missing key 'duration_s'") as e:
+        load_protocol(p)
+    assert e.value.key == "logs[0].program[0].hold.duration_s" and "positional" not in str(e.value)
