@@ -962,7 +962,8 @@ class SimulationResult(Result):
         return fig
 
     def save(self, path: str | Path) -> Path:
-        """The logs and manifest.yaml (and ANSWER.yaml of a blind case): written for a live result, copied whole
+        """The logs and manifest.yaml (a blind case's answer beside the folder, ``<DIR>_ANSWER.yaml``): written for a
+        live result, copied whole
         for a loaded one."""
         if self.raw is not None:
             return self.raw.write(path)

@@ -103,3 +103,20 @@ def test_simulate_a_reference_protocol(tmp_path):
     res = runner.invoke(app, ["simulate", str(repo / "configs" / "datasets" / "control_references.yaml"), "--out",
                               str(tmp_path / "ref")])
     assert res.exit_code == 0 and "already held 1 other log file (earlier_run.csv)" in res.output, res.output
+
+
+def test_a_blind_simulation_keeps_its_answer_out_of_the_folder_and_the_command(tmp_path, monkeypatch):
+    """The answer was written among the logs, and the manifest's command named the hidden effect's values."""
+    proto = tmp_path / "blind.yaml"
+    proto.write_text("schema: bpmid.protocol/1\nkind: motion\nunit: bar\npressure_reference: absolute\nsampling_hz: 10\n"
+                     "seed: 2\nblind: true\nlogs:\n  - name: a\n    start: 1.2\n    program:\n"
+                     "      - triangle: {low: 1.2, high: 1.6, rate: 0.2, cycles: 1}\n")
+    out = tmp_path / "case"
+    args = ["simulate", str(proto), "--effect", "angle_offset:offset=3", "--out", str(out)]
+    monkeypatch.setattr("sys.argv", ["bpmid", *args])   # the command line the manifest records
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    assert not list(out.glob("*ANSWER*")) and (tmp_path / "case_ANSWER.yaml").is_file()
+    text = (out / "manifest.yaml").read_text()
+    assert "offset=3" not in text and "--effect <hidden>" in text and "hidden" in text
+    assert "angle_offset" in (tmp_path / "case_ANSWER.yaml").read_text()

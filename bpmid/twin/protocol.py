@@ -36,7 +36,8 @@ Top level
   (``modulus_cv``, ``tau_cv``: replicate-to-replicate log-normal spread of the constants)
 - ``sensors`` (motion): see :class:`bpmid.twin.sensors.Sensors`
 - ``effects`` (motion): catalogue effects to inject, ``{id: {parameter or setting: value}}`` (``--effect`` adds)
-- ``blind`` (default false): the injected effects go to a separate answer, not the manifest (discovery demo)
+- ``blind`` (default false): the injected effects go to a separate answer, not the manifest (discovery demo):
+  ``<out>_ANSWER.yaml`` beside the output folder, not in it, and the command recorded with ``--effect <hidden>``
 """
 from __future__ import annotations
 

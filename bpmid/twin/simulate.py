@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import re
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -124,14 +125,23 @@ class Simulation:
     answer: dict | None = None
 
     def write(self, out_dir: str | Path, *, answer_name: str | None = "ANSWER.yaml") -> Path:
+        """The logs and manifest.yaml into ``out_dir``; a blind case's answer beside the folder, not in it
+        (``<out_dir>_ANSWER.yaml``: whoever gets the folder to judge does not get the answer with it)."""
         out_dir = Path(out_dir)
         with staged_dir(out_dir) as tmp:
             for name, data in self.files.items():
                 write_bytes(tmp / name, data)
             write_bytes(tmp / "manifest.yaml", dump_yaml(self.manifest).encode())
-            if self.answer is not None and answer_name:
-                write_bytes(tmp / answer_name, dump_yaml(self.answer).encode())
+        if self.answer is not None and answer_name:
+            from bpmid.io.atomic import write_text
+
+            write_text(self.answer_path(out_dir, answer_name), dump_yaml(self.answer))
         return out_dir
+
+    @staticmethod
+    def answer_path(out_dir: str | Path, answer_name: str = "ANSWER.yaml") -> Path:
+        out_dir = Path(out_dir)
+        return out_dir.parent / f"{out_dir.name}_{answer_name}"
 
 
 def _base_model(proto: Protocol, params_path) -> tuple[VBMM, dict]:
@@ -184,6 +194,10 @@ def simulate(protocol: Protocol | str | Path, *, params_path: str | Path | None 
     seed = proto.seed if seed is None else int(seed)
     if seed < 0:
         raise InputError(f"a seed is a non-negative whole number, found {seed}", key="--seed")
+    if proto.blind and effects:   # the command would name the hidden effects: their values are left out
+        from bpmid.io.results import command_line
+
+        command = re.sub(r"(--effect[ =])(\S+)", lambda m: m.group(1) + "<hidden>", command or command_line())
     prov = provenance(() if params_path is None else (params_path,), seed=seed, command=command, timestamp=timestamp,
                       extra={"protocol": {"path": proto.path, "sha256": proto.sha256}})
     if proto.kind != "motion" and (params_path is not None or effects):
