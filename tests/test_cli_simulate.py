@@ -118,5 +118,16 @@ def test_a_blind_simulation_keeps_its_answer_out_of_the_folder_and_the_command(t
     assert res.exit_code == 0, res.output
     assert not list(out.glob("*ANSWER*")) and (tmp_path / "case_ANSWER.yaml").is_file()
     text = (out / "manifest.yaml").read_text()
-    assert "offset=3" not in text and "--effect <hidden>" in text and "hidden" in text
+    command = yaml.safe_load(text)["provenance"]["command"]
+    assert "offset=3" not in text and "--effect <hidden>" in command and "offset" not in command
     assert "angle_offset" in (tmp_path / "case_ANSWER.yaml").read_text()
+
+
+def test_an_effect_key_given_twice_is_refused(tmp_path):
+    from bpmid.twin.simulate import parse_effect_arg
+    import pytest as _pytest
+    from bpmid.errors import InputError
+
+    with _pytest.raises(InputError, match="tau is given twice") as e:
+        parse_effect_arg("pressure_lag:tau=0.1,tau=0.2")
+    assert e.value.key == "--effect.pressure_lag.tau"

@@ -86,7 +86,8 @@ def control(
     tab = result.table
     for row in tab[tab.reference == "ALL"].itertuples():
         red = "" if row.controller == "pi" or row.reduction_pct != row.reduction_pct else \
-            f", {row.reduction_pct:.1f} % below pi"
+            (f", {abs(row.reduction_pct):.1f} % below pi" if row.reduction_pct >= 0.05 else
+             f", {abs(row.reduction_pct):.1f} % above pi" if row.reduction_pct <= -0.05 else ", the same as pi")
         typer.echo(f"{row.controller}: RMSE {row.rmse_deg:.3f} deg over all references{red} ({row.status})")
     cost = result.feedforward_cost
     typer.echo(f"feedforward (incremental inverse VBMM): {cost['incremental_kernel_us_per_step']:.2f} us per step "

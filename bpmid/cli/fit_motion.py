@@ -65,7 +65,7 @@ def fit_motion_command(
     result.save(out, figure=figure, synthetic=is_synthetic(result.raw.logs))
     fit = result.raw
     m = fit.metrics
-    typer.echo(f"VBMM fit on {len(fit.logs)} logs: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, "
+    typer.echo(f"VBMM fit on {len(fit.logs)} log{'s' if len(fit.logs) != 1 else ''}: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, "
                f"R^2 {m['r2']:.4f}, fit {m['fit_pct']:.2f} % ({fit.seconds:.2f} s)")
     for p in fit.fit.params:
         se = "" if p.stderr is None else f" +- {p.stderr:.3g}"

@@ -65,7 +65,7 @@ def fig18(runs: Sequence, *, limits_bar: tuple[float, float] | None = None, synt
     clipped = lim > 0 and float(a_err.max()) > 1.5 * lim
     if clipped:
         ax[1].set_ylim(-lim, lim)
-    ax[1].set_title("(b) time-error" + (f" (axis at ±{lim:.2g}°: the jumps of a reference reach "
+    ax[1].set_title("(b) time-error" + (f" (axis at ±{lim:.2g}°: at a reference's jumps the error reaches "
                                         f"{float(a_err.max()):.0f}°)" if clipped else ""), loc="left")
     ax[2].set_ylabel("command\n(bar gauge)")
     ax[2].set_title("(c) command pressure", loc="left")

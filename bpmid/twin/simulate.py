@@ -69,6 +69,8 @@ def parse_effect_arg(text: str) -> tuple[str, dict]:
             k = k.strip()
             if not eq or not k:
                 raise InputError(f"expected key=value, found {item!r}", key=f"--effect {text}")
+            if k in values:   # the last would win silently
+                raise InputError(f"{k} is given twice; give each key once", key=f"--effect.{eid}.{k}")
             values[k] = _number(v.strip(), f"--effect.{eid}.{k}")   # the key build_effect names too
     return eid, values
 
