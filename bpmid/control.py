@@ -216,6 +216,10 @@ def read_reference(path: Path, rate_hz: float, name: str | None = None, io=None)
                      + (f"; detail faster than {rate_hz / 2:g} Hz is not followed)" if lo < dt * (1 - 1e-6) else ")"))
         a = np.interp(grid, t, a)
         t = grid
+    if 0.0 < float(np.max(a)) <= math.pi and float(np.ptp(a)) > 0.05:   # as the motion logs' radians check
+        rad = (f"its angles never exceed {float(np.max(a)):.3g} deg: radians in a degree column? If so, state "
+               "it (--angle-unit rad, or a column named angle_rad)")
+        resampled = f"{resampled}; {rad}" if resampled else rad
     if abs(float(t[0])) > 1e-9:   # the run starts at the reference's first sample: said, with its shift
         shift = f"its time starts at {float(t[0]):.6g} s and runs from 0 here (shifted by {-float(t[0]):.6g} s)"
         resampled = f"{resampled}; {shift}" if resampled else shift

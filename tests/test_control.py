@@ -300,3 +300,16 @@ def test_a_rerun_into_the_same_folder_drops_its_stale_figure_and_traces_and_says
     seven = tmp_path / "seven.csv"
     seven.write_text("time_s,angle_deg\n" + "".join(f"{k / 7:.6f},40\n" for k in range(70)))
     assert "(uneven)" not in read_reference(seven, 10.0).resampled and "7 Hz" in read_reference(seven, 10.0).resampled
+
+
+def test_a_reference_in_radians_under_degrees_is_said(tmp_path):
+    from bpmid.control import read_reference
+
+    rad = tmp_path / "rad.csv"
+    pd.DataFrame({"time_s": np.arange(50) * 0.1, "angle_deg": 0.7 + 0.35 * np.sin(np.arange(50) * 0.2)}).to_csv(
+        rad, index=False)
+    assert "radians in a degree column" in read_reference(rad, 10.0).resampled
+    deg = tmp_path / "deg.csv"
+    pd.DataFrame({"time_s": np.arange(50) * 0.1, "angle_deg": 40 + 20 * np.sin(np.arange(50) * 0.2)}).to_csv(
+        deg, index=False)
+    assert read_reference(deg, 10.0).resampled is None

@@ -227,3 +227,17 @@ def test_protocol_errors_name_the_key(tmp_path):
     with _pytest.raises(InputError, match="missing key 'duration_s'") as e:
         load_protocol(p)
     assert e.value.key == "logs[0].program[0].hold.duration_s" and "positional" not in str(e.value)
+
+
+def test_a_reference_protocol_beyond_0_to_180_deg_is_refused_naming_the_key(tmp_path):
+    import pytest as _pytest
+
+    from bpmid.errors import InputError
+    from bpmid.twin.protocol import load_protocol
+
+    p = tmp_path / "ref.yaml"
+    p.write_text("schema: bpmid.protocol/1\nkind: reference\nunit: deg\nsampling_hz: 10\nlogs:\n  - name: r\n"
+                 "    start: 30\n    program:\n      - ramp: {to: 900, duration_s: 5}\n")
+    with _pytest.raises(InputError, match="angle 900 deg is outside 0..180 deg") as e:
+        load_protocol(p)
+    assert e.value.key == "logs[0].program[0].ramp.to"

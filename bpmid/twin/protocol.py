@@ -535,8 +535,26 @@ def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Pro
         raise InputError(f"two logs would share the file name {dup[0]!r}", path=path, key="logs")
     if proto.kind == "motion":
         _check_levels(proto, path, max_gauge_pa)
+    if proto.kind == "reference":
+        _check_angles(proto, path)
     # the segment keys were only needed for the messages above
     return dataclasses.replace(proto, logs=tuple(dataclasses.replace(s, program=_strip(s.program)) for s in proto.logs))
+
+
+def _check_angles(proto: Protocol, path) -> None:
+    """A reference's angles within 0..180 deg, the range bpmid control takes (a reference it would refuse later
+    is refused here, naming the segment's key)."""
+    for i, spec in enumerate(proto.logs):
+        checks = [(f"logs[{i}].start", spec.start)] if spec.start is not None else []
+        for key, seg in _walk(spec.program):
+            if isinstance(seg, Sine):
+                checks += [(f"{key}.mean", seg.mean - seg.amplitude), (f"{key}.amplitude", seg.mean + seg.amplitude)]
+            else:
+                checks += [(f"{key}.{k}", v) for k, v in seg.levels().items()]
+        for key, angle in checks:
+            if not 0.0 <= float(angle) <= 180.0:
+                raise InputError(f"angle {angle:g} deg is outside 0..180 deg, the range a reference takes (bpmid "
+                                 "control refuses it)", path=path, key=key)
 
 
 def _check_levels(proto: Protocol, path, max_gauge_pa):
