@@ -224,7 +224,12 @@ def _read_motion_log(path: Path, io_cfg: IOConfig, require_angle: bool) -> Motio
     unit = table.units_in_file["pressure"]
     p_pa = table.columns["pressure"]
     given = p_pa / UNITS["pressure"][unit]
-    atm, atm_from = ambient_pressure(table, io_cfg.atmosphere_pa, io_cfg.stated_by.get("atmosphere_pa")) \
+    from bpmid.config import stated_keys
+
+    # a config that writes out atmosphere_pa states it, even at the standard atmosphere's value
+    said = io_cfg.stated_by.get("atmosphere_pa") or (
+        "io.atmosphere_pa (config)" if "atmosphere_pa" in stated_keys(io_cfg) else None)
+    atm, atm_from = ambient_pressure(table, io_cfg.atmosphere_pa, said) \
         if ref == "absolute" else (io_cfg.atmosphere_pa, None)
     gauge = p_pa - atm if ref == "absolute" else p_pa
     low = np.flatnonzero(gauge < io_cfg.min_gauge_pa)
