@@ -165,3 +165,25 @@ def test_config_validation():
     with pytest.raises(InputError, match="relax.specimen.gauge_length_mm"):
         from bpmid.relax import SpecimenConfig
         RelaxConfig(specimen=SpecimenConfig(gauge_length_mm=-1.0)).validate()
+
+
+def test_standard_errors_count_the_spread_from_test_to_test():
+    """A mean fitted to 12 tests that differ by 5 % each: the within-test noise alone gave a standard error 60
+    times too small; the cluster-robust floor (tests as clusters) reads the spread of the tests' means."""
+    import numpy as np
+
+    from bpmid.fitting import covariance_from_jacobian, effective_sample_size, with_between_tests
+
+    rng = np.random.default_rng(7)
+    n, c = 500, 12
+    level = 100.0 * np.exp(0.05 * rng.standard_normal(c))          # each test's own level
+    y = np.concatenate([lv + 0.1 * rng.standard_normal(n) for lv in level])
+    jac = np.ones((y.size, 1))
+    r = y - y.mean()
+    segments = [n] * c
+    base = covariance_from_jacobian(jac, r, effective_sample_size(r, segments))
+    cov, raised = with_between_tests(base, jac, r, segments)
+    se, se0, spread = float(np.sqrt(cov[0, 0])), float(np.sqrt(base[0, 0])), float(np.std(level, ddof=1) / np.sqrt(c))
+    assert raised and se > 10 * se0 and 0.7 * spread < se < 1.3 * spread
+    two = with_between_tests(base, jac[: 2 * n], r[: 2 * n], [n, n])    # fewer than 3 tests: unchanged
+    assert two[1] is False and np.array_equal(two[0], base)

@@ -22,7 +22,8 @@ import numpy as np
 
 from bpmid import metrics
 from bpmid.errors import InputError
-from bpmid.fitting import UNCERTAINTY_METHOD, correlation, covariance_from_jacobian, effective_sample_size
+from bpmid.fitting import (BETWEEN_TESTS_METHOD, UNCERTAINTY_METHOD, correlation, covariance_from_jacobian,
+                            effective_sample_size, with_between_tests)
 from bpmid.io.relax_logs import RelaxLog
 from bpmid.progress import note
 from bpmid.relax import varpro
@@ -381,6 +382,7 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
         r = sol.residual
         n_eff = effective_sample_size(r, segments)
         cov = covariance_from_jacobian(J, r, n_eff)
+        cov, between = with_between_tests(cov, J, r, segments)   # the spread from test to test counts too
     tau = np.exp(sol.theta)
     m = tau.size
     scale = np.concatenate([np.ones(1 + m), tau])   # log tau -> tau
@@ -411,7 +413,8 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
                    ("max-error" if max_error_pct is not None else None)),
         requested_terms=terms if max_error_pct is None else "max-error",
         logs=per_log, seconds=time.perf_counter() - t0, warnings=warn,
-        weighting="relative" if relative else "absolute")
+        weighting="relative" if relative else "absolute",
+        uncertainty_method=BETWEEN_TESTS_METHOD if between else UNCERTAINTY_METHOD)
 
 
 def fewest_near_best(errors: dict) -> int:
