@@ -541,17 +541,23 @@ def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Pro
     return dataclasses.replace(proto, logs=tuple(dataclasses.replace(s, program=_strip(s.program)) for s in proto.logs))
 
 
+def _levels_of(i: int, spec) -> list[tuple[str, float]]:
+    """(key, level) of every level log ``i``'s program reaches (its start, each segment's levels, a sine's two
+    extremes), in the protocol's unit: what the range checks look at."""
+    out = [(f"logs[{i}].start", spec.start)] if spec.start is not None else []
+    for key, seg in _walk(spec.program):
+        if isinstance(seg, Sine):
+            out += [(f"{key}.mean", seg.mean - seg.amplitude), (f"{key}.amplitude", seg.mean + seg.amplitude)]
+        else:
+            out += [(f"{key}.{k}", v) for k, v in seg.levels().items()]
+    return out
+
+
 def _check_angles(proto: Protocol, path) -> None:
     """A reference's angles within 0..180 deg, the range bpmid control takes (a reference it would refuse later
     is refused here, naming the segment's key)."""
     for i, spec in enumerate(proto.logs):
-        checks = [(f"logs[{i}].start", spec.start)] if spec.start is not None else []
-        for key, seg in _walk(spec.program):
-            if isinstance(seg, Sine):
-                checks += [(f"{key}.mean", seg.mean - seg.amplitude), (f"{key}.amplitude", seg.mean + seg.amplitude)]
-            else:
-                checks += [(f"{key}.{k}", v) for k, v in seg.levels().items()]
-        for key, angle in checks:
+        for key, angle in _levels_of(i, spec):
             if not 0.0 <= float(angle) <= 180.0:
                 raise InputError(f"angle {angle:g} deg is outside 0..180 deg, the range a reference takes (bpmid "
                                  "control refuses it)", path=path, key=key)
@@ -560,15 +566,7 @@ def _check_angles(proto: Protocol, path) -> None:
 def _check_levels(proto: Protocol, path, max_gauge_pa):
     """Pressures must stay in the model's range: at or above atmosphere, below ``max_gauge_pa``."""
     for i, spec in enumerate(proto.logs):
-        checks = []
-        if spec.start is not None:
-            checks.append((f"logs[{i}].start", spec.start))
-        for key, seg in _walk(spec.program):
-            if isinstance(seg, Sine):
-                checks += [(f"{key}.mean", seg.mean - seg.amplitude), (f"{key}.amplitude", seg.mean + seg.amplitude)]
-            else:
-                checks += [(f"{key}.{k}", v) for k, v in seg.levels().items()]
-        for key, level in checks:
+        for key, level in _levels_of(i, spec):
             g = float(proto.to_gauge_pa(level))
             if g < -1e-9:
                 raise InputError(f"pressure {level:g} {proto.unit} ({proto.pressure_reference}) is below atmosphere: "
