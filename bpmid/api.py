@@ -28,8 +28,9 @@ def _give(warnings: list, cfg, what: str, *, warn: bool = True) -> None:
         return
     io = cfg.section("io") if hasattr(cfg, "section") else getattr(cfg, "io", None)
     if warnings and getattr(io, "strict", False):
-        more = f" (and {len(warnings) - 1} more)" if len(warnings) > 1 else ""
-        raise InputError(f"{what} was refused: {len(warnings)} warning(s) under io.strict{more}; the first: "
+        n = len(warnings)
+        raise InputError(f"{what} was refused: {n} warning{'s' if n != 1 else ''} under io.strict; "
+                         f"{'the first' if n > 1 else 'it says'}: "
                          f"{warnings[0]} (fix the input, or set io.strict: false to get the result with its warnings)",
                          key="io.strict")
     if warn:
