@@ -129,6 +129,8 @@ def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
         d["final_model"]["angle_offset.offset"]["value"])
     assert m["material"]["G_inf"]["fixed"] is True          # discovery does not refit G: held, and it says so
     assert m["metrics"]["heldout"]["rmse_deg"] == pytest.approx(g["raw_after_rmse_deg"], abs=1e-4)
+    lo, hi = m["fit"]["logs"][0]["pressure_gauge_pa"]   # predict's range check reads it, as from a motion fit
+    assert 0 <= lo < hi
     pred = tmp_path / "pred"
     r2 = runner.invoke(app, ["--quiet", "predict", ho[2], "--params", str(out / "model.yaml"), "--out", str(pred)])
     assert r2.exit_code == 0, r2.output

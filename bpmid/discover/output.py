@@ -116,7 +116,9 @@ def model_body(result) -> dict:
     body["fit"] = {"by": "bpmid discover",
                    "named_effects": list(state.ids),
                    "objective": "angle error (deg) of the forward model with the named effects, fitting logs at once",
-                   "logs": [{"name": lg.name, "samples": lg.n, "duration_s": round(lg.duration_s, 6)}
+                   "logs": [{"name": lg.name, "samples": lg.n, "duration_s": round(lg.duration_s, 6),
+                             # the gauge pressures fitted on, as a motion fit records them (predict's range check)
+                             "pressure_gauge_pa": [float(np.min(lg.pressure_pa)), float(np.max(lg.pressure_pa))]}
                             for lg in result.fit_logs],
                    "heldout_logs": [lg.name for lg in result.holdout_logs],
                    "see": "discovery.yaml (the evidence) and verdict.txt"}
