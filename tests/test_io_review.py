@@ -723,3 +723,16 @@ def test_review_of_the_new_readers_regressions(tmp_path):
     assert read_motion_log(absp, IOConfig(columns=cols)).pressure_reference == "absolute"
     with pytest.raises(InputError, match="the pressure reference is stated twice and disagrees"):
         read_motion_log(absp, IOConfig(columns=cols, pressure_reference="gauge"))
+
+
+def test_one_pressure_logged_absolute_and_gauge_is_read_as_gauge(tmp_path):
+    """'Pressure abs (bar)' beside 'Pressure rel (bar)': one channel two ways (they differ by the atmosphere), was
+    refused as two disagreeing pressures; the gauge one is read and the other set aside."""
+    from bpmid.io.motion_logs import read_motion_log
+
+    f = _write(tmp_path, "two.csv", "time_s,Pressure abs (bar),Pressure rel (bar),angle_deg\n" + "".join(
+        f"{k * 0.1:.1f},{1.01325 + 0.2 + 0.01 * k:.5f},{0.2 + 0.01 * k:.5f},{k:.1f}\n" for k in range(20)))
+    lg = read_motion_log(f)
+    assert lg.pressure_reference == "gauge" and lg.reading["columns"]["pressure"]["column"] == "Pressure rel (bar)"
+    assert "Pressure abs (bar)" in lg.reading["ignored_columns"]
+    assert np.allclose(lg.pressure_pa, (0.2 + 0.01 * np.arange(20)) * 1e5)

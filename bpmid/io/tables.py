@@ -1837,6 +1837,17 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
                 arr = arr - arr[0]
                 col_info_extra = {"time_origin": origin, "timestamps": f"epoch ({unit}), seconds since the first"}
         arrays.append((arr, unit, h, unit_from, ref, col_info_extra))
+    if q == "pressure" and len(arrays) > 1:
+        # one channel logged absolute and gauge ('Pressure abs (bar)' beside 'Pressure rel (bar)'): equal but for a
+        # steady offset of about one atmosphere; the gauge one is read (it needs no ambient pressure)
+        gauge = [a for a in arrays if a[4] == "gauge"]
+        absol = [a for a in arrays if a[4] == "absolute"]
+        if gauge and absol and gauge[0][0].shape == absol[0][0].shape and gauge[0][0].size:
+            d = absol[0][0] - gauge[0][0]
+            if 0.5e5 <= float(np.median(d)) <= 1.1e5 and float(np.ptp(d)) <= max(2e-3 * float(np.ptp(gauge[0][0])),
+                                                                                 0.01 * float(np.median(d))):
+                ignored.append(absol[0][2])
+                arrays = [gauge[0]] + [a for a in arrays if a is not gauge[0] and a is not absol[0]]
     arr, unit, h, unit_from, ref, extra = arrays[0]
     for arr2, _u2, h2, *_rest in arrays[1:]:
         # one channel written twice, in two units each rounded as exports round (a psi copy to 0.01, a bar copy to
