@@ -350,3 +350,18 @@ def test_a_short_glitch_and_a_machine_temperature_do_not_refuse_a_ramp_and_hold_
         f"{a:.3f},{b:.6f},{c:.6f},{T:.2f},{30 + 2 * a:.2f}\n" for a, b, c, T in zip(t, strain, stress, temps)))
     lg = read_relax_logs([p])[0]
     assert lg.temperature[2] == "Temperature (°C)" and lg.temperature[0] == pytest.approx(26.0, abs=1.5)
+
+
+def test_a_brief_temperature_excursion_that_comes_back_is_warned_not_refused(tmp_path):
+    """An open thermocouple for 0.8 s (1372 C, then back) refused the log; it is said and the log read."""
+    t = np.arange(0.0, 62.0, 0.02)
+    strain = np.minimum(t, 1.0) * 0.05
+    stress = 2.0 * strain + 1.0 * strain * np.exp(-t / 5.0)
+    temps = np.full(t.size, 23.0)
+    temps[1000:1040] = 1372.0
+    p = tmp_path / "tc.csv"
+    p.write_text("Time (s),Strain,Stress (MPa),Temperature (°C)\n" + "".join(
+        f"{a:.3f},{b:.6f},{c:.6f},{T:.1f}\n" for a, b, c, T in zip(t, strain, stress, temps)))
+    lg = read_relax_logs([p])[0]
+    assert lg.temperature[0] == pytest.approx(23.0)
+    assert any("leaves 23 C for 40 of" in w and "comes back" in w for w in lg.warnings)

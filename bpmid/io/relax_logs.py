@@ -177,9 +177,9 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
         table = read_table(path, required=need, kind=KIND, **opts)  # raises, naming the column
     t = check_time(table, kind=KIND, gap_factor=None if need[1] == "modulus" else gap_factor,
                    max_gap_s=None if io_cfg is None or need[1] == "modulus" else io_cfg.max_gap_s)
+    temperature = _test_temperature(table, path, temp_column)   # first: it may add a warning
     common = dict(name=path.stem, time_s=t, path=path, meta=dict(table.meta), first_data_line=table.first_data_line,
-                  reading=dict(table.reading), warnings=list(table.warnings),
-                  temperature=_test_temperature(table, path, temp_column))
+                  reading=dict(table.reading), warnings=list(table.warnings), temperature=temperature)
     if need[1] == "modulus":
         E = table.columns["modulus"]
         bad = np.flatnonzero(E < 0)
@@ -246,6 +246,18 @@ def _test_temperature(table, path: Path, chosen: str | None = None) -> tuple[flo
     smooth = vals if vals.size < w else np.array([np.median(vals[max(0, k - w // 2):k + w // 2 + 1])
                                                   for k in range(vals.size)])
     lo, hi = np.percentile(smooth, [1.0, 99.0])
+    mid = float(np.median(vals))
+    away = np.abs(smooth - mid) > SET_T_SPAN_C
+    edge = max(1, vals.size // 10)
+    if hi - lo > SET_T_SPAN_C and away.mean() < 0.1 and \
+            abs(float(np.median(vals[:edge])) - float(np.median(vals[-edge:]))) <= SET_T_SPAN_C:
+        # a brief excursion that comes back (an open thermocouple for a moment): said, read at the log's level
+        k = int(np.flatnonzero(away)[0])
+        c = " C" if unit == "C" else ""
+        table.warnings.append(f"{path.name}: the temperature in column {h!r} leaves {mid:.3g}{c} for "
+                              f"{int(away.sum())} of {vals.size} samples (to {float(vals[k]):.4g}{c} at sample {k}) "
+                              "and comes back: a sensor fault? The log is read at its steady temperature")
+        return float(np.median(vals)), unit, h
     if hi - lo > SET_T_SPAN_C:
         c = " C" if unit == "C" else ""
         how = "" if unit == "C" else " (a column without a unit of C, K or F is read as written)"
