@@ -648,13 +648,23 @@ class VBMMFitResult(Result):
             from bpmid.errors import warn_caller
 
             warn_caller([f"this fit has effects ({', '.join(fx)}) that .model leaves out (the constants only): pass "
-                         "the result itself to bpmid.predict or bpmid.compare, or use "
-                         "bpmid.effects.fitfile.augmented_from_file(result.model, result)"])
+                         "the result itself to bpmid.predict or bpmid.compare, or use .model_with_effects"])
+        return self._constants()
+
+    def _constants(self):
         if self.raw is not None and hasattr(self.raw, "model"):
             return self.raw.model
         from bpmid.models.vbmm import vbmm_from_mapping
 
         return vbmm_from_mapping(self.to_dict(), self.source)
+
+    @property
+    def model_with_effects(self):
+        """The fitted VBMM with the file's ``effects`` list acting (what :func:`bpmid.predict` runs), or the
+        constants alone when the fit has none."""
+        from bpmid.effects.fitfile import augmented_from_file
+
+        return augmented_from_file(self._constants(), self)
 
     def plot(self):
         if self.raw is not None and hasattr(self.raw, "predictions"):

@@ -587,3 +587,21 @@ def test_summaries_of_a_simulation_and_a_prediction_say_what_they_hold():
     logs = sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))
     pred = bpmid.predict(logs[:2], bpmid.VBMM())
     assert "[[Logs]]" in pred.summary() and "RMSE" in pred.summary().split("[[Logs]]")[1]
+
+
+def test_model_with_effects_and_a_bad_scale(tmp_path, timed_small_study):
+    import warnings as _w
+
+    import yaml
+
+    body = yaml.safe_load((Path(timed_small_study) / "vbmm_fit.yaml").read_text())
+    body["effects"] = [{"id": "pressure_lag", "parameters": {"tau": 0.1}}]
+    (tmp_path / "lag.yaml").write_text(yaml.safe_dump(body))
+    res = bpmid.load(tmp_path / "lag.yaml")
+    with _w.catch_warnings():
+        _w.simplefilter("error")            # the advised call says nothing
+        m = res.model_with_effects
+    assert type(m).__name__ == "AugmentedVBMM"
+    t = np.arange(0.0, 5.0, 0.1)
+    with pytest.raises(bpmid.InputError, match="modulus scale must be one positive finite number"):
+        bpmid.VBMM().forward(t, np.full(t.size, 4e4), scale=np.where(t > 2, np.nan, 1.0))

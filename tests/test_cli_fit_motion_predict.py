@@ -281,9 +281,10 @@ def test_an_assumed_standard_atmosphere_is_noted_for_measured_logs_only(tmp_path
             assert note in " ".join(res.output.split()) and "io.atmosphere_pa" in res.output
     cfg = tmp_path / "atm.yaml"          # a config that writes out the standard atmosphere states it
     cfg.write_text("io:\n  atmosphere_pa: 101325\n")
-    res = runner.invoke(app, ["fit", "motion", str(bare), "--config", str(cfg), "--out", str(tmp_path / "c.yaml"),
-                              "--no-plot"])
-    assert res.exit_code == 0 and "turned to gauge with the standard atmosphere" not in res.output, res.output
+    for flags in ([], ["--max-gap", "100"]):   # a reading flag beside the config kept the config's statement? yes
+        res = runner.invoke(app, ["fit", "motion", str(bare), "--config", str(cfg), "--out",
+                                  str(tmp_path / f"c{len(flags)}.yaml"), "--no-plot", *flags])
+        assert res.exit_code == 0 and "turned to gauge with the standard atmosphere" not in res.output, res.output
 
 
 def test_predict_says_when_a_log_runs_far_beyond_the_fitted_pressures(tmp_path, fitted, data):

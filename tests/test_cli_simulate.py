@@ -131,3 +131,10 @@ def test_an_effect_key_given_twice_is_refused(tmp_path):
     with _pytest.raises(InputError, match="tau is given twice") as e:
         parse_effect_arg("pressure_lag:tau=0.1,tau=0.2")
     assert e.value.key == "--effect.pressure_lag.tau"
+
+
+def test_a_blind_answer_stays_out_of_the_current_folder(tmp_path, monkeypatch):
+    from bpmid.twin.simulate import Simulation
+
+    monkeypatch.chdir(tmp_path)
+    assert Simulation.answer_path(".") == tmp_path.parent / f"{tmp_path.name}_ANSWER.yaml"

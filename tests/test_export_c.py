@@ -478,7 +478,8 @@ def test_cli_export_and_refusals(plain, tmp_path):
     assert res.exit_code == 2 and "effects[0].id" in res.output
     # wrong kind of file for the target, unknown target
     res = CliRunner().invoke(app, ["export", str(fit), "--to", "c", "--model", "maxwell-slip", "--out", str(tmp_path / "o3")])
-    assert res.exit_code == 2 and "schema" in res.output
+    assert res.exit_code == 2 and "--model maxwell-slip takes a comparison or control result" in res.output
+    assert "export this one with --to c alone (or --model vbmm)" in " ".join(res.output.split())
     res = CliRunner().invoke(app, ["export", str(fit), "--to", "fortran", "--out", str(tmp_path / "o4")])
     assert res.exit_code == 2 and "--to" in res.output
     # a file of another kind (with or without --model, to C or to an FEA tool): told what it is and what to do

@@ -736,3 +736,25 @@ def test_one_pressure_logged_absolute_and_gauge_is_read_as_gauge(tmp_path):
     assert lg.pressure_reference == "gauge" and lg.reading["columns"]["pressure"]["column"] == "Pressure rel (bar)"
     assert "Pressure abs (bar)" in lg.reading["ignored_columns"]
     assert np.allclose(lg.pressure_pa, (0.2 + 0.01 * np.arange(20)) * 1e5)
+
+
+def test_review_of_the_labview_and_name_word_readers(tmp_path):
+    """A LabVIEW file without x columns and with decimal commas (its made-up time was written with a point: 'mixed
+    decimal separators'); an empty Y_Unit_Label cell keeps the later channels' units in place; 'Pressure gauge
+    (bar)' names the instrument, not a gauge reference."""
+    from bpmid.io.motion_logs import IOConfig, read_motion_log
+
+    rows = [f"{1.2 + 0.01 * k:.6f}\t{14.0 + k:.6f}".replace(".", ",") for k in range(20)]
+    text = _lvm("No", "bar\tDeg", "Pressure\tAngle\tComment", rows).replace("Decimal_Separator\t.",
+                                                                               "Decimal_Separator\t,")
+    text = text.replace("Delta_X\t0.050000\t0.050000", "Delta_X\t0,050000\t0,050000")
+    lg = read_motion_log(_write(tmp_path, "comma.lvm", text), IOConfig(pressure_reference="absolute"))
+    assert np.allclose(lg.time_s, np.arange(20) * 0.05) and np.allclose(lg.pressure_as_given[:2], [1.2, 1.21])
+    three = _lvm("One", "bar\t\tDeg", "X_Value\tPressure\tAux\tAngle\tComment",
+                 [f"{k * 0.05:.6f}\t{1.2 + 0.01 * k:.6f}\t0.5\t{14.0 + k:.6f}" for k in range(20)])
+    lg = read_motion_log(_write(tmp_path, "aux.lvm", three), IOConfig(pressure_reference="absolute"))
+    assert lg.reading["columns"]["angle"]["column"] == "Angle (Deg)"
+    f = _write(tmp_path, "gauge.csv", "# pressure_reference: absolute\ntime_s,Pressure gauge (bar),angle_deg\n"
+               + "".join(f"{k * 0.1:.1f},{1.2 + 0.01 * k:.3f},{k:.1f}\n" for k in range(20)))
+    with pytest.raises(InputError, match=r"--columns 'pressure=Pressure gauge \(bar\)'"):
+        read_motion_log(f)        # an instrument's name: mapped by the user, never read as a gauge reference

@@ -136,6 +136,10 @@ class LogOptions:
             return cfg
         changes["stated_by"] = stated
         new_io = dataclasses.replace(io_cfg, **changes)
+        from bpmid.config import stated_keys
+
+        # the keys the config file wrote stay stated (replace() makes a new object without them)
+        object.__setattr__(new_io, "_stated", stated_keys(io_cfg) | frozenset(k for k in changes if k != "stated_by"))
         new_io.validate("io", None)
         return dataclasses.replace(cfg, sections={**dict(cfg.sections), "io": new_io})
 

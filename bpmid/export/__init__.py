@@ -82,6 +82,9 @@ def _say_what_fits(fit_path: Path, to: str, model: str | None, schemas: tuple[st
     if kind is None:
         raise InputError(f"a {schema} file: {asked} takes a {wants} file", path=fit_path, key="schema")
     what, how = _KIND_WORDS[kind]
+    if to == "c" and kind == "bpmid.vbmm/" and model not in (None, "vbmm"):   # the right target, a wrong --model
+        raise InputError(f"a {schema} file is {what}: --model {model} takes a comparison or control result; export "
+                         "this one with --to c alone (or --model vbmm)", path=fit_path, key="--model")
     if to == "c" and model in (None, "vbmm") and kind in ("bpmid.compare/", "bpmid.control/"):
         raise InputError(f"a {schema} file is {what}: {how} "
                          f"(--to c without --model, or with --model vbmm, takes a bpmid.vbmm/1 motion fit)",

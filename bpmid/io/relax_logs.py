@@ -243,8 +243,12 @@ def _test_temperature(table, path: Path, chosen: str | None = None) -> tuple[flo
     vals, unit, h = got
     # a rolling median over a few samples first: a glitch or an open thermocouple for a moment is no change
     w = int(min(max(5, vals.size // 50), 101)) | 1
-    smooth = vals if vals.size < w else np.array([np.median(vals[max(0, k - w // 2):k + w // 2 + 1])
-                                                  for k in range(vals.size)])
+    if vals.size < w:
+        smooth = vals
+    else:
+        from scipy.ndimage import median_filter
+
+        smooth = median_filter(vals, size=w, mode="nearest")
     lo, hi = np.percentile(smooth, [1.0, 99.0])
     mid = float(np.median(vals))
     away = np.abs(smooth - mid) > SET_T_SPAN_C

@@ -317,7 +317,10 @@ def _parse(name: str, unit_row: str | None = None):
         word_ref, raw, unit = _NAME_REF_WORDS[_norm(unit).rstrip(".")], raw2, unit2
     words0 = [w.rstrip(".") for w in _norm(raw).split(" ")]
     kept = [w for w in words0 if w not in _NAME_REF_WORDS]
-    if len(kept) < len(words0) and kept and ALIASES.get(" ".join(kept)) == "pressure":
+    # 'gauge' after the pressure word names the instrument ('Pressure gauge (bar)'): only before it a reference
+    instrument = any(w in ("gauge", "gage") and k > 0 and words0[k - 1] not in _NAME_REF_WORDS
+                     and ALIASES.get(words0[k - 1]) == "pressure" for k, w in enumerate(words0))
+    if len(kept) < len(words0) and kept and ALIASES.get(" ".join(kept)) == "pressure" and not instrument:
         refs = {_NAME_REF_WORDS[w] for w in words0 if w in _NAME_REF_WORDS}
         if len(refs) == 1 and word_ref in (None, *refs):
             word_ref, raw = refs.pop(), " ".join(kept)
@@ -580,7 +583,10 @@ def _labview_header(lines: list[str], where: str, meta: dict, meta_lines: dict,
         if len(cells) >= 2 and cells[1] and re.match(r"^[A-Za-z][\w ]*$", cells[0]):
             _meta_from_line(f"{cells[0]}: {cells[1]}", meta, meta_lines, k + 1)
             if channels is not None and cells[0].lower() in ("y_unit_label", "delta_x", "x0"):   # per channel
-                channels[cells[0].lower()] = [c for c in cells[1:] if c]
+                vals = list(cells[1:])
+                while vals and not vals[-1]:   # only the trailing empties: a channel without a unit keeps its place
+                    vals.pop()
+                channels[cells[0].lower()] = vals
     return ends[-1] + 1, sep
 
 
@@ -604,7 +610,9 @@ def _labview_columns(header: list[str], body: list, meta: dict, sep: str, ch: di
             return header, body
         if meta.get("x_dimension", "time").lower().startswith("time") and dx > 0:
             header = ["time (s)"] + header
-            body = [(ln, f"{x0 + k * dx!r}{sep}{text}") for k, (ln, text) in enumerate(body)]
+            comma = meta.get("decimal_separator", ".").strip() == ","   # the time written as the file writes numbers
+            body = [(ln, f"{repr(x0 + k * dx).replace('.', ',') if comma else repr(x0 + k * dx)}{sep}{text}")
+                    for k, (ln, text) in enumerate(body)]
     return header, body
 
 
@@ -1682,7 +1690,8 @@ def _with_date_column(grid: Grid, j: int, vals: list) -> tuple[list, str | None]
             clock = [_to_24h(_CLOCK_12.match(x)) if _CLOCK_12.match(x) else x for x in texts]
             return [f"{d} {x}" for d, x in zip(dates, clock)], h
         changes = [r for r in range(1, len(dates)) if dates[r] != dates[r - 1]]
-        if changes:   # a date that changes but is not read: said, the time taken from the clock alone
+        if changes and not all(d.isdigit() for d in dates):   # a date that changes but is not read: said (a
+            # numeric day counter is no date form at all)
             r = changes[0]
             grid.info["date_warning"] = (
                 f"{grid.where}: the column {h!r} changes from {dates[r - 1]!r} to {dates[r]!r} (line "

@@ -142,7 +142,7 @@ class Simulation:
 
     @staticmethod
     def answer_path(out_dir: str | Path, answer_name: str = "ANSWER.yaml") -> Path:
-        out_dir = Path(out_dir)
+        out_dir = Path(out_dir).resolve()   # '--out .' has no name of its own: its real one, and its parent
         return out_dir.parent / f"{out_dir.name}_{answer_name}"
 
 

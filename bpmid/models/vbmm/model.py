@@ -342,6 +342,10 @@ class VBMM:
             raise ValueError("t and p must be 1-D arrays of equal length")
         _check_samples(t, p, name, "p_gauge_pa")
         sc = np.ones_like(t) if scale is None else np.ascontiguousarray(scale, float)
+        if scale is not None and (sc.shape != t.shape or not np.all(np.isfinite(sc) & (sc > 0))):
+            bad = int(np.flatnonzero(~(np.isfinite(sc) & (sc > 0)))[0]) if sc.shape == t.shape else 0
+            raise InputError(f"{name}: the modulus scale must be one positive finite number per sample (sample "
+                             f"{bad}: {float(sc.ravel()[bad]) if sc.size else float('nan')!r})", key="scale")
         m = self.material
         beta, e1, e2, status = K.forward_kernel(
             t, p, self.geometry.vector(), _CLOSURES[self.closure],

@@ -96,7 +96,8 @@ def build(doc, st, figs) -> None:
         for name, row in (("PI", pi), ("VBMM-PI", vb), ("MS-PI", ms)):
             if row is not None:
                 red = "" if name == "PI" or row.reduction_pct != row.reduction_pct else \
-                    f" ({fmt(row.reduction_pct)} % below PI)"
+                    (f" ({fmt(abs(row.reduction_pct))} % below PI)" if row.reduction_pct >= 0.05 else
+                     f" ({fmt(abs(row.reduction_pct))} % above PI)" if row.reduction_pct <= -0.05 else " (as PI)")
                 parts.append(f"{name} {fmt(row.rmse_deg)}°{red}")
         refs = "the shipped references" if k.references_shipped or not k.references else \
             "references " + ", ".join(str(r.get("name")) for r in k.references)
