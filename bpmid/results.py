@@ -942,7 +942,9 @@ class SimulationResult(Result):
         prot = self.body.get("protocol") or {}
         fx = ", ".join(str(e.get("id")) for e in self.body.get("effects") or [] if isinstance(e, Mapping))
         lines = [f"protocol: {prot.get('name', '?')} ({prot.get('kind', '?')}), {prot.get('path', '')}".rstrip(", "),
-                 f"seed: {self.body.get('seed')}", f"logs: {len(self.logs)} ({', '.join(self.logs[:4])}"
+                 f"seed: {self.body['seed']}" if self.body.get("seed") is not None else
+                 "seed: none (designed signals, nothing drawn at random)",
+                 f"logs: {len(self.logs)} ({', '.join(self.logs[:4])}"
                  f"{', ...' if len(self.logs) > 4 else ''})", f"injected effects: {fx or 'none'}",
                  "synthetic: made by bpmid's digital twin, not a measurement"]
         return [("Simulation", "\n".join(lines))]

@@ -584,6 +584,7 @@ def test_summaries_of_a_simulation_and_a_prediction_say_what_they_hold():
     text = sim.summary()
     assert "protocol: fitting_set (motion)" in text and "seed: 1001" in text and "logs: 3" in text
     assert "synthetic: made by bpmid's digital twin" in text
+    assert "seed: none (designed signals" in bpmid.load(REPO / "datasets" / "control").summary()
     logs = sorted(glob.glob(str(REPO / "datasets/motion/fitting_set/*.csv")))
     pred = bpmid.predict(logs[:2], bpmid.VBMM())
     assert "[[Logs]]" in pred.summary() and "RMSE" in pred.summary().split("[[Logs]]")[1]

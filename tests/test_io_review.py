@@ -642,6 +642,8 @@ def test_columns_with_commas_in_brackets_and_several_candidates(tmp_path):
 
     assert _split_pairs("time_s=data(:,1),pressure_bar_abs=data(:,2)") == ["time_s=data(:,1)",
                                                                            "pressure_bar_abs=data(:,2)"]
+    with pytest.raises(InputError, match="a bracket is opened and not closed"):
+        _split_pairs("time=data(:,1,pressure=p")
     from bpmid.io.tables import _unit_part
 
     assert _unit_part("data(:,1)") == ("data(:,1)", None) and _unit_part("Time (s)") == ("Time", "s")

@@ -181,5 +181,8 @@ def _split_pairs(text: str) -> list[str]:
         else:
             cur.append(ch)
     out.append("".join(cur))
+    if depth:   # an unbalanced '(' would join the rest into one column name silently
+        raise InputError(f"--columns: a bracket is opened and not closed in {text!r}; give each column as "
+                         "quantity=column, with its brackets closed", key="--columns")
     return out
 
