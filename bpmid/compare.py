@@ -157,12 +157,14 @@ def same_logs(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> dict[str
     return out
 
 
-def near_copies(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> dict[str, str]:
+def near_copies(train: Sequence[MotionLog], test: Sequence[MotionLog],
+                exact: Mapping[str, tuple[str, bool]] | None = None) -> dict[str, str]:
     """Test log name -> a warning, for test logs (not exact copies: :func:`same_logs`) that repeat a training
     log's samples within rounding: a re-export of it (time shifted or in other units, pressure in other units,
     rows dropped) whose score tests nothing, or a replicate of a rig whose noise is below its sensors' resolution.
-    Said, not set aside: bpmid cannot tell the two apart."""
-    exact = same_logs(train, test)
+    Said, not set aside: bpmid cannot tell the two apart. ``exact``: :func:`same_logs` of the two, when the caller
+    has it already."""
+    exact = same_logs(train, test) if exact is None else exact
     out = {}
     for lg in test:
         if lg.name in exact:
@@ -200,8 +202,8 @@ def _same_samples(a: MotionLog, b: MotionLog) -> bool:
     tol_p = max(2e-3 * max(float(np.ptp(pa)), 1e-9), 0.51 * max(_resolution(pa), _resolution(pb)))
     tol_a = max(2e-3 * max(float(np.ptp(aa)), 1e-9), 0.51 * max(_resolution(aa), _resolution(ab)))
     dt = float(np.median(np.diff(ta0)))
-    tol_t = max(1e-3 * dt, 0.51 * max(_resolution(np.diff(ta0)) if ta0.size > 2 else 0.0, 1e-12),
-                0.51 * _resolution(tb0 - tb0[0]) if _resolution(tb0 - tb0[0]) < 0.5 * dt else 0.0)
+    res_b = _resolution(tb0 - tb0[0])   # b's time as written (0.01 s, whole ms): its rounding is no difference
+    tol_t = max(1e-3 * dt, 0.51 * res_b if res_b < 0.5 * dt else 0.0)
     starts = np.flatnonzero((np.abs(pa - pb[0]) <= tol_p) & (np.abs(aa - ab[0]) <= tol_a))[:20]
     for k in starts:   # b's first sample is a's k-th (a cut start), else nothing aligns
         ta, tb = ta0 - ta0[k], tb0 - tb0[0]
@@ -213,14 +215,15 @@ def _same_samples(a: MotionLog, b: MotionLog) -> bool:
     return False
 
 
-def overlapping_logs(train: Sequence[MotionLog], test: Sequence[MotionLog]) -> dict[str, str]:
+def overlapping_logs(train: Sequence[MotionLog], test: Sequence[MotionLog],
+                     exact: Mapping[str, tuple[str, bool]] | None = None) -> dict[str, str]:
     """Test log name -> message, for test logs that are also training logs (same file, or identical content)."""
     apart = (f": its score is not a test of prediction; metrics.csv keeps it as set '{FITTED_SET}', left out of "
              "the summaries and the ranking")
     paths = {lg.name: lg.path for lg in test}
     return {name: (f"test log {paths[name]} is also a training log" if same_file else
                    f"test log {name} has the same data as training log {other}") + apart
-            for name, (other, same_file) in same_logs(train, test).items()}
+            for name, (other, same_file) in (same_logs(train, test) if exact is None else exact).items()}
 
 
 def check_test_logs(test: Sequence[MotionLog]) -> None:
@@ -397,8 +400,9 @@ def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models
     check_distinct_names(test, key="--test")
     names = [lg.name for lg in test]
     sets = {k: list(v) for k, v in (sets or {"test": names}).items()}
-    fitted_too = overlapping_logs(train, test)
-    warn = list(fitted_too.values()) + list(near_copies(train, test).values())
+    exact = same_logs(train, test)
+    fitted_too = overlapping_logs(train, test, exact)
+    warn = list(fitted_too.values()) + list(near_copies(train, test, exact).values())
     if fitted_too and len(fitted_too) == len(test):
         raise InputError("every test log is also a training log (the same file or the same data): nothing would "
                          "test prediction; give test logs the models are not fitted on", key="--test")

@@ -794,20 +794,19 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         effects = [held(e, cfg.hold) for e in effects]
     fit_logs, ho_logs, how = split_logs(logs, holdout, cfg)
     # a held-out score on a fitting log tests nothing: the verdict would rest on it (given twice, or a copy)
-    from bpmid.compare import same_logs
+    from bpmid.compare import near_copies, same_logs
 
-    for name, (other, same_file) in same_logs(fit_logs, ho_logs).items():
+    exact = same_logs(fit_logs, ho_logs)
+    for name, (other, same_file) in exact.items():
         bad = next(lg for lg in ho_logs if lg.name == name)
         raise InputError(f"the held-out log {bad.path or name} " + ("is also a fitting log" if same_file else
                          f"has the same data as the fitting log {other}") + ": the held-out check would score the "
                          "fit on its own data; " + ("give it either as a LOG or after --holdout, not both"
                                                     if holdout is not None else "give each log once"),
                          path=bad.path)
-    from bpmid.compare import near_copies
-
     copies = [w.replace("test log", "held-out log", 1).replace("training log", "fitting log", 1)
               .replace("give a log the models were not fitted on", "hold out a log the fit does not see")
-              for w in near_copies(fit_logs, ho_logs).values()]
+              for w in near_copies(fit_logs, ho_logs, exact).values()]
     noise = noise_floor(list(fit_logs) + list(ho_logs))
     floor = noise["sigma_deg"]
     if not (np.isfinite(floor) and floor > NOISE_FLOOR_MIN_DEG):
