@@ -192,7 +192,8 @@ class FitResult:
     residual : final residual vector (the unit of the data)
     n_obs, n_eff : sample size and effective sample size
     success, message, nfev : optimiser status
-    held : parameters found not identifiable, held at their prior value, with the reason
+    held : parameters found not identifiable, with the reason: held at their prior value, or where the fit with
+        them free left them when the data reject the prior (the note says which)
     """
 
     params: ParamSet
@@ -249,7 +250,8 @@ def correlated_with(names: Sequence[str], corr: np.ndarray, held: str) -> dict[s
             if j != i and np.isfinite(corr[i, j]) and abs(corr[i, j]) >= CONDITIONAL_CORR}
 
 
-def conditional_on_held(params: ParamSet, free_names: Sequence[str], links: dict[str, dict[str, float]]) -> ParamSet:
+def conditional_on_held(params: ParamSet, free_names: Sequence[str], links: dict[str, dict[str, float]],
+                        at_fit: Sequence[str] = ()) -> ParamSet:
     """Say, on each estimated parameter, which held parameters its standard error is conditional on.
 
     ``links`` maps a held parameter to the estimated ones it was correlated with while it was free. Holding it at
@@ -267,8 +269,11 @@ def conditional_on_held(params: ParamSet, free_names: Sequence[str], links: dict
         if p.fixed or p.stderr is None:
             continue
         which = ", ".join(f"{h} (r = {r:+.3f} while it was free)" for h, r in hs.items())
-        note = (f"{identifiability.CONDITIONAL} {which} at its prior value: the data determine a "
-                f"combination of them, so a {', '.join(hs)} other than the prior moves this constant by more "
+        where = ("where the free fit left it" if all(h in at_fit for h in hs) else
+                 "at its prior value" if not any(h in at_fit for h in hs) else "at its value")
+        other = "at another value" if any(h in at_fit for h in hs) else "other than the prior"
+        note = (f"{identifiability.CONDITIONAL} {which} {where}: the data determine a "
+                f"combination of them, so a {', '.join(hs)} {other} moves this constant by more "
                 f"than its standard error")
         # a refit of the same parameters says it again: the note replaces an earlier one, never repeats it
         kept = [part for part in (p.note or "").split("; ") if part and not part.startswith(identifiability.CONDITIONAL)]
@@ -281,7 +286,8 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
                       rel_se_max: float = 0.5, corr_max: float = 0.995, max_nfev: int | None = None,
                       diff_step: float | None = None, loss: str = "linear", f_scale: float = 1.0,
                       xtol: float = 1e-10, ftol: float = 1e-10,
-                      held_links: dict[str, dict[str, float]] | None = None) -> FitResult:
+                      held_links: dict[str, dict[str, float]] | None = None,
+                      prior_from_data: bool = False) -> FitResult:
     """Least squares over the free parameters of ``params``.
 
     Parameters
@@ -294,16 +300,24 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
     rel_se_max, corr_max : thresholds of the identifiability verdict
     held_links : for parameters a caller already holds (fixed in ``params``), the free ones each was correlated
         with (:func:`correlated_with`), so that their standard errors are said to be conditional too
+    prior_from_data : the starting values are a start computed from the same data (a baseline's equation-error
+        fit), not prior knowledge: a parameter whose hold at its start the data reject (likelihood ratio above
+        :data:`HOLD_LR_MAX`) is held where the fit with it free left it instead, and its note says so
     """
     prior = params
     held: dict[str, str] = {}
+    at_fit: dict[str, str] = {}   # held where the free fit left it: holding it at its prior, the data rejected
     links: dict[str, dict[str, float]] = dict(held_links or {})
     current = params
-    for _round in range(len(params) + 1):
+    last = None                   # (name held last, its fitted value, the fit before the hold: cost, n_eff, n)
+    for _round in range(2 * len(params) + 2):
         free = current.free()
         if not free:
             r = np.asarray(residual_fn(current), float)
-            res = FitResult(current, [], np.zeros((0, 0)), np.zeros((0, 0)), r, r.size,
+            if prior_from_data and last is not None and last[0] not in at_fit and _hold_rejected(r, last[2]):
+                current = _hold_at_fit(current, last, r, at_fit, held)
+                continue
+            res = FitResult(_held_notes(current, held, at_fit), [], np.zeros((0, 0)), np.zeros((0, 0)), r, r.size,
                             effective_sample_size(r, segments), True, "no free parameters", 1, held)
             return res
         x0 = current.free_vector()
@@ -322,6 +336,9 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
                                 max_nfev=max_nfev, diff_step=diff_step, xtol=xtol, ftol=ftol, gtol=1e-10)
         fitted = current.with_free_vector(sol.x)
         r = sol.fun
+        if prior_from_data and last is not None and last[0] not in at_fit and _hold_rejected(r, last[2]):
+            current = _hold_at_fit(current, last, r, at_fit, held)
+            continue
         n_eff = effective_sample_size(r, segments)
         cov_x = covariance_from_jacobian(sol.jac, r, n_eff)
         cov = _value_space_cov(fitted, cov_x)
@@ -345,9 +362,8 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
                     out = out.replace(name, identifiable=False,
                                       note=f"not identifiable: {judged[name]} (estimated, not held: this refit "
                                            f"does not check identifiability)")
-            for name, why in held.items():
-                out = out.replace(name, stderr=None, identifiable=False, note=f"not identifiable: {why}; held at prior value")
-            out = conditional_on_held(out, names, links)
+            out = _held_notes(out, held, at_fit)
+            out = conditional_on_held(out, names, links, at_fit)
             return FitResult(out, names, cov, corr, r, r.size, n_eff, bool(sol.success), str(sol.message),
                              int(sol.nfev), held, conditional=links)
         # hold the worst offender at its prior value and refit (one at a time: the others may recover)
@@ -355,8 +371,42 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
                                         se[names.index(n)] / max(abs(fitted[n].value), 1e-300)))
         held[worst] = bad[worst]
         links[worst] = correlated_with(names, corr, worst)
+        last = (worst, fitted[worst].value, (float(r @ r), n_eff, r.size))
         current = fitted.replace(worst, value=prior[worst].value, fixed=True)
     raise RuntimeError("identifiability loop did not terminate")  # pragma: no cover
+
+
+#: a hold at the prior is rejected by the data when the likelihood ratio of the fit with the parameter free over
+#: the fit with it held (on the effective sample size, one degree of freedom) exceeds this: chi2(1) at p = 0.001
+HOLD_LR_MAX = 10.83
+
+
+def _hold_rejected(r_held: np.ndarray, before: tuple[float, float, int]) -> bool:
+    """True when holding a parameter at its prior raised the fit error by more than the data allow: a
+    correlated parameter's prior (often an equation-error start) can sit far off the ridge its partner follows,
+    and the refit cannot make up for it (a two-branch rational fit went from 0.5 to 7 deg that way)."""
+    cost0, n_eff0, n0 = before
+    cost1 = float(r_held @ r_held)
+    if not (np.isfinite(cost1) and cost0 > 0 and n0 > 0):
+        return False
+    lr = max(n_eff0, 1.0) * math.log(max(cost1, cost0) / cost0)
+    return lr > HOLD_LR_MAX
+
+
+def _hold_at_fit(current: ParamSet, last: tuple, r_held: np.ndarray, at_fit: dict, held: dict) -> ParamSet:
+    """Hold ``last``'s parameter where the free fit left it instead of at its prior (said in its note)."""
+    name, value, (cost0, _n_eff0, n0) = last
+    rms0, rms1 = math.sqrt(cost0 / n0), math.sqrt(float(r_held @ r_held) / r_held.size)
+    at_fit[name] = (f"held where the fit with it free left it: at its prior {current[name].value:.6g} the fit "
+                    f"error rose from {rms0:.4g} to {rms1:.4g}, which the data reject")
+    return current.replace(name, value=value, fixed=True)
+
+
+def _held_notes(params: ParamSet, held: dict, at_fit: dict) -> ParamSet:
+    for name, why in held.items():
+        where = at_fit.get(name, "held at prior value")
+        params = params.replace(name, stderr=None, identifiable=False, note=f"not identifiable: {why}; {where}")
+    return params
 
 
 #: an R^2 at or below this is "none of the variation explained" (a constant at the data's mean gives 0 up to rounding)

@@ -253,3 +253,28 @@ def test_two_branch_simpler_branch_forms(branch):
     assert res.rmse < 1e-3 * np.ptp(y)
     with pytest.raises(InputError, match="branch form"):
         TwoBranchModel(branch="cubic")
+
+
+def test_compare_fits_a_leading_maxwell_slip_loop_and_counts_held_constants():
+    """compare's Maxwell-slip orientation is chosen on the training data: a loop in the seeds' leading form
+    (beta = s(P) + sum k_i d_i) kept its elements (with the old fixed ``lag`` default every k_i was 0, 2.8 deg
+    against a 0.3 deg floor, silently). ``n_params`` counts the constants estimated from the training data,
+    those held as not identifiable at the data's own start included."""
+    from bpmid.compare import compare_models
+
+    truth_model = MaxwellSlipModel(n_elements=3, poly_degree=1, orientation="lead")
+    truth = truth_model.default_params().with_values(
+        {"s0": 2.0, "s1": 70.0, "k1": 25.0, "k2": 12.0, "k3": 8.0, "D1": 0.02, "D2": 0.08, "D3": 0.25})
+    rng = np.random.default_rng(11)
+    logs = []
+    for seed in (1, 2, 3):
+        lg = excitation(seed, dt=0.02)
+        logs.append(lg.with_angle(truth_model.simulate(truth, lg) + rng.normal(0.0, 0.1, lg.n)))
+    res = compare_models(logs[:2], logs[2:], ["maxwell-slip", "three-element"], timing=False)
+    ms = res.outcome("maxwell-slip")
+    assert ms.fit.params.value("loop_sign") == 1.0
+    assert sum(ms.fit.params.value(f"k{i}") for i in range(1, ms.model.n_elements + 1)) > 20.0
+    assert res.summary.set_index("model").loc["maxwell-slip", "rmse_deg"] < 0.15
+    for o in res.outcomes:
+        held = [p for p in o.fit.params if p.fixed and p.identifiable is False]
+        assert o.n_params == len(o.fit.params.free()) + len(held)

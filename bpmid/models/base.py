@@ -30,6 +30,10 @@ class ModelFamily(abc.ABC):
     label: ClassVar[str] = ""
     #: smallest number of samples a fit needs (logs shorter in total are refused with a message)
     min_samples: ClassVar[int] = 20
+    #: the fit starts from the training data (an equation-error fit): a constant held there as not identifiable
+    #: still came from the data and counts in :meth:`n_params`. False where the start is prior knowledge (the
+    #: VBMM's relaxation constants): a constant held at it was not estimated from these logs.
+    start_from_data: ClassVar[bool] = True
 
     @abc.abstractmethod
     def default_params(self) -> ParamSet:
@@ -52,12 +56,15 @@ class ModelFamily(abc.ABC):
         check_fit_logs(self, logs)
         params = self.default_params() if params is None else params
         params = self.initial_guess(logs, params)
+        fit_kw.setdefault("prior_from_data", self.start_from_data)
         return fit_least_squares(lambda p: self.residual(p, logs), params,
                                  segments=[lg.n for lg in logs], **fit_kw)
 
     def n_params(self, params: ParamSet) -> int:
-        """Number of constants estimated from data (the free ones)."""
-        return len(params.free())
+        """Number of constants estimated from the training data: the free ones, and those held as not identifiable
+        at a start computed from the same data (:attr:`start_from_data`). Settings fixed by design are not counted."""
+        held = [p for p in params if p.fixed and p.identifiable is False] if self.start_from_data else []
+        return len(params.free()) + len(held)
 
     def describe(self, params: ParamSet) -> dict:
         """Parameters as YAML (``{name: {value, stderr, unit}}``) plus the family's settings."""

@@ -281,6 +281,7 @@ class GPIModel(ModelFamily):
         nonneg = [self.monotone, False] + [True] * self.n_operators
         # each outer evaluation is a full simulation plus a BVLS solve: bound the cost on long real logs
         fit_kw.setdefault("max_nfev", 60 * (len(start.free()) - self.n_operators - 2 + 1))
+        fit_kw.setdefault("prior_from_data", True)   # the start is the data's, not knowledge
         return fit_variable_projection(design_fn, np.concatenate(ys), start, self.linear_names, nonneg,
                                        segments=[u.size for u in us], **fit_kw)
 

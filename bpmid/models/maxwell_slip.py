@@ -272,6 +272,7 @@ class MaxwellSlipModel(ModelFamily):
         ys = [np.asarray(y, float) for y in ys]
         check_arrays(self, us, ys, 2 * self.n_elements + self.poly_degree + 1)
         start = self.initial_guess_arrays(us, self.default_params() if params is None else params, ys)
+        fit_kw.setdefault("prior_from_data", True)   # the start is the data's, not knowledge
         if self.method == "virgin":
             start = self.virgin_curve_elements(us, ys, start)
         elif not self.refine:

@@ -32,6 +32,7 @@ class _VBMMBase(ModelFamily):
     """Shared settings and simulation of both VBMM families."""
 
     min_samples = 20
+    start_from_data = False   # the start is the relaxation test's constants (or the paper's): prior knowledge
 
     def __init__(self, relax_fit=None, config=None):
         self.relax_fit = relax_fit
