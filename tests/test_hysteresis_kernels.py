@@ -1,5 +1,6 @@
 """Properties of the compiled hysteresis kernels (play/stop operators, Maxwell-slip elements)."""
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from bpmid.models._hysteresis_kernels import direction_with_deadband, first_order_exact, play_bank, stop_bank
@@ -133,3 +134,24 @@ def test_direction_dead_band_ignores_noise():
     d = direction_with_deadband(u + rng.normal(0, 1e-3, u.size), 0.01)
     assert np.all(d[:200] > 0)   # the noisy hold does not flip it
     assert np.all(d[215:] < 0)   # the fall does, within the dead band
+
+
+def test_first_order_ramp_is_exact_for_a_linear_input_and_unbiased_in_time():
+    """A ramp input e = s t through T y' + y = e: y = s (t - T) + s T exp(-t/T) exactly, for any step; holding the
+    input at each step's end sample (first_order_exact) instead leads it by about half a sample."""
+    from bpmid.models._hysteresis_kernels import first_order_ramp
+
+    T, s = 0.4, 3.0
+    for dt in (0.01, 0.1, 1.0):
+        t = np.arange(0.0, 6.0, dt)
+        exact = s * (t - T) + s * T * np.exp(-t / T)
+        y = first_order_ramp(s * t, np.full(t.size, dt / T), 0.0)
+        np.testing.assert_allclose(y, exact, atol=1e-12)
+        held = first_order_exact(s * t, np.exp(-np.full(t.size, dt) / T), 0.0)
+        lead = np.mean(held[t > 3] - exact[t > 3]) / s          # time by which the held output leads
+        assert lead > 0.25 * dt                                  # 0.5 dt for small steps
+    # no time passing keeps the output; a very fast element follows its equilibrium
+    y = first_order_ramp(np.array([0.0, 5.0]), np.array([0.0, 0.0]), 1.0)
+    assert y[1] == 1.0
+    y = first_order_ramp(np.array([0.0, 5.0]), np.array([0.0, 800.0]), 1.0)
+    assert y[1] == pytest.approx(5.0, abs=1e-2)

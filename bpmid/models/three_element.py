@@ -18,21 +18,19 @@ left out: a second-order lag would need a force scale the angle logs do not give
 - optional dead time d >= 0 (``dead_time``; seed 004: 0.23 s mean), applied to the input by linear
   interpolation (vectorised) before the recursion
 
-Simulation: exact exponential step for coefficients held over each sample interval (the values at the
-step's end sample), :func:`bpmid.models._hysteresis_kernels.first_order_exact`; stable for any dt.
-The angle starts at the equilibrium f/k of the first sample.
+Simulation: exact exponential step over each sample interval with k and b held at the step's end sample
+and the equilibrium f/k linear between the samples (first-order hold),
+:func:`bpmid.models._hysteresis_kernels.first_order_ramp`; stable for any dt. (Holding f/k at the end sample
+too advanced the input by half a sample on average: fitted on data from the continuous model, the dead time came
+out dt/2 long.) The angle starts at the equilibrium f/k of the first sample.
 
 **Extrapolation** (the comparison fits on 0.19-0.59 bar gauge and tests up to 1.19 bar). On the muscle's
-fitting set the quadratic default leaves f2 and k1 not identifiable (relative standard errors 950% and
-146%: a 0.4 bar window cannot separate curvature from creep); the fit then holds them at their
-equation-error start, f2 = -154 deg/bar^2 and k1 = -0.48 1/bar, and the equilibrium angle f/k turns over
-at about 0.5 bar and reaches -120 deg at 1.2 bar gauge. The static angle-pressure map of the muscle is
-nearly linear over 0.2-1.2 bar gauge, so the shipped comparison (``configs/compare_paper.yaml``) uses
-``static: linear``: f0 and f1 are well determined (standard errors 0.4 deg and 1.2 deg/bar), the
-equilibrium angle rises with pressure everywhere, and it even fits the fitting set better than the
-quadratic default (training RMSE 1.36 vs 1.44 deg; the default stalls at its held start values).
-``"rational"`` fits the fitting set worse (1.62 deg; k1 = 2.5 1/bar bends the curve into saturation,
-49 deg at 1.2 bar) and leaves the inflation damping not identifiable.
+fitting set the quadratic default leaves k1 not identifiable (a 0.4 bar window cannot separate curvature from
+creep) and fits it at 1.47 deg RMSE; the static angle-pressure map of the muscle is nearly linear over 0.2-1.2
+bar gauge, so the shipped comparison (``configs/compare_paper.yaml``) uses ``static: linear``: f0 and f1 are
+well determined, the equilibrium angle rises with pressure everywhere, and it fits the fitting set best
+(training RMSE 1.39 deg). ``"rational"`` fits it at 1.42 deg with k1 not identifiable and bends the curve into
+saturation (44 deg at 1.2 bar).
 
 Identification: equation-error linear least squares on Savitzky-Golay derivatives (dead time from a
 small grid) for a start, then output-error nonlinear least squares on the simulated angle (the shared
@@ -46,7 +44,7 @@ import numpy as np
 
 from bpmid.errors import InputError
 from bpmid.io.motion_logs import MotionLog
-from bpmid.models._hysteresis_kernels import direction_with_deadband, first_order_exact
+from bpmid.models._hysteresis_kernels import direction_with_deadband, first_order_ramp
 from bpmid.models.base import ModelFamily
 from bpmid.params import Param, ParamSet
 from bpmid.units import PA_PER_BAR
@@ -115,7 +113,7 @@ class ThreeElementModel(ModelFamily):
         _ud, _dir, k, f, b = self._coefficients(params, t, np.asarray(u, float))
         dt = np.diff(t, prepend=t[0])
         eq = f / k
-        return first_order_exact(eq, np.exp(-dt * k / b), float(eq[0]) if eq.size else 0.0)
+        return first_order_ramp(eq, dt * k / b, float(eq[0]) if eq.size else 0.0)
 
     def simulate(self, params: ParamSet, log: MotionLog) -> np.ndarray:
         """Bending angle (deg), shape (log.n,), from the gauge pressure (Pa -> bar)."""

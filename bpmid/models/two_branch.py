@@ -22,15 +22,13 @@ comparison needs from this static floor.
 one sign) or ``"linear"`` (a2 = 0 and q1 = 0: a0 + a1 P with a1 >= 0).
 
 **Extrapolation** (the comparison fits on 0.19-0.59 bar gauge and tests up to 1.19 bar). On the muscle's
-fitting set the rational default leaves a2 and q1 of the inflation branch not identifiable (relative
-standard errors above 600%); the fit holds them (at their equation-error start where the data accept
-that, else where the fit with them free left them) and the curves, free to bend outside the fitted range,
-miss the variable-rate set by about 24 deg RMSE (7.1 deg with lines). The muscle's static angle-pressure map is nearly linear over 0.2-1.2 bar gauge, so the shipped
-comparison (``configs/compare_paper.yaml``) uses ``branch: linear``: on the fitting set it fits better
-than the default (training RMSE 2.71 vs 3.10 deg; the default stalls at its held start values), every
+fitting set the rational default fits best (training RMSE 2.20 deg) but leaves a2 and q1 of the inflation
+branch and a0 and q1 of the deflation branch not identifiable, and its deflation curve turns over and falls to
+-134 deg at 1.2 bar gauge. ``"monotone"`` (2.24 deg) saturates the deflation curve at 43 deg, below the
+inflation curve from about 0.8 bar. The muscle's static angle-pressure map is nearly linear over 0.2-1.2 bar
+gauge, so the shipped comparison (``configs/compare_paper.yaml``) uses ``branch: linear`` (2.71 deg): every
 constant is identifiable, and the deflation line lies above the inflation line over the whole range (no
-crossing). ``"monotone"`` gives the same fit there: q1 of both branches is not identifiable (relative
-standard errors 96% and 70%) and stays at its start 0, so the line is the honest choice.
+crossing).
 
 Rising and falling are told apart by the direction of the pressure with a dead band
 (``direction_deadband_pa``; compiled kernel), so that noise on a hold does not make the angle jump
