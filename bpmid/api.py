@@ -405,7 +405,9 @@ def compare(train=None, test=None, *, models: Sequence[str] | str | None = None,
                                                         test=_paths(test, "test logs", "test") or None, relax=relax)
     result, prov, how = compare_files(train_paths, test_sets, models=models, config=cfg, relax_fit=relax_path)
     body = compare_yaml_body(result, how["relax_fit"])
-    body["synthetic"] = bool(how["synthetic"])
+    from bpmid.io.motion_logs import is_synthetic
+
+    body["synthetic"] = is_synthetic(list(result.train) + list(result.test))   # every log synthetic
     out = ComparisonResult(body, prov, raw=result)
     out._figure_logs = how["n_figure_logs"]
     return out

@@ -34,7 +34,7 @@ import pandas as pd
 from bpmid import metrics as M
 from bpmid.errors import InputError
 from bpmid.fitting import FitResult
-from bpmid.io.motion_logs import MotionLog, is_synthetic
+from bpmid.io.motion_logs import MotionLog, is_synthetic, synthetic_line, synthetic_note
 from bpmid.models import REGISTRY, model_class
 from bpmid.progress import Progress, note
 
@@ -551,8 +551,11 @@ def compare_yaml_body(result: CompareResult, relax_fit=None) -> dict:
 
 
 def write_compare(result: CompareResult, out_dir: str | Path, prov: dict, *, relax_fit=None,
-                  n_figure_logs: int = 4, synthetic: bool = True) -> Path:
-    """Write the tables, ``compare.yaml``, predictions and figures into ``out_dir`` (staged: all or nothing)."""
+                  n_figure_logs: int = 4, synthetic: bool | None = None) -> Path:
+    """Write the tables, ``compare.yaml``, predictions and figures into ``out_dir`` (staged: all or nothing).
+
+    ``synthetic``: None (default) reads it from the logs (``compare.yaml``'s ``synthetic`` when every log is, each
+    figure stamped by the logs it draws, a mix said as such); False stamps nothing."""
     from bpmid.io.atomic import staged_dir, write_text
     from bpmid.io.results import write_result
     from bpmid.plots import compare as P
@@ -563,17 +566,21 @@ def write_compare(result: CompareResult, out_dir: str | Path, prov: dict, *, rel
         write_text(tmp / "metrics.csv", _csv(result.metrics))
         write_text(tmp / "summary.csv", _csv(result.summary))
         write_text(tmp / "summary_by_set.csv", _csv(result.by_set))
-        for lg in result.test:
-            write_text(tmp / "predictions" / f"{lg.name}.csv", _csv(predictions_frame(result, lg)))
+        for lg in result.test:   # a synthetic log's predictions say so, as predict's do
+            write_text(tmp / "predictions" / f"{lg.name}.csv", synthetic_line(lg) + _csv(predictions_frame(result, lg)))
         body = compare_yaml_body(result, relax_fit)
-        body["synthetic"] = bool(synthetic)
+        body["synthetic"] = is_synthetic(list(result.train) + list(result.test)) if synthetic is None else bool(synthetic)
         write_result(tmp / "compare.yaml", "bpmid.compare/1", body, prov)
         logs = figure_logs(result, n_figure_logs)
+        # each figure is stamped by the logs it draws (a mix of measured and synthetic logs says so); a caller's
+        # synthetic=False (the library's own arrays) stamps nothing
         if logs:
-            save_figure(P.time_series(result, logs, synthetic=synthetic), tmp / "compare_timeseries.png")
-            save_figure(P.loops(result, logs, synthetic=synthetic), tmp / "compare_loops.png")
-            save_figure(P.errors(result, logs, synthetic=synthetic), tmp / "compare_errors.png")
-        save_figure(P.summary_bars(result.summary, result.by_set, synthetic=synthetic), tmp / "compare_summary.png")
+            note = synthetic_note(logs) if synthetic is not False else None
+            save_figure(P.time_series(result, logs, synthetic=note), tmp / "compare_timeseries.png")
+            save_figure(P.loops(result, logs, synthetic=note), tmp / "compare_loops.png")
+            save_figure(P.errors(result, logs, synthetic=note), tmp / "compare_errors.png")
+        note = synthetic_note(list(result.train) + list(result.test)) if synthetic is not False else None
+        save_figure(P.summary_bars(result.summary, result.by_set, synthetic=note), tmp / "compare_summary.png")
     return out_dir
 
 
@@ -653,8 +660,7 @@ def compare_files(train_paths: Sequence[Path], test_sets: Mapping[str, Sequence[
     warnings = plaus.log_warnings(train + test) + plaus.compare_warnings(result.summary)
     plaus.emit(warnings, strict=io_cfg.strict, what="the comparison")
     prov = plaus.attach(provenance(inputs, config=config, command=prov_command), train + test, warnings)
-    return result, prov, {"relax_fit": relax_fit, "n_figure_logs": cfg.figure_logs,
-                          "synthetic": is_synthetic(train + test)}
+    return result, prov, {"relax_fit": relax_fit, "n_figure_logs": cfg.figure_logs}
 
 
 def run_compare(train_paths: Sequence[Path], test_sets: Mapping[str, Sequence[Path]], out_dir: str | Path, *,

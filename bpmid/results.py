@@ -861,7 +861,7 @@ class ComparisonResult(Result):
 
             body = dict(self.body)
             write_compare(self.raw, path, self.provenance, relax_fit=body.get("relax_fit"),
-                          n_figure_logs=getattr(self, "_figure_logs", 4), synthetic=bool(body.get("synthetic", True)))
+                          n_figure_logs=getattr(self, "_figure_logs", 4))
             return Path(path)
         return super().save(path)
 

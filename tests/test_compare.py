@@ -373,3 +373,39 @@ def test_figure_logs_show_different_protocols_of_each_set():
     assert [lg.name for lg in figure_logs(res, 4)] == ["amp_1p8_r1", "amp_2p2_r2", "rate_slow_r1", "rate_fast_r2"]
     assert [lg.name for lg in figure_logs(res, 3)] == ["amp_1p8_r1", "amp_2p2_r2", "rate_slow_r1"]
     assert len(figure_logs(res, 50)) == 10 and figure_logs(res, 0) == []
+
+
+def test_a_mix_of_measured_and_synthetic_logs_is_labelled_as_a_mix(tmp_path, monkeypatch):
+    """One log without its synthetic line (a user's measurement beside the twin's logs): compare.yaml's
+    ``synthetic`` (every log) is false and ``synthetic_logs`` names the others; a synthetic test log's predictions
+    say so on their first line, the measured one's do not; the figures are stamped "partly synthetic", not left
+    bare (before: no stamp, and the synthetic logs drawn as "measured")."""
+    import yaml
+
+    import bpmid.plots.common as common
+
+    repo = Path(__file__).resolve().parents[1]
+    src = [repo / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv", repo / "datasets/motion/fitting_set/fit_1p2_1p6_r2.csv",
+           repo / "datasets/motion/variable_rate/rate_0p114_r1.csv", repo / "datasets/motion/variable_rate/rate_0p114_r2.csv"]
+    paths = []
+    for i, p in enumerate(src):
+        text = p.read_text()
+        if i == 0:   # the "measured" training log
+            text = "".join(ln for ln in text.splitlines(keepends=True) if not ln.startswith("# synthetic"))
+        q = tmp_path / p.name
+        q.write_text(text)
+        paths.append(q)
+    stamps = []
+    monkeypatch.setattr(common, "label_synthetic", lambda fig, note="": stamps.append(note))
+    r = runner.invoke(app, ["compare", "--train", str(paths[0]), str(paths[1]), "--test", str(paths[2]), str(paths[3]),
+                            "--models", "two-branch", "--out", str(tmp_path / "out")])
+    assert r.exit_code == 0, r.output
+    body = yaml.safe_load((tmp_path / "out" / "compare.yaml").read_text())
+    assert body["synthetic"] is False
+    assert body["synthetic_logs"] == ["fit_1p2_1p6_r2", "rate_0p114_r1", "rate_0p114_r2"]
+    first = (tmp_path / "out" / "predictions" / "rate_0p114_r1.csv").read_text().splitlines()[0]
+    assert first.startswith("# synthetic: true")
+    assert pd.read_csv(tmp_path / "out" / "predictions" / "rate_0p114_r1.csv", comment="#").shape[0] > 10
+    assert stamps and all(s for s in stamps)
+    assert any(s.startswith("partly synthetic: 3 of 4 logs") for s in stamps)   # the summary: every log
+    assert "synthetic data (bpmid digital twin)" in stamps                         # the test logs' own figures

@@ -303,6 +303,28 @@ def synthetic_line(log: MotionLog) -> str:
     return f"# synthetic: true (the input log{source} says: {said or 'made by bpmid twin'})\n"
 
 
+#: the stamp on a figure drawn from the twin's logs
+TWIN_NOTE = "synthetic data (bpmid digital twin)"
+
+
+def synthetic_note(logs: Sequence[MotionLog]) -> str | None:
+    """The stamp of a figure drawn from ``logs``: None when none is synthetic; ``synthetic data (bpmid digital
+    twin)`` when every one is the twin's; ``synthetic data (the logs' own headers say so)`` when every one is
+    synthetic and some come from another generator; ``partly synthetic: k of n logs`` when they are mixed (a figure
+    of measured and synthetic logs is neither)."""
+    logs = list(logs)
+    flags = [is_synthetic([lg]) for lg in logs]
+    if not any(flags):
+        return None
+    if not all(flags):
+        return f"partly synthetic: {sum(flags)} of {len(flags)} logs"
+
+    def twin(lg: MotionLog) -> bool:
+        meta = " ".join(f"{k} {v}" for k, v in (lg.meta or {}).items()).lower()
+        return "bpmid" in meta or "twin" in meta or (lg.path is not None and _in_shipped_datasets(lg.path))
+    return TWIN_NOTE if all(twin(lg) for lg in logs) else "synthetic data (the logs' own headers say so)"
+
+
 def _in_shipped_datasets(path: str | Path) -> bool:
     """True for a file inside bpmid's own shipped ``datasets`` folder (:mod:`bpmid.data`), not ``reference``
     (measured data of others). A user's folder that happens to be called ``datasets`` says nothing."""

@@ -44,7 +44,8 @@ PRESSURE_LABEL = "gauge pressure (bar, above atmosphere)"
 PRESSURE_RATE_LABEL = "pressure rate (bar/s)"
 from bpmid.units import PA_PER_BAR  # noqa: E402,F401  (the one home of unit factors)
 
-SYNTHETIC_NOTE = "synthetic data (bpmid digital twin)"
+from bpmid.io.motion_logs import TWIN_NOTE as SYNTHETIC_NOTE  # noqa: E402  (one wording for io and plots)
+
 FOOTER_IN = 0.24  # the strip at the bottom that holds the synthetic stamp
 
 def style_path() -> Path:
@@ -171,9 +172,11 @@ def label_synthetic(fig, note: str = SYNTHETIC_NOTE) -> None:
     fig.text(1 - 0.05 / w, 0.05 / h, note, ha="right", va="bottom", fontsize=7, color="0.35", style="italic")
 
 
-def finish(fig, synthetic: bool):
+def finish(fig, synthetic: "bool | str | None"):
+    """Stamp ``fig`` when ``synthetic``: True for the twin's wording, a text (:func:`bpmid.io.motion_logs.synthetic_note`)
+    for its own."""
     if synthetic:
-        label_synthetic(fig)
+        label_synthetic(fig, synthetic if isinstance(synthetic, str) else SYNTHETIC_NOTE)
     return fig
 
 

@@ -16,12 +16,19 @@ def _axes_list(axes, n):
     return list(np.atleast_1d(axes).ravel())[:n]
 
 
-def time_series(result, logs, *, synthetic: bool = True):
+def _logged(lg) -> str:
+    """The legend of a log's own angle: "measured", or "logged (synthetic)" for a synthetic log."""
+    from bpmid.io.motion_logs import is_synthetic
+
+    return "logged (synthetic)" if is_synthetic([lg]) else "measured"
+
+
+def time_series(result, logs, *, synthetic: bool | str | None = True):
     """Measured angle and every model's free-running prediction against time, one panel per log."""
     fig, axes = new_figure(len(logs), 1, width=9.0, height=2.0 * len(logs) + 1.1, squeeze=False, sharex=False,
                            legend="right", legend_size=1.5, suptitle=True, hgap=0.7)
     for ax, lg in zip(_axes_list(axes, len(logs)), logs):
-        ax.plot(lg.time_s, lg.angle_deg, color="black", lw=2.2, alpha=0.35, label="measured")
+        ax.plot(lg.time_s, lg.angle_deg, color="black", lw=2.2, alpha=0.35, label=_logged(lg))
         for i, o in enumerate(result.outcomes):
             ax.plot(lg.time_s, o.predictions[lg.name], color=_color(o.name, i), ls=style_of(o.name, i), lw=1.1,
                     label=o.name)
@@ -34,7 +41,7 @@ def time_series(result, logs, *, synthetic: bool = True):
     return finish(fig, synthetic)
 
 
-def loops(result, logs, *, synthetic: bool = True):
+def loops(result, logs, *, synthetic: bool | str | None = True):
     """Pressure-angle loops: one row per log, one column per model, measured loop in grey behind."""
     nm = len(result.outcomes)
     fig, axes = new_figure(len(logs), nm, width=2.3 * nm + 1.0, height=2.1 * len(logs) + 1.0, squeeze=False,
@@ -43,7 +50,7 @@ def loops(result, logs, *, synthetic: bool = True):
         p_bar = lg.pressure_pa / PA_PER_BAR
         for c, o in enumerate(result.outcomes):
             ax = axes[r, c]
-            ax.plot(p_bar, lg.angle_deg, color="0.6", lw=1.6, label="measured")
+            ax.plot(p_bar, lg.angle_deg, color="0.6", lw=1.6, label=_logged(lg))
             ax.plot(p_bar, o.predictions[lg.name], color=_color(o.name, c), ls=style_of(o.name, c), lw=1.0,
                     label=o.name)
             if r == 0:
@@ -52,12 +59,12 @@ def loops(result, logs, *, synthetic: bool = True):
                 ax.set_ylabel(f"{lg.name}\nangle (°)")
             if r == len(logs) - 1:
                 ax.set_xlabel("gauge pressure (bar)")
-    fig.suptitle("Pressure-angle loops: measured (grey) and each model; " + PRESSURE_LABEL,
+    fig.suptitle("Pressure-angle loops: the log's own (grey) and each model; " + PRESSURE_LABEL,
                  y=1 - 0.08 / fig.get_size_inches()[1], va="top", fontsize=9)
     return finish(fig, synthetic)
 
 
-def errors(result, logs, *, synthetic: bool = True):
+def errors(result, logs, *, synthetic: bool | str | None = True):
     """Prediction error (model minus measured) against time, one panel per log."""
     fig, axes = new_figure(len(logs), 1, width=9.0, height=1.9 * len(logs) + 1.1, squeeze=False,
                            legend="right", legend_size=1.5, suptitle=True, hgap=0.7)
@@ -70,11 +77,11 @@ def errors(result, logs, *, synthetic: bool = True):
         ax.set_ylabel("error (°)")
         ax.set_xlabel("time (s)")
     outside_legend(fig, ax=axes.ravel()[0])
-    fig.suptitle("Error against time (prediction minus measurement)", y=1 - 0.08 / fig.get_size_inches()[1], va="top")
+    fig.suptitle("Error against time (prediction minus the log's angle)", y=1 - 0.08 / fig.get_size_inches()[1], va="top")
     return finish(fig, synthetic)
 
 
-def summary_bars(summary, by_set=None, *, synthetic: bool = True):
+def summary_bars(summary, by_set=None, *, synthetic: bool | str | None = True):
     """Bar charts of the pooled summary: RMSE per test set, R², MAPE and cost per step."""
     models = list(summary["model"])
     colors = [_color(m, i) for i, m in enumerate(models)]

@@ -102,7 +102,7 @@ class _Reader:
             return None
         self.found.add(self.rel(path))
         try:
-            df = pd.read_csv(path)
+            df = pd.read_csv(path, comment="#")   # a prediction of a synthetic log says so on a '#' line
         except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError, OSError) as exc:
             self.problems.append(Problem(self.rel(path), f"unreadable ({type(exc).__name__}: {exc})".strip()))
             return None
