@@ -6,7 +6,8 @@ from typing import List, Optional
 
 import typer
 
-from bpmid.plots.options import figure_path, figures_option, set_figure_format
+from bpmid.errors import InputError
+from bpmid.plots.options import FIGURE_SUFFIXES, figure_path, figures_option, set_figure_format
 
 from bpmid.cli._app import check_outputs, command, existing_files, fit_app
 from bpmid.cli._logopts import log_options
@@ -45,6 +46,9 @@ def fit_motion_command(
     check_outputs([out], paths + [init, config], suffix=".yaml")
     if figure is not None:
         check_outputs([figure], paths + [init, config], key="--plot")
+        if figure.suffix.lower() not in FIGURE_SUFFIXES:   # matplotlib's own error came after the fit, as a traceback
+            raise InputError(f"a figure is written as {', '.join(s.lstrip('.') for s in FIGURE_SUFFIXES)}; "
+                             f"{figure.name!r} names none of them", path=figure, key="--plot")
     result = fit_motion(paths, init=init, config=cfg)
     from bpmid.models.vbmm.model import paper_geometry_note
 

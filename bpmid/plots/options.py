@@ -47,6 +47,10 @@ def figure_format_as(fmt: str | None):
         set_figure_format(old)
 
 
+#: file suffixes a figure can be written as (matplotlib's vector and raster formats a paper takes)
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp", ".pgf")
+
+
 def figure_path(path: str | Path) -> Path:
     """``path`` with the suffix of the chosen figure format."""
     path = Path(path)

@@ -17,6 +17,7 @@ Units: SI inside (m, Pa, s, rad). Results files carry the units of every constan
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from pathlib import Path
 from typing import Literal, Optional, Sequence
@@ -312,6 +313,15 @@ class VBMM:
             raise InputError("asymmetric relaxation (fall_ratio != 1) needs history = recursive", key="model.history")
         # a geometry in mm by mistake, or a negative one, computed silently before (a constant 4 pi rad)
         self.geometry.validate("model.geometry")
+        bad = _negative_bend_pressure(self.geometry, self.closure)
+        if bad is not None:
+            g = self.geometry
+            raise InputError(
+                f"this geometry (th {g.th * 1e3:.4g} mm, R0 {g.R0 * 1e3:.4g} mm, l0 {g.l0 * 1e3:.4g} mm, n {g.n:.4g}, "
+                f"alpha0 {math.degrees(g.alpha0):.4g} deg) needs a negative pressure to hold a bend of {math.degrees(bad[0]):.3g} deg, "
+                f"whatever the rubber: the VBMM cannot describe such a muscle, and every "
+                f"prediction would sit at its 4 pi rad limit. Check the geometry (a radius R0 of a few wall "
+                f"thicknesses or less, a decimal slip such as 1.673e-3 m for 1.673e-2 m)", key="model.geometry")
 
     @classmethod
     def from_config(cls, material: Material, cfg: VBMMConfig | None = None, **kw) -> "VBMM":
@@ -364,9 +374,15 @@ class VBMM:
             k = int(bad[0])
             raise InputError(f"{name}: pressure {p_gauge_pa[k]:.6g} Pa gauge at t = {t[k]:g} s is above the model's "
                              f"range (it would bend the muscle beyond 4 pi rad)", path=path)
-        if np.any(out["status"] == K.STATUS_NO_CONVERGENCE):  # pragma: no cover - safeguarded solve
+        if np.any(out["status"] == K.STATUS_NO_CONVERGENCE):
+            # the bracketed solve converges wherever the pressure rises with the angle: a model whose does not
+            # (a geometry far from any muscle's, such as n = 1e6 turns) is the input's fault, said as such
             k = int(np.flatnonzero(out["status"] == K.STATUS_NO_CONVERGENCE)[0])
-            raise RuntimeError(f"{name}: forward solve did not converge at t = {t[k]:g} s")
+            g = self.geometry
+            raise InputError(f"{name}: the model found no angle for {p_gauge_pa[k]:.6g} Pa gauge at t = {t[k]:g} s "
+                             f"(its pressure does not rise steadily with the bend): check the geometry (th "
+                             f"{g.th * 1e3:.4g} mm, R0 {g.R0 * 1e3:.4g} mm, l0 {g.l0 * 1e3:.4g} mm, n {g.n:.4g}, "
+                             f"alpha0 {math.degrees(g.alpha0):.4g} deg) and the moduli", path=path)
         return out["beta"]
 
     def forward_deg(self, t, p_gauge_pa, **kw) -> np.ndarray:
@@ -434,6 +450,27 @@ class VBMM:
                                fall_ratio=1.0)
         # each pressure on its own: a one-sample log is the relaxed equilibrium (h = 0)
         return np.array([relaxed.forward(np.zeros(1), np.array([pk]))[0] for pk in p])
+
+
+@functools.lru_cache(maxsize=512)
+def _negative_bend_pressure(geometry: "Geometry", closure: str):
+    """(beta, P) of the first test angle (rad) at which a relaxed, nearly incompressible rubber (K = 1000 G, the
+    pressure in units of G) needs a pressure that is not positive to hold the bend, else None.
+
+    Some geometries (a radius of a few wall thicknesses: th 2 mm with R0 6 mm and below, either closure) need a
+    negative pressure at every angle, and the forward solve then runs to its 4 pi rad bracket for any pressure. A
+    property of the geometry, not of the fitted constants (a fit may try a compressible rubber on the way).
+    Cached: a fit makes many models of one geometry."""
+    beta = np.array([0.5, 2.0])   # not a tiny bend: near 0 the pressure is near 0, of either sign by rounding
+    with np.errstate(all="ignore"):   # an absurd geometry divides by zero here: it is refused, not warned about
+        u3 = u3_from_beta(beta, geometry)
+        kin = kinematics(u3, geometry)
+        e1, e2 = kin["eps1"], kin["eps2"]
+        G, Kb = 1.0, 1000.0
+        lam = (Kb - 2.0 / 3.0 * G) * (e1 + e2)
+        p = closure_pressure(u3, 2 * G * e1 + lam, 2 * G * e2 + lam, geometry, closure)
+    bad = np.flatnonzero(~(p > 0))
+    return None if not bad.size else (float(beta[bad[0]]), float(p[bad[0]]))
 
 
 def _check_samples(t: np.ndarray, x: np.ndarray, name: str, what: str) -> None:
@@ -524,6 +561,9 @@ def material_from_yaml(data: dict, path=None) -> Material:
                 raise InputError("missing key", path=path, key=f"{key}.{req}")
         G.append(val(b["G"], f"{key}.G", "Pa"))
         Kk.append(val(b["K"], f"{key}.K", "Pa"))
+        if "tau" in b and ("tauG" in b or "tauK" in b):   # one of them would be dropped silently
+            raise InputError("give tau (one time constant for G and K), or tauG and tauK, not both", path=path,
+                             key=f"{key}.{'tauK' if 'tauK' in b else 'tauG'}")
         if "tau" in b:
             tG.append(val(b["tau"], f"{key}.tau", "s"))
             tK.append(tG[-1])
@@ -644,7 +684,12 @@ def vbmm_from_mapping(data: dict, path=None, cfg: VBMMConfig | None = None) -> V
     material = material_from_yaml(data, path)
     if not isinstance(closure, str) or closure not in _CLOSURES:
         raise InputError(f"unknown closure {closure!r} (paper or consistent)", path=path, key="closure")
-    model = VBMM(material=material, geometry=geometry, closure=closure, history=cfg.history, window_s=cfg.window_s)
+    try:
+        model = VBMM(material=material, geometry=geometry, closure=closure, history=cfg.history, window_s=cfg.window_s)
+    except InputError as exc:
+        if exc.key != "model.geometry":
+            raise
+        raise InputError(exc.message, path=path, key="geometry") from None   # the file's own block
     return with_config(model, cfg, f"the fit {path}" if path is not None else "the given fit")
 
 
