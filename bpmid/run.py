@@ -97,6 +97,11 @@ class RunConfig:
             if s not in STAGES:
                 raise InputError(f"unknown stage {s!r} (known: {', '.join(STAGES)})", path=path,
                                  key=f"{where}.stages[{i}]")
+        dup = sorted({s for s in self.stages if self.stages.count(s) > 1})
+        if dup:
+            raise InputError(f"stage {dup[0]} is named twice", path=path, key=f"{where}.stages")
+        if self.seed < 0:
+            raise InputError(f"must be a seed >= 0, found {self.seed}", path=path, key=f"{where}.seed")
         if self.workers < 0:
             raise InputError("must be 0 (as many as cores, at most 2) or a positive number of processes", path=path,
                              key=f"{where}.workers")
@@ -507,6 +512,30 @@ def _missing_inputs(stage: str, inp: RunInputs) -> str | None:
     return None
 
 
+#: the stages that read the study's data (control and report can run on defaults alone)
+DATA_STAGES = ("relax", "motion", "compare", "history", "discover")
+
+
+def check_stages_can_run(rc: "RunConfig", inp: RunInputs, path=None) -> None:
+    """A stage the config names in ``run.stages`` must have its inputs (it was skipped, exit 0, before); a config
+    that names no stages and gives no data for any (one that only overrides settings, ``model: {history:
+    window}``) would run control on default constants alone: both are refused before anything is written."""
+    from bpmid.config import stated_keys
+
+    if "stages" in stated_keys(rc):
+        for i, stage in enumerate(rc.stages):
+            why = _missing_inputs(stage, inp)
+            if why:
+                raise InputError(f"stage {stage} is asked for but cannot run: the config gives no "
+                                 f"{why.split('gives no ', 1)[1]}", path=path, key=f"run.stages[{i}]")
+        return
+    if not any(_missing_inputs(s, inp) is None for s in DATA_STAGES if s in rc.stages):
+        raise InputError("the config gives no data for any stage (run.relax_logs, run.fitting_set, run.test_sets, "
+                         "run.long_term, run.discover_logs): bpmid run reads its logs from the config's section run. "
+                         "Start from configs/paper.yaml (what bpmid run uses without a config), or name the stages "
+                         "to run (run: {stages: [control, report]})", path=path, key="run")
+
+
 def _param_inputs(config, rc: "RunConfig", inp: RunInputs) -> list[Path]:
     """The parameter files the config names for the stages that will run (they may live in DIR)."""
     stages = set(stages_to_run(rc, inp))
@@ -564,6 +593,7 @@ def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRe
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError("--out must be a folder, found a file", path=out)
+    check_stages_can_run(rc, inp, config.path)
     # every input of every stage read and checked before the first stage runs (and before DIR is touched)
     check_stage_inputs(config, inp, stages_to_run(rc, inp))
     check_run_outputs(out, [config.path] + inp.all() + _param_inputs(config, rc, inp))

@@ -386,3 +386,19 @@ def test_a_study_on_a_measured_relaxation_curve_is_not_called_synthetic(tmp_path
     assert "Data: MIXED. 1 of 2 logs" in page and str(synth.parent) in page
     assert "Data: measured logs" not in page and "Data: SYNTHETIC" not in page
 
+
+
+def test_a_stage_asked_for_without_its_inputs_or_a_config_with_no_data_is_refused(tmp_path):
+    """run.stages naming a stage whose inputs the config does not give (skipped, exit 0, before), and a config
+    that only overrides settings (control on default constants alone, exit 0, before): exit 2 naming the key,
+    nothing written. Naming the stages that need no data still runs them."""
+    cases = {"run:\n  stages: [compare]\n": ("run.stages[0]", "stage compare is asked for but cannot run"),
+             "model:\n  history: window\n": ("key 'run'", "gives no data for any stage"),
+             "run:\n  stages: [report, report]\n": ("run.stages", "named twice"),
+             "run:\n  seed: -5\n": ("run.seed", "seed >= 0")}
+    for i, (text, (key, words)) in enumerate(cases.items()):
+        cfg = tmp_path / f"c{i}.yaml"
+        cfg.write_text(text)
+        r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / f"o{i}")])
+        assert r.exit_code == 2 and key in r.output and words in r.output, r.output
+        assert not (tmp_path / f"o{i}").exists()
