@@ -288,13 +288,16 @@ def build_model(name: str, options: Mapping[str, Any] | None = None, relax_fit: 
         if unknown:
             known = [p for p in sig.parameters if p not in ("self", "config") + RELAX_KEYWORDS]
             raise InputError(f"model {name} has no setting {unknown[0]!r} (known: {', '.join(known) or 'none'})",
-                             key=f"compare.options.{name}.{unknown[0]}")
+                             path=getattr(config, "path", None), key=f"compare.options.{name}.{unknown[0]}")
+    cpath = getattr(config, "path", None)
     try:
         return cls(**kw)
-    except InputError:
-        raise
+    except InputError as exc:   # a family names its own argument: say where the user wrote it
+        key = exc.key if exc.key and exc.key.startswith("compare.") or exc.key == "--relax" else \
+            f"compare.options.{name}" + (f".{exc.key}" if exc.key else "")
+        raise InputError(f"model {name}: {exc.message}", path=exc.path or cpath, key=key) from None
     except (TypeError, ValueError) as exc:
-        raise InputError(f"model {name}: {exc}", key=f"compare.options.{name}") from exc
+        raise InputError(f"model {name}: {exc}", path=cpath, key=f"compare.options.{name}") from exc
 
 
 # --------------------------------------------------------------------------------------------------

@@ -109,10 +109,21 @@ class ControlConfig:
             v = getattr(self, key)
             if not (np.isfinite(v) and v >= 0):
                 bad(key, f"must be finite and >= 0, found {v!r}")
-        if not self.rate_hz > 0:
-            bad("rate_hz", f"must be positive, found {self.rate_hz!r}")
+        if not 0.5 <= self.rate_hz <= 10_000:   # a loop slower than 2 s a step, or faster than a valve, is a slip
+            bad("rate_hz", f"must be a control rate in Hz between 0.5 and 10000, found {self.rate_hz!r}")
         if not 0 < self.p_min_bar_abs < self.p_max_bar_abs:
             bad("p_max_bar_abs", f"need 0 < p_min < p_max, found {self.p_min_bar_abs!r}, {self.p_max_bar_abs!r}")
+        if not 0.1 <= self.atmosphere_bar <= 1.2:   # from high altitude to a deep mine; a value in Pa or kPa is a slip
+            bad("atmosphere_bar", f"must be an ambient pressure in bar absolute (0.1-1.2, sea level 1.01325), "
+                                  f"found {self.atmosphere_bar!r}")
+        if not self.p_max_bar_abs <= 50.0:   # bar absolute; a value in kPa or Pa is a slip
+            bad("p_max_bar_abs", f"must be a valve limit in bar absolute (at most 50), found {self.p_max_bar_abs!r}")
+        if not 0 < self.oscillation_limit_pct <= 100:
+            bad("oscillation_limit_pct", f"must be a share of the steps in % (0-100], found {self.oscillation_limit_pct!r}")
+        for key, lo in (("ms_elements", 1), ("ms_poly_degree", 0)):
+            v = getattr(self, key)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                bad(key, f"must be an integer >= {lo}, found {v!r}")
         for c in self.controllers:
             if c not in CONTROLLERS:
                 bad("controllers", f"unknown controller {c!r} (known: {', '.join(CONTROLLERS)})")

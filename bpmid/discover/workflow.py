@@ -200,6 +200,9 @@ class DiscoverConfig:
                      "base_max_nfev", "base_starts", "confirm_max_nfev"):
             if getattr(self, name) < 1:
                 raise InputError(f"must be at least 1, found {getattr(self, name)}", path=path, key=f"{where}.{name}")
+        if not (self.unexplained_gap_sigma >= 0 and math.isfinite(self.unexplained_gap_sigma)):
+            raise InputError(f"must be 0 or more noise floors, found {self.unexplained_gap_sigma}", path=path,
+                             key=f"{where}.unexplained_gap_sigma")
         if self.family_alpha is not None and not 0 < self.family_alpha < 1:
             raise InputError(f"must be between 0 and 1, found {self.family_alpha}", path=path,
                              key=f"{where}.family_alpha")
@@ -691,8 +694,8 @@ def split_logs(logs: Sequence[MotionLog], holdout: Sequence[MotionLog] | None, c
         if lg.angle_deg is None:
             raise InputError("the log has no angle column; discovery needs measured angles", path=lg.path or lg.name)
         if lg.n < cfg.min_log_samples:
-            raise InputError(f"cannot judge: the log has {lg.n} samples, fewer than {cfg.min_log_samples}",
-                             path=lg.path or lg.name)
+            raise InputError(f"cannot judge: the log has {lg.n} samples, fewer than {cfg.min_log_samples} (the "
+                             f"config's discover.min_log_samples; default 30)", path=lg.path or lg.name)
         # a sign flipped, named before any fit; an angle offset (a catalogue effect, up to -30 deg) may dip below 0
         check_angle_range(lg, tolerance_deg=ANGLE_BELOW_ZERO_DEG)
     if holdout:

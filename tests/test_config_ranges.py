@@ -1,0 +1,47 @@
+"""Settings outside their meaning are refused naming the config file and key (they ran, exit 0, before: a negative
+threshold made discovery's verdict contradict itself, an ambient of 0 bar made control's numbers meaningless),
+and a model option a family refuses names compare.options.<model>.<key> in the config file."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from bpmid.cli import app
+
+REPO = Path(__file__).resolve().parents[1]
+runner = CliRunner()
+
+
+@pytest.mark.parametrize("line, key", [
+    ("atmosphere_bar: 0", "control.atmosphere_bar"), ("oscillation_limit_pct: -5", "control.oscillation_limit_pct"),
+    ("ms_elements: 0", "control.ms_elements"), ("ms_poly_degree: -1", "control.ms_poly_degree"),
+    ("rate_hz: 1.0e-3", "control.rate_hz"), ("p_max_bar_abs: 1.0e6", "control.p_max_bar_abs")])
+def test_control_settings_out_of_range(tmp_path, line, key):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(f"control:\n  {line}\n")
+    r = runner.invoke(app, ["control", "--config", str(cfg), "--reference", "steps", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and str(cfg) in r.output and f"key '{key}'" in r.output, r.output
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_negative_unexplained_threshold_is_refused(tmp_path):
+    cfg = tmp_path / "d.yaml"
+    cfg.write_text("discover:\n  unexplained_gap_sigma: -1\n")
+    case = REPO / "datasets" / "discovery" / "case_05"
+    r = runner.invoke(app, ["discover", *map(str, sorted(case.glob("train_*.csv"))), "--holdout",
+                            str(case / "holdout_mixed.csv"), "--config", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and "discover.unexplained_gap_sigma" in r.output, r.output
+
+
+@pytest.mark.parametrize("option, key", [("gpi: {envelope: bogus}", "compare.options.gpi.envelope"),
+                                         ("maxwell-slip: {n_elements: 0}", "compare.options.maxwell-slip.n_elements")])
+def test_a_model_option_a_family_refuses_names_the_config_and_its_key(tmp_path, option, key):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(f"compare:\n  options:\n    {option}\n")
+    m = REPO / "datasets" / "motion"
+    r = runner.invoke(app, ["compare", "--train", str(m / "fitting_set" / "fit_1p2_1p6_r1.csv"), "--test",
+                            str(m / "variable_rate" / "rate_0p114_r1.csv"), "--models", "gpi,maxwell-slip",
+                            "--config", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and str(cfg) in r.output and f"key '{key}'" in r.output, r.output
