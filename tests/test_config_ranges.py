@@ -19,9 +19,14 @@ runner = CliRunner()
     ("ms_elements: 0", "control.ms_elements"), ("ms_poly_degree: -1", "control.ms_poly_degree"),
     ("rate_hz: 1.0e-3", "control.rate_hz"), ("p_max_bar_abs: 1.0e6", "control.p_max_bar_abs")])
 def test_control_settings_out_of_range(tmp_path, line, key):
+    from test_simulate_predict_review import TRUTH
+
+    params = tmp_path / "vbmm.yaml"
+    params.write_text(TRUTH % (6.434e6, 3.2e6))
     cfg = tmp_path / "c.yaml"
     cfg.write_text(f"control:\n  {line}\n")
-    r = runner.invoke(app, ["control", "--config", str(cfg), "--reference", "steps", "--out", str(tmp_path / "o")])
+    r = runner.invoke(app, ["control", "--params", str(params), "--config", str(cfg), "--reference", "steps",
+                            "--out", str(tmp_path / "o")])
     assert r.exit_code == 2 and str(cfg) in r.output and f"key '{key}'" in r.output, r.output
     assert not (tmp_path / "o").exists()
 
