@@ -316,7 +316,13 @@ def fit_motion(logs, *, init=None, config=None):
         raise InputError(f"init must be a relaxation fit (a bpmid.relax/1 path or a RelaxationResult), found "
                          f"{type(init).__name__}", key="init")
     fit = _fit(motion, config=cfg, init=init)
-    warnings = plaus.reader_warnings(motion) + plaus.motion_fit_warnings(fit)
+    src = init
+    mc = cfg.section("motion")
+    if src is None and mc.relax_fit is not None:
+        src = cfg.resolve_path(mc.relax_fit)
+    g_inf = fit.prior.value("G_inf") if "G_inf" in fit.prior.names() else None
+    warnings = (plaus.reader_warnings(motion) + (plaus.init_warnings(src, g_inf) if src is not None else [])
+                + plaus.motion_fit_warnings(fit))
     _give(warnings, cfg, "the motion fit")
     body = {**fit.yaml_body(), "warnings": warnings}
     return VBMMFitResult(body, plaus.attach(provenance(inputs, config=cfg), motion, warnings), raw=fit)

@@ -50,3 +50,29 @@ def test_a_model_option_a_family_refuses_names_the_config_and_its_key(tmp_path, 
                             str(m / "variable_rate" / "rate_0p114_r1.csv"), "--models", "gpi,maxwell-slip",
                             "--config", str(cfg), "--out", str(tmp_path / "o")])
     assert r.exit_code == 2 and str(cfg) in r.output and f"key '{key}'" in r.output, r.output
+
+
+def test_fit_motion_carries_the_warnings_of_the_relaxation_fit_it_starts_from(tmp_path):
+    """A load/extension log with a gauge length of 0.05 mm (for 50): fit relax warns about the gauge length (it
+    blamed a strain column the file does not have), and fit motion --init on that fit says the fit came with
+    warnings and that its shear modulus is no rubber's (it said nothing, warnings: [])."""
+    import numpy as np
+    import yaml
+
+    t = np.arange(0.0, 30.0, 0.05)
+    ext = np.minimum(t / 1.0, 1.0) * 7.5                      # mm, a 1 s ramp to 7.5 mm, then held
+    load = 12 * 0.4 * (0.6 * ext / 50 + 0.4 * (ext / 50) * np.exp(-np.maximum(t - 1.0, 0) / 2.0))
+    log = tmp_path / "ext.csv"
+    log.write_text("time_s,extension_mm,load_n\n" + "".join(f"{a:.4f},{b:.6f},{c:.6f}\n" for a, b, c in zip(t, ext, load)))
+    cfg = tmp_path / "spec.yaml"
+    cfg.write_text("relax:\n  specimen:\n    gauge_length_mm: 0.05\n    cross_section_mm2: 12\n")
+    r = runner.invoke(app, ["fit", "relax", str(log), "--config", str(cfg), "--out", str(tmp_path / "r.yaml")])
+    assert r.exit_code == 0, r.output
+    assert "gauge_length_mm" in r.output and "if the column is in percent" not in r.output, r.output
+    fit = REPO / "datasets" / "motion" / "fitting_set" / "fit_1p2_1p6_r1.csv"
+    r = runner.invoke(app, ["fit", "motion", str(fit), "--init", str(tmp_path / "r.yaml"), "--out", str(tmp_path / "m.yaml"),
+                            "--no-plot"])
+    assert r.exit_code == 0, r.output
+    warnings = yaml.safe_load((tmp_path / "m.yaml").read_text())["warnings"]
+    assert any("came with" in w and "warning(s) of its own" in w for w in warnings), warnings
+    assert any("far softer than any rubber" in w for w in warnings), warnings

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import sys
+from pathlib import Path
 from typing import Iterable, Mapping, Sequence
 
 import numpy as np
@@ -262,6 +263,38 @@ def motion_fit_warnings(result) -> list[str]:
     return out
 
 
+#: a long-term shear modulus below this (Pa) is far softer than any rubber tube (the paper's: 9 kPa)
+MIN_PLAUSIBLE_G_PA = 100.0
+
+
+def init_warnings(init, g_inf_pa: float | None = None) -> list[str]:
+    """Warnings about where a motion fit started: the warnings its relaxation fit (a ``bpmid.relax/1`` path or
+    mapping) came with, carried over rather than lost, and a start whose long-term shear modulus no rubber has."""
+    out = []
+    body, name = None, "the relaxation fit"
+    if isinstance(init, (str, Path)):
+        name = f"the relaxation fit {init}"
+        try:
+            import yaml
+
+            body = yaml.safe_load(Path(init).read_text(encoding="utf-8"))
+        except (OSError, ValueError, yaml.YAMLError):
+            body = None
+    elif isinstance(init, Mapping):
+        body = init
+    said = [str(w) for w in (body or {}).get("warnings") or []] if isinstance(body, Mapping) else []
+    if said:
+        out.append(f"{name} this fit starts from came with {len(said)} warning(s) of its own, and the constants "
+                   f"it starts from (and holds where the motion logs do not determine them) carry them: "
+                   f"'{said[0]}'" + (f" (and {len(said) - 1} more)" if len(said) > 1 else ""))
+    g = g_inf_pa
+    if g is not None and 0 < float(g) < MIN_PLAUSIBLE_G_PA:
+        out.append(f"{name} gives a long-term shear modulus of {float(g):.3g} Pa, far softer than any rubber (the "
+                   f"paper's muscle: 9 kPa): check its specimen (gauge length and cross-section, relax.specimen) "
+                   f"and units before trusting constants held at it")
+    return out
+
+
 def prediction_warnings(preds: Sequence) -> list[str]:
     """Warnings after ``predict``: the data checks, and a poor match where the log has angles."""
     out = motion_data_warnings([p.log for p in preds])
@@ -287,8 +320,13 @@ def relax_warnings(records: Sequence, fit) -> list[str]:
             # decades apart are common there), so it says nothing about them
             out += milliseconds_warnings(r)
         if r.strain is not None and r.strain.size and float(np.max(r.strain)) > 1.0:
-            out.append(f"{where}: the strain reaches {float(np.max(r.strain)):.4g} (over 100 %): if the column is "
-                       f"in percent, say so (strain_pct or 'Strain (%)')")
+            if getattr(r, "source", "") == "load-extension":   # strain = extension / gauge length: the length's
+                out.append(f"{where}: the strain reaches {float(np.max(r.strain)):.4g} (over 100 %), the extension "
+                           f"over the gauge length: check relax.specimen.gauge_length_mm (or the file's "
+                           f"'# gauge_length_mm:' line) and that the extension is in mm")
+            else:
+                out.append(f"{where}: the strain reaches {float(np.max(r.strain)):.4g} (over 100 %): if the column is "
+                           f"in percent, say so (strain_pct or 'Strain (%)')")
     r2 = float(getattr(fit, "r2", float("nan")))
     if not r2 >= R2_MIN:
         out.append(f"the relaxation fit explains little (R^2 {r2:.3g} < {R2_MIN:g}): check the stress and time units "
