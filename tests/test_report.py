@@ -495,3 +495,39 @@ def test_the_control_lines_name_the_user_s_references_and_the_plant():
     assert not mine.references_shipped and shipped.references_shipped
     assert mine.plant_words() == "moduli x 1.05; time constants x 0.9; pressure_lag (tau = 0.1 s)"
     assert shipped.plant_words() == ""
+
+
+def test_a_deleted_stage_file_a_cut_summary_and_another_version_are_said(study, tmp_path):
+    """A run folder whose vbmm_fit.yaml was deleted (the report fell back to VBMM-mat silently), whose summary was
+    cut to two models (ranked as if those were all), and whose run.yaml says another schema: each is a warning on
+    stderr and the report is still written (exit 0)."""
+    out = tmp_path / "copy"
+    shutil.copytree(study, out)
+    (out / "vbmm_fit.yaml").unlink()
+    lines = (out / "compare" / "summary.csv").read_text().splitlines()
+    (out / "compare" / "summary.csv").write_text("\n".join(lines[:3]) + "\n")
+    run = (out / "run.yaml").read_text().replace("schema: bpmid.run/1", "schema: bpmid.run/2")
+    (out / "run.yaml").write_text(run)
+    r = CliRunner().invoke(app, ["report", str(out)])
+    assert r.exit_code == 0, r.output
+    err = r.stderr if hasattr(r, "stderr") else r.output
+    assert "vbmm_fit.yaml: missing, though run.yaml records stage motion as done" in err, err
+    assert "compare/summary.csv: partial: ranks 2 of the" in err, err
+    assert "run.yaml: written by another version of bpmid (schema bpmid.run/2" in err, err
+    assert (out / "report.html").is_file()
+
+
+def test_report_on_a_control_folder_reads_it_as_control(tmp_path):
+    """bpmid report on the folder bpmid control wrote: its summary.csv is the controllers' (it was read as a
+    comparison and refused: 'summary.csv: partial: no column model')."""
+    from test_simulate_predict_review import TRUTH
+
+    params = tmp_path / "vbmm.yaml"
+    params.write_text(TRUTH % (6.434e6, 3.2e6))
+    r = CliRunner().invoke(app, ["control", "--params", str(params), "--reference", "steps", "--controller", "pi",
+                                 "--out", str(tmp_path / "ctl"), "--no-figure"])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(app, ["report", str(tmp_path / "ctl")])
+    assert r.exit_code == 0 and "no column model" not in r.output, r.output
+    md = (tmp_path / "ctl" / "report.md").read_text()
+    assert "## Closed-loop control" in md and "Control (closed loop" in md

@@ -90,6 +90,11 @@ class _Reader:
             self.problems.append(Problem(self.rel(path), "not a YAML mapping"))
             return None
         self.provenance[self.rel(path)] = data.get("provenance")
+        schema = str(data.get("schema", ""))
+        kind, sep, version = schema.rpartition("/")
+        if sep and kind.startswith("bpmid.") and version != "1":   # every schema this bpmid writes is /1
+            self.problems.append(Problem(self.rel(path), f"written by another version of bpmid (schema {schema}; "
+                                         f"this one reads {kind}/1): read as far as its keys go, check its numbers"))
         missing = [k for k in required if data.get(k) is None]
         if missing:
             self.problems.append(Problem(self.rel(path), "partial: no " + ", ".join(missing)
@@ -510,10 +515,19 @@ def _corr(unc: dict) -> tuple[list[str], list[list[float]]]:
 
 def load_compare(rd: _Reader) -> CompareInfo | None:
     cdir = rd.root / "compare" if (rd.root / "compare").is_dir() else rd.root
+    if cdir == rd.root and (rd.root / "control.yaml").is_file() and not (rd.root / "compare.yaml").is_file():
+        return None   # bpmid control's folder: its summary.csv is the controllers', not a comparison
     summary = rd.csv(cdir / "summary.csv", required=("model", "rmse_deg"))
     cy = rd.yaml(cdir / "compare.yaml") or {}
     if summary is None:
         return None
+    listed = [str(m) for m in _dict(cy.get("models"))]
+    ranked = {str(m) for m in summary["model"]}
+    lost = [m for m in listed if m not in ranked]
+    if lost:   # a cut summary ranked fewer models than were compared, silently
+        rd.problems.append(Problem(rd.rel(cdir / "summary.csv"), f"partial: ranks {len(ranked)} of the {len(listed)} "
+                                   f"models compare.yaml lists (missing {', '.join(lost)}): the file was cut or "
+                                   f"edited; rerun bpmid compare"))
     by_set = rd.csv(cdir / "summary_by_set.csv", required=("set", "model", "rmse_deg"))
     sets = {str(k): [str(x) for x in _list(v)] for k, v in _dict(cy.get("test_sets")).items()}
     preds: dict[str, list[pd.DataFrame]] = {}
@@ -564,7 +578,9 @@ def load_discovery(rd: _Reader) -> DiscoveryInfo | None:
 
 def load_control(rd: _Reader) -> ControlInfo | None:
     cdir = rd.root / "control"
-    if not cdir.is_dir():
+    if not cdir.is_dir() and (rd.root / "control.yaml").is_file():   # the folder bpmid control wrote, given itself
+        cdir = rd.root
+    elif not cdir.is_dir():
         return None
     tab = rd.csv(cdir / "summary.csv", required=("controller", "reference", "rmse_deg"))
     cy = rd.yaml(cdir / "control.yaml") or {}
@@ -658,6 +674,13 @@ def read_study(root: str | Path) -> Study:
                discovery=guarded(load_discovery, "discover/discovery.yaml"),
                control=guarded(load_control, "control/summary.csv"))
     st.problems = rd.problems
+    if st.run is not None:   # a stage the run finished whose file is gone (deleted or moved) is said, not skipped
+        for stage, files in STAGE_FILES.items():
+            if st.run.status(stage) == "done":
+                for f in files:
+                    if not (root / f).is_file():
+                        st.problems.append(Problem(f, f"missing, though run.yaml records stage {stage} as done "
+                                                      f"(deleted or moved?): rerun bpmid run into this folder"))
     if st.run is not None:  # files of a stage the last run did not run are left over from an earlier run
         for stage, attr in STAGE_OF.items():
             if getattr(st, attr) is None:
