@@ -511,7 +511,8 @@ def test_a_deleted_stage_file_a_cut_summary_and_another_version_are_said(study, 
     r = CliRunner().invoke(app, ["report", str(out)])
     assert r.exit_code == 0, r.output
     err = r.stderr if hasattr(r, "stderr") else r.output
-    assert "vbmm_fit.yaml: missing, though run.yaml records stage motion as done" in err, err
+    assert "vbmm_fit.yaml: missing, though run.yaml records its stage as done" in err, err
+    assert "Missing: run.yaml records the motion stage as done" in (out / "report.md").read_text()
     assert "compare/summary.csv: partial: ranks 2 of the" in err, err
     assert "run.yaml: written by another version of bpmid (schema bpmid.run/2" in err, err
     assert (out / "report.html").is_file()

@@ -57,9 +57,12 @@ class ReportResult:
     markdown: Path
     problems: list[Problem]
     stale: dict[str, str]
+    missing: list[str] = dataclasses.field(default_factory=list)
 
     def warnings(self) -> list[str]:
         return ([f"{p.path}: {p.what}" for p in self.problems]
+                + [f"{f}: missing, though run.yaml records its stage as done (deleted or moved?): rerun bpmid run "
+                   f"into this folder" for f in self.missing]
                 + [f"stage {s}: {why}" for s, why in self.stale.items()])
 
 
@@ -86,7 +89,7 @@ def report_study(out_dir: str | Path, *, title: str = "bpmid study report", figu
     root = Path(out_dir)
     md = write_text(root / "report.md", render_markdown(doc, title))
     page = write_text(root / "report.html", render_html(doc, title, root))
-    return ReportResult(page, md, st.problems, st.stale)
+    return ReportResult(page, md, st.problems, st.stale, list(st.missing))
 
 
 def write_report(out_dir: str | Path, *, title: str = "bpmid study report", figures: str | None = None,

@@ -311,6 +311,8 @@ class Study:
     stale: dict[str, str] = dataclasses.field(default_factory=dict)  # stage -> why
     #: the stages of :attr:`stale` whose files run.yaml lists as done but another command wrote (not the run)
     foreign: set[str] = dataclasses.field(default_factory=set)
+    #: files of stages run.yaml lists as done that are not in the folder (deleted or moved since)
+    missing: list[str] = dataclasses.field(default_factory=list)
 
     @property
     def synthetic(self) -> bool:
@@ -677,10 +679,7 @@ def read_study(root: str | Path) -> Study:
     if st.run is not None:   # a stage the run finished whose file is gone (deleted or moved) is said, not skipped
         for stage, files in STAGE_FILES.items():
             if st.run.status(stage) == "done":
-                for f in files:
-                    if not (root / f).is_file():
-                        st.problems.append(Problem(f, f"missing, though run.yaml records stage {stage} as done "
-                                                      f"(deleted or moved?): rerun bpmid run into this folder"))
+                st.missing += [f for f in files if not (root / f).is_file()]
     if st.run is not None:  # files of a stage the last run did not run are left over from an earlier run
         for stage, attr in STAGE_OF.items():
             if getattr(st, attr) is None:

@@ -22,6 +22,9 @@ def build(doc, st, figs) -> None:
             absent(doc, st, "vbmm_fit.yaml")
         return
     stale_note(doc, st, "motion")
+    if "vbmm_fit.yaml" in st.missing and m.fit_file in (None, "vbmm_fit.yaml"):
+        doc.p("Missing: run.yaml records the motion stage as done, but vbmm_fit.yaml is not in this folder (moved or "
+              "deleted after the run): the VBMM-fit column is empty; rerun the stage to restore it.", css="warn")
     if m.fit_file not in (None, "vbmm_fit.yaml"):
         doc.p(f"VBMM-fit read from {m.fit_file}: this folder has no vbmm_fit.yaml, and {m.fit_file} is its one "
               "bpmid.vbmm/1 motion fit.", css="muted")
