@@ -41,18 +41,25 @@ def mape_pct(y, y_hat, floor: float = 0.0) -> float:
 def r2(y, y_hat) -> float:
     """Coefficient of determination 1 - SSE/SST (dimensionless; may be negative)."""
     y, y_hat = _pair(y, y_hat)
+    if y.size == 0 or _constant(y):
+        return float("nan")   # no variation to explain (a constant angle): undefined, not -4e30 from rounding
     sst = np.sum((y - y.mean()) ** 2)
-    if y.size == 0 or sst == 0:
-        return float("nan")
     return float(1.0 - np.sum((y - y_hat) ** 2) / sst)
+
+
+def _constant(y: np.ndarray) -> bool:
+    """True when ``y`` varies by no more than rounding of its own size (the sum of squares about the mean of a
+    constant column is not exactly 0 in floating point)."""
+    scale = float(np.max(np.abs(y))) if y.size else 0.0
+    return float(np.ptp(y)) <= 1e-12 * max(scale, 1e-300)
 
 
 def fit_pct(y, y_hat) -> float:
     """Normalised-RMSE fit (%), as in system identification: 100 (1 - ||y - y_hat|| / ||y - mean y||)."""
     y, y_hat = _pair(y, y_hat)
-    den = np.linalg.norm(y - y.mean())
-    if y.size == 0 or den == 0:
+    if y.size == 0 or _constant(y):
         return float("nan")
+    den = np.linalg.norm(y - y.mean())
     return float(100.0 * (1.0 - np.linalg.norm(y - y_hat) / den))
 
 

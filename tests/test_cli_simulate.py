@@ -138,3 +138,17 @@ def test_a_blind_answer_stays_out_of_the_current_folder(tmp_path, monkeypatch):
 
     monkeypatch.chdir(tmp_path)
     assert Simulation.answer_path(".") == tmp_path.parent / f"{tmp_path.name}_ANSWER.yaml"
+
+
+def test_a_protocol_whose_logs_would_be_too_short_to_read_is_refused(tmp_path):
+    """sampling_hz 0.01 on a 38 s log wrote 1-sample CSVs that bpmid's own fit then refused; now the protocol is
+    refused naming sampling_hz, and nothing is written."""
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    text = (repo / "configs" / "datasets" / "fitting_set.yaml").read_text().replace("sampling_hz: 10", "sampling_hz: 0.01")
+    proto = tmp_path / "slow.yaml"
+    proto.write_text(text)
+    r = runner.invoke(app, ["simulate", str(proto), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and "key 'sampling_hz'" in r.output and "fewer than the 30" in r.output, r.output
+    assert not (tmp_path / "o").exists()

@@ -76,3 +76,27 @@ def test_fit_motion_carries_the_warnings_of_the_relaxation_fit_it_starts_from(tm
     warnings = yaml.safe_load((tmp_path / "m.yaml").read_text())["warnings"]
     assert any("came with" in w and "warning(s) of its own" in w for w in warnings), warnings
     assert any("far softer than any rubber" in w for w in warnings), warnings
+
+
+def test_r2_of_a_constant_angle_is_undefined_not_a_rounding_artefact(tmp_path):
+    """A constant angle column: R^2 printed as -4.2e30 before (the sum of squares about the mean of a constant is
+    rounding, not 0); now undefined (null) with a warning naming the column."""
+    import numpy as np
+    import yaml
+
+    from bpmid import metrics as M
+    from test_simulate_predict_review import TRUTH
+
+    y = np.full(200, 45.3)
+    assert np.isnan(M.r2(y, y + 0.1)) and np.isnan(M.fit_pct(y, y + 0.1))
+    assert M.r2(np.arange(5.0), np.arange(5.0)) == 1.0
+    src = (REPO / "datasets/motion/variable_rate/rate_0p114_r1.csv").read_text().splitlines()
+    rows = [ln if not ln[:1].isdigit() else ",".join(ln.split(",")[:2] + ["45.0"]) for ln in src]
+    log = tmp_path / "const.csv"
+    log.write_text("\n".join(rows) + "\n")
+    params = tmp_path / "vbmm.yaml"
+    params.write_text(TRUTH % (6.434e6, 3.2e6))
+    r = runner.invoke(app, ["predict", str(log), "--params", str(params), "--out", str(tmp_path / "p")])
+    assert r.exit_code == 0 and "R^2 undefined" in r.output and "does not vary" in r.output, r.output
+    body = yaml.safe_load((tmp_path / "p" / "predict.yaml").read_text())
+    assert "r2: null" in (tmp_path / "p" / "predict.yaml").read_text() and body

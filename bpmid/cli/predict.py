@@ -47,7 +47,8 @@ def predict_command(
     for p in result.raw:
         if p.metrics is not None:
             m = p.metrics
-            typer.echo(f"{p.log.name}: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, R^2 {m['r2']:.4f}")
+            r2 = f"{m['r2']:.4f}" if m['r2'] == m['r2'] else "undefined (the measured angle does not vary)"
+            typer.echo(f"{p.log.name}: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, R^2 {r2}")
         else:
             typer.echo(f"{p.log.name}: {p.log.n} samples predicted (no measured angle)")
     written = [p.name for p in result.written]

@@ -302,7 +302,10 @@ def prediction_warnings(preds: Sequence) -> list[str]:
         if p.metrics is None:
             continue
         r2 = float(p.metrics.get("r2", float("nan")))
-        if not r2 >= R2_MIN:
+        if r2 != r2:
+            out.append(f"{_name(p.log)}: the measured angle does not vary, so R^2 and the fit % are undefined (null in "
+                       f"the output): check that angle_deg is the sensor's column")
+        elif not r2 >= R2_MIN:
             out.append(f"{_name(p.log)}: the prediction explains little of the measured angle (R^2 {r2:.3g} < "
                        f"{R2_MIN:g}): check the log's units and pressure reference (--pressure-unit, "
                        f"--pressure-reference, --angle-unit) and that the parameters are for this muscle")
