@@ -57,10 +57,6 @@ from bpmid.units import PA_PER_BAR, PA_PER_KPA
 SCHEMA = "bpmid.protocol/1"
 
 
-#: a motion log shorter than this is not written (discover refuses logs under 30 samples; a fit needs more)
-MIN_LOG_SAMPLES = 30
-
-
 def _positive(where, path, **values):
     for k, v in values.items():
         if v is not None and not (math.isfinite(v) and v > 0):
@@ -379,10 +375,6 @@ def _check_size(proto: "Protocol", path) -> None:
             counts[spec.name if reps == 1 else f"{spec.name}_r{k + 1}"] = n
         if reps > 2:
             counts[f"{spec.name} (replicates 3..{reps})"] = n * (reps - 2)
-        if n < MIN_LOG_SAMPLES:   # bpmid's own readers refuse such a log: do not write it
-            raise InputError(f"log {spec.name!r} would have {int(n)} sample(s) ({dur:.4g} s at {proto.sampling_hz:g} Hz), "
-                             f"fewer than the {MIN_LOG_SAMPLES} a fit or a discovery needs: raise sampling_hz or the "
-                             f"log's duration", path=path, key="sampling_hz")
         check_samples({spec.name: n}, path=path, key=f"logs[{i}]",
                       hint=f"lower sampling_hz ({proto.sampling_hz:g} Hz) or this log's duration "
                            f"({dur:.4g} s: cycles, repeat times, hold durations)")

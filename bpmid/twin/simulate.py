@@ -266,6 +266,10 @@ def _collect_effects(proto: Protocol, effect_args: Sequence[str]):
     return rig, injected
 
 
+#: a simulated motion log shorter than this is refused (a 1-sample log was written and then refused by fit motion)
+MIN_LOG_SAMPLES = 2
+
+
 def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov: dict) -> Simulation:
     base, base_info = _base_model(proto, params_path)
     rig, injected = _collect_effects(proto, effect_args)
@@ -276,6 +280,15 @@ def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov:
     col = f"pressure_{proto.unit}"
     files, logs = {}, []
     runs = list(proto.runs())
+    from bpmid.twin.protocol import _extent, _first_level
+
+    for spec in proto.logs:   # before any work: a log bpmid's own readers would refuse is not written
+        n = int(_extent(spec.program, spec.start if spec.start is not None else _first_level(spec.program))[0]
+                * proto.sampling_hz) + 1
+        if n < MIN_LOG_SAMPLES:
+            raise InputError(f"log {spec.name!r} would have {n} sample(s) at {proto.sampling_hz:g} Hz, fewer than the "
+                             f"{MIN_LOG_SAMPLES} bpmid's fits need: raise sampling_hz or the log's duration",
+                             path=proto.path, key="sampling_hz")
     with Progress(len(runs), f"simulate {proto.name}") as bar:
         for i, (name, spec, rep) in enumerate(runs):
             t, p_cmd = proto.render(spec)
