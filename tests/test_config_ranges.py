@@ -100,3 +100,21 @@ def test_r2_of_a_constant_angle_is_undefined_not_a_rounding_artefact(tmp_path):
     assert r.exit_code == 0 and "R^2 undefined" in r.output and "does not vary" in r.output, r.output
     body = yaml.safe_load((tmp_path / "p" / "predict.yaml").read_text())
     assert "r2: null" in (tmp_path / "p" / "predict.yaml").read_text() and body
+
+
+def test_a_relaxation_log_cut_to_its_hold_is_pointed_to_step_mode(tmp_path):
+    """A ramp-and-hold log whose ramp was cut off: ramp mode finds no relaxing term and said 'the stress does not
+    relax in them' (it does); now it names the log and --mode step, which fits it."""
+    import numpy as np
+
+    src = (REPO / "datasets/relaxation/relax_300mmmin_15pct.csv").read_text().splitlines()
+    head = [ln for ln in src if not ln[:1].isdigit()]
+    rows = [ln for ln in src if ln[:1].isdigit()]
+    strain = np.array([float(r.split(",")[1]) for r in rows])
+    k = int(np.flatnonzero(strain >= 0.998 * np.median(strain[int(0.8 * strain.size):]))[0])
+    log = tmp_path / "hold_only.csv"
+    log.write_text("\n".join(head + rows[k:]) + "\n")
+    r = runner.invoke(app, ["fit", "relax", str(log), "--out", str(tmp_path / "r.yaml")])
+    assert r.exit_code == 2 and "start(s) at the hold" in r.output and "--mode step" in r.output, r.output
+    r = runner.invoke(app, ["fit", "relax", str(log), "--mode", "step", "--out", str(tmp_path / "r.yaml")])
+    assert r.exit_code == 0, r.output

@@ -356,8 +356,12 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
         if not path:
             names = ", ".join(_label(lg) for lg in logs)
             if terms == "auto":
+                cut = [_label(lg) for lg, h in zip(logs, holds) if mode == "ramp" and h.t.size and h.start == 0]
+                why = (f": {', '.join(cut)} start(s) at the hold, with no loading ramp in the log, which ramp mode "
+                       f"models; fit them with --mode step (the hold's modulus curve)" if cut else
+                       f": the {quantity} does not relax in them")
                 raise InputError(f"{names}: no relaxing term fits these data (the fitted moduli of every decaying "
-                                 f"term are zero): the {quantity} does not relax in them")
+                                 f"term are zero){why}", key="mode" if cut else None)
             raise InputError(f"{names}: no Prony series with {terms} live term(s) fits these data (NNLS sets the "
                              "extra moduli to zero); ask for fewer terms", key="terms")
         err_of = _error_pct(quantity, y)
