@@ -98,26 +98,33 @@ def pytest_configure_node(node):
     node.workerinput[_GROUPS_KEY] = cfg._bpmid_groups_dir
 
 
-def pytest_configure(config):
-    """On the xdist controller (``-n 2``), fill numba's cache in a process of its own while the workers start
-    (``tests/_warm_numba.py``): it only saves the workers compiling the same kernels at once, and decides nothing."""
-    if hasattr(config, "workerinput") or not config.getoption("numprocesses", default=None):
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionstart(session):
+    """On each xdist worker (``-n 2``), compile half of the kernels most tests use into numba's shared cache
+    (``tests/_warm_numba.py``: gw0 the closed loop and the baselines, gw1 the open-loop VBMM and the effects),
+    then wait for the other half, so that no test compiles a kernel the other worker compiles too. It decides
+    nothing: a kernel left out is compiled where it is needed, and the wait ends after 120 s whatever happens."""
+    wi = getattr(session.config, "workerinput", None)
+    folder = (wi or {}).get(_GROUPS_KEY)
+    if not wi or not folder or os.environ.get("BPMID_NO_WARM"):
         return
-    import subprocess
-    import sys
+    import time
 
-    config._bpmid_warm = subprocess.Popen([sys.executable, os.path.join(os.path.dirname(__file__), "_warm_numba.py")],
-                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                          env={**os.environ, "PYTHONPATH": os.pathsep.join(
-                                              [REPO] + [x for x in os.environ.get("PYTHONPATH", "").split(os.pathsep)
-                                                        if x])})
+    from _warm_numba import PARTS, warm
+
+    count = int(wi.get("workercount", 1))
+    index = int(str(wi.get("workerid", "gw0"))[2:] or 0)
+    mine = [p for i, p in enumerate(PARTS) if i % count == index]
+    for part in mine:
+        warm(part)
+    open(os.path.join(folder, f"warm-{index}.done"), "w").close()
+    others = [os.path.join(folder, f"warm-{i}.done") for i in range(min(count, len(PARTS))) if i != index]
+    deadline = time.monotonic() + 120.0
+    while any(not os.path.exists(f) for f in others) and time.monotonic() < deadline:
+        time.sleep(0.05)
 
 
 def pytest_unconfigure(config):
-    warm = getattr(config, "_bpmid_warm", None)
-    if warm is not None and warm.poll() is None:
-        warm.kill()
-        warm.wait()
     folder = getattr(config, "_bpmid_groups_dir", None)
     if folder:
         import shutil
