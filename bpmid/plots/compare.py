@@ -115,6 +115,11 @@ def summary_bars(summary, by_set=None, *, synthetic: bool | str | None = True):
             from matplotlib.ticker import NullFormatter
 
             ax.yaxis.set_minor_formatter(NullFormatter())  # decade labels only: 2x..9x labels collide
+            # a log axis often spans less than a decade here (one labelled tick): each bar says its value
+            lo, hi = float(np.min(vals)), float(np.max(vals))
+            ax.set_ylim(lo / 2.0, hi * 3.0)
+            for xi, v in zip(x, vals):
+                ax.text(xi, v * 1.15, f"{v:.2g}", ha="center", va="bottom", fontsize=6.5)
         if col == "r2":
             lo = np.nanmin(vals) if np.any(np.isfinite(vals)) else 0.0
             ax.set_ylim(min(0.0, lo - 0.05), 1.0)
