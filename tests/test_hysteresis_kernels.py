@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from bpmid.models._hysteresis_kernels import direction_with_deadband, first_order_exact, play_bank, stop_bank
+from bpmid.models._hysteresis_kernels import direction_with_deadband, first_order_ramp, play_bank, stop_bank
 from bpmid.models.gpi import GPIModel
 from bpmid.models.maxwell_slip import MaxwellSlipModel
 
@@ -120,11 +120,11 @@ def test_maxwell_slip_virgin_method_recovers_table1():
     np.testing.assert_allclose(tab["w"], TABLE1_W, rtol=1e-3)
 
 
-def test_first_order_exact_matches_analytic_step():
-    # constant coefficients: y = y_eq + (y0 - y_eq) exp(-t/tau), for any (even huge) step
+def test_first_order_ramp_matches_analytic_step():
+    # constant coefficients and input: y = y_eq + (y0 - y_eq) exp(-t/tau), for any (even huge) step
     t = np.linspace(0, 5, 11)
     tau, y_eq = 0.7, 3.0
-    y = first_order_exact(np.full(t.size, y_eq), np.exp(-np.diff(t, prepend=0) / tau), 0.0)
+    y = first_order_ramp(np.full(t.size, y_eq), np.diff(t, prepend=0) / tau, 0.0)
     np.testing.assert_allclose(y, y_eq * (1 - np.exp(-t / tau)), atol=1e-12)
 
 
@@ -138,16 +138,16 @@ def test_direction_dead_band_ignores_noise():
 
 def test_first_order_ramp_is_exact_for_a_linear_input_and_unbiased_in_time():
     """A ramp input e = s t through T y' + y = e: y = s (t - T) + s T exp(-t/T) exactly, for any step; holding the
-    input at each step's end sample (first_order_exact) instead leads it by about half a sample."""
-    from bpmid.models._hysteresis_kernels import first_order_ramp
-
+    input at each step's end sample instead leads it by about half a sample."""
     T, s = 0.4, 3.0
     for dt in (0.01, 0.1, 1.0):
         t = np.arange(0.0, 6.0, dt)
         exact = s * (t - T) + s * T * np.exp(-t / T)
         y = first_order_ramp(s * t, np.full(t.size, dt / T), 0.0)
         np.testing.assert_allclose(y, exact, atol=1e-12)
-        held = first_order_exact(s * t, np.exp(-np.full(t.size, dt) / T), 0.0)
+        held = np.zeros(t.size)   # the input held at each step's end sample
+        for k in range(1, t.size):
+            held[k] = s * t[k] + (held[k - 1] - s * t[k]) * np.exp(-dt / T)
         lead = np.mean(held[t > 3] - exact[t > 3]) / s          # time by which the held output leads
         assert lead > 0.25 * dt                                  # 0.5 dt for small steps
     # no time passing keeps the output; a very fast element follows its equilibrium

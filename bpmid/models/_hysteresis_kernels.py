@@ -7,10 +7,9 @@ caller's.
 
 - :func:`play_bank`: a bank of generalized play operators (GPI; classical PI for identity envelopes)
 - :func:`stop_bank`: a bank of stop operators = Maxwell-slip elastoplastic elements (element deflections)
-- :func:`first_order_exact`: exact exponential stepping of ``b dy/dt + k y = f`` with piecewise-constant
-  coefficients
-- :func:`first_order_ramp`: the same with the equilibrium f/k linear over each step (first-order hold: the
-  three-element model; the dead time is applied to the input before the call)
+- :func:`first_order_ramp`: exact exponential stepping of ``b dy/dt + k y = f`` with k, b constant over each
+  step and the equilibrium f/k linear over it (first-order hold: the three-element model; the dead time is
+  applied to the input before the call)
 - :func:`direction_with_deadband`: rising/falling flag of a noisy input with a dead band (two-branch and
   three-element models switch on it)
 """
@@ -102,43 +101,11 @@ def stop_bank(u, slip, d_init):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def first_order_exact(y_eq, decay, y0):  # pragma: no cover - compiled
-    """Exact step of ``b dy/dt + k y = f`` for coefficients held constant over each step.
-
-    With y_eq = f/k and decay = exp(-k dt / b) for the step ending at sample k:
-    ``y_k = y_eq_k + (y_{k-1} - y_eq_k) * decay_k``. Stable for any dt (0 <= decay <= 1).
-
-    Parameters
-    ----------
-    y_eq : (N,) float
-        Equilibrium value for each step (output unit).
-    decay : (N,) float
-        exp(-dt_k k_k / b_k), in [0, 1]; ``decay[0]`` is not used (y_0 = y0).
-    y0 : float
-        Output at the first sample.
-
-    Returns
-    -------
-    y : (N,) float
-    """
-    n = y_eq.shape[0]
-    y = np.empty(n)
-    if n == 0:
-        return y
-    y[0] = y0
-    prev = y0
-    for k in range(1, n):
-        prev = y_eq[k] + (prev - y_eq[k]) * decay[k]
-        y[k] = prev
-    return y
-
-
-@njit(cache=True)
 def first_order_ramp(y_eq, x, y0):  # pragma: no cover - compiled
     """Exact step of ``T dy/dt + y = e(t)`` with e linear from ``y_eq[k-1]`` to ``y_eq[k]`` over the step and
     T constant over it: ``y_k = y_eq_k + (y_{k-1} - y_eq_{k-1}) a - (y_eq_k - y_eq_{k-1}) (1 - a) / x`` with
-    x = dt / T and a = exp(-x). Holding e at the step's end sample instead (:func:`first_order_exact`) advances
-    a sampled input by half a sample on average, which a fitted dead time then absorbs (+dt/2). Stable for any
+    x = dt / T and a = exp(-x). Holding e at the step's end sample instead (``y_k = y_eq_k + (y_{k-1} - y_eq_k) a``)
+    advances a sampled input by half a sample on average, which a fitted dead time then absorbs (+dt/2). Stable for any
     dt; x = 0 (no time passes) keeps y.
 
     Parameters
