@@ -118,3 +118,11 @@ def test_a_relaxation_log_cut_to_its_hold_is_pointed_to_step_mode(tmp_path):
     assert r.exit_code == 2 and "start(s) at the hold" in r.output and "--mode step" in r.output, r.output
     r = runner.invoke(app, ["fit", "relax", str(log), "--mode", "step", "--out", str(tmp_path / "r.yaml")])
     assert r.exit_code == 0, r.output
+
+
+def test_a_negative_lower_bound_of_a_modulus_is_refused(tmp_path):
+    cfg = tmp_path / "b.yaml"
+    cfg.write_text("motion:\n  bounds:\n    K_inf: [-1.0e6, 1.0e9]\n")
+    r = runner.invoke(app, ["fit", "motion", str(REPO / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv"),
+                            "--config", str(cfg), "--out", str(tmp_path / "m.yaml")])
+    assert r.exit_code == 2 and "motion.bounds.K_inf" in r.output and ">= 0" in r.output, r.output

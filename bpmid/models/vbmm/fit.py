@@ -103,6 +103,9 @@ class MotionFitConfig:
             if len(b) != 2 or not b[0] < b[1]:
                 raise InputError(f"bounds are [lower, upper] with lower < upper, found {list(b)}", path=path,
                                  key=f"{where}.bounds.{name}")
+            if not b[0] >= 0:   # moduli and time constants: a negative one is no rubber, and the solve fails on it
+                raise InputError(f"a lower bound of a modulus or time constant must be >= 0 (SI), found {b[0]!r}",
+                                 path=path, key=f"{where}.bounds.{name}")
         if not self.tau_grid >= 1:
             raise InputError("tau_grid must be at least 1", path=path, key=f"{where}.tau_grid")
         if not self.rel_se_max > 0:
