@@ -34,7 +34,7 @@ def _give(warnings: list, cfg, what: str, *, warn: bool = True) -> None:
                          f"{warnings[0]} (fix the input, or set io.strict: false to get the result with its warnings)",
                          key="io.strict")
     if warn:
-        warn_caller(warnings, stacklevel=4)
+        warn_caller(warnings)
 
 
 def _config(config):
@@ -140,6 +140,35 @@ def _vbmm(params, model_cfg):
 # --------------------------------------------------------------------------------------------------
 # logs
 # --------------------------------------------------------------------------------------------------
+def _clock_to_seconds(time_s, time_unit: str):
+    """(times, where they came from): datetimes and time deltas (numpy ``datetime64``/``timedelta64``, a pandas
+    ``DatetimeIndex`` or ``Timestamp`` column, ``datetime`` objects) as float seconds since the first sample, and a
+    note saying so; anything else unchanged, with None. ``np.asarray(t, float)`` read such times as nanoseconds
+    (a 6 s log became 6e10 s, silently)."""
+    import datetime
+
+    import numpy as np
+
+    try:
+        arr = np.asarray(time_s)
+    except (TypeError, ValueError):
+        return time_s, None
+    if arr.dtype == object and arr.size and isinstance(arr.flat[0], (datetime.datetime, datetime.timedelta)):
+        try:
+            arr = arr.astype("datetime64[ns]" if isinstance(arr.flat[0], datetime.datetime) else "timedelta64[ns]")
+        except (TypeError, ValueError):
+            return time_s, None
+    if arr.dtype.kind not in "Mm":
+        return time_s, None
+    if time_unit.strip().lower() != "s":
+        raise InputError(f"time_s holds clock times or time deltas, which carry their own unit: leave out "
+                         f"time_unit={time_unit!r}", key="time_unit")
+    if arr.size and np.any(np.isnat(arr)):
+        raise InputError("time_s must be finite times (NaT found)", key="time_s")
+    secs = (arr - arr.flat[0]).astype("timedelta64[ns]").astype(np.int64) / 1e9 if arr.size else arr.astype(float)
+    return secs, "datetimes in time_s: seconds since the first sample"
+
+
 def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None = None,
                 reference: str | None = None, name: str = "log", atmosphere_pa: float = ATMOSPHERE_PA,
                 time_unit: str = "s", angle_unit: str = "deg"):
@@ -147,7 +176,8 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
 
     Parameters
     ----------
-    time_s : (N,) times, strictly increasing, in ``time_unit`` (seconds unless stated)
+    time_s : (N,) times, strictly increasing, in ``time_unit`` (seconds unless stated); clock times or time
+        deltas (``datetime64``, a pandas ``DatetimeIndex``) are taken as seconds since the first sample
     pressure : (N,) pressure in ``pressure_unit``
     angle_deg : (N,) measured bending angle in ``angle_unit`` (degrees unless stated), or None (a pressure-only
         log, e.g. for ``predict``)
@@ -184,10 +214,11 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
                          f"{AMBIENT_RANGE_PA[1]:g} (101325 at sea level), found {atmosphere_pa!r}", key="atmosphere_pa")
     if not isinstance(name, str) or not name.strip() or name in (".", "..") or any(c in name for c in "/\\\0"):
         raise InputError(f"a log's name names its output files: give a plain file stem, found {name!r}", key="name")
+    time_s, from_clock = _clock_to_seconds(time_s, time_unit)
     try:
         if any(np.iscomplexobj(x) for x in (time_s, pressure, angle_deg) if x is not None):
             raise TypeError("complex numbers")
-        t = np.asarray(time_s, float) * TIME_UNITS[time_unit.strip().lower()]
+        t = np.asarray(time_s, float) * (1.0 if from_clock else TIME_UNITS[time_unit.strip().lower()])
         given = np.asarray(pressure, float)
         a = None if angle_deg is None else np.asarray(angle_deg, float) * ANGLE_UNITS[angle_unit.strip().lower()]
     except (TypeError, ValueError) as exc:
@@ -218,13 +249,24 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
     # each unit came from, so that their hints name this function's arguments
     said = "from_arrays"
     reading = {"format": "arrays (bpmid.from_arrays)",
-               "columns": {"time": {"column": "time_s", "unit": time_unit.strip().lower(), "unit_from": said},
+               "columns": {"time": {"column": "time_s", "unit": "s" if from_clock else time_unit.strip().lower(),
+                                    "unit_from": from_clock or said},
                            "pressure": {"column": "pressure", "unit": unit, "unit_from": said},
                            **({"angle": {"column": "angle_deg", "unit": angle_unit.strip().lower(),
                                          "unit_from": said}} if a is not None else {})}}
+    warns = []
+    dt = np.diff(t)
+    med = float(np.median(dt))
+    gaps = np.flatnonzero(dt > 5.0 * med)   # the file readers' rule (io.max_gap_factor, default 5)
+    if gaps.size:
+        k = int(gaps[0])
+        warns.append(f"{name}: gap of {dt[k]:g} s between samples {k} and {k + 1} (t = {t[k]:g} s) where the usual step "
+                     f"is {med:g} s" + (f" ({gaps.size} gaps)" if gaps.size > 1 else "") + "; taken as is: across a "
+                     "gap the input is taken to hold its last sample and change in one step at the next")
+        reading["gaps"] = {"count": int(gaps.size), "first_sample": k + 1, "longest_s": float(np.max(dt[gaps]))}
     return MotionLog(name=name, time_s=t, pressure_pa=gauge, angle_deg=a, pressure_reference=reference,
                      pressure_unit=unit, pressure_as_given=given.copy(), atmosphere_pa=float(atmosphere_pa),
-                     reading=reading)
+                     reading=reading, warnings=warns)
 
 
 def read_motion_logs(paths, *, config=None, require_angle: bool = False) -> list:
@@ -414,6 +456,8 @@ def compare(train=None, test=None, *, models: Sequence[str] | str | None = None,
     from bpmid.io.motion_logs import is_synthetic
 
     body["synthetic"] = is_synthetic(list(result.train) + list(result.test))   # every log synthetic
+    # .warnings: the overlaps compare_yaml_body holds and what reading and scoring said (given as BpmidWarning)
+    body["warnings"] = list(dict.fromkeys(list(body.get("warnings") or []) + list(prov.get("warnings") or [])))
     out = ComparisonResult(body, prov, raw=result)
     out._figure_logs = how["n_figure_logs"]
     return out
@@ -453,7 +497,8 @@ def discover(logs, *, holdout=None, init=None, config=None):
     warnings = plaus.log_warnings(every)   # what `bpmid discover` prints
     _give(warnings, cfg, "the discovery", warn=False)   # io.strict refuses the logs' warnings before the work
     res = _discover(fit_logs, base, holdout=ho_logs, cfg=cfg.section("discover"))
-    warn_caller(warnings + [f"discovery: {c}" for c in res.cautions])
+    warn_caller(warnings + [f"discovery: {c}" for c in res.cautions]
+                + (["part of the gap stays unexplained by the catalogue"] if res.unexplained else []))
     body = res.to_yaml()
     body["base_from"] = base_from
     prov = provenance(list(paths) + list(ho_paths) + ([init_path] if init_path else [])
@@ -555,6 +600,7 @@ def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequ
     spec = reference if isinstance(reference, str) else ",".join(str(r) for r in reference)
     refs = load_references(spec, cfg.rate_hz, io=cfg_all.section("io"))
     res = run_control(model, plant, refs, cfg, controllers=controllers)
+    _give(list(res.warnings), cfg_all, "the control simulation")   # BpmidWarning; io.strict refuses them
     inputs = [p for p in (ppath, plant_path) if p is not None] + [r.path for r in refs if r.path is not None]
     prov = provenance(inputs, config=cfg_all if cfg_all.path else None, seed=cfg.seed)
     out = ControlResult(control_yaml_body(res, cfg, model=model, plant=plant), prov, raw=res)

@@ -107,9 +107,19 @@ def command_prints_warnings():
         _IN_COMMAND.reset(token)
 
 
-def warn_caller(messages: Iterable[str], *, stacklevel: int = 3) -> None:
-    """Each message as a :class:`BpmidWarning` to the library's caller (not inside a CLI command)."""
+def warn_caller(messages: Iterable[str], *, stacklevel: int | None = None) -> None:
+    """Each message as a :class:`BpmidWarning` to the library's caller (not inside a CLI command), attributed to
+    the caller's own line: the first frame outside the bpmid package (a fixed ``stacklevel`` named a line inside
+    bpmid when a call went through a wrapper, and location filters missed it)."""
     if _IN_COMMAND.get():
         return
+    if stacklevel is None:
+        import os
+        import sys
+
+        root = os.path.dirname(os.path.abspath(__file__)) + os.sep
+        f, stacklevel = sys._getframe(0), 1
+        while f is not None and os.path.abspath(f.f_code.co_filename).startswith(root):
+            f, stacklevel = f.f_back, stacklevel + 1
     for m in messages:
         _warnings.warn(str(m), BpmidWarning, stacklevel=stacklevel)

@@ -13,6 +13,7 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
+from bpmid.errors import InputError
 from bpmid.io.atomic import staged_dir
 from bpmid.io.ambient import atmosphere_line
 from bpmid.io.motion_logs import MotionLog, is_synthetic, pressure_column_name, synthetic_line
@@ -107,6 +108,29 @@ def predict_yaml_body(preds: Sequence[Prediction], *, params: str | Path | None 
     return body
 
 
+#: the line every prediction file bpmid writes carries (how a rerun knows the file is its own to replace)
+PREDICTION_MARK = "# angle_pred_deg: bpmid predict output"
+
+
+def _refuse_foreign_files(out_dir: Path, names: Sequence[str]) -> None:
+    """InputError when a file bpmid is about to write into ``out_dir`` exists and is not one bpmid wrote (a
+    prediction without its mark, a predict.yaml of another schema): a user's own ``m.csv`` was replaced, silently."""
+    for name in names:
+        f = out_dir / name
+        if not f.is_file():
+            continue
+        try:
+            with open(f, encoding="utf-8", errors="replace") as fh:
+                head = "".join(fh.readline() for _ in range(12))
+        except OSError:
+            head = ""
+        ours = ("schema: bpmid.predict/" in head) if name == "predict.yaml" else (PREDICTION_MARK in head)
+        if not ours:
+            raise InputError(f"{name} is already in {out_dir} and bpmid did not write it (no bpmid predict mark): "
+                             f"nothing was written; give another output folder, or move the file",
+                             path=f, key="--out")
+
+
 def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov: dict | None = None,
                       params: str | Path | None = None, model: VBMM | None = None, figure: bool = False,
                       synthetic: bool = False) -> list[Path]:
@@ -116,6 +140,9 @@ def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov:
     from bpmid.io.results import dump_yaml
 
     out_dir = Path(out_dir)
+    inputs = {Path(p.log.path).resolve() for p in preds if p.log.path is not None}   # said as inputs, later
+    _refuse_foreign_files(out_dir, [f"{p.log.name}.csv" for p in preds if (out_dir / f"{p.log.name}.csv").resolve()
+                                    not in inputs] + (["predict.yaml"] if prov is not None else []))
     names = []
     with staged_dir(out_dir) as tmp:
         for p in preds:
@@ -124,7 +151,7 @@ def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov:
             # one ambient value as a line; an ambient that varied is the frame's column instead (never both)
             head = f"# pressure_reference: {p.log.pressure_reference}\n" \
                 + (atmosphere_line(p.log) if p.ambient_series_pa() is None else "") \
-                + synthetic_line(p.log) + "# angle_pred_deg: bpmid predict output\n"
+                + synthetic_line(p.log) + PREDICTION_MARK + "\n"
             (tmp / name).write_text(head + p.frame().to_csv(index=False, lineterminator="\n"), encoding="utf-8")
             names.append(out_dir / name)
         if prov is not None:

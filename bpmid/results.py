@@ -887,7 +887,13 @@ class DiscoveryResult(Result):
 
     @property
     def warnings(self) -> list[str]:
-        return ["part of the gap stays unexplained by the catalogue"] if self.body.get("unexplained") else []
+        """What reading the logs said (a likely unit slip, a gap), discovery's cautions, and whether part of the
+        gap stays unexplained: the same as were given as :class:`bpmid.BpmidWarning`."""
+        said = [str(w) for w in (self.provenance or {}).get("warnings") or []]
+        said += [f"discovery: {c}" for c in self.body.get("cautions") or []]
+        if self.body.get("unexplained"):
+            said.append("part of the gap stays unexplained by the catalogue")
+        return list(dict.fromkeys(said))
 
     def _extra_sections(self):
         return [("Verdict", str(self.body.get("verdict", "")))]

@@ -205,8 +205,10 @@ def test_simulate_and_control(tmp_path):
     sim = bpmid.simulate(REPO / "configs/datasets/variable_rate.yaml", seed=3, timestamp=False)
     assert sim.params == {} and sim.provenance["seed"] == 3
     _round_trip(sim, tmp_path / "sim")
-    ctl = bpmid.control(_paper_vbmm(tmp_path), reference="steps",
-                        controllers="pi,vbmm-pi", seed=1)
+    with pytest.warns(bpmid.BpmidWarning, match="saturated") as rec:   # control's warnings reach the caller too
+        ctl = bpmid.control(_paper_vbmm(tmp_path), reference="steps",
+                            controllers="pi,vbmm-pi", seed=1)
+    assert all(w.filename == __file__ for w in rec) and ctl.warnings
     back = _round_trip(ctl, tmp_path / "ctl")
     assert set(back.metrics) == {"pi.rmse_deg", "vbmm-pi.rmse_deg"}
     assert (tmp_path / "ctl" / "fig18.png").is_file() and back.params["kp"].unit == "bar/deg"

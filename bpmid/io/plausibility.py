@@ -382,9 +382,15 @@ def reading_block(logs: Iterable) -> dict:
 
 
 def emit(warnings: Sequence[str], *, strict: bool = False, what: str = "the result") -> None:
-    """Print each warning on stderr; with ``strict``, refuse (exit 2) before anything is written."""
-    for w in warnings:
-        print(f"warning: {w}", file=sys.stderr, flush=True)
+    """Print each warning on stderr (a command), or give it to a library caller as a :class:`bpmid.BpmidWarning`
+    (which Python's warning filters then handle); with ``strict``, refuse (exit 2) before anything is written."""
+    from bpmid.errors import _IN_COMMAND, warn_caller
+
+    if not _IN_COMMAND.get():
+        warn_caller(warnings)
+    else:
+        for w in warnings:
+            print(f"warning: {w}", file=sys.stderr, flush=True)
     if strict and warnings:
         more = f" (and {len(warnings) - 1} more above)" if len(warnings) > 1 else ""
         raise InputError(f"{what} was not written: {len(warnings)} warning(s) refused by --strict{more}; the "

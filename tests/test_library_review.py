@@ -1,0 +1,77 @@
+"""A notebook user's trial of the library (stop 44): a user's file never replaced by a save, clock times read as
+seconds, warnings from every workflow given as BpmidWarning at the caller's own line and kept in ``.warnings``,
+a gap in arrays said as a gap in a file is."""
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import bpmid
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _arrays(n=600, dt=0.1):
+    t = np.arange(n) * dt
+    p = 0.4 + 0.2 * np.sin(t / 2.0)
+    return t, p, 20.0 + 60.0 * (p - 0.2)
+
+
+def test_saving_a_prediction_never_replaces_a_file_bpmid_did_not_write(tmp_path):
+    t, p, a = _arrays()
+    lg = bpmid.from_arrays(t, p, a, pressure_unit="bar", reference="gauge", name="m")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        pred = bpmid.predict([lg], bpmid.fit_motion([lg]))
+    folder = tmp_path / "clash"
+    folder.mkdir()
+    (folder / "m.csv").write_text("user raw data\n")
+    with pytest.raises(bpmid.InputError, match="bpmid did not write it"):
+        pred.save(folder)
+    assert (folder / "m.csv").read_text() == "user raw data\n"
+    (folder / "m.csv").unlink()
+    pred.save(folder)
+    pred.save(folder)   # its own files: a rerun replaces them
+    assert "bpmid predict output" in (folder / "m.csv").read_text()
+
+
+@pytest.mark.parametrize("kind", ["DatetimeIndex", "datetime64", "Timedelta", "datetime objects"])
+def test_clock_times_are_seconds_since_the_first_sample(kind):
+    """A DatetimeIndex was read as nanoseconds: a 60 s log became 6e10 s, fitted as a static model."""
+    t, p, a = _arrays()
+    idx = pd.Timestamp("2024-05-01 10:00") + pd.to_timedelta(t, unit="s")
+    given = {"DatetimeIndex": idx, "datetime64": idx.values, "Timedelta": pd.to_timedelta(t, unit="s"),
+             "datetime objects": list(idx.to_pydatetime())}[kind]
+    lg = bpmid.from_arrays(given, p, a, pressure_unit="bar", reference="gauge")
+    np.testing.assert_allclose(lg.time_s, t, atol=1e-6)
+    with pytest.raises(bpmid.InputError, match="carry their own unit"):
+        bpmid.from_arrays(given, p, a, pressure_unit="bar", reference="gauge", time_unit="ms")
+
+
+def test_a_gap_in_arrays_is_said_as_in_a_file():
+    t, p, a = _arrays()
+    t[300:] += 30.0
+    lg = bpmid.from_arrays(t, p, a, pressure_unit="bar", reference="gauge", name="gap")
+    with pytest.warns(bpmid.BpmidWarning, match="gap of 30.1 s") as rec:
+        bpmid.fit_motion([lg])
+    assert any(w.filename == __file__ for w in rec)
+
+
+def test_compare_warnings_reach_the_caller_and_its_warnings(tmp_path):
+    """Times written in ms under a time_s header: compare printed the warning on stderr past every filter and
+    kept it out of .warnings."""
+    src = REPO / "datasets" / "motion" / "fitting_set" / "fit_1p2_1p6_r1.csv"
+    rows = src.read_text().splitlines()
+    out = [r if not r[:1].isdigit() else ",".join([f"{float(r.split(',')[0]) * 1000:g}"] + r.split(",")[1:])
+           for r in rows]
+    ms = tmp_path / "ms.csv"
+    ms.write_text("\n".join(out) + "\n")
+    test = REPO / "datasets" / "motion" / "variable_rate" / "rate_0p114_r1.csv"
+    with pytest.warns(bpmid.BpmidWarning, match="apart") as rec:
+        cmp = bpmid.compare([ms], [test], models="two-branch")
+    assert all(w.filename == __file__ for w in rec)
+    assert any("apart" in w for w in cmp.warnings)
