@@ -211,6 +211,10 @@ def _kept_rc():
     return sys.modules["matplotlib"].rc_context()
 
 
+#: suffixes of a file name: a folder result refuses a path ending so (``pred.yaml`` became a folder)
+FILE_SUFFIXES = (".yaml", ".yml", ".csv", ".json", ".txt", ".png", ".pdf", ".svg", ".xlsx")
+
+
 class Result:
     """The common shape of every workflow's result (see the module docstring).
 
@@ -397,6 +401,12 @@ class Result:
         return fig
 
     # ----- files ----------------------------------------------------------------------------------
+    def _check_folder_path(self, path) -> None:
+        """A folder result refuses a path that names a file (``pred.yaml`` made a folder of that name)."""
+        if self.main_file and Path(path).suffix.lower() in FILE_SUFFIXES:
+            raise InputError(f"a {type(self).__name__} is a folder ({self.main_file} and the files beside it): give a "
+                             f"folder path, found {Path(path).name!r}", path=path)
+
     def save(self, path: str | Path, **kw) -> Path:
         """Write the result's YAML (schema, body, provenance) atomically; returns the path written.
 
@@ -404,6 +414,7 @@ class Result:
         from bpmid.io.results import write_result
 
         path = Path(path)
+        self._check_folder_path(path)
         if not self.main_file and path.suffix.lower() not in (".yaml", ".yml"):
             raise InputError(f"a {type(self).__name__} is written as YAML: give a path ending .yaml (found "
                              f"{path.name!r})", path=path)
@@ -776,6 +787,7 @@ class PredictionResult(Result):
     def save(self, path: str | Path, *, figure: bool = False) -> Path:
         """Write ``DIR/<log>.csv`` per log and ``DIR/predict.yaml`` (and with ``figure`` ``DIR/predict.png``), all
         or nothing (the paths written: ``.written``); a loaded result is copied whole with its CSVs."""
+        self._check_folder_path(path)
         if self.raw is not None:
             from bpmid.predict import write_predictions
 
@@ -856,6 +868,7 @@ class ComparisonResult(Result):
     def save(self, path: str | Path) -> Path:
         """The whole comparison folder (tables, compare.yaml, predictions, figures): written for a live result,
         copied whole for a loaded one."""
+        self._check_folder_path(path)
         if self.raw is not None:
             from bpmid.compare import write_compare
 
@@ -911,6 +924,7 @@ class DiscoveryResult(Result):
     def save(self, path: str | Path, *, base_from: str | None = None) -> Path:
         """discovery.yaml, verdict.txt, model.yaml and the figures: written for a live result, copied whole for a
         loaded one."""
+        self._check_folder_path(path)
         if self.raw is not None:
             from bpmid.discover.output import write_discovery
 
@@ -983,6 +997,7 @@ class SimulationResult(Result):
         """The logs and manifest.yaml (a blind case's answer beside the folder, ``<DIR>_ANSWER.yaml``): written for a
         live result, copied whole
         for a loaded one."""
+        self._check_folder_path(path)
         if self.raw is not None:
             return self.raw.write(path)
         if self.source is not None:
@@ -1041,6 +1056,7 @@ class ControlResult(Result):
     def save(self, path: str | Path, *, figure: bool = True) -> Path:
         """summary.csv, control.yaml, traces/ and fig18.png: written for a live result, copied whole for a loaded
         one."""
+        self._check_folder_path(path)
         ctx = getattr(self, "_write_context", None)
         if self.raw is not None and ctx is not None:
             from bpmid.control import write_control

@@ -75,3 +75,14 @@ def test_compare_warnings_reach_the_caller_and_its_warnings(tmp_path):
         cmp = bpmid.compare([ms], [test], models="two-branch")
     assert all(w.filename == __file__ for w in rec)
     assert any("apart" in w for w in cmp.warnings)
+
+
+def test_a_folder_result_refuses_a_file_path(tmp_path):
+    t, p, a = _arrays()
+    lg = bpmid.from_arrays(t, p, a, pressure_unit="bar", reference="gauge", name="m")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        pred = bpmid.predict([lg], bpmid.fit_motion([lg]))
+    with pytest.raises(bpmid.InputError, match="is a folder"):
+        pred.save(tmp_path / "pred.yaml")
+    assert not (tmp_path / "pred.yaml").exists()
