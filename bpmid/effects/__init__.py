@@ -1,4 +1,4 @@
-"""The catalogue of physical effects the plain VBMM lacks (ids fixed by ../shared/spec/DISCOVER.md).
+"""The catalogue of physical effects the plain VBMM lacks (ids fixed by the project's discovery spec; docs/discover.md).
 
 :data:`CATALOGUE` maps each id to ``"module:Class"``; :func:`get_effect` builds one. Adding an effect
 is one new class plus one line here.

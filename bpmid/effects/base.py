@@ -1,6 +1,6 @@
 """The effect interface: one catalogue entry = one physical effect the plain VBMM lacks.
 
-An effect has a fixed id (../shared/spec/DISCOVER.md), parameters with units, bounds and a default
+An effect has a fixed id (the discovery spec; docs/discover.md), parameters with units, bounds and a default
 (the "moderate size" the twin injects), a value that means "absent", and up to four *model terms*
 that compose with the VBMM (:class:`AugmentedVBMM`):
 

@@ -1,4 +1,4 @@
-"""The catalogue effects, each as the physics it names (ids fixed by ../shared/spec/DISCOVER.md).
+"""The catalogue effects, each as the physics it names (ids fixed by the project's discovery spec; docs/discover.md).
 
 | id | parameters (unit, default, null) | physics (model term) |
 |---|---|---|

@@ -1,5 +1,5 @@
-"""The viscoelasticity-based mechanistic model (VBMM) of a bending pneumatic muscle, as ../shared/spec/VBMM.md
-makes it precise.
+"""The viscoelasticity-based mechanistic model (VBMM) of a bending pneumatic muscle, as the project's model spec
+(VBMM.md; docs/model.md) makes it precise.
 
 - Kinematics from one scalar u3 (radial displacement, m): :func:`kinematics`, :func:`u3_from_beta`.
 - Stresses from Prony kernels for G and K (any number of branches, time constants shared or split),
