@@ -133,7 +133,7 @@ def _refuse_foreign_files(out_dir: Path, names: Sequence[str]) -> None:
 
 def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov: dict | None = None,
                       params: str | Path | None = None, model: VBMM | None = None, figure: bool = False,
-                      synthetic: bool = False) -> list[Path]:
+                      synthetic: "bool | str | None" = False) -> list[Path]:
     """Write ``DIR/<log stem>.csv`` for every prediction, and ``DIR/predict.yaml`` (schema
     ``bpmid.predict/1``: model settings, per-log metrics, provenance) when ``prov`` is given, and with ``figure``
     ``DIR/predict.png`` (measured and predicted angle, error; format of ``--figures``); all or nothing."""

@@ -705,7 +705,7 @@ class VBMMFitResult(Result):
         ax.set_title(f"{self.title}: the file's constants" + (" over the fitted pressures" if spans else ""))
         return fig
 
-    def save(self, path: str | Path, *, figure: str | Path | bool | None = None, synthetic: bool = False) -> Path:
+    def save(self, path: str | Path, *, figure: str | Path | bool | None = None, synthetic: "bool | str | None" = False) -> Path:
         """Write the ``bpmid.vbmm/1`` YAML; with ``figure`` (a path, or True: beside it as .png) the fit figure too,
         all or nothing (a loaded result draws :meth:`plot`)."""
         path = Path(path)
@@ -791,11 +791,11 @@ class PredictionResult(Result):
         if self.raw is not None:
             from bpmid.predict import write_predictions
 
-            from bpmid.io.motion_logs import is_synthetic
+            from bpmid.io.motion_logs import synthetic_note
 
             self.written = write_predictions(path, self.raw, prov=self.provenance, params=self.body.get("params"),
                                              model=getattr(self, "_model", None), figure=figure,
-                                             synthetic=is_synthetic([p.log for p in self.raw]))
+                                             synthetic=synthetic_note([p.log for p in self.raw]))
             return Path(path)
         return super().save(path)
 

@@ -95,6 +95,7 @@ def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
     assert r.exit_code == 0, r.output
     d = yaml.safe_load((out / "discovery.yaml").read_text())
     assert d["schema"] == "bpmid.discovery/1"
+    assert isinstance(d["synthetic"], bool) and isinstance(d["synthetic_logs"], list)   # as predict.yaml says it
     assert d["thresholds_from"].startswith(str(thr.resolve()))
     assert str(thr.resolve()) in d["provenance"]["inputs"]
     assert d["named_effects"] == ["angle_offset"]

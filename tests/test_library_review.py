@@ -86,3 +86,20 @@ def test_a_folder_result_refuses_a_file_path(tmp_path):
     with pytest.raises(bpmid.InputError, match="is a folder"):
         pred.save(tmp_path / "pred.yaml")
     assert not (tmp_path / "pred.yaml").exists()
+
+
+def test_the_synthetic_stamp_names_the_twin_only_for_the_twin_s_logs(tmp_path):
+    """Figures of logs another generator made said 'synthetic data (bpmid digital twin)'."""
+    from bpmid.io.motion_logs import TWIN_NOTE, read_motion_logs, synthetic_note
+
+    twin = REPO / "datasets" / "motion" / "fitting_set" / "fit_1p2_1p6_r1.csv"
+    text = twin.read_text().replace("# synthetic: true (bpmid digital twin; not a measurement)",
+                                    "# synthetic: true (own VBMM simulator, seed 3)")
+    own = tmp_path / "own.csv"
+    own.write_text(text)
+    measured = tmp_path / "measured.csv"
+    measured.write_text("".join(ln + "\n" for ln in text.splitlines() if not ln.startswith("# synthetic")))
+    t, o, m = read_motion_logs([twin, own, measured])
+    assert synthetic_note([t]) == TWIN_NOTE
+    assert synthetic_note([o]) == "synthetic data (the logs' own headers say so)"
+    assert synthetic_note([t, o, m]) == "partly synthetic: 2 of 3 logs" and synthetic_note([m]) is None

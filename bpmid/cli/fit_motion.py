@@ -64,9 +64,9 @@ def fit_motion_command(
     ambient = plaus.assumed_ambient_note(result.raw.logs)
     if ambient:
         typer.echo("note: " + ambient, err=True)
-    from bpmid.io.motion_logs import is_synthetic
+    from bpmid.io.motion_logs import synthetic_note
 
-    result.save(out, figure=figure, synthetic=is_synthetic(result.raw.logs))
+    result.save(out, figure=figure, synthetic=synthetic_note(result.raw.logs))   # the stamp's words, or None
     fit = result.raw
     m = fit.metrics
     typer.echo(f"VBMM fit on {len(fit.logs)} log{'s' if len(fit.logs) != 1 else ''}: RMSE {m['rmse_deg']:.4g} deg, MAPE {m['mape_pct']:.4g} %, "

@@ -391,6 +391,9 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     by_fit = {nm: (res.held or {}).get(nm, ZERO_SENSITIVITY) for nm in own
               if fitted.params[nm].fixed and nm not in held}
     bad = {**by_fit, **held, **bad}
+    for nm in bad:   # say where it is kept (a note said 'ended on its lower bound 0' beside a held 0.5)
+        if "held at" not in bad[nm] and fitted.params[nm].fixed:
+            bad[nm] = f"{bad[nm]}; kept at {fitted.params[nm].value:.6g}, its start"
     estimated = [nm for nm in own if nm not in bad]
     for nm in own:
         if nm in bad:

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from bpmid.io.atomic import staged_dir, write_text
-from bpmid.io.motion_logs import is_synthetic
+from bpmid.io.motion_logs import is_synthetic, synthetic_note
 from bpmid.io.results import write_result
 from bpmid.plots import discover as P
 from bpmid.plots.common import label_synthetic, save_figure
@@ -44,15 +44,19 @@ def write_discovery(out_dir: str | Path, result, prov: dict, *, base_from: str) 
     """
     body = result.to_yaml()
     body["base_from"] = base_from
-    synthetic = is_synthetic(list(result.fit_logs) + list(result.holdout_logs))
+    logs = list(result.fit_logs) + list(result.holdout_logs)
+    # as predict.yaml and compare.yaml say it: every log synthetic, and which are
+    body["synthetic"] = is_synthetic(logs)
+    body["synthetic_logs"] = sorted({lg.name for lg in logs if is_synthetic([lg])})
+    note = synthetic_note(logs)   # the figures' stamp: the twin's, another generator's, or a mix
     with staged_dir(out_dir) as tmp:
         write_result(tmp / "discovery.yaml", SCHEMA, body, prov)
         write_result(tmp / MODEL_FILE, MODEL_SCHEMA, model_body(result), prov)
         write_text(tmp / "verdict.txt", readable(result.verdict) + "\n")
         for name, make in FIGURES.items():
             fig = make(result)
-            if synthetic:
-                label_synthetic(fig)
+            if note:
+                label_synthetic(fig, note)
             save_figure(fig, tmp / name)
     return ["discovery.yaml", "verdict.txt", *FIGURES, MODEL_FILE]
 

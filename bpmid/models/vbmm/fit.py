@@ -697,7 +697,7 @@ SCHEMA = "bpmid.vbmm/1"
 
 
 def write_motion_fit(out: str | Path, result: MotionFit, prov: dict, *, figure: str | Path | None = None,
-                     synthetic: bool = False) -> list[Path]:
+                     synthetic: "bool | str | None" = False) -> list[Path]:
     """Write the ``bpmid.vbmm/1`` YAML (and the figure when ``figure`` is a path), all or nothing.
 
     The figure is rendered before anything is written; if the YAML cannot be written the figure is removed.
