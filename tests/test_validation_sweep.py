@@ -33,7 +33,7 @@ def test_uninterrupted_sweep_writes_records_thresholds_tables_answers(full_run):
     assert all(r["phase"] == r["split"] for r in recs)
     thr = yaml.safe_load((out / "thresholds.yaml").read_text())
     assert thr["schema"] == "bpmid.discover-thresholds/1" and "tiny" in thr["calibration"]["produced_by"]
-    assert res.summary["thresholds_from"].startswith("calibrated in this run")   # the gate's source is said
+    assert res.summary["thresholds_from"].startswith("thresholds.yaml, calibrated in this run")   # its source, said
     # the calibration half's candidates were recorded with their truth
     cal = [r for r in recs if r["split"] == "calibration"]
     assert sum(len(r["calibration_records"]) for r in cal) >= 2
@@ -346,7 +346,8 @@ def test_calibration_on_no_judged_case_is_refused_and_a_thin_one_warned(full_run
     said = []
     _calibrate(tmp_path, cfg, cal, thresholds_from_records, write_thresholds, warn=said.append)
     assert (tmp_path / "thresholds.yaml").exists()
-    assert len(said) == 1 and f"on {len(cal)} judged case(s)" in said[0] and "too few" in said[0]
+    assert len(said) == 2 and f"on {len(cal)} judged case(s)" in said[0] and "too few" in said[0]
+    assert "closed paths the shipped gate has open" in said[1] and "no pair will be named" in said[1]
 
 
 def test_a_bad_scheduler_is_refused_before_any_folder_is_made(tmp_path):
@@ -473,3 +474,15 @@ def test_a_built_in_rig_geometry_is_read_as_written(tmp_path):
     with pytest.raises(InputError) as e:
         load_sweep(p)
     assert e.value.key == "rig.geometry"
+
+
+def test_a_calibration_that_closes_a_path_of_the_shipped_gate_says_so():
+    """A small calibration on a rig's noise set pair_share_min to .inf (no pair can be named) with only a warning
+    about false positives; the closed paths are now named."""
+    import math
+
+    from bpmid.validation.sweep import closed_paths
+
+    said = closed_paths({"pair_share_min": math.inf, "to_floor_drop_min_sigma": math.inf})
+    assert any("no pair will be named" in s for s in said) and any("to_floor_drop_min_sigma" in s for s in said)
+    assert closed_paths({"pair_share_min": 0.3, "to_floor_drop_min_sigma": 0.1}) == []

@@ -782,7 +782,7 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
     summary = summarize(recs, evaluated if split != "pool" else "pool (both halves run as calibration)")
     summary["thresholds_from"] = (
         None if evaluated != "heldout" else str(thresholds_path) if thresholds_path is not None
-        else "calibrated in this run on the calibration half (thresholds.yaml)" if "calibration" in phases
+        else "thresholds.yaml, calibrated in this run on the calibration half" if "calibration" in phases
         else "this folder's thresholds.yaml (calibrated earlier)" if (out / "thresholds.yaml").exists()
         else "bpmid's shipped calibration (bpmid/discover/thresholds.yaml)")
     # 4 significant digits (rounding to 4 decimals wrote a family alpha of 1e-9 as 0)
@@ -834,6 +834,11 @@ def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_re
              f"null: too few to bound the false positives on your rig (at least {MIN_CALIBRATION_CASES}, nulls "
              f"among them, are needed for a gate to mean much); draw more cases (generator.n_cases, "
              f"generator.mix)")
+    closed = closed_paths(values)
+    if closed:
+        warn("warning: this calibration closed paths the shipped gate has open (too few cases of their kind to "
+             "open them on your rig): " + "; ".join(closed) + ". Draw more cases of those kinds (generator.n_cases, "
+             "generator.mix), or keep the shipped thresholds for them")
     meta = {"produced_by": f"bpmid calibrate {cfg.path or 'SWEEP.yaml'} (sweep {cfg.sweep.name}, "
                            f"seed {cfg.sweep.seed})",
             "data": f"{len(recs)} out-of-family cases ({GENERATOR}), "
@@ -843,6 +848,30 @@ def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_re
     write_thresholds(values, meta, out / "thresholds.yaml")
     from bpmid.discover.calibrate import gate_values
     return gate_values(values)
+
+
+#: gate settings whose .inf closes a path, and what the path does
+_PATHS = {"pair_share_min": "two effects named at once (pair_share_min: .inf, no pair will be named)",
+          "to_floor_drop_min_sigma": "naming on the path to the noise floor (to_floor_drop_min_sigma: .inf)"}
+
+
+def closed_paths(values: dict) -> list[str]:
+    """What a calibration closed (a threshold at .inf) that the shipped thresholds keep open, in words."""
+    import math
+
+    from bpmid.config import read_yaml
+    from bpmid.discover.calibrate import THRESHOLDS_PATH
+
+    try:
+        shipped, _sha = read_yaml(THRESHOLDS_PATH)
+    except InputError:
+        return []
+    out = []
+    for key, words in _PATHS.items():
+        v, s = values.get(key), (shipped or {}).get(key)
+        if isinstance(v, (int, float)) and math.isinf(v) and isinstance(s, (int, float)) and math.isfinite(s):
+            out.append(words)
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
