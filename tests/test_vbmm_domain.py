@@ -36,10 +36,11 @@ def test_the_paper_muscle_and_a_narrower_one_still_bend():
 
 
 def _fit_file(tmp_path: Path) -> Path:
+    """The paper's constants as a bpmid.vbmm/1 file (written by hand, as a user would)."""
+    from test_simulate_predict_review import TRUTH
+
     out = tmp_path / "vbmm.yaml"
-    r = runner.invoke(app, ["fit", "motion", str(REPO / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv"),
-                            "--out", str(out), "--no-plot"])
-    assert r.exit_code == 0, r.output
+    out.write_text(TRUTH % (6.434e6, 3.2e6))
     return out
 
 
