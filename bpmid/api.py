@@ -98,7 +98,7 @@ def _motion_logs(logs, cfg, *, require_angle: bool = False, key: str = "logs") -
         elif isinstance(x, MotionLog):
             if require_angle and x.angle_deg is None:
                 raise InputError("this log has no measured angle (angle_deg)", path=x.path or x.name)
-            out.append(x)
+            out.append(_array_gaps(x, cfg.section("io")))
         else:
             raise _not_a_log(x, key)
     from bpmid.io.motion_logs import check_distinct_names
@@ -149,6 +149,20 @@ def _clock_to_seconds(time_s, time_unit: str):
 
     import numpy as np
 
+    if type(time_s).__module__.startswith("pandas") or (
+            isinstance(time_s, (list, tuple)) and time_s and isinstance(time_s[0], datetime.datetime)
+            and time_s[0].tzinfo is not None):
+        import pandas as pd   # time-zone-aware clock times: to UTC first (numpy warns on each one otherwise)
+
+        try:
+            if isinstance(time_s, pd.Series) and isinstance(time_s.dtype, pd.DatetimeTZDtype):
+                time_s = time_s.dt.tz_convert(None)
+            elif isinstance(time_s, pd.DatetimeIndex) and time_s.tz is not None:
+                time_s = time_s.tz_convert(None)
+            elif isinstance(time_s, (list, tuple)):
+                time_s = pd.to_datetime(list(time_s), utc=True).tz_convert(None)
+        except (TypeError, ValueError):
+            pass
     try:
         arr = np.asarray(time_s)
     except (TypeError, ValueError):
@@ -254,19 +268,37 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
                            "pressure": {"column": "pressure", "unit": unit, "unit_from": said},
                            **({"angle": {"column": "angle_deg", "unit": angle_unit.strip().lower(),
                                          "unit_from": said}} if a is not None else {})}}
-    warns = []
-    dt = np.diff(t)
-    med = float(np.median(dt))
-    gaps = np.flatnonzero(dt > 5.0 * med)   # the file readers' rule (io.max_gap_factor, default 5)
-    if gaps.size:
-        k = int(gaps[0])
-        warns.append(f"{name}: gap of {dt[k]:g} s between samples {k} and {k + 1} (t = {t[k]:g} s) where the usual step "
-                     f"is {med:g} s" + (f" ({gaps.size} gaps)" if gaps.size > 1 else "") + "; taken as is: across a "
-                     "gap the input is taken to hold its last sample and change in one step at the next")
-        reading["gaps"] = {"count": int(gaps.size), "first_sample": k + 1, "longest_s": float(np.max(dt[gaps]))}
     return MotionLog(name=name, time_s=t, pressure_pa=gauge, angle_deg=a, pressure_reference=reference,
                      pressure_unit=unit, pressure_as_given=given.copy(), atmosphere_pa=float(atmosphere_pa),
-                     reading=reading, warnings=warns)
+                     reading=reading)
+
+
+def _array_gaps(lg, io):
+    """A log made by :func:`from_arrays`, judged for gaps as the file readers judge a file (``io.max_gap_factor``
+    warns, ``io.max_gap_s`` refuses), under the config the workflow runs with."""
+    import dataclasses
+
+    import numpy as np
+
+    t = np.asarray(lg.time_s, float)
+    if t.size < 3 or (lg.reading or {}).get("format") != "arrays (bpmid.from_arrays)":
+        return lg
+    dt = np.diff(t)
+    if io.max_gap_s is not None and np.any(dt > io.max_gap_s):
+        k = int(np.flatnonzero(dt > io.max_gap_s)[0])
+        raise InputError(f"{lg.name}: gap of {dt[k]:g} s between samples {k} and {k + 1}, longer than io.max_gap_s "
+                         f"{io.max_gap_s:g} s; raise or drop that setting to take the log", key="io.max_gap_s")
+    med = float(np.median(dt))
+    gaps = np.flatnonzero(dt > io.max_gap_factor * med)
+    if not gaps.size:
+        return lg
+    k = int(gaps[0])
+    w = (f"{lg.name}: gap of {dt[k]:g} s between samples {k} and {k + 1} (t = {t[k]:g} s) where the usual step is "
+         f"{med:g} s" + (f" ({gaps.size} gaps)" if gaps.size > 1 else "") + "; taken as is: across a gap the input "
+         "is taken to hold its last sample and change in one step at the next (io.max_gap_factor, io.max_gap_s)")
+    reading = {**(lg.reading or {}), "gaps": {"count": int(gaps.size), "first_sample": k + 1,
+                                              "longest_s": float(np.max(dt[gaps]))}}
+    return dataclasses.replace(lg, warnings=[x for x in lg.warnings if "gap of" not in x] + [w], reading=reading)
 
 
 def read_motion_logs(paths, *, config=None, require_angle: bool = False) -> list:
@@ -600,7 +632,9 @@ def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequ
     spec = reference if isinstance(reference, str) else ",".join(str(r) for r in reference)
     refs = load_references(spec, cfg.rate_hz, io=cfg_all.section("io"))
     res = run_control(model, plant, refs, cfg, controllers=controllers)
-    _give(list(res.warnings), cfg_all, "the control simulation")   # BpmidWarning; io.strict refuses them
+    # given as BpmidWarning; not refused under io.strict: they say how the loop ran, not that an input is wrong
+    # (bpmid control and bpmid run print them and write the result alike)
+    warn_caller(list(res.warnings))
     inputs = [p for p in (ppath, plant_path) if p is not None] + [r.path for r in refs if r.path is not None]
     prov = provenance(inputs, config=cfg_all if cfg_all.path else None, seed=cfg.seed)
     out = ControlResult(control_yaml_body(res, cfg, model=model, plant=plant), prov, raw=res)

@@ -132,7 +132,7 @@ def study_yaml_body(study: HistoryStudy, params_source: str | None = None) -> di
 
 
 def write_history_study(study: HistoryStudy, out_dir: str | Path, prov: dict, *, params_source: str | None = None,
-                        synthetic: bool = True) -> list[Path]:
+                        synthetic: "bool | str | None" = True) -> list[Path]:
     """``history_modes.csv``, ``history_modes.yaml`` and ``history_modes.png`` into ``out_dir``."""
     from bpmid.io.atomic import write_text
     from bpmid.io.results import write_result

@@ -39,14 +39,17 @@ def test_saving_a_prediction_never_replaces_a_file_bpmid_did_not_write(tmp_path)
     assert "bpmid predict output" in (folder / "m.csv").read_text()
 
 
-@pytest.mark.parametrize("kind", ["DatetimeIndex", "datetime64", "Timedelta", "datetime objects"])
+@pytest.mark.parametrize("kind", ["DatetimeIndex", "datetime64", "Timedelta", "datetime objects", "zoned"])
 def test_clock_times_are_seconds_since_the_first_sample(kind):
     """A DatetimeIndex was read as nanoseconds: a 60 s log became 6e10 s, fitted as a static model."""
     t, p, a = _arrays()
     idx = pd.Timestamp("2024-05-01 10:00") + pd.to_timedelta(t, unit="s")
+    zoned = pd.date_range("2024-03-31 00:59:00", periods=t.size, freq="100ms", tz="Europe/Berlin")   # across DST
     given = {"DatetimeIndex": idx, "datetime64": idx.values, "Timedelta": pd.to_timedelta(t, unit="s"),
-             "datetime objects": list(idx.to_pydatetime())}[kind]
-    lg = bpmid.from_arrays(given, p, a, pressure_unit="bar", reference="gauge")
+             "datetime objects": list(idx.to_pydatetime()), "zoned": zoned}[kind]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")   # no per-sample time-zone warnings from numpy
+        lg = bpmid.from_arrays(given, p, a, pressure_unit="bar", reference="gauge")
     np.testing.assert_allclose(lg.time_s, t, atol=1e-6)
     with pytest.raises(bpmid.InputError, match="carry their own unit"):
         bpmid.from_arrays(given, p, a, pressure_unit="bar", reference="gauge", time_unit="ms")
@@ -103,3 +106,34 @@ def test_the_synthetic_stamp_names_the_twin_only_for_the_twin_s_logs(tmp_path):
     assert synthetic_note([t]) == TWIN_NOTE
     assert synthetic_note([o]) == "synthetic data (the logs' own headers say so)"
     assert synthetic_note([t, o, m]) == "partly synthetic: 2 of 3 logs" and synthetic_note([m]) is None
+    for words in ("bpmid.validation out-of-family generator; not a measurement", "digital twin of our rig B"):
+        other = tmp_path / "other.csv"
+        other.write_text(twin.read_text().replace("bpmid digital twin; not a measurement", words))
+        assert synthetic_note(read_motion_logs([other])) == "synthetic data (the logs' own headers say so)", words
+
+
+def test_control_warnings_are_given_not_refused_under_io_strict(tmp_path):
+    """Saturation says how the loop ran, not that an input is wrong: bpmid control writes the result with them
+    under io.strict, and the library call gives them as warnings alike (it refused them)."""
+    from test_simulate_predict_review import TRUTH
+
+    params = tmp_path / "vbmm.yaml"
+    params.write_text(TRUTH % (6.434e6, 3.2e6))
+    with pytest.warns(bpmid.BpmidWarning, match="saturated"):
+        ctl = bpmid.control(params, reference="steps", controllers="pi", seed=1, config={"io": {"strict": True}})
+    assert ctl.warnings
+
+
+def test_a_gap_in_arrays_is_judged_by_the_config_as_a_file_is():
+    """io.max_gap_factor applies to arrays too (a fixed factor of 5 refused, under io.strict, arrays whose file
+    was accepted)."""
+    t = np.r_[np.arange(0, 10, 0.02), np.arange(10, 20, 0.5), np.arange(20, 30, 0.02)]
+    p = np.interp(t, [0, 10, 20, 30], [0.1, 0.8, 0.8, 0.1])
+    lg = bpmid.from_arrays(t, p, 20 + 60 * p, pressure_unit="bar", reference="gauge", name="evt")
+    from bpmid.api import _array_gaps
+    from bpmid.io.motion_logs import IOConfig
+
+    assert not _array_gaps(lg, IOConfig(max_gap_factor=100.0)).warnings
+    assert any("gap of 0.5" in w for w in _array_gaps(lg, IOConfig()).warnings)
+    with pytest.raises(bpmid.InputError, match="io.max_gap_s"):
+        _array_gaps(lg, IOConfig(max_gap_s=0.1))

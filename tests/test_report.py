@@ -33,7 +33,7 @@ def _panels_md(md: str) -> tuple[str, str]:
             lines.append(ln)
         return "\n".join(lines)
 
-    return block("**Paper's numbers (quoted, the paper's data)**"), block("**Measured here (bpmid, synthetic shipped data)**")
+    return block("**Paper's numbers (quoted, the paper's data)**"), block("**Measured here (bpmid, this run's synthetic data)**")
 
 
 #: columns of wall-clock timings: measured on this machine, any value, so one can equal a quoted number by chance

@@ -402,3 +402,8 @@ def test_a_stage_asked_for_without_its_inputs_or_a_config_with_no_data_is_refuse
         r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / f"o{i}")])
         assert r.exit_code == 2 and key in r.output and words in r.output, r.output
         assert not (tmp_path / f"o{i}").exists()
+    # a config that names only the stages needing no data runs them (on default constants)
+    cfg = tmp_path / "ctl.yaml"
+    cfg.write_text("run:\n  stages: [control]\ncontrol:\n  controllers: [pi]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "ok")])
+    assert r.exit_code == 0 and (tmp_path / "ok" / "control" / "summary.csv").is_file(), r.output

@@ -96,3 +96,25 @@ def test_fit_motion_refuses_a_plot_path_no_figure_format_has_before_fitting(tmp_
                             str(tmp_path / "f.txt")])
     assert r.exit_code == 2 and "key '--plot'" in r.output and "'f.txt' names none" in r.output, r.output
     assert not (tmp_path / "f.yaml").exists()
+
+
+def test_metres_under_the_mm_keys_are_refused(tmp_path):
+    """th_mm 0.0015, R0_mm 0.01, l0_mm 0.12 (metres under the mm keys) fitted at exit 0 with a 10 um radius."""
+    cfg = tmp_path / "si.yaml"
+    cfg.write_text("model:\n  geometry: {th_mm: 0.0015, alpha0_deg: 25, R0_mm: 0.01, l0_mm: 0.12, n: 5}\n")
+    r = runner.invoke(app, ["fit", "motion", str(REPO / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv"),
+                            "--config", str(cfg), "--out", str(tmp_path / "m.yaml")])
+    assert r.exit_code == 2 and "too small for a muscle" in r.output and "model.geometry" in r.output, r.output
+
+
+def test_the_report_summary_cautions_control_runs_that_do_not_track():
+    import pandas as pd
+
+    from bpmid.report.inputs import ControlInfo
+
+    tab = pd.DataFrame({"controller": ["pi", "vbmm-pi", "pi"], "reference": ["a", "a", "ALL"],
+                        "rmse_deg": [13.0, 9.4, 13.0], "status": ["oscillating,unstable", "oscillating", "x"]})
+    k = ControlInfo(Path("."), tab, {"kp": {"value": 0.04}, "ki": {"value": 0.01}}, 10.0, {}, [], {})
+    assert k.troubled_runs() == "1 of 2 runs unstable, 2 of 2 runs oscillating" and k.paper_gains()
+    ok = ControlInfo(Path("."), tab.assign(status="saturated"), {}, 10.0, {}, [], {})
+    assert ok.troubled_runs() == ""

@@ -46,7 +46,7 @@ def fit_motion_command(
     check_outputs([out], paths + [init, config], suffix=".yaml")
     if figure is not None:
         check_outputs([figure], paths + [init, config], key="--plot")
-        if figure.suffix.lower() not in FIGURE_SUFFIXES:   # matplotlib's own error came after the fit, as a traceback
+        if figure.suffix and figure.suffix.lower() not in FIGURE_SUFFIXES:   # no suffix: written as PNG   # matplotlib's own error came after the fit, as a traceback
             raise InputError(f"a figure is written as {', '.join(s.lstrip('.') for s in FIGURE_SUFFIXES)}; "
                              f"{figure.name!r} names none of them", path=figure, key="--plot")
     result = fit_motion(paths, init=init, config=cfg)

@@ -319,9 +319,10 @@ def synthetic_note(logs: Sequence[MotionLog]) -> str | None:
     if not all(flags):
         return f"partly synthetic: {sum(flags)} of {len(flags)} logs"
 
-    def twin(lg: MotionLog) -> bool:
+    def twin(lg: MotionLog) -> bool:   # the twin's own words (bpmid simulate writes them), not any 'twin'
         meta = " ".join(f"{k} {v}" for k, v in (lg.meta or {}).items()).lower()
-        return "bpmid" in meta or "twin" in meta or (lg.path is not None and _in_shipped_datasets(lg.path))
+        return ("bpmid digital twin" in meta or "bpmid simulate" in meta
+                or (lg.path is not None and _in_shipped_datasets(lg.path)))
     return TWIN_NOTE if all(twin(lg) for lg in logs) else "synthetic data (the logs' own headers say so)"
 
 

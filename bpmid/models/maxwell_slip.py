@@ -33,7 +33,7 @@ orientation: s2 = -78 deg/bar^2, maximum at 0.64 bar, the angle then falls to 9 
 s2 = -39 deg/bar^2, flat by 1.2 bar), while the muscle's static angle-pressure map is nearly linear,
 slightly convex, over 0.2-1.2 bar gauge: the curvature seen in a 0.4 bar window is creep at the cycle
 ends, not the static map. The shipped comparison (``configs/compare_paper.yaml``) uses ``poly_degree=1``
-with ``orientation="lag"`` and ``monotone=True`` (training RMSE 1.87 deg, against 1.74 deg for the free
+with ``orientation="auto"`` (it picks lag there) and ``monotone=True`` (training RMSE 1.87 deg, against 1.74 deg for the free
 lag quadratic, whose extra fit comes from elements with slip limits below the pressure noise).
 
 **Monotone fit** (``monotone=True``, needs ``poly_degree=1``). Just after a reversal every element

@@ -48,7 +48,7 @@ def figure_format_as(fmt: str | None):
 
 
 #: file suffixes a figure can be written as (matplotlib's vector and raster formats a paper takes)
-FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp", ".pgf")
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")
 
 
 def figure_path(path: str | Path) -> Path:

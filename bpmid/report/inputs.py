@@ -266,6 +266,25 @@ class ControlInfo:
             return src == "built in" or "/datasets/control/" in src.replace("\\", "/")
         return bool(self.references) and all(shipped(r) for r in self.references)
 
+    def troubled_runs(self) -> str:
+        """'5 of 15 runs unstable, 15 oscillating' (summary.csv's status column; '' when every run tracks, or
+        only touches a pressure limit, which the paper's loop did too)."""
+        if "status" not in self.table:
+            return ""
+        runs = self.table[self.table["reference"] != "ALL"] if "reference" in self.table else self.table
+        status = [str(x) for x in runs["status"]]
+        n = len(status)
+        parts = [f"{c} of {n} runs {word}" for word in ("unstable", "oscillating")
+                 for c in [sum(word in x for x in status)] if c]
+        return ", ".join(parts)
+
+    def paper_gains(self) -> bool:
+        """The loop ran with the paper's gains (P 0.04 bar/deg, I 0.01 bar/deg/s)."""
+        def val(k):
+            v = (self.gains or {}).get(k)
+            return v.get("value") if isinstance(v, dict) else v
+        return val("kp") == 0.04 and val("ki") == 0.01
+
     def plant_words(self) -> str:
         """The plant's departures from the controller's model, in words ('' when none is recorded)."""
         pl = self.plant or {}
@@ -340,6 +359,33 @@ class Study:
             if x is not None:
                 out.update(_dict(_dict(x.provenance).get("inputs")))
         return out
+
+    def made_by_twin(self) -> bool:
+        """True when every data file of the study that says it is synthetic says bpmid's twin made it (its own
+        words, or bpmid's shipped datasets folder); False when another generator made one (a user's own)."""
+        from bpmid import data
+        from bpmid.io.motion_logs import _in_shipped_datasets
+
+        for path in self.inputs():
+            f = Path(path)
+            if f.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat"):
+                continue
+            if not f.is_absolute():   # recorded relative to where the run ran: the study's folder's side or cwd
+                for base in (Path.cwd(), self.root.parent, self.root, data.root()):
+                    if (base / f).is_file():
+                        f = base / f
+                        break
+            if _in_shipped_datasets(f):
+                continue
+            try:
+                with open(f, encoding="utf-8", errors="replace") as fh:
+                    head = " ".join(ln for ln in (fh.readline() for _ in range(30)) if ln.lstrip().startswith("#"))
+            except OSError:
+                continue
+            low = head.lower()
+            if "synthetic" in low and "bpmid digital twin" not in low and "bpmid simulate" not in low:
+                return False
+        return True
 
     def data_origins(self) -> list[str]:
         """What made the synthetic data logs, read from their own header lines: one entry per protocol with its

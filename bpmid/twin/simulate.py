@@ -283,8 +283,8 @@ def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov:
     from bpmid.twin.protocol import _extent, _first_level
 
     for spec in proto.logs:   # before any work: a log bpmid's own readers would refuse is not written
-        n = int(_extent(spec.program, spec.start if spec.start is not None else _first_level(spec.program))[0]
-                * proto.sampling_hz) + 1
+        n = math.floor(_extent(spec.program, spec.start if spec.start is not None else _first_level(spec.program))[0]
+                       * proto.sampling_hz + 1e-9) + 1   # as render counts them
         if n < MIN_LOG_SAMPLES:
             raise InputError(f"log {spec.name!r} would have {n} sample(s) at {proto.sampling_hz:g} Hz, fewer than the "
                              f"{MIN_LOG_SAMPLES} bpmid's fits need: raise sampling_hz or the log's duration",

@@ -466,6 +466,8 @@ class MotionFit:
         for p in self.fit.params:
             if p.name in self.fit.held:
                 out[p.name] = f"not identifiable: {self.fit.held[p.name]}; held at prior value {p.value:.6g} {p.unit}"
+            elif p.name in self.fit.free_names and p.identifiable is False:   # estimated, not held (its note)
+                out[p.name] = (p.note or "not identifiable").replace("not identifiable: ", "not identifiable, estimated: ", 1)
             elif p.name in self.fit.free_names:
                 out[p.name] = "estimated"
             else:
@@ -567,6 +569,8 @@ def fit_motion(logs: Sequence[MotionLog], *, config=None, init=None, params: Par
     kw = dict(segments=[lg.n for lg in logs], check_identifiability=mcfg.check_identifiability,
               rel_se_max=mcfg.rel_se_max, corr_max=mcfg.corr_max, max_nfev=mcfg.max_nfev)
     res = _fit_holding_at_prior(residual, start, prior, **kw)
+    res = _unless_holds_rejected(residual, start, res, linear, kw,
+                                 np.concatenate([lg.angle_deg for lg in logs]))
     linear["least_squares"] = {"converged": bool(res.success), "message": str(res.message),
                                "evaluations": int(res.nfev)}
     if not res.success:
@@ -593,6 +597,44 @@ def fit_motion(logs: Sequence[MotionLog], *, config=None, init=None, params: Par
     sens = sensitivity(model, logs, res.params, yh)
     return MotionFit(model, res, prior, source, linear, logs, preds, log_metrics(y, yh), per_log, sens,
                      time.perf_counter() - t0, mcfg)
+
+
+#: a fit whose holds leave less than this share of the angle's variance explained is no fit of the logs
+HELD_R2_MIN = 0.5
+
+
+def _unless_holds_rejected(residual, start: ParamSet, res: FitResult, linear: dict, kw: dict,
+                           y: np.ndarray) -> FitResult:
+    """``res``, unless holding its not-identifiable constants at the relaxation test's values left it no fit of the
+    logs (R^2 below :data:`HELD_R2_MIN`) and far worse than its own start (a likelihood ratio above
+    :data:`bpmid.fitting.HOLD_LR_MAX` on the effective sample size): then the relaxation constants and these logs
+    disagree (a second Prony term the logs see otherwise, another material, a unit slip; one fit went to 17 deg
+    from a 1.3 deg start and was refused as explaining nothing). The constants are then estimated where the data
+    put them, each marked not identifiable, and ``linear['holds_rejected']`` says so (a warning of the fit). A
+    hold that only costs some accuracy (a one-log fit) stays: the relaxation values are the better constants."""
+    from bpmid.fitting import HOLD_LR_MAX, fit_least_squares
+
+    sse_start = (linear.get("multi_start") or {}).get("sse_chosen_deg2")
+    sse_res = float(res.residual @ res.residual)
+    sst = float(np.sum((y - np.mean(y)) ** 2)) if y.size else 0.0
+    if not (kw.get("check_identifiability") and res.held and sse_start and sst > 0
+            and sse_res > (1.0 - HELD_R2_MIN) * sst and sse_res > sse_start
+            and max(res.n_eff, 1.0) * math.log(sse_res / sse_start) > HOLD_LR_MAX):
+        return res
+    free = fit_least_squares(residual, start, **{**kw, "check_identifiability": False})
+    sse_free = float(free.residual @ free.residual)
+    if not sse_free < sse_res:
+        return res
+    n = max(res.residual.size, 1)
+    linear["holds_rejected"] = {"rmse_held_deg": math.sqrt(sse_res / n), "rmse_free_deg": math.sqrt(sse_free / n),
+                                "held": {k: str(v) for k, v in res.held.items()}}
+    params = free.params
+    for name, why in res.held.items():
+        if name in params.names() and not params[name].fixed:
+            params = params.replace(name, identifiable=False,
+                                    note=f"not identifiable: {why}; estimated, not held (the logs reject its "
+                                         f"relaxation value: the fit's warnings say how much)")
+    return dataclasses.replace(free, params=params)
 
 
 #: scale factors of the moduli and of the time constants the multi-start scores around the start

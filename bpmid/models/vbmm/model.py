@@ -71,6 +71,11 @@ class Geometry:
         if self.th > 0.05 or self.R0 > 0.5 or self.l0 > 5.0:
             raise InputError("geometry is in metres (th, R0, l0); the values look like millimetres: give them as "
                              "th_mm, R0_mm, l0_mm (and alpha0_deg) to state mm and deg", path=path, key=where)
+        if self.th < 5e-5 or self.R0 < 5e-4 or self.l0 < 5e-3:   # under 0.05 mm wall, 0.5 mm radius, 5 mm length
+            raise InputError(f"geometry too small for a muscle (th {self.th * 1e3:.4g} mm, R0 {self.R0 * 1e3:.4g} mm, "
+                             f"l0 {self.l0 * 1e3:.4g} mm): metres given under the _mm keys? th_mm, R0_mm and l0_mm "
+                             f"take millimetres (R0_mm: 16.73), th, R0 and l0 take metres (R0: 0.01673)",
+                             path=path, key=where)
 
     def vector(self) -> np.ndarray:
         return np.array([self.th, self.alpha0, self.R0, self.l0, self.n], float)
@@ -320,8 +325,9 @@ class VBMM:
                 f"this geometry (th {g.th * 1e3:.4g} mm, R0 {g.R0 * 1e3:.4g} mm, l0 {g.l0 * 1e3:.4g} mm, n {g.n:.4g}, "
                 f"alpha0 {math.degrees(g.alpha0):.4g} deg) needs a negative pressure to hold a bend of {math.degrees(bad[0]):.3g} deg, "
                 f"whatever the rubber: the VBMM cannot describe such a muscle, and every "
-                f"prediction would sit at its 4 pi rad limit. Check the geometry (a radius R0 of a few wall "
-                f"thicknesses or less, a decimal slip such as 1.673e-3 m for 1.673e-2 m)", key="model.geometry")
+                f"prediction would sit at its 4 pi rad limit. Check the geometry: the radius R0 against the braid (its "
+                f"length l0 and turns n: a small R0, or few turns over a long l0), or a decimal slip such as 1.673e-3 m "
+                f"for 1.673e-2 m", key="model.geometry")
 
     @classmethod
     def from_config(cls, material: Material, cfg: VBMMConfig | None = None, **kw) -> "VBMM":
@@ -457,8 +463,8 @@ def _negative_bend_pressure(geometry: "Geometry", closure: str):
     """(beta, P) of the first test angle (rad) at which a relaxed, nearly incompressible rubber (K = 1000 G, the
     pressure in units of G) needs a pressure that is not positive to hold the bend, else None.
 
-    Some geometries (a radius of a few wall thicknesses: th 2 mm with R0 6 mm and below, either closure) need a
-    negative pressure at every angle, and the forward solve then runs to its 4 pi rad bracket for any pressure. A
+    Some geometries (a radius small against the braid's length and turns: with the paper's l0 and n, R0 6 mm and
+    below, either closure; the wall thickness only scales the pressure) need a negative pressure at every angle, and the forward solve then runs to its 4 pi rad bracket for any pressure. A
     property of the geometry, not of the fitted constants (a fit may try a compressible rubber on the way).
     Cached: a fit makes many models of one geometry."""
     beta = np.array([0.5, 2.0])   # not a tiny bend: near 0 the pressure is near 0, of either sign by rounding

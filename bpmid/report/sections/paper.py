@@ -26,7 +26,8 @@ def build(doc, st, figs) -> None:
     with doc.panel("Paper's numbers (quoted, the paper's data)", "quoted"):
         doc.p(PAPER_SOURCE)
         doc.table(["experiment", "quantity", "value", "unit"], [[e, q, fmt(v), u] for e, q, v, u in PAPER_ROWS])
-    label = "Measured here (bpmid, synthetic shipped data)" if st.synthetic else "Measured here (bpmid, this run's data)"
+    label = ("Measured here (bpmid, synthetic shipped data)" if st.synthetic and st.made_by_twin() else
+             "Measured here (bpmid, this run's synthetic data)" if st.synthetic else "Measured here (bpmid, this run's data)")
     with doc.panel(label, "measured"):
         doc.p(f"Computed by bpmid {__version__}; test sets as in the comparison.")
         stale_ref(doc, st, ("relax", "compare", "history"), "the numbers")

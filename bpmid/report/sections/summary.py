@@ -33,7 +33,8 @@ def _stale(st, stage):
 def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     if st.synthetic:
-        doc.p("Data: SYNTHETIC. Every log of this study was made by bpmid's digital twin; the numbers below are "
+        who = "made by bpmid's digital twin" if st.made_by_twin() else "synthetic (their own headers say so)"
+        doc.p(f"Data: SYNTHETIC. Every log of this study was {who}; the numbers below are "
               "bpmid's results on those logs, not measurements of a real muscle.", css="verdict")
         origins = st.data_origins()
         if origins:   # the config and seed that made them, as each log's header states them
@@ -102,8 +103,13 @@ def build(doc, st, figs) -> None:
         refs = "the shipped references" if k.references_shipped or not k.references else \
             "references " + ", ".join(str(r.get("name")) for r in k.references)
         plant = k.plant_words()
+        bad = k.troubled_runs()
         items.append(f"Control{_stale(st, 'control')} (closed loop on {refs}"
-                     + (f", plant {plant}" if plant else "") + ", tracking RMSE): " + ", ".join(parts) + ".")
+                     + (f", plant {plant}" if plant else "") + ", tracking RMSE): " + ", ".join(parts) + "."
+                     + (f" Caution: {bad}; the RMSEs compare loops that do not track well (the gains are "
+                        f"{'the paper' + chr(39) + 's' if k.paper_gains() else 'the config' + chr(39) + 's'}, "
+                        f"control.kp_bar_per_deg and control.ki_bar_per_deg_s set them for another muscle)."
+                        if bad else ""))
     if st.history is not None:
         h = st.history
         items.append(f"History modes{_stale(st, 'history')}: window (T_win = {fmt(h.window_s)} s) vs full history "
