@@ -126,3 +126,23 @@ def test_a_negative_lower_bound_of_a_modulus_is_refused(tmp_path):
     r = runner.invoke(app, ["fit", "motion", str(REPO / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv"),
                             "--config", str(cfg), "--out", str(tmp_path / "m.yaml")])
     assert r.exit_code == 2 and "motion.bounds.K_inf" in r.output and ">= 0" in r.output, r.output
+
+
+def test_the_specimen_that_made_stress_and_strain_is_recorded(tmp_path):
+    """relax_fit.yaml said nothing of the gauge length and cross-section that turned load and extension into
+    stress and strain; the reading record now gives them and where each came from."""
+    import yaml
+
+    src = REPO / "datasets/relaxation/relax_300mmmin_15pct.csv"
+    rows = [ln for ln in src.read_text().splitlines() if ln[:1].isdigit()]
+    log = tmp_path / "machine.csv"
+    log.write_text("# gauge_length_mm: 50\ntime_s,extension_mm,load_n\n" + "".join(
+        f"{r.split(',')[0]},{float(r.split(',')[1]) * 50:.6g},{float(r.split(',')[2]) * 12:.6g}\n" for r in rows))
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("relax:\n  specimen:\n    cross_section_mm2: 12\n")
+    r = runner.invoke(app, ["fit", "relax", str(log), "--config", str(cfg), "--out", str(tmp_path / "r.yaml")])
+    assert r.exit_code == 0, r.output
+    body = yaml.safe_load((tmp_path / "r.yaml").read_text())
+    spec = body["provenance"]["reading"]["machine"]["specimen"]
+    assert spec["gauge_length_mm"] == 50 and spec["cross_section_mm2"] == 12
+    assert spec["from"] == {"gauge_length_mm": "file header", "cross_section_mm2": "config relax.specimen"}

@@ -194,6 +194,11 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
     _check_tension(table.columns["extension"], table, path, "extension", " mm")
     L0 = _specimen_value("gauge_length_mm", gauge_length_mm, table.meta, path)
     A0 = _specimen_value("cross_section_mm2", cross_section_mm2, table.meta, path)
+    # what turned load and extension into stress and strain, and where it came from (the output records it)
+    common["reading"]["specimen"] = {
+        "gauge_length_mm": L0, "cross_section_mm2": A0,
+        "from": {k: ("config relax.specimen" if v is not None else "file header")
+                 for k, v in (("gauge_length_mm", gauge_length_mm), ("cross_section_mm2", cross_section_mm2))}}
     return RelaxLog(strain=table.columns["extension"] / L0, stress_mpa=table.columns["load"] / A0,
                     source="load-extension", **common)
 
