@@ -149,9 +149,10 @@ def _clock_to_seconds(time_s, time_unit: str):
 
     import numpy as np
 
+    first = (time_s[0] if isinstance(time_s, (list, tuple)) and time_s else
+             time_s.flat[0] if isinstance(time_s, np.ndarray) and time_s.dtype == object and time_s.size else None)
     if type(time_s).__module__.startswith("pandas") or (
-            isinstance(time_s, (list, tuple)) and time_s and isinstance(time_s[0], datetime.datetime)
-            and time_s[0].tzinfo is not None):
+            isinstance(first, datetime.datetime) and first.tzinfo is not None):
         import pandas as pd   # time-zone-aware clock times: to UTC first (numpy warns on each one otherwise)
 
         try:
@@ -159,7 +160,7 @@ def _clock_to_seconds(time_s, time_unit: str):
                 time_s = time_s.dt.tz_convert(None)
             elif isinstance(time_s, pd.DatetimeIndex) and time_s.tz is not None:
                 time_s = time_s.tz_convert(None)
-            elif isinstance(time_s, (list, tuple)):
+            elif isinstance(time_s, (list, tuple, np.ndarray)):
                 time_s = pd.to_datetime(list(time_s), utc=True).tz_convert(None)
         except (TypeError, ValueError):
             pass
@@ -281,7 +282,7 @@ def _array_gaps(lg, io):
     import numpy as np
 
     t = np.asarray(lg.time_s, float)
-    if t.size < 3 or (lg.reading or {}).get("format") != "arrays (bpmid.from_arrays)":
+    if t.size < 2 or (lg.reading or {}).get("format") != "arrays (bpmid.from_arrays)":
         return lg
     dt = np.diff(t)
     if io.max_gap_s is not None and np.any(dt > io.max_gap_s):

@@ -48,6 +48,7 @@ from pathlib import Path
 from typing import Mapping, Optional
 
 from bpmid.errors import InputError, interrupted
+from bpmid.io.motion_logs import synthetic_note
 from bpmid.progress import note
 
 STAGES = ("relax", "motion", "compare", "history", "discover", "control", "report")
@@ -403,9 +404,9 @@ def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     fig = figure_path(out / "vbmm_fit.png")
     deferred = ctx.get("deferred")
     write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings),
-                     figure=fig if deferred is None else None, synthetic=ctx.get("stamp", ctx["synthetic"]))
+                     figure=fig if deferred is None else None, synthetic=synthetic_note(logs))
     if deferred is not None:  # drawn beside the stages that follow (same figure)
-        synthetic = ctx.get("stamp", ctx["synthetic"])
+        synthetic = synthetic_note(logs)   # the figure's own logs
         deferred.append(("motion figure", lambda: _motion_figure(mf, fig, synthetic)))
     ctx["vbmm_fit"] = out / "vbmm_fit.yaml"
     # VBMM-mat.: the relaxation constants as they are, scored on the same fitting set
@@ -444,7 +445,7 @@ def stage_history(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     study = history_mode_study(model, log, durations_s=rc.history_durations_s, repeats=rc.history_repeats)
     inputs = [inp.long_term] + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
     written = write_history_study(study, out, _prov(inputs, config, ctx["seed"], ctx["command"]),
-                                  params_source=source, synthetic=ctx.get("stamp", ctx["synthetic"]))
+                                  params_source=source, synthetic=synthetic_note([log]))
     return [Path(p).name for p in written]
 
 
@@ -584,23 +585,6 @@ def run_study(config, out_dir: str | Path, *, command: str | None = None) -> lis
         return _run_study(config, out_dir, command)
 
 
-def _stamp_of(paths) -> str:
-    """The stamp of figures drawn from synthetic files: the twin's words when every file is the twin's."""
-    from bpmid.io.motion_logs import TWIN_NOTE, _in_shipped_datasets
-
-    for p in paths:
-        if _in_shipped_datasets(p):
-            continue
-        try:
-            with open(p, encoding="utf-8", errors="replace") as fh:
-                head = " ".join(fh.readline() for _ in range(30)).lower()
-        except OSError:
-            continue
-        if "bpmid digital twin" not in head and "bpmid simulate" not in head:
-            return "synthetic data (the logs' own headers say so)"
-    return TWIN_NOTE
-
-
 def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRecord]:
     from bpmid.io.motion_logs import file_is_synthetic
     from bpmid.io.results import command_line, new_run_id, run_stamp, write_result
@@ -624,9 +608,9 @@ def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRe
                          **({"synthetic_files": synth_logs} if 0 < len(synth_logs) < len(data_logs) else {})},
            "run_id": new_run_id()}
     # the figures' stamp in the logs' own words: the twin's, another generator's, or a mix (None: measured)
-    ctx["stamp"] = (None if not synth_logs else
-                    f"partly synthetic: {len(synth_logs)} of {len(data_logs)} logs" if len(synth_logs) < len(data_logs)
-                    else _stamp_of(synth_logs))
+    from bpmid.io.motion_logs import stamp_for_files
+
+    ctx["stamp"] = stamp_for_files(data_logs)   # run.yaml records it: the report's wording and stamps
     journal = OutputJournal(out)
     try:
         with run_stamp(ctx["run_id"], ctx["command"]):  # every file of this run says so (provenance.run_id)
@@ -868,7 +852,7 @@ def _report_figure_jobs(out: Path, side: list[str], records: dict, todo: list[st
         return None, None
     from bpmid.report.figures import stage_figures
 
-    syn = bool(ctx["synthetic"])
+    syn = ctx.get("stamp")   # the study's stamp, in the logs' own words (None: measured)
     of_relax = (("report figure of relax", partial(stage_figures, out, "relax", syn))
                 if "relax" in records and records["relax"].status == "done" else None)
     of_compare = (("report figures of compare", partial(stage_figures, out, "compare", syn), "compare")
@@ -878,6 +862,7 @@ def _report_figure_jobs(out: Path, side: list[str], records: dict, todo: list[st
 
 def _write_run_yaml(out, records, inp, config, ctx, write_result) -> None:
     body = {"stages": [r.to_yaml() for r in records], "synthetic": bool(ctx["synthetic"]),
+            "synthetic_stamp": ctx.get("stamp"),
             "data_logs": ctx["data_logs"],
             "test_sets": {s: [str(p) for p in v] for s, v in inp.test_sets.items()},
             "note": "seconds are wall-clock times on this machine; every other number is reproducible from the inputs"}

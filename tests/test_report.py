@@ -532,3 +532,19 @@ def test_report_on_a_control_folder_reads_it_as_control(tmp_path):
     assert r.exit_code == 0 and "no column model" not in r.output, r.output
     md = (tmp_path / "ctl" / "report.md").read_text()
     assert "## Closed-loop control" in md and "Control (closed loop" in md
+
+
+def test_the_study_s_synthetic_wording_is_recorded_and_kept_wherever_the_report_is_made(study, tmp_path, monkeypatch):
+    """The small study's motion logs say 'synthetic: true (test twin)', not the twin's words: the run records its
+    stamp in run.yaml, and the report, made again from another folder (the inputs' relative paths then resolve
+    nowhere), still says 'their own headers' and never 'made by bpmid's digital twin'."""
+    import yaml
+
+    run = yaml.safe_load((study / "run.yaml").read_text())
+    assert run["synthetic_stamp"] == "synthetic data (the logs' own headers say so)"
+    d = tmp_path / "copy"
+    shutil.copytree(study, d)
+    monkeypatch.chdir(tmp_path)
+    assert runner.invoke(app, ["report", str(d)]).exit_code == 0
+    md = (d / "report.md").read_text()
+    assert "synthetic (their own headers say so)" in md and "made by bpmid's digital twin" not in md

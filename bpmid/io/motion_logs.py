@@ -321,9 +321,42 @@ def synthetic_note(logs: Sequence[MotionLog]) -> str | None:
 
     def twin(lg: MotionLog) -> bool:   # the twin's own words (bpmid simulate writes them), not any 'twin'
         meta = " ".join(f"{k} {v}" for k, v in (lg.meta or {}).items()).lower()
-        return ("bpmid digital twin" in meta or "bpmid simulate" in meta
-                or (lg.path is not None and _in_shipped_datasets(lg.path)))
+        return any(w in meta for w in TWIN_WORDS) or (lg.path is not None and _in_shipped_datasets(lg.path))
     return TWIN_NOTE if all(twin(lg) for lg in logs) else "synthetic data (the logs' own headers say so)"
+
+
+#: words only the twin writes in a file's header (bpmid simulate); 'twin' alone is anyone's
+TWIN_WORDS = ("bpmid digital twin", "bpmid simulate")
+
+
+def _header_text(path: str | Path) -> str | None:
+    """The '#' lines among a file's first 40 lines, lower case; None when it cannot be read."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            return " ".join(ln for ln in (fh.readline() for _ in range(40)) if ln.lstrip().startswith("#")).lower()
+    except OSError:
+        return None
+
+
+def file_is_twin(path: str | Path) -> bool | None:
+    """A synthetic file the twin made (its own words, or bpmid's shipped datasets folder): True; another
+    generator's: False; a file that cannot be read: None (not known)."""
+    if _in_shipped_datasets(path):
+        return True
+    head = _header_text(path)
+    return None if head is None else any(w in head for w in TWIN_WORDS)
+
+
+def stamp_for_files(paths) -> str | None:
+    """The figure stamp of data files: None when none is synthetic, the twin's words when every one is the twin's,
+    'partly synthetic: k of n' for a mix, else the logs' own. One rule with :func:`synthetic_note`."""
+    paths = list(paths)
+    syn = [p for p in paths if file_is_synthetic(p)]
+    if not syn:
+        return None
+    if len(syn) < len(paths):
+        return f"partly synthetic: {len(syn)} of {len(paths)} logs"
+    return TWIN_NOTE if all(file_is_twin(p) for p in syn) else "synthetic data (the logs' own headers say so)"
 
 
 def _in_shipped_datasets(path: str | Path) -> bool:

@@ -253,10 +253,11 @@ def motion_fit_warnings(result) -> list[str]:
                    f"--angle-unit against the rig) or the wrong column (--columns)")
     rej = (getattr(result, "linear", None) or {}).get("holds_rejected")
     if rej:
-        out.append(f"the motion logs reject the relaxation test's values for the constants they do not determine "
+        out.append(f"the motion logs reject the starting values (the relaxation fit's, or the paper's without one) "
+                   f"for the constants they do not determine "
                    f"({', '.join(rej['held'])}): held there, the fit stayed at {rej['rmse_held_deg']:.3g} deg against "
                    f"{rej['rmse_free_deg']:.3g} deg with them free, so they are estimated and marked not identifiable; "
-                   f"their values mean little on their own. The relaxation fit and these logs disagree: another "
+                   f"their values mean little on their own. The starting values and these logs disagree: another "
                    f"material, a unit slip, or a term the logs see otherwise (fewer terms, relax.terms, or "
                    f"motion.fixed, bring the fit back to constants the logs determine)")
     free = set(getattr(result.fit, "free_names", ()))

@@ -80,7 +80,7 @@ def make_figures(st: Study, drawn: dict[str, str] | None = None) -> dict[str, st
     this study's files (:func:`stage_figures`), used as they are."""
     figs: dict[str, str] = dict(drawn or {})
     if st.relax is not None and "modulus" not in figs:
-        figs.update(relax_figures(st.root, st.relax, st.synthetic))
+        figs.update(relax_figures(st.root, st.relax, st.stamp))
     if st.compare is not None and not {"bands", "residuals"} & set(figs):
-        figs.update(compare_figures(st.root, st.compare, st.synthetic))
+        figs.update(compare_figures(st.root, st.compare, st.stamp))
     return figs

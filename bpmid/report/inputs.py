@@ -141,6 +141,8 @@ class RunInfo:
     test_sets: dict
     #: run.yaml's data_logs: {total, synthetic, synthetic_files (when some, not all, are)}; {} from older runs
     data_logs: dict = dataclasses.field(default_factory=dict)
+    #: run.yaml's synthetic_stamp: the figures' stamp in the logs' own words (None: measured, or an older run)
+    stamp: str | None = None
 
     def status(self, stage: str) -> str | None:
         for s in self.stages:
@@ -361,31 +363,37 @@ class Study:
         return out
 
     def made_by_twin(self) -> bool:
-        """True when every data file of the study that says it is synthetic says bpmid's twin made it (its own
-        words, or bpmid's shipped datasets folder); False when another generator made one (a user's own)."""
-        from bpmid import data
-        from bpmid.io.motion_logs import _in_shipped_datasets
+        """True when the study's synthetic logs are all the twin's: run.yaml's recorded stamp says so, else every
+        input file that says it is synthetic is the twin's by :func:`bpmid.io.motion_logs.file_is_twin`. A file
+        that cannot be found (paths recorded relative to another folder) is not claimed for the twin."""
+        from bpmid.io.motion_logs import TWIN_NOTE, file_is_synthetic, file_is_twin
 
+        if self.run is not None and self.run.stamp is not None:
+            return self.run.stamp == TWIN_NOTE
         for path in self.inputs():
             f = Path(path)
             if f.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat"):
                 continue
-            if not f.is_absolute():   # recorded relative to where the run ran: the study's folder's side or cwd
-                for base in (Path.cwd(), self.root.parent, self.root, data.root()):
-                    if (base / f).is_file():
-                        f = base / f
-                        break
-            if _in_shipped_datasets(f):
-                continue
-            try:
-                with open(f, encoding="utf-8", errors="replace") as fh:
-                    head = " ".join(ln for ln in (fh.readline() for _ in range(30)) if ln.lstrip().startswith("#"))
-            except OSError:
-                continue
-            low = head.lower()
-            if "synthetic" in low and "bpmid digital twin" not in low and "bpmid simulate" not in low:
+            if not f.is_absolute() and not f.is_file():
+                cfg = _dict(_dict(self.run.provenance if self.run else {}).get("config")).get("path")
+                bases = [Path(cfg).parent] if cfg else []
+                f = next((b / f for b in bases if (b / f).is_file()), f)
+            if not f.is_file():
+                return False
+            if file_is_synthetic(f) and not file_is_twin(f):
                 return False
         return True
+
+    @property
+    def stamp(self):
+        """What figures drawn from this study's logs are stamped with: run.yaml's record, else from the flag."""
+        from bpmid.io.motion_logs import TWIN_NOTE
+
+        if self.run is not None and self.run.stamp is not None:
+            return self.run.stamp
+        if not self.synthetic:
+            return None
+        return TWIN_NOTE if self.made_by_twin() else "synthetic data (the logs' own headers say so)"
 
     def data_origins(self) -> list[str]:
         """What made the synthetic data logs, read from their own header lines: one entry per protocol with its
@@ -405,6 +413,10 @@ class Study:
                 continue
             proto = re.search(r"protocol[:\s]+([A-Za-z0-9_.\-]+)", head)
             if proto is None or "synthetic" not in head.lower() and "generator" not in head.lower():
+                continue
+            from bpmid.io.motion_logs import file_is_twin
+
+            if not file_is_twin(f):   # another generator's protocol line is not bpmid simulate's
                 continue
             name = proto.group(1).rstrip(").,;")
             groups.setdefault(name, set()).update(int(x) for x in re.findall(r"seed[:\s]+(\d+)", head))
@@ -437,8 +449,9 @@ def load_run(rd: _Reader) -> RunInfo | None:
         stages.append(StageRecord(str(s.get("name", "?")), str(s.get("status", "?")), _num(s.get("seconds")),
                                   [str(o) for o in _list(s.get("outputs"))], str(s.get("note") or "")))
     syn = d.get("synthetic")
+    stamp = d.get("synthetic_stamp")
     return RunInfo(stages, None if syn is None else bool(syn), _dict(d.get("provenance")), _dict(d.get("test_sets")),
-                   _dict(d.get("data_logs")))
+                   _dict(d.get("data_logs")), str(stamp) if isinstance(stamp, str) else None)
 
 
 def load_relax(rd: _Reader) -> RelaxInfo | None:

@@ -467,7 +467,7 @@ class MotionFit:
             if p.name in self.fit.held:
                 out[p.name] = f"not identifiable: {self.fit.held[p.name]}; held at prior value {p.value:.6g} {p.unit}"
             elif p.name in self.fit.free_names and p.identifiable is False:   # estimated, not held (its note)
-                out[p.name] = (p.note or "not identifiable").replace("not identifiable: ", "not identifiable, estimated: ", 1)
+                out[p.name] = p.note or "not identifiable; estimated, not held"
             elif p.name in self.fit.free_names:
                 out[p.name] = "estimated"
             else:

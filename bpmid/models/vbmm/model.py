@@ -71,7 +71,7 @@ class Geometry:
         if self.th > 0.05 or self.R0 > 0.5 or self.l0 > 5.0:
             raise InputError("geometry is in metres (th, R0, l0); the values look like millimetres: give them as "
                              "th_mm, R0_mm, l0_mm (and alpha0_deg) to state mm and deg", path=path, key=where)
-        if self.th < 5e-5 or self.R0 < 5e-4 or self.l0 < 5e-3:   # under 0.05 mm wall, 0.5 mm radius, 5 mm length
+        if self.th < 2e-5 or self.R0 < 1e-4 or self.l0 < 2e-3:   # under 0.02 mm wall, 0.1 mm radius, 2 mm length
             raise InputError(f"geometry too small for a muscle (th {self.th * 1e3:.4g} mm, R0 {self.R0 * 1e3:.4g} mm, "
                              f"l0 {self.l0 * 1e3:.4g} mm): metres given under the _mm keys? th_mm, R0_mm and l0_mm "
                              f"take millimetres (R0_mm: 16.73), th, R0 and l0 take metres (R0: 0.01673)",

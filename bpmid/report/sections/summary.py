@@ -36,7 +36,7 @@ def build(doc, st, figs) -> None:
         who = "made by bpmid's digital twin" if st.made_by_twin() else "synthetic (their own headers say so)"
         doc.p(f"Data: SYNTHETIC. Every log of this study was {who}; the numbers below are "
               "bpmid's results on those logs, not measurements of a real muscle.", css="verdict")
-        origins = st.data_origins()
+        origins = st.data_origins()   # the twin's files only (a user's '# protocol:' line is not bpmid's)
         if origins:   # the config and seed that made them, as each log's header states them
             doc.p("Made by bpmid simulate from the protocols (configs/datasets/<protocol>.yaml for the shipped "
                   "ones; each log's header and its folder's manifest.yaml give the rest): " + "; ".join(origins)
