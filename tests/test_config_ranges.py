@@ -120,12 +120,17 @@ def test_a_relaxation_log_cut_to_its_hold_is_pointed_to_step_mode(tmp_path):
     assert r.exit_code == 0, r.output
 
 
-def test_a_negative_lower_bound_of_a_modulus_is_refused(tmp_path):
-    cfg = tmp_path / "b.yaml"
-    cfg.write_text("motion:\n  bounds:\n    K_inf: [-1.0e6, 1.0e9]\n")
+@pytest.mark.parametrize("text, key, words", [
+    ("motion:\n  bounds:\n    K_inf: [-1.0e6, 1.0e9]\n", "motion.bounds.K_inf", ">= 0"),
+    # metres under the mm keys fitted at exit 0 with a 10 um radius
+    ("model:\n  geometry: {th_mm: 0.0015, alpha0_deg: 25, R0_mm: 0.01, l0_mm: 0.12, n: 5}\n", "model.geometry",
+     "too small for a muscle")])
+def test_a_motion_fit_setting_out_of_its_meaning_is_refused(tmp_path, text, key, words):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(text)
     r = runner.invoke(app, ["fit", "motion", str(REPO / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv"),
                             "--config", str(cfg), "--out", str(tmp_path / "m.yaml")])
-    assert r.exit_code == 2 and "motion.bounds.K_inf" in r.output and ">= 0" in r.output, r.output
+    assert r.exit_code == 2 and key in r.output and words in r.output, r.output
 
 
 def test_the_specimen_that_made_stress_and_strain_is_recorded(tmp_path):

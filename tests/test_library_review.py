@@ -21,12 +21,17 @@ def _arrays(n=600, dt=0.1):
     return t, p, 20.0 + 60.0 * (p - 0.2)
 
 
-def test_saving_a_prediction_never_replaces_a_file_bpmid_did_not_write(tmp_path):
+def _prediction():
+    """A prediction of log 'm' by a VBMM fitted on it (warnings of the fit silenced)."""
     t, p, a = _arrays()
     lg = bpmid.from_arrays(t, p, a, pressure_unit="bar", reference="gauge", name="m")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        pred = bpmid.predict([lg], bpmid.fit_motion([lg]))
+        return bpmid.predict([lg], bpmid.fit_motion([lg]))
+
+
+def test_saving_a_prediction_never_replaces_a_file_bpmid_did_not_write(tmp_path):
+    pred = _prediction()
     folder = tmp_path / "clash"
     folder.mkdir()
     (folder / "m.csv").write_text("user raw data\n")
@@ -81,11 +86,7 @@ def test_compare_warnings_reach_the_caller_and_its_warnings(tmp_path):
 
 
 def test_a_folder_result_refuses_a_file_path(tmp_path):
-    t, p, a = _arrays()
-    lg = bpmid.from_arrays(t, p, a, pressure_unit="bar", reference="gauge", name="m")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        pred = bpmid.predict([lg], bpmid.fit_motion([lg]))
+    pred = _prediction()
     with pytest.raises(bpmid.InputError, match="is a folder"):
         pred.save(tmp_path / "pred.yaml")
     assert not (tmp_path / "pred.yaml").exists()

@@ -98,15 +98,6 @@ def test_fit_motion_refuses_a_plot_path_no_figure_format_has_before_fitting(tmp_
     assert not (tmp_path / "f.yaml").exists()
 
 
-def test_metres_under_the_mm_keys_are_refused(tmp_path):
-    """th_mm 0.0015, R0_mm 0.01, l0_mm 0.12 (metres under the mm keys) fitted at exit 0 with a 10 um radius."""
-    cfg = tmp_path / "si.yaml"
-    cfg.write_text("model:\n  geometry: {th_mm: 0.0015, alpha0_deg: 25, R0_mm: 0.01, l0_mm: 0.12, n: 5}\n")
-    r = runner.invoke(app, ["fit", "motion", str(REPO / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv"),
-                            "--config", str(cfg), "--out", str(tmp_path / "m.yaml")])
-    assert r.exit_code == 2 and "too small for a muscle" in r.output and "model.geometry" in r.output, r.output
-
-
 def test_the_report_summary_cautions_control_runs_that_do_not_track():
     import pandas as pd
 
