@@ -4,7 +4,7 @@ other: every test after that reads the kernels from the cache. Without it both w
 when their first tests needed them, each for itself (about 15 s of compiling each, on a fresh clone). It decides
 nothing: a kernel not cached here is compiled by the worker that needs it, as before.
 
-``loop``: the closed loop (13 s to compile) and the baselines' recursions; ``open``: the VBMM forward kernel in
+``loop``: the closed loop (7-9 s to compile) and the baselines' recursions; ``open``: the VBMM forward kernel in
 every mode, the catalogue's effects and the rivals, the relaxation fit's hereditary kernels."""
 from __future__ import annotations
 

@@ -101,7 +101,8 @@ def pytest_configure_node(node):
 @pytest.hookimpl(tryfirst=True)
 def pytest_sessionstart(session):
     """On each xdist worker (``-n 2``), compile half of the kernels most tests use into numba's shared cache
-    (``tests/_warm_numba.py``: gw0 the closed loop and the baselines, gw1 the open-loop VBMM and the effects),
+    (``tests/_warm_numba.py``: gw0 the closed loop and the baselines, gw1 the open-loop VBMM, the effects, the
+    rivals and the relaxation kernels),
     then wait for the other half, so that no test compiles a kernel the other worker compiles too. It decides
     nothing: a kernel left out is compiled where it is needed, and the wait ends after 120 s whatever happens."""
     wi = getattr(session.config, "workerinput", None)
