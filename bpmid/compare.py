@@ -661,7 +661,7 @@ def compare_files(train_paths: Sequence[Path], test_sets: Mapping[str, Sequence[
     inputs = list(train_paths) + all_test_paths + ([Path(relax_fit)] if relax_fit is not None else [])
     from bpmid.io import plausibility as plaus
     warnings = plaus.log_warnings(train + test) + plaus.compare_warnings(result.summary)
-    plaus.emit(warnings, strict=io_cfg.strict, what="the comparison")
+    plaus.emit(warnings, strict=io_cfg.strict, what="the comparison", key=plaus.strict_key(io_cfg))
     prov = plaus.attach(provenance(inputs, config=config, command=prov_command), train + test, warnings)
     return result, prov, {"relax_fit": relax_fit, "n_figure_logs": cfg.figure_logs}
 

@@ -400,7 +400,8 @@ def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     from bpmid.plots.common import figure_path
 
     warnings = plaus.reader_warnings(logs) + plaus.motion_fit_warnings(mf)
-    plaus.emit(warnings, strict=config.section("io").strict, what=str(out / "vbmm_fit.yaml"))
+    plaus.emit(warnings, strict=config.section("io").strict, what=str(out / "vbmm_fit.yaml"),
+               key=plaus.strict_key(config.section("io")))
     fig = figure_path(out / "vbmm_fit.png")
     deferred = ctx.get("deferred")
     write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings),

@@ -151,3 +151,17 @@ def test_the_specimen_that_made_stress_and_strain_is_recorded(tmp_path):
     spec = body["provenance"]["reading"]["machine"]["specimen"]
     assert spec["gauge_length_mm"] == 50 and spec["cross_section_mm2"] == 12
     assert spec["from"] == {"gauge_length_mm": "file header", "cross_section_mm2": "config relax.specimen"}
+
+
+def test_a_refusal_under_strict_names_where_strict_came_from(tmp_path):
+    """io.strict in a config was refused under the key '--strict', a flag the user never gave."""
+    rows = (REPO / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv").read_text().splitlines()
+    ms = tmp_path / "ms.csv"   # times in ms under a seconds header: a warning
+    ms.write_text("\n".join(r if not r[:1].isdigit() else ",".join([f"{float(r.split(',')[0]) * 1000:g}"]
+                                                                    + r.split(",")[1:]) for r in rows) + "\n")
+    cfg = tmp_path / "strict.yaml"
+    cfg.write_text("io:\n  strict: true\n")
+    r = runner.invoke(app, ["fit", "motion", str(ms), "--config", str(cfg), "--out", str(tmp_path / "a.yaml")])
+    assert r.exit_code == 2 and "key 'io.strict'" in r.output and "set io.strict: false" in r.output, r.output
+    r = runner.invoke(app, ["fit", "motion", str(ms), "--strict", "--out", str(tmp_path / "b.yaml")])
+    assert r.exit_code == 2 and "key '--strict'" in r.output and "leave out --strict" in r.output, r.output

@@ -132,6 +132,7 @@ class LogOptions:
             stated["max_gap_s"] = "--max-gap"
         if self.strict:
             changes["strict"] = True
+            stated["strict"] = "--strict"
         if not changes:
             return cfg
         changes["stated_by"] = stated

@@ -77,7 +77,8 @@ def discover_cmd(
     ho_logs = read_motion_logs(ho_paths, cfg.section("io"), require_angle=True) if ho_paths else None
     all_logs = fit_logs + (ho_logs or [])
     warnings = plaus.log_warnings(all_logs)
-    plaus.emit(warnings, strict=cfg.section("io").strict, what=str(out))
+    plaus.emit(warnings, strict=cfg.section("io").strict, what=str(out),
+               key=plaus.strict_key(cfg.section("io")))
     ambient = plaus.assumed_ambient_note(all_logs)
     if ambient:
         typer.echo("note: " + ambient, err=True)

@@ -60,7 +60,7 @@ def fit_motion_command(
             typer.echo("note: " + extra, err=True)
     from bpmid.io import plausibility as plaus
 
-    plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out))
+    plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out), key=plaus.strict_key(cfg.io))
     ambient = plaus.assumed_ambient_note(result.raw.logs)
     if ambient:
         typer.echo("note: " + ambient, err=True)

@@ -39,7 +39,7 @@ def predict_command(
     result = predict(paths, params, config=cfg)
     from bpmid.io import plausibility as plaus
 
-    plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out))
+    plaus.emit(result.warnings, strict=cfg.io.strict, what=str(out), key=plaus.strict_key(cfg.io))
     ambient = plaus.assumed_ambient_note([q.log for q in result.raw])
     if ambient:
         typer.echo("note: " + ambient, err=True)

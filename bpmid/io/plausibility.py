@@ -390,7 +390,12 @@ def reading_block(logs: Iterable) -> dict:
     return {str(lg.name): dict(getattr(lg, "reading", {}) or {}) for lg in logs}
 
 
-def emit(warnings: Sequence[str], *, strict: bool = False, what: str = "the result") -> None:
+def strict_key(io_cfg) -> str:
+    """Where the refusal of warnings came from: the ``--strict`` flag, or ``io.strict`` of the config."""
+    return (getattr(io_cfg, "stated_by", None) or {}).get("strict", "io.strict")
+
+
+def emit(warnings: Sequence[str], *, strict: bool = False, what: str = "the result", key: str = "--strict") -> None:
     """Print each warning on stderr (a command), or give it to a library caller as a :class:`bpmid.BpmidWarning`
     (which Python's warning filters then handle); with ``strict``, refuse (exit 2) before anything is written."""
     from bpmid.errors import _IN_COMMAND, warn_caller
@@ -402,9 +407,9 @@ def emit(warnings: Sequence[str], *, strict: bool = False, what: str = "the resu
             print(f"warning: {w}", file=sys.stderr, flush=True)
     if strict and warnings:
         more = f" (and {len(warnings) - 1} more above)" if len(warnings) > 1 else ""
-        raise InputError(f"{what} was not written: {len(warnings)} warning(s) refused by --strict{more}; the "
-                         f"first: {warnings[0]} (fix the input, or leave out --strict to write with the warnings)",
-                         key="--strict")
+        undo = "leave out --strict" if key == "--strict" else f"set {key}: false"
+        raise InputError(f"{what} was not written: {len(warnings)} warning(s) refused by {key}{more}; the "
+                         f"first: {warnings[0]} (fix the input, or {undo} to write with the warnings)", key=key)
 
 
 def attach(prov: dict, logs: Iterable, warnings: Sequence[str]) -> dict:

@@ -352,7 +352,7 @@ def _fit_material(paths, material, config, *, terms, mode, poisson, max_error_pc
     checks = ([w for d in datas for w in d.warnings] + list(getattr(mf, "checks", []))
               + plaus.poisson_warnings(mf.fit, nu, stated=poisson is not None or cfg.poisson != PAPER_POISSON))
     if checks and config.section("io").strict:
-        plaus.emit(checks, strict=True, what="the relaxation fit")
+        plaus.emit(checks, strict=True, what="the relaxation fit", key=plaus.strict_key(config.section("io")))
     mf.fit.warnings = list(mf.fit.warnings) + [w for w in checks if w not in mf.fit.warnings]
     inputs = paths + ([Path(shift)] if shift is not None else [])
     prov = provenance(inputs, config=config)
@@ -420,7 +420,7 @@ def fit_relax_files(logs: Sequence[str | Path], *, terms: str | int | None = Non
     checks = (plaus.reader_warnings(records) + plaus.relax_warnings(records, fit)
               + plaus.poisson_warnings(fit, nu, stated=poisson is not None or cfg.poisson != PAPER_POISSON))
     if checks and config.section("io").strict:  # --strict: refuse before anything is written
-        plaus.emit(checks, strict=True, what="the relaxation fit")
+        plaus.emit(checks, strict=True, what="the relaxation fit", key=plaus.strict_key(config.section("io")))
     fit.warnings = list(fit.warnings) + checks
     prov = plaus.attach(provenance(paths, config=config), records, checks)
     synthetic = any((str(r.meta.get("synthetic", "")).lower().replace("(", " ").split() or [""])[0] in ("true", "yes", "1")
