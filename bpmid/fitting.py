@@ -314,7 +314,7 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
         free = current.free()
         if not free:
             r = np.asarray(residual_fn(current), float)
-            if prior_from_data and last is not None and last[0] not in at_fit and _hold_rejected(r, last[2]):
+            if prior_from_data and last is not None and last[0] not in at_fit and hold_rejected(r, last[2]):
                 current = _hold_at_fit(current, last, r, at_fit, held)
                 continue
             res = FitResult(_held_notes(current, held, at_fit), [], np.zeros((0, 0)), np.zeros((0, 0)), r, r.size,
@@ -336,7 +336,7 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
                                 max_nfev=max_nfev, diff_step=diff_step, xtol=xtol, ftol=ftol, gtol=1e-10)
         fitted = current.with_free_vector(sol.x)
         r = sol.fun
-        if prior_from_data and last is not None and last[0] not in at_fit and _hold_rejected(r, last[2]):
+        if prior_from_data and last is not None and last[0] not in at_fit and hold_rejected(r, last[2]):
             current = _hold_at_fit(current, last, r, at_fit, held)
             continue
         n_eff = effective_sample_size(r, segments)
@@ -381,7 +381,7 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
 HOLD_LR_MAX = 10.83
 
 
-def _hold_rejected(r_held: np.ndarray, before: tuple[float, float, int]) -> bool:
+def hold_rejected(r_held: np.ndarray, before: tuple[float, float, int]) -> bool:
     """True when holding a parameter at its prior raised the fit error by more than the data allow: a
     correlated parameter's prior (often an equation-error start) can sit far off the ridge its partner follows,
     and the refit cannot make up for it (a two-branch rational fit went from 0.5 to 7 deg that way)."""

@@ -329,11 +329,11 @@ def synthetic_note(logs: Sequence[MotionLog]) -> str | None:
 TWIN_WORDS = ("bpmid digital twin", "bpmid simulate")
 
 
-def _header_text(path: str | Path) -> str | None:
-    """The '#' lines among a file's first 40 lines, lower case; None when it cannot be read."""
+def header_lines(path: str | Path) -> list[str] | None:
+    """The '#' lines among a file's first 40 lines; None when it cannot be read."""
     try:
         with open(path, encoding="utf-8", errors="replace") as fh:
-            return " ".join(ln for ln in (fh.readline() for _ in range(40)) if ln.lstrip().startswith("#")).lower()
+            return [ln for ln in (fh.readline() for _ in range(40)) if ln.lstrip().startswith("#")]
     except OSError:
         return None
 
@@ -343,8 +343,8 @@ def file_is_twin(path: str | Path) -> bool | None:
     generator's: False; a file that cannot be read: None (not known)."""
     if _in_shipped_datasets(path):
         return True
-    head = _header_text(path)
-    return None if head is None else any(w in head for w in TWIN_WORDS)
+    head = header_lines(path)
+    return None if head is None else any(w in " ".join(head).lower() for w in TWIN_WORDS)
 
 
 def stamp_for_files(paths) -> str | None:
@@ -377,17 +377,11 @@ def file_is_synthetic(path: str | Path) -> bool:
     ``# synthetic: true`` line or a ``# source:``/``# generator:`` line naming bpmid's twin among its first comment
     lines, else a file in bpmid's own shipped ``datasets`` folder (not ``reference``)."""
     path = Path(path)
-    try:
-        with open(path, encoding="utf-8", errors="replace") as fh:
-            head = [fh.readline() for _ in range(40)]
-    except OSError:
-        head = []
     pairs = []
-    for line in head:
-        if line.lstrip().startswith("#"):
-            key, sep, val = line.strip().lstrip("#").strip().partition(":")
-            if sep:
-                pairs.append((key, val))
+    for line in header_lines(path) or []:
+        key, sep, val = line.strip().lstrip("#").strip().partition(":")
+        if sep:
+            pairs.append((key, val))
     said = _header_says_synthetic(pairs)
     return said if said is not None else _in_shipped_datasets(path)
 

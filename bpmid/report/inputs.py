@@ -363,42 +363,39 @@ class Study:
         return out
 
     def made_by_twin(self) -> bool:
-        """True when the study's synthetic logs are all the twin's: run.yaml's recorded stamp says so, else every
-        input file that says it is synthetic is the twin's by :func:`bpmid.io.motion_logs.file_is_twin`. A file
-        that cannot be found (paths recorded relative to another folder) is not claimed for the twin."""
-        from bpmid.io.motion_logs import TWIN_NOTE, file_is_synthetic, file_is_twin
+        """True when the study's logs are synthetic and all the twin's (:attr:`stamp`)."""
+        from bpmid.io.motion_logs import TWIN_NOTE
 
-        if self.run is not None and self.run.stamp is not None:
-            return self.run.stamp == TWIN_NOTE
-        for path in self.inputs():
-            f = Path(path)
-            if f.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat"):
-                continue
-            if not f.is_absolute() and not f.is_file():
-                cfg = _dict(_dict(self.run.provenance if self.run else {}).get("config")).get("path")
-                bases = [Path(cfg).parent] if cfg else []
-                f = next((b / f for b in bases if (b / f).is_file()), f)
-            if not f.is_file():
-                return False
-            if file_is_synthetic(f) and not file_is_twin(f):
-                return False
-        return True
+        return self.stamp == TWIN_NOTE
 
     @property
     def stamp(self):
-        """What figures drawn from this study's logs are stamped with: run.yaml's record, else from the flag."""
-        from bpmid.io.motion_logs import TWIN_NOTE
+        """What figures drawn from this study's logs are stamped with: run.yaml's record; else, for a synthetic
+        study, the twin's words when every input file that says it is synthetic is the twin's
+        (:func:`bpmid.io.motion_logs.file_is_twin`; a file that cannot be found is not claimed for the twin)."""
+        from bpmid.io.motion_logs import TWIN_NOTE, file_is_synthetic, file_is_twin
 
         if self.run is not None and self.run.stamp is not None:
             return self.run.stamp
         if not self.synthetic:
             return None
-        return TWIN_NOTE if self.made_by_twin() else "synthetic data (the logs' own headers say so)"
+        cfg = _dict(_dict(self.run.provenance if self.run else {}).get("config")).get("path")
+        for path in self.inputs():
+            f = Path(path)
+            if f.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat"):
+                continue
+            if not f.is_absolute() and not f.is_file() and cfg and (Path(cfg).parent / f).is_file():
+                f = Path(cfg).parent / f   # recorded relative to the config's folder
+            if not f.is_file() or (file_is_synthetic(f) and not file_is_twin(f)):
+                return "synthetic data (the logs' own headers say so)"
+        return TWIN_NOTE
 
     def data_origins(self) -> list[str]:
         """What made the synthetic data logs, read from their own header lines: one entry per protocol with its
         seeds (``protocol fitting_set, seeds 1001-1004 (4 logs)``); logs that say nothing are not listed."""
         import re
+
+        from bpmid.io.motion_logs import file_is_twin, header_lines
 
         groups: dict[str, set[int]] = {}
         counts: dict[str, int] = {}
@@ -406,16 +403,13 @@ class Study:
             f = Path(path)
             if f.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat") or not f.is_file():
                 continue
-            try:
-                with open(f, encoding="utf-8", errors="replace") as fh:
-                    head = " ".join(ln for ln in (fh.readline() for _ in range(30)) if ln.lstrip().startswith("#"))
-            except OSError:
+            lines = header_lines(f)
+            if lines is None:
                 continue
+            head = " ".join(lines)
             proto = re.search(r"protocol[:\s]+([A-Za-z0-9_.\-]+)", head)
             if proto is None or "synthetic" not in head.lower() and "generator" not in head.lower():
                 continue
-            from bpmid.io.motion_logs import file_is_twin
-
             if not file_is_twin(f):   # another generator's protocol line is not bpmid simulate's
                 continue
             name = proto.group(1).rstrip(").,;")

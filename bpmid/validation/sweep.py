@@ -859,13 +859,9 @@ def closed_paths(values: dict) -> list[str]:
     """What a calibration closed (a threshold at .inf) that the shipped thresholds keep open, in words."""
     import math
 
-    from bpmid.config import read_yaml
-    from bpmid.discover.calibrate import THRESHOLDS_PATH
+    from bpmid.discover.calibrate import load_thresholds
 
-    try:
-        shipped, _sha = read_yaml(THRESHOLDS_PATH)
-    except InputError:
-        return []
+    shipped = load_thresholds()   # the shipped ones
     out = []
     for key, words in _PATHS.items():
         v, s = values.get(key), (shipped or {}).get(key)

@@ -607,19 +607,19 @@ def _unless_holds_rejected(residual, start: ParamSet, res: FitResult, linear: di
                            y: np.ndarray) -> FitResult:
     """``res``, unless holding its not-identifiable constants at the relaxation test's values left it no fit of the
     logs (R^2 below :data:`HELD_R2_MIN`) and far worse than its own start (a likelihood ratio above
-    :data:`bpmid.fitting.HOLD_LR_MAX` on the effective sample size): then the relaxation constants and these logs
+    :func:`bpmid.fitting.hold_rejected`: the fitting driver's own rule): then the relaxation constants and these logs
     disagree (a second Prony term the logs see otherwise, another material, a unit slip; one fit went to 17 deg
     from a 1.3 deg start and was refused as explaining nothing). The constants are then estimated where the data
     put them, each marked not identifiable, and ``linear['holds_rejected']`` says so (a warning of the fit). A
     hold that only costs some accuracy (a one-log fit) stays: the relaxation values are the better constants."""
-    from bpmid.fitting import HOLD_LR_MAX, fit_least_squares
+    from bpmid.fitting import fit_least_squares, hold_rejected
 
     sse_start = (linear.get("multi_start") or {}).get("sse_chosen_deg2")
     sse_res = float(res.residual @ res.residual)
     sst = float(np.sum((y - np.mean(y)) ** 2)) if y.size else 0.0
     if not (kw.get("check_identifiability") and res.held and sse_start and sst > 0
-            and sse_res > (1.0 - HELD_R2_MIN) * sst and sse_res > sse_start
-            and max(res.n_eff, 1.0) * math.log(sse_res / sse_start) > HOLD_LR_MAX):
+            and sse_res > (1.0 - HELD_R2_MIN) * sst
+            and hold_rejected(res.residual, (sse_start, res.n_eff, res.residual.size))):
         return res
     free = fit_least_squares(residual, start, **{**kw, "check_identifiability": False})
     sse_free = float(free.residual @ free.residual)

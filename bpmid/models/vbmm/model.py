@@ -440,14 +440,8 @@ class VBMM:
 
     def equilibrium_pressure(self, beta_rad) -> np.ndarray:
         """Relaxed-equilibrium gauge pressure (Pa) for a held angle (long-term moduli only)."""
-        beta_rad = np.atleast_1d(np.asarray(beta_rad, float))
-        u3 = u3_from_beta(beta_rad, self.geometry)
-        kin = kinematics(u3, self.geometry)
-        m = self.material
-        e1, e2 = kin["eps1"], kin["eps2"]
-        lam = (m.K_inf - 2.0 / 3.0 * m.G_inf) * (e1 + e2)
-        s = 1.0 + self.stiffening * e1**2
-        return closure_pressure(u3, s * (2 * m.G_inf * e1 + lam), s * (2 * m.G_inf * e2 + lam), self.geometry, self.closure)
+        return relaxed_pressure(np.atleast_1d(np.asarray(beta_rad, float)), self.geometry, self.closure,
+                                self.material.G_inf, self.material.K_inf, self.stiffening)
 
     def equilibrium_angle(self, p_gauge_pa) -> np.ndarray:
         """Relaxed-equilibrium angle (rad) for held gauge pressures (Pa), by the same compiled solve."""
@@ -458,23 +452,29 @@ class VBMM:
         return np.array([relaxed.forward(np.zeros(1), np.array([pk]))[0] for pk in p])
 
 
+def relaxed_pressure(beta: np.ndarray, geometry: "Geometry", closure: str, G_inf: float, K_inf: float,
+                     stiffening: float = 0.0) -> np.ndarray:
+    """Gauge pressure (Pa) that holds the bends ``beta`` (rad) with long-term moduli only (relaxed equilibrium)."""
+    u3 = u3_from_beta(beta, geometry)
+    kin = kinematics(u3, geometry)
+    e1, e2 = kin["eps1"], kin["eps2"]
+    lam = (K_inf - 2.0 / 3.0 * G_inf) * (e1 + e2)
+    s = 1.0 + stiffening * e1**2
+    return closure_pressure(u3, s * (2 * G_inf * e1 + lam), s * (2 * G_inf * e2 + lam), geometry, closure)
+
+
 @functools.lru_cache(maxsize=512)
 def _negative_bend_pressure(geometry: "Geometry", closure: str):
     """(beta, P) of the first test angle (rad) at which a relaxed, nearly incompressible rubber (K = 1000 G, the
     pressure in units of G) needs a pressure that is not positive to hold the bend, else None.
 
     Some geometries (a radius small against the braid's length and turns: with the paper's l0 and n, R0 6 mm and
-    below, either closure; the wall thickness only scales the pressure) need a negative pressure at every angle, and the forward solve then runs to its 4 pi rad bracket for any pressure. A
-    property of the geometry, not of the fitted constants (a fit may try a compressible rubber on the way).
+    below, either closure; the wall thickness only scales the pressure) need a negative pressure at every angle,
+    and the forward solve then runs to its 4 pi rad bracket for any pressure. A property of the geometry, not of the fitted constants (a fit may try a compressible rubber on the way).
     Cached: a fit makes many models of one geometry."""
     beta = np.array([0.5, 2.0])   # not a tiny bend: near 0 the pressure is near 0, of either sign by rounding
     with np.errstate(all="ignore"):   # an absurd geometry divides by zero here: it is refused, not warned about
-        u3 = u3_from_beta(beta, geometry)
-        kin = kinematics(u3, geometry)
-        e1, e2 = kin["eps1"], kin["eps2"]
-        G, Kb = 1.0, 1000.0
-        lam = (Kb - 2.0 / 3.0 * G) * (e1 + e2)
-        p = closure_pressure(u3, 2 * G * e1 + lam, 2 * G * e2 + lam, geometry, closure)
+        p = relaxed_pressure(beta, geometry, closure, 1.0, 1000.0)
     bad = np.flatnonzero(~(p > 0))
     return None if not bad.size else (float(beta[bad[0]]), float(p[bad[0]]))
 
