@@ -283,11 +283,11 @@ def init_warnings(init, g_inf_pa: float | None = None) -> list[str]:
     body, name = None, "the relaxation fit"
     if isinstance(init, (str, Path)):
         name = f"the relaxation fit {init}"
-        try:
-            import yaml
+        from bpmid.config import read_yaml   # bpmid's one YAML reader
 
-            body = yaml.safe_load(Path(init).read_text(encoding="utf-8"))
-        except (OSError, ValueError, yaml.YAMLError):
+        try:
+            body = read_yaml(Path(init))[0]
+        except InputError:   # the fit itself read it: a file unreadable now says nothing more here
             body = None
     elif isinstance(init, Mapping):
         body = init
