@@ -53,16 +53,35 @@ def test_fit_motion_writes_contract_keys_and_figure(fitted):
     assert d["metrics"]["rmse_deg"] == pytest.approx(0.5, rel=0.1)
     assert {"mape_pct", "r2", "fit_pct", "per_log"} <= set(d["metrics"])
     assert d["uncertainty"]["identifiability"]["K_1"] == "estimated"
-    # G_1, correlated with K_1, is held at the prior: K_1's standard error is conditional on it, and says so
-    assert "conditional on the held G_1" in d["material"]["branches"][0]["K"]["note"]
-    assert d["material"]["branches"][0]["K"]["note"].count("standard error conditional") == 1   # said once
-    assert "conditional on the held G_1" in text
+    # G_1 barely moves the angle (0.0004 deg per 10 %): held at the prior, never reported as estimated
+    g1 = d["material"]["branches"][0]["G"]
+    assert g1["identifiable"] is False and g1["stderr"] is None and g1["value"] == pytest.approx(18300.0)
     assert any("geometry: the paper's" in n for n in d["notes"])   # the default geometry, recorded with the fit
     assert "fitting.csv" in " ".join(d["provenance"]["inputs"])
     assert out.with_suffix(".png").stat().st_size > 10_000
     assert "not identifiable" in text and "RMSE" in text
     # no geometry given: the run says it took the paper's muscle, and how to give another
     assert "note: muscle geometry: the paper's (th 2 mm, alpha0 30 deg" in text and "with --config" in text
+
+
+def test_a_held_constant_s_correlation_is_said_on_the_estimate_in_the_file_and_on_screen(data, tmp_path, monkeypatch):
+    """The CLI carries the fitting driver's caveat to the YAML note and the printed table, once per constant.
+
+    Whether G_1's correlation with K_1 (a constant the angle hardly depends on) passes the 0.9 of
+    ``CONDITIONAL_CORR`` is decided by rounding in its finite-difference column and differs between CPUs; the
+    threshold is lowered here so every held constant links to the estimates, and the path is tested as such."""
+    import bpmid.fitting as fitting
+
+    monkeypatch.setattr(fitting, "CONDITIONAL_CORR", 0.0)
+    out = tmp_path / "VBMM.yaml"
+    res = runner.invoke(app, ["fit", "motion", str(data["fit"]), str(data["tri20"]), "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    d = yaml.safe_load(out.read_text())
+    note = d["material"]["branches"][0]["K"]["note"]
+    assert "standard error conditional on the held" in note and "G_1 (r = " in note
+    assert note.count("standard error conditional") == 1   # a refit says it again in place, never twice
+    k1_line = next(line for line in res.output.splitlines() if line.strip().startswith("K_1 "))
+    assert "(standard error conditional on the held" in k1_line and "G_1" in k1_line
 
 
 def test_the_paper_geometry_is_stated_only_when_it_is_the_one_used():
