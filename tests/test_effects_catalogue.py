@@ -240,3 +240,27 @@ def test_signature_columns_have_one_row_per_sample(eid):
 
 #: effects whose signature is a constant by design (DISCOVER.md: "constant residual component")
 CONSTANT_SIGNATURE = {"angle_offset"}
+
+
+# -- the cached model and material arrays a fit reuses -------------------------------------------
+def test_augmented_model_is_made_once_and_gives_what_a_fresh_one_gives():
+    effect, params = build_effect("second_relaxation", {"weight": 0.3, "tau": 8.0})
+    aug = AugmentedVBMM(BASE, (effect,), params)
+    assert aug.model() is aug.model()                     # one model for every log of an evaluation
+    assert aug.model().material.n_branches == BASE.material.n_branches + 1
+    t, p = triangle(1.2, 2.0, 0.2, 2)
+    fresh = AugmentedVBMM(BASE, (effect,), params)
+    np.testing.assert_array_equal(aug.simulate_deg(t, p), fresh.simulate_deg(t, p))
+    np.testing.assert_array_equal(aug.simulate_deg(t, p), aug.model().forward_deg(t, p))
+
+
+def test_material_arrays_are_its_constants_and_shared_tau_is_tauG():
+    m = BASE.material
+    G, tauG, Kb, tauK = m.arrays
+    assert m.arrays is m.arrays
+    np.testing.assert_array_equal(G, m.G)
+    np.testing.assert_array_equal(Kb, m.K)
+    np.testing.assert_array_equal(tauG, m.tauG)
+    np.testing.assert_array_equal(tauK, m.tauG)   # shared time constants (tauK None)
+    split = m.__class__(m.G_inf, m.K_inf, m.G, m.K, m.tauG, tuple(2 * v for v in m.tauG))
+    np.testing.assert_array_equal(split.arrays[3], 2 * np.asarray(m.tauG))

@@ -267,7 +267,7 @@ class LogNuisance:
         Ms, bs = [], []
         for C, r in zip(Cs, raw):
             ok = np.isfinite(r)
-            Cf, rf = C[ok], r[ok]
+            Cf, rf = (C, r) if ok.all() else (C[ok], r[ok])   # no copies when every sample is finite (a fit's usual case)
             M = Cf.T @ Cf
             M = M + np.eye(k) * (1e-10 * max(float(np.trace(M)), 1e-300))
             Ms.append(M)

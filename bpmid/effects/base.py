@@ -25,6 +25,7 @@ from __future__ import annotations
 import abc
 import copy
 import dataclasses
+import functools
 from typing import ClassVar, Sequence
 
 import numpy as np
@@ -131,7 +132,12 @@ class AugmentedVBMM:
     params: ParamSet = dataclasses.field(default_factory=lambda: ParamSet([]))
 
     def model(self) -> VBMM:
-        """The VBMM with the effects' structural changes applied."""
+        """The VBMM with the effects' structural changes applied (made once per instance: the instance is frozen,
+        and a fit simulates every log with it)."""
+        return self._model
+
+    @functools.cached_property
+    def _model(self) -> VBMM:
         m = self.base
         for e in self.effects:
             changes = e.vbmm_changes(m, self.params)
