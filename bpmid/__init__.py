@@ -54,11 +54,12 @@ _LAZY: dict[str, str] = {
     # workflows
     "fit_relaxation": "bpmid.api:fit_relaxation",
     "fit_motion": "bpmid.api:fit_motion",
-    # these four are also the modules of their science, made callable (see bpmid._callable)
+    # these five are also the modules of their science, made callable (see bpmid._callable)
     "predict": "bpmid.predict",
     "compare": "bpmid.compare",
     "discover": "bpmid.discover",
     "control": "bpmid.control",
+    "export": "bpmid.export",   # the module of the exporters, callable as bpmid.api.export
     "simulate": "bpmid.api:simulate",
     "run_study": "bpmid.api:run_study",
     "load": "bpmid.results:load",

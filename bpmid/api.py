@@ -669,5 +669,52 @@ def run_study(config=None, out=None):
     return load(out_dir)
 
 
+def export(fit, to: str, out, *, model: str | None = None) -> list[Path]:
+    """A fitted model for another tool (``bpmid export``): dependency-free C99 for a real-time controller, or
+    Abaqus/ANSYS/COMSOL material cards of a relaxation fit; written whole or not at all.
+
+    Parameters
+    ----------
+    fit : a fit file (``bpmid.vbmm/1``, ``bpmid.compare/1``, ``bpmid.control/1`` for ``to="c"``; ``bpmid.relax/1``
+        for the FEA cards), or a result loaded from one or saved to one (``bpmid.load``, ``result.save``): the
+        export reads the file, and the generated code names it with its sha256
+    to : "c", "abaqus", "ansys" or "comsol"
+    out : output folder (created; a file in it that bpmid did not write is never replaced)
+    model : for ``to="c"`` of a comparison or control result: "vbmm-fit", "vbmm-mat" or "maxwell-slip"
+
+    Returns
+    -------
+    list of Path : the files written
+    """
+    from bpmid.export import export as _export
+    from bpmid.results import Result
+
+    if isinstance(fit, Result):
+        if fit.source is None:
+            raise InputError(f"this {type(fit).__name__} has no file: the export reads a fit file (its sha256 goes into "
+                             "what it writes); save it first (result.save('fit.yaml')) and export that", key="fit")
+        path = Path(fit.source)
+    elif isinstance(fit, (str, Path)):
+        path = Path(fit)
+    else:
+        raise InputError(f"fit is a fit file's path or a result loaded from one (bpmid.load), not a "
+                         f"{type(fit).__name__}", key="fit")
+    if path.is_dir():
+        from bpmid.export import refuse_folder
+
+        refuse_folder(path)
+    if not path.is_file():
+        raise InputError("fit file not found", path=path, key="fit")
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError("out must be a folder, found a file", path=out, key="out")
+    try:
+        return _export(path, to, out, model=model)
+    except InputError as exc:
+        if exc.key != "--out":
+            raise
+        raise InputError(exc.message, path=exc.path, line=exc.line, key="out") from None   # this call's argument
+
+
 __all__ = ["from_arrays", "read_motion_logs", "read_relax_logs", "fit_relaxation", "fit_motion", "predict",
-           "compare", "discover", "simulate", "control", "run_study"]
+           "compare", "discover", "simulate", "control", "run_study", "export"]

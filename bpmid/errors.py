@@ -28,7 +28,8 @@ _FLAG_NOTE = "from Python, pass these in config={'io': {...}}"
 
 #: command-line options that are arguments of the library's calls under another name (bpmid.compare(models=...))
 _ARG_KEYS = {"--models": "models", "--reference": "reference", "--controllers": "controllers", "--train": "train",
-             "--test": "test", "--relax": "relax", "--holdout": "holdout", "--params": "params", "--init": "init"}
+             "--test": "test", "--relax": "relax", "--holdout": "holdout", "--params": "params", "--init": "init",
+             "--to": "to", "--model": "model"}
 
 
 def _library_words(message: str) -> str:

@@ -201,7 +201,7 @@ def test_bad_input_is_refused_naming_the_key(tmp_path):
     assert "no hyperelastic law and no density" in text and "hybrid (mixed u-P) elements" not in text  # nu 0.45
     with pytest.raises(InputError) as e:
         export_fea(fit_file(tmp_path), "nastran", tmp_path / "fea")
-    assert e.value.key == "--to"
+    assert e.value.key == "to"   # a library call names its argument (the command: --to)
     bad = tmp_path / "badwlf.yaml"
     body = yaml.safe_load(fit_file(tmp_path).read_text())
     body["shift"]["wlf"]["C2"] = "warm"
@@ -221,7 +221,8 @@ def test_export_of_a_real_frequency_fit(repo_root, tmp_path):
     with pytest.warns(UserWarning, match="Poisson's ratio is the default"):   # a glassy polymer: said, and kept
         out, _, mf = run_fit_relax([src], tmp_path / "eplexor.yaml", terms=6, ref_temp=-5.0, figure=False)
     params = load_relax_fit(out)
-    (inp,) = export_fea(out, "abaqus", tmp_path)
+    with pytest.warns(UserWarning, match="eplexor_abaqus.inp: from eplexor.yaml: Poisson's ratio is the default"):
+        (inp,) = export_fea(out, "abaqus", tmp_path)   # the fit's word on nu, said again with the card it shapes
     E0, nu, g, k, tau, wlf = parse_abaqus(inp.read_text())
     t = np.logspace(-12, 12, 49)
     assert np.allclose(E0 * (1 - g.sum() + np.exp(-t[:, None] / tau[None, :]) @ g), E_t(params, t), rtol=1e-9)

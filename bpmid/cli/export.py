@@ -30,6 +30,10 @@ def export_command(
     from bpmid.errors import InputError
     from bpmid.export import TARGETS, export
 
+    if Path(fit).is_dir():
+        from bpmid.export import refuse_folder
+
+        refuse_folder(Path(fit), key=None, what="the fit")
     existing_files([fit], "fit")
     to = to.strip().lower()   # --to Abaqus is abaqus
     if to not in TARGETS:

@@ -30,6 +30,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+import statistics
 from importlib import resources
 from pathlib import Path
 from string import Template
@@ -727,6 +728,62 @@ def _ms_sources(ms: MaxwellSlipMap, meta: dict) -> dict[str, str]:
             "main.c": _template("main.c.in").substitute(subs)}
 
 
+def fit_rig(data: dict) -> tuple[float | None, list[float], bool]:
+    """What a fit file records of the rig its constants belong to: the sampling step of its fitting logs (s; the
+    median over the logs of duration / (samples - 1), None when not recorded), the ambient pressures (Pa) its logs'
+    absolute pressures were turned to gauge with, and whether any log was read as gauge already."""
+    fit = data.get("fit") if isinstance(data.get("fit"), dict) else {}
+    steps = []
+    for lg in fit.get("logs") or ():
+        try:
+            n, dur = int(lg["samples"]), float(lg["duration_s"])
+        except (KeyError, TypeError, ValueError):
+            continue
+        if n > 1 and math.isfinite(dur) and dur > 0:
+            steps.append(dur / (n - 1))
+    prov = data.get("provenance") if isinstance(data.get("provenance"), dict) else {}
+    atm, gauge = set(), False
+    for rd in (prov.get("reading") or {}).values():
+        ref = rd.get("pressure_reference") if isinstance(rd, dict) else None
+        if not isinstance(ref, dict):
+            continue
+        if ref.get("reference") == "absolute" and ref.get("atmosphere_pa") is not None:
+            atm.add(float(ref["atmosphere_pa"]))
+        elif ref.get("reference") == "gauge":
+            gauge = True
+    return (float(statistics.median(steps)) if steps else None), sorted(atm), gauge
+
+
+def rig_defines(data: dict, *, rate_dependent: bool = True) -> str:
+    """The header's lines on the rig the constants belong to (:func:`fit_rig`): ``BPMID_FIT_STEP_S`` and
+    ``BPMID_FIT_ATMOSPHERE_PA`` where the fit file records them, a comment saying so where it does not
+    (``rate_dependent=False``: a rate-independent model, such as Maxwell-slip, says nothing of the step)."""
+    step, atm, gauge = fit_rig(data)
+    out = []
+    if not rate_dependent:
+        pass
+    elif step is not None:
+        out += ["/* The fit's logs were sampled every BPMID_FIT_STEP_S seconds. The hereditary sum takes each pressure",
+                " * step as a jump at its sample, so the constants hold for this step: call the step functions at it (a",
+                " * much faster rate reads the branch moduli differently; the fit file's notes say by how much). */",
+                f"#define BPMID_FIT_STEP_S {float(f'{step:.6g}')!r}"]
+    else:
+        out += ["/* The fit file records no sampling step of its logs (BPMID_FIT_STEP_S is not defined): run the model at",
+                " * the rate of the logs it was fitted on. */"]
+    if len(atm) == 1:
+        out += ["/* Gauge pressure is pressure above this ambient (Pa): the fit turned its logs' absolute pressures to gauge",
+                " * with it; convert a log the same way (pressure_gauge_pa = pressure_abs_pa - BPMID_FIT_ATMOSPHERE_PA). */",
+                f"#define BPMID_FIT_ATMOSPHERE_PA {float(atm[0])!r}"]
+    elif atm:
+        out += [f"/* The fit's logs were turned to gauge with different ambients ({', '.join(f'{a:.9g}' for a in atm)} Pa):",
+                " * convert each log with its own ambient (the fit file's provenance.reading). */"]
+    elif gauge:
+        out += ["/* The fit's logs gave gauge pressure already: feed the model gauge pressure as the rig measured it. */"]
+    else:
+        out += ["/* The fit file records no ambient pressure: feed the model pressure above the ambient of the rig. */"]
+    return "\n".join(out) + "\n"
+
+
 # ---------------------------------------------------------------------------------------------
 # the command
 # ---------------------------------------------------------------------------------------------
@@ -745,7 +802,9 @@ def c_sources(fit_path: str | Path, model: str | None = None, *, command: str | 
         raise InputError(f"unknown model {model!r} for --to c (known: {', '.join(MODELS)})", key="--model")
     safe_name = "".join(ch if ch.isprintable() else "?" for ch in fit_path.name).replace("*/", "* /")
     meta = {"version": __version__, "fit_name": safe_name, "fit_sha256": _sha256(fit_path),
-            "command": "".join(ch if ch.isprintable() else " " for ch in (command or command_line())).replace("*/", "* /")}
+            "command": "".join(ch if ch.isprintable() else " " for ch in (command or command_line())).replace("*/", "* /"),
+            "rig": rig_defines(read_result(fit_path, ("bpmid.vbmm/", "bpmid.compare/", "bpmid.control/")),
+                               rate_dependent=model != "maxwell-slip")}
     if model == "vbmm":
         cv = causal_vbmm(load_vbmm_fit(fit_path), fit_path)
         meta["title"] = "the fitted VBMM as C99"

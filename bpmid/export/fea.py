@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import re
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -66,26 +67,30 @@ def _wlf(data: dict, path: Path) -> dict | None:
 def _provenance_lines(fit_path: Path, data: dict, params, wlf: dict | None) -> list[str]:
     from bpmid import __version__
     from bpmid.io.results import sha256_file
+    from bpmid.relax import PAPER_POISSON
 
     prov = data.get("provenance") if isinstance(data.get("provenance"), dict) else {}
     lines = [f"bpmid {__version__} export of {fit_path.name} (sha256 {sha256_file(fit_path)})",
-             f"fit: mode {params.mode or 'unknown'}, {params.tau.size} Prony term(s), nu = {params.poisson_ratio:g}; "
-             "units SI (Pa, s)"]
+             f"fit: mode {params.mode or 'unknown'}, {params.tau.size} Prony term(s); units SI (Pa, s)",
+             f"nu = {params.poisson_ratio:g}: Poisson's ratio given to the fit, not fitted from its data (bpmid fit relax "
+             f"--poisson; the default {PAPER_POISSON:g} is the paper's nearly incompressible rubber)"]
     if prov.get("command"):
         lines.append(f"fit command: {prov['command']}")
     for name, sha in (prov.get("inputs") or {}).items():
         lines.append(f"fit input: {name} (sha256 {sha})")
-    lines.append("scope: linear viscoelastic (small strain): instantaneous moduli with Prony relaxation; no hyperelastic "
+    lines.append("scope: linear viscoelastic (small strain): elastic moduli with Prony relaxation; no hyperelastic "
                  "law and no density in this card: add them in the FEA model")
     if params.poisson_ratio > 0.49:
-        lines.append(f"nu = {params.poisson_ratio:g} is nearly incompressible: use hybrid (mixed u-P) elements")
+        lines.append(f"nu = {params.poisson_ratio:g} is nearly incompressible: use a mixed u-P formulation (hybrid "
+                     "elements in Abaqus)")
     if wlf is not None:
         lines.append(f"WLF shift: log10 aT = -C1 (T - T_ref)/(C2 + T - T_ref); T in C; T_ref = {wlf['T_ref']:g} C")
     # one comment line stays short (input readers limit line length) and free of commas
     out = []
     for ln in lines:
         ln = ln.replace(",", ";")
-        out += [ln[i:i + 150] for i in range(0, len(ln), 150)] or [""]
+        # wrapped between words (a command or a path stays whole unless it is longer than a line by itself)
+        out += textwrap.wrap(ln, 150, break_long_words=True, break_on_hyphens=False) or [""]
     return out
 
 
@@ -179,7 +184,7 @@ def comsol_text(params, wlf: dict | None, prov: list[str], branches: str | None 
                f"E_inf (the Abaqus and ANSYS cards relax the bulk modulus too and match the fit)")
     out.append(f'G_inf {_num(params.G_inf)}[Pa] "long-term shear modulus"')
     out.append(f'K_bulk {_num(K0)}[Pa] "bulk modulus (instantaneous)"')
-    out.append(f'nu_inst {params.poisson_ratio:.10g} "Poisson\'s ratio of the fit"')
+    out.append(f'nu_inst {params.poisson_ratio:.10g} "Poisson\'s ratio given to the fit (not fitted)"')
     for j, (Gj, tj) in enumerate(zip(params.G, params.tau), start=1):
         out.append(f'G_{j} {_num(Gj)}[Pa] "shear modulus of Maxwell branch {j}"')
         out.append(f'tau_{j} {_num(tj)}[s] "relaxation time of Maxwell branch {j}"')
@@ -231,6 +236,12 @@ def export_fea(fit_path: Path, tool: str, out_dir: Path) -> list[Path]:
         raise InputError("--out must be a folder, found a file", path=out_dir, key="--out")
     out = out_dir / f"{stem}{SUFFIX[tool]}"
     write_text(out, text)
+    # what the fit said of its Poisson's ratio applies to every card (the bulk modulus follows it): said again here
+    carried = [w for w in (data.get("warnings") or []) if isinstance(w, str) and "Poisson" in w]
+    if carried:
+        from bpmid.io.plausibility import emit
+
+        emit([f"{out.name}: from {fit_path.name}: {w}" for w in carried])
     if tool != "comsol":
         return [out]
     pct = comsol_bulk_shift(params)[1]

@@ -1,0 +1,123 @@
+"""`bpmid export` as a new user met it: a user's own file is never replaced, the C header says the rig the constants
+belong to, the library call takes a path or a loaded result and names its own arguments, the FEA cards carry the
+fit's word on Poisson's ratio and wrap between words."""
+import re
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+import bpmid
+from bpmid.cli import app
+from bpmid.errors import BpmidWarning, InputError
+from bpmid.export.c import fit_rig, rig_defines
+from bpmid.models.vbmm import VBMM
+from tests.test_export_c import write_fit
+from tests.test_relax_export import fit_file
+
+runner = CliRunner()
+
+
+@pytest.fixture
+def vbmm_fit(tmp_path):
+    return write_fit(tmp_path / "VBMM.yaml", VBMM())
+
+
+def test_a_users_own_file_in_the_output_folder_is_never_replaced(vbmm_fit, tmp_path):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "main.c").write_text("/* my own main */\n")
+    r = runner.invoke(app, ["export", str(vbmm_fit), "--to", "c", "--out", str(mine)])
+    assert r.exit_code == 2 and "main.c is already in" in r.output and "bpmid did not write it" in r.output, r.output
+    assert (mine / "main.c").read_text() == "/* my own main */\n" and sorted(p.name for p in mine.iterdir()) == ["main.c"]
+    # a folder an earlier export wrote is written again
+    out = tmp_path / "c"
+    for _ in range(2):
+        r = runner.invoke(app, ["export", str(vbmm_fit), "--to", "c", "--out", str(out)])
+        assert r.exit_code == 0, r.output
+    # FEA: the card, and COMSOL's branch table (numbers only: bpmid's when the card beside it is)
+    relax = fit_file(tmp_path)
+    fea = tmp_path / "fea"
+    fea.mkdir()
+    (fea / "fit_abaqus.inp").write_text("** my deck\n")
+    r = runner.invoke(app, ["export", str(relax), "--to", "abaqus", "--out", str(fea)])
+    assert r.exit_code == 2 and "fit_abaqus.inp is already in" in r.output
+    assert (fea / "fit_abaqus.inp").read_text() == "** my deck\n"
+    (fea / "fit_comsol_branches.txt").write_text("1 2 3\n")
+    r = runner.invoke(app, ["export", str(relax), "--to", "comsol", "--out", str(fea)])
+    assert r.exit_code == 2 and "fit_comsol_branches.txt is already in" in r.output and not (fea / "fit_comsol.txt").exists()
+    (fea / "fit_comsol_branches.txt").unlink()
+    for _ in range(2):
+        r = runner.invoke(app, ["export", str(relax), "--to", "comsol", "--out", str(fea)])
+        assert r.exit_code == 0, r.output
+
+
+def test_the_c_header_says_the_step_and_the_ambient_of_the_fit():
+    data = {"fit": {"logs": [{"samples": 381, "duration_s": 38.0}, {"samples": 201, "duration_s": 4.0},
+                             {"samples": 381, "duration_s": 38.0}]},
+            "provenance": {"reading": {"a": {"pressure_reference": {"reference": "absolute", "atmosphere_pa": 96000.0}},
+                                       "b": {"pressure_reference": {"reference": "absolute", "atmosphere_pa": 96000.0}}}}}
+    assert fit_rig(data) == (0.1, [96000.0], False)
+    h = rig_defines(data)
+    assert "#define BPMID_FIT_STEP_S 0.1\n" in h and "#define BPMID_FIT_ATMOSPHERE_PA 96000.0\n" in h
+    # logs read as gauge, a file without the record, a rate-independent model: said, never a made-up number
+    gauge = {"provenance": {"reading": {"a": {"pressure_reference": {"reference": "gauge"}}}}}
+    assert "gauge pressure as the rig measured it" in rig_defines(gauge) and "#define" not in rig_defines(gauge)
+    assert "records no sampling step" in rig_defines({}) and "records no ambient" in rig_defines({})
+    assert "STEP" not in rig_defines(data, rate_dependent=False)
+    two = {"provenance": {"reading": {k: {"pressure_reference": {"reference": "absolute", "atmosphere_pa": a}}
+                                      for k, a in (("a", 95000.0), ("b", 101325.0))}}}
+    assert "different ambients (95000, 101325 Pa)" in rig_defines(two) and "#define" not in rig_defines(two)
+
+
+def test_the_library_call_takes_a_path_or_a_loaded_result_and_names_its_arguments(vbmm_fit, tmp_path):
+    written = bpmid.export(vbmm_fit, "c", tmp_path / "a")
+    assert [p.name for p in written] == ["bpmid_model.h", "bpmid_model.c", "main.c"]
+    again = bpmid.export(bpmid.load(vbmm_fit), "c", tmp_path / "b")
+    assert (tmp_path / "b" / "bpmid_model.c").read_text() == written[1].read_text()
+    assert bpmid.export.export is not None and callable(bpmid.export)   # the module of the exporters, callable
+    cases = [((vbmm_fit, "fortran", tmp_path / "x"), {}, "to"), ((vbmm_fit, "c", tmp_path / "x"), {"model": "gpi"}, "model"),
+             ((tmp_path, "c", tmp_path / "x"), {}, "fit"), ((object(), "c", tmp_path / "x"), {}, "fit"),
+             ((vbmm_fit, "c", vbmm_fit), {}, "out")]
+    for args, kw, key in cases:
+        with pytest.raises(InputError) as e:
+            bpmid.export(*args, **kw)
+        assert e.value.key == key, (key, str(e.value))
+    (tmp_path / "c").mkdir()
+    (tmp_path / "c" / "main.c").write_text("int main(void) { return 0; }\n")
+    with pytest.raises(InputError) as e:
+        bpmid.export(vbmm_fit, "c", tmp_path / "c")
+    assert e.value.key == "out" and "bpmid did not write it" in str(e.value)
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_folder_given_as_the_fit_names_the_fit_files_in_it(vbmm_fit, tmp_path):
+    d = tmp_path / "run"
+    d.mkdir()
+    (d / "vbmm_fit.yaml").write_text(vbmm_fit.read_text())
+    r = runner.invoke(app, ["export", str(d), "--to", "c", "--out", str(tmp_path / "out")])
+    assert r.exit_code == 2 and "the fit is a folder" in r.output and "vbmm_fit.yaml (--to c)" in r.output, r.output
+    assert not (tmp_path / "out").exists()
+
+
+def test_fea_cards_carry_the_fits_word_on_poisson_and_wrap_between_words(tmp_path):
+    p = fit_file(tmp_path, wlf=False)
+    body = yaml.safe_load(p.read_text())
+    body["warnings"] = ["Poisson's ratio is the default 0.49933 (the paper's rubber), but the instantaneous modulus is "
+                        "9.35 GPa: give the material's own with --poisson", "an unrelated warning"]
+    long_cmd = "bpmid fit relax " + " ".join(f"/a/rather/long/folder/name/log_{i:02d}.csv" for i in range(8)) + " --out fit.yaml"
+    body["provenance"]["command"] = long_cmd
+    p.write_text(yaml.safe_dump(body))
+    with pytest.warns(BpmidWarning, match=r"fit_abaqus.inp: from fit.yaml: Poisson's ratio is the default") as rec:
+        card = bpmid.export(p, "abaqus", tmp_path / "fea")[0]
+    assert not any("unrelated" in str(w.message) for w in rec)
+    text = card.read_text()
+    assert "nu = 0.45: Poisson's ratio given to the fit; not fitted from its data" in text
+    # the long command wraps between its words: every path stays whole on one line
+    comment = [ln[2:].strip() for ln in text.splitlines() if ln.startswith("**")]
+    for i in range(8):
+        assert any(f"/a/rather/long/folder/name/log_{i:02d}.csv" in ln for ln in comment), i
+    assert all(len(ln) <= 150 for ln in comment)
+    r = runner.invoke(app, ["export", str(p), "--to", "comsol", "--out", str(tmp_path / "fea2")])
+    assert r.exit_code == 0 and "fit_comsol.txt: from fit.yaml: Poisson's ratio is the default" in r.output
+    assert re.search(r'nu_inst 0\.45 "Poisson\'s ratio given to the fit \(not fitted\)"', (tmp_path / "fea2" / "fit_comsol.txt").read_text())
