@@ -121,3 +121,17 @@ def test_fea_cards_carry_the_fits_word_on_poisson_and_wrap_between_words(tmp_pat
     r = runner.invoke(app, ["export", str(p), "--to", "comsol", "--out", str(tmp_path / "fea2")])
     assert r.exit_code == 0 and "fit_comsol.txt: from fit.yaml: Poisson's ratio is the default" in r.output
     assert re.search(r'nu_inst 0\.45 "Poisson\'s ratio given to the fit \(not fitted\)"', (tmp_path / "fea2" / "fit_comsol.txt").read_text())
+
+
+def test_a_negative_modulus_in_a_hand_edited_fit_names_its_own_key(tmp_path):
+    for where, key in ((("prony", "E_inf"), "prony.E_inf"), (("prony", "terms", 1, "E"), "prony.terms[1].E")):
+        p = fit_file(tmp_path, name=f"neg_{len(where)}.yaml")
+        body = yaml.safe_load(p.read_text())
+        node = body
+        for k in where:
+            node = node[k]
+        node["value"] = -100.0
+        p.write_text(yaml.safe_dump(body))
+        r = runner.invoke(app, ["export", str(p), "--to", "abaqus", "--out", str(tmp_path / "fea")])
+        assert r.exit_code == 2 and f"key '{key}'" in r.output and "found -100 Pa" in r.output, r.output
+    assert not (tmp_path / "fea").exists()

@@ -221,8 +221,13 @@ def _branch_list(data: dict, block: str, name: str, path) -> tuple[float, np.nda
         taus.append(_si(term["tau"], f"{where}.tau", path, _TIME_UNITS, "s"))
         if taus[-1] <= 0:
             raise InputError(f"time constant must be positive, found {taus[-1]:g} s", path=path, key=f"{where}.tau")
-    if inf < 0 or any(v < 0 for v in mods):
-        raise InputError("moduli must be non-negative", path=path, key=f"{block}.terms")
+    if inf < 0:   # the key at fault, with its value (it named the terms)
+        raise InputError(f"moduli must be non-negative, found {inf:g} Pa: refit (bpmid fit relax) or restore the "
+                         "file's value", path=path, key=f"{block}.{name}_inf")
+    bad = next((j for j, v in enumerate(mods) if v < 0), None)
+    if bad is not None:
+        raise InputError(f"moduli must be non-negative, found {mods[bad]:g} Pa: refit (bpmid fit relax) or restore "
+                         "the file's value", path=path, key=f"{block}.terms[{bad}].{name}")
     return inf, np.array(mods, float), np.array(taus, float)
 
 
