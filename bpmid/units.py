@@ -27,6 +27,8 @@ PRESSURE_REFERENCES = ("gauge", "absolute")
 ANGLE_UNITS: dict[str, float] = {"deg": 1.0, "rad": 57.29577951308232}
 #: time unit -> seconds per unit
 TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "min": 60.0}
+#: a modulus's unit in a parameter file (lower case) -> Pa
+MODULUS_UNITS: dict[str, float] = {"pa": 1.0, "kpa": PA_PER_KPA, "mpa": PA_PER_MPA, "gpa": 1e9}
 
 
 #: ``mPa`` as written: the millipascal, which no log of a muscle or a rubber is in; bpmid reads units without regard

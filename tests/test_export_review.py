@@ -135,3 +135,23 @@ def test_a_negative_modulus_in_a_hand_edited_fit_names_its_own_key(tmp_path):
         r = runner.invoke(app, ["export", str(p), "--to", "abaqus", "--out", str(tmp_path / "fea")])
         assert r.exit_code == 2 and f"key '{key}'" in r.output and "found -100 Pa" in r.output, r.output
     assert not (tmp_path / "fea").exists()
+
+
+def test_a_motion_fit_file_takes_kpa_mpa_and_ms_as_a_relaxation_file_does(vbmm_fit, tmp_path):
+    from bpmid.models.vbmm import load_vbmm
+
+    body = yaml.safe_load(vbmm_fit.read_text())
+    m = body["material"]
+    m["K_inf"] = {"value": m["K_inf"]["value"] / 1e6, "unit": "MPa"}
+    m["branches"][0]["K"] = {"value": m["branches"][0]["K"]["value"] / 1e3, "unit": "kPa"}
+    m["branches"][0]["tau"] = {"value": m["branches"][0]["tau"]["value"] * 1e3, "unit": "ms"}
+    p = tmp_path / "units.yaml"
+    p.write_text(yaml.safe_dump(body))
+    a, b = load_vbmm(vbmm_fit).material, load_vbmm(p).material
+    assert a.K_inf == pytest.approx(b.K_inf, rel=1e-12) and a.K == pytest.approx(b.K, rel=1e-12)
+    assert a.tauG == pytest.approx(b.tauG, rel=1e-12)
+    m["K_inf"]["unit"] = "psi"
+    p.write_text(yaml.safe_dump(body))
+    with pytest.raises(InputError) as e:
+        load_vbmm(p)
+    assert e.value.key == "material.K_inf" and "unit 'psi' where 'Pa' is expected (or kpa, mpa, gpa)" in str(e.value)

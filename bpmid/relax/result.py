@@ -25,12 +25,12 @@ import numpy as np
 from bpmid.errors import InputError
 from bpmid.io.results import provenance, read_result, require, write_result
 from bpmid.params import parse_param_entry
-from bpmid.units import PA_PER_KPA, PA_PER_MPA, TIME_UNITS
+from bpmid.units import MODULUS_UNITS, PA_PER_MPA, TIME_UNITS
 from bpmid.viscoelastic import E_to_G, E_to_K, check_poisson
 
 SCHEMA = "bpmid.relax/1"
 MPA = PA_PER_MPA
-_MODULUS_UNITS = {"pa": 1.0, "kpa": PA_PER_KPA, "mpa": PA_PER_MPA, "gpa": 1e9}
+_MODULUS_UNITS = MODULUS_UNITS
 _TIME_UNITS = TIME_UNITS
 #: shear/bulk moduli may differ from E/(2(1+nu)) and E/(3(1-2nu)) by this share (rounding of hand-edited files;
 #: K moves 4.5 % for nu 0.4993 instead of 0.49933) and no more: a unit slip is a factor of 1000

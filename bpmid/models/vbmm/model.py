@@ -543,11 +543,19 @@ def material_from_yaml(data: dict, path=None) -> Material:
     from bpmid.params import parse_param_entry
     from bpmid.io.results import require
 
+    from bpmid.units import MODULUS_UNITS, TIME_UNITS
+
     def val(entry, key, unit):
+        # a modulus in kPa/MPa/GPa, a time in ms/min is converted, as a relaxation file's is
         v, _se, u = parse_param_entry(entry, path=path, key=key)
-        if u is not None and u != unit:
-            raise InputError(f"unit {u!r} where {unit!r} is expected", path=path, key=key)
-        return v
+        if u is None or u == unit:
+            return v
+        table = MODULUS_UNITS if unit == "Pa" else TIME_UNITS
+        factor = table.get(str(u).strip().lower()) if unit == "Pa" else table.get(str(u).strip())
+        if factor is None:
+            raise InputError(f"unit {u!r} where {unit!r} is expected (or {', '.join(k for k in table if k != unit.lower())})",
+                             path=path, key=key)
+        return v * factor
 
     mat = require(data, "material", path)
     if not isinstance(mat, dict):
