@@ -174,6 +174,9 @@ def require(data: dict, dotted: str, path=None):
     cur = data
     for part in dotted.split("."):
         if not isinstance(cur, dict) or part not in cur:
-            raise InputError("missing key", path=path, key=dotted)
+            # what to do: a file bpmid wrote has every key it reads; one edited by hand or cut short lost it
+            raise InputError(f"missing key {dotted!r}: the file was edited or cut short (a file bpmid writes has it); "
+                             "add it, restore it from the original, or write the file again with the command that "
+                             "made it", path=path, key=dotted)
         cur = cur[part]
     return cur
