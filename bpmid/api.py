@@ -676,8 +676,9 @@ def export(fit, to: str, out, *, model: str | None = None) -> list[Path]:
     Parameters
     ----------
     fit : a fit file (``bpmid.vbmm/1``, ``bpmid.compare/1``, ``bpmid.control/1`` for ``to="c"``; ``bpmid.relax/1``
-        for the FEA cards), or a result loaded from one or saved to one (``bpmid.load``, ``result.save``): the
-        export reads the file, and the generated code names it with its sha256
+        for the FEA cards), or a result loaded from one (``bpmid.load``): the export reads the file, and the
+        generated code names it with its sha256 (a result fitted in this session: ``result.save("fit.yaml")``, then
+        export ``"fit.yaml"``)
     to : "c", "abaqus", "ansys" or "comsol"
     out : output folder (created; a file in it that bpmid did not write is never replaced)
     model : for ``to="c"`` of a comparison or control result: "vbmm-fit", "vbmm-mat" or "maxwell-slip"
@@ -691,8 +692,9 @@ def export(fit, to: str, out, *, model: str | None = None) -> list[Path]:
 
     if isinstance(fit, Result):
         if fit.source is None:
-            raise InputError(f"this {type(fit).__name__} has no file: the export reads a fit file (its sha256 goes into "
-                             "what it writes); save it first (result.save('fit.yaml')) and export that", key="fit")
+            raise InputError(f"this {type(fit).__name__} was not loaded from a file: the export reads a fit file (its "
+                             "sha256 goes into what it writes); save it (result.save('fit.yaml')) and pass the file: "
+                             "bpmid.export('fit.yaml', ...)", key="fit")
         path = Path(fit.source)
     elif isinstance(fit, (str, Path)):
         path = Path(fit)

@@ -943,8 +943,10 @@ class SimulationResult(Result):
     @property
     def params(self) -> Parameters:
         out = []
-        for e in self.body.get("effects") or []:
-            for k, v in (e.get("params") or {}).items():
+        effects = self.body.get("effects")
+        for e in effects if isinstance(effects, list) else []:   # a hand-edited manifest: what is not a list of
+            prm = e.get("params") if isinstance(e, dict) else None  # effects with their params gives none
+            for k, v in (prm if isinstance(prm, dict) else {}).items():
                 out.append(_entry(f"{e.get('id')}.{k}", v, "", "injected"))
         return Parameters(out)
 

@@ -608,3 +608,15 @@ def test_model_with_effects_and_a_bad_scale(tmp_path, timed_small_study):
     t = np.arange(0.0, 5.0, 0.1)
     with pytest.raises(bpmid.InputError, match="modulus scale must be one positive finite number"):
         bpmid.VBMM().forward(t, np.full(t.size, 4e4), scale=np.where(t > 2, np.nan, 1.0))
+
+
+@pytest.mark.parametrize("effects", [[None], 1, "x", [{"id": "a", "params": 3}], [{"id": "a", "params": {"w": 1.0}}]])
+def test_a_simulation_manifest_with_malformed_effects_still_loads_and_gives_its_params(effects, tmp_path):
+    """Hypothesis found these (effects: [None], effects: 1): .params raised AttributeError/TypeError."""
+    from bpmid.results import SimulationResult
+
+    res = SimulationResult({"effects": effects}, {"bpmid_version": "0.1.0", "command": "", "inputs": {}})
+    res.save(tmp_path / "out")
+    back = load(tmp_path / "out")
+    assert back == res and back.params.valuesdict() == res.params.valuesdict()
+    assert list(res.params.valuesdict()) == (["a.w"] if effects == [{"id": "a", "params": {"w": 1.0}}] else [])

@@ -53,13 +53,18 @@ def test_a_users_own_file_in_the_output_folder_is_never_replaced(vbmm_fit, tmp_p
 
 
 def test_the_c_header_says_the_step_and_the_ambient_of_the_fit():
-    data = {"fit": {"logs": [{"samples": 381, "duration_s": 38.0}, {"samples": 201, "duration_s": 4.0},
-                             {"samples": 381, "duration_s": 38.0}]},
-            "provenance": {"reading": {"a": {"pressure_reference": {"reference": "absolute", "atmosphere_pa": 96000.0}},
-                                       "b": {"pressure_reference": {"reference": "absolute", "atmosphere_pa": 96000.0}}}}}
-    assert fit_rig(data) == (0.1, [96000.0], False)
+    absolute = {"pressure_reference": {"reference": "absolute", "atmosphere_pa": 96000.0}}
+    data = {"fit": {"logs": [{"samples": 381, "duration_s": 38.0, "step_s": 0.1},
+                             {"samples": 201, "duration_s": 23.1, "step_s": 0.1},   # a 3 s gap: its median step
+                             {"samples": 381, "duration_s": 38.0}]},                 # a file from before step_s
+            "provenance": {"reading": {"a": absolute, "b": absolute}}}
+    steps, atm, gauge = fit_rig(data)
+    assert steps == pytest.approx([0.1, 0.1, 0.1]) and atm == [96000.0] and not gauge
     h = rig_defines(data)
     assert "#define BPMID_FIT_STEP_S 0.1\n" in h and "#define BPMID_FIT_ATMOSPHERE_PA 96000.0\n" in h
+    # logs at two rates: no step made up between them
+    two_rates = {"fit": {"logs": [{"step_s": 0.1}, {"step_s": 0.01}]}}
+    assert "#define BPMID_FIT_STEP_S" not in rig_defines(two_rates) and "different steps (0.01, 0.1 s" in rig_defines(two_rates)
     # logs read as gauge, a file without the record, a rate-independent model: said, never a made-up number
     gauge = {"provenance": {"reading": {"a": {"pressure_reference": {"reference": "gauge"}}}}}
     assert "gauge pressure as the rig measured it" in rig_defines(gauge) and "#define" not in rig_defines(gauge)
@@ -67,7 +72,28 @@ def test_the_c_header_says_the_step_and_the_ambient_of_the_fit():
     assert "STEP" not in rig_defines(data, rate_dependent=False)
     two = {"provenance": {"reading": {k: {"pressure_reference": {"reference": "absolute", "atmosphere_pa": a}}
                                       for k, a in (("a", 95000.0), ("b", 101325.0))}}}
-    assert "different ambients (95000, 101325 Pa)" in rig_defines(two) and "#define" not in rig_defines(two)
+    assert "ambient 95000, 101325 Pa" in rig_defines(two) and "#define" not in rig_defines(two)
+    mixed = {"provenance": {"reading": {"a": absolute, "b": {"pressure_reference": {"reference": "gauge"}}}}}
+    assert "#define" not in rig_defines(mixed) and "gave gauge pressure already" in rig_defines(mixed)
+    # a hand-edited value that is no number is left out, not written into C or raised as a bare ValueError
+    for bad in (float("nan"), "abc", -5.0):
+        edited = {"provenance": {"reading": {"a": {"pressure_reference": {"reference": "absolute", "atmosphere_pa": bad}}}},
+                  "fit": {"logs": [{"step_s": "x", "samples": "y", "duration_s": 3.0}]}}
+        h = rig_defines(edited)
+        assert "#define" not in h and "nan" not in h.lower().replace("ambient", ""), bad
+
+
+def test_a_motion_fit_records_each_logs_median_step(tmp_path):
+    from tests.test_cli_fit_motion_predict import write_log
+
+    log = write_log(tmp_path / "fit.csv", 1.6, 60.0, seed=1)
+    r = runner.invoke(app, ["fit", "motion", str(log), "--out", str(tmp_path / "VBMM.yaml")])
+    assert r.exit_code == 0, r.output
+    d = yaml.safe_load((tmp_path / "VBMM.yaml").read_text())
+    assert d["fit"]["logs"][0]["step_s"] == pytest.approx(0.1)
+    r = runner.invoke(app, ["export", str(tmp_path / "VBMM.yaml"), "--to", "c", "--out", str(tmp_path / "c")])
+    h = (tmp_path / "c" / "bpmid_model.h").read_text()
+    assert "#define BPMID_FIT_STEP_S 0.1\n" in h and "#define BPMID_FIT_ATMOSPHERE_PA 101325.0\n" in h
 
 
 def test_the_library_call_takes_a_path_or_a_loaded_result_and_names_its_arguments(vbmm_fit, tmp_path):
@@ -89,6 +115,13 @@ def test_the_library_call_takes_a_path_or_a_loaded_result_and_names_its_argument
         bpmid.export(vbmm_fit, "c", tmp_path / "c")
     assert e.value.key == "out" and "bpmid did not write it" in str(e.value)
     assert not (tmp_path / "x").exists()
+    # a result fitted in the session has no file: said, with what to do
+    from bpmid.results import VBMMFitResult
+
+    unsaved = VBMMFitResult(bpmid.load(vbmm_fit).to_dict(), None)
+    with pytest.raises(InputError, match=r"not loaded from a file.*result.save\('fit.yaml'\)") as e:
+        bpmid.export(unsaved, "c", tmp_path / "y")
+    assert e.value.key == "fit"
 
 
 def test_a_folder_given_as_the_fit_names_the_fit_files_in_it(vbmm_fit, tmp_path):
@@ -155,3 +188,22 @@ def test_a_motion_fit_file_takes_kpa_mpa_and_ms_as_a_relaxation_file_does(vbmm_f
     with pytest.raises(InputError) as e:
         load_vbmm(p)
     assert e.value.key == "material.K_inf" and "unit 'psi' where 'Pa' is expected (or kpa, mpa, gpa)" in str(e.value)
+
+
+def test_an_export_is_its_own_to_replace_whatever_its_name_and_a_comsol_table_only_with_its_card(tmp_path):
+    long = fit_file(tmp_path, name="a" * 125 + ".yaml")   # the card's first comment line wraps after "export of"
+    for tool in ("abaqus", "ansys", "comsol"):
+        for _ in range(2):
+            bpmid.export(long, tool, tmp_path / "long")
+    p = fit_file(tmp_path)
+    out = tmp_path / "fea"
+    card, table = bpmid.export(p, "comsol", out)
+    assert bpmid.export(p, "comsol", out) == [card, table]          # its own pair, written again
+    table.write_text("1 5 6\n")                                      # a user's own table beside bpmid's card
+    with pytest.raises(InputError, match="fit_comsol_branches.txt is already in"):
+        bpmid.export(p, "comsol", out)
+    assert table.read_text() == "1 5 6\n"
+    card.unlink()
+    bpmid.export(p, "abaqus", out)                                   # other tools are not held up by it
+    with pytest.raises(InputError, match="delete it if an earlier export wrote it|bpmid did not write it"):
+        bpmid.export(p, "comsol", out)                               # a table whose card is gone: refused

@@ -201,7 +201,7 @@ def test_bad_input_is_refused_naming_the_key(tmp_path):
     assert "no hyperelastic law and no density" in text and "hybrid (mixed u-P) elements" not in text  # nu 0.45
     with pytest.raises(InputError) as e:
         export_fea(fit_file(tmp_path), "nastran", tmp_path / "fea")
-    assert e.value.key == "to"   # a library call names its argument (the command: --to)
+    assert e.value.key == "tool"   # export_fea's own argument (bpmid.export's is `to`, the command's --to)
     bad = tmp_path / "badwlf.yaml"
     body = yaml.safe_load(fit_file(tmp_path).read_text())
     body["shift"]["wlf"]["C2"] = "warm"

@@ -121,6 +121,7 @@ def model_body(result) -> dict:
                    "named_effects": list(state.ids),
                    "objective": "angle error (deg) of the forward model with the named effects, fitting logs at once",
                    "logs": [{"name": lg.name, "samples": lg.n, "duration_s": round(lg.duration_s, 6),
+                             "step_s": round(lg.dt_s, 9) if lg.n > 1 else None,   # median sampling step
                              # the gauge pressures fitted on, as a motion fit records them (predict's range check)
                              "pressure_gauge_pa": [float(np.min(lg.pressure_pa)), float(np.max(lg.pressure_pa))]}
                             for lg in result.fit_logs],

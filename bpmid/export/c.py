@@ -728,55 +728,79 @@ def _ms_sources(ms: MaxwellSlipMap, meta: dict) -> dict[str, str]:
             "main.c": _template("main.c.in").substitute(subs)}
 
 
-def fit_rig(data: dict) -> tuple[float | None, list[float], bool]:
-    """What a fit file records of the rig its constants belong to: the sampling step of its fitting logs (s; the
-    median over the logs of duration / (samples - 1), None when not recorded), the ambient pressures (Pa) its logs'
-    absolute pressures were turned to gauge with, and whether any log was read as gauge already."""
+def _finite(x) -> float | None:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def fit_rig(data: dict) -> tuple[list[float], list[float], bool]:
+    """What a fit file records of the rig its constants belong to: the sampling step of each fitting log (s: its
+    median step ``fit.logs[*].step_s``; in files written before it was recorded, duration / (samples - 1)), the
+    ambient pressures (Pa) its logs' absolute pressures were turned to gauge with, and whether any log was read as
+    gauge already. Values that are not numbers (a hand-edited file) are left out."""
     fit = data.get("fit") if isinstance(data.get("fit"), dict) else {}
     steps = []
     for lg in fit.get("logs") or ():
-        try:
-            n, dur = int(lg["samples"]), float(lg["duration_s"])
-        except (KeyError, TypeError, ValueError):
+        if not isinstance(lg, dict):
             continue
-        if n > 1 and math.isfinite(dur) and dur > 0:
-            steps.append(dur / (n - 1))
+        step = _finite(lg.get("step_s"))
+        if step is None:
+            n, dur = _finite(lg.get("samples")), _finite(lg.get("duration_s"))
+            step = dur / (n - 1) if n is not None and dur is not None and n > 1 else None
+        if step is not None and step > 0:
+            steps.append(step)
     prov = data.get("provenance") if isinstance(data.get("provenance"), dict) else {}
     atm, gauge = set(), False
     for rd in (prov.get("reading") or {}).values():
         ref = rd.get("pressure_reference") if isinstance(rd, dict) else None
         if not isinstance(ref, dict):
             continue
-        if ref.get("reference") == "absolute" and ref.get("atmosphere_pa") is not None:
-            atm.add(float(ref["atmosphere_pa"]))
+        a = _finite(ref.get("atmosphere_pa"))
+        if ref.get("reference") == "absolute" and a is not None and a > 0:
+            atm.add(a)
         elif ref.get("reference") == "gauge":
             gauge = True
-    return (float(statistics.median(steps)) if steps else None), sorted(atm), gauge
+    return steps, sorted(atm), gauge
+
+
+#: logs whose steps differ by less than this share have one step (rounding of the logged times)
+STEP_SPREAD = 0.01
 
 
 def rig_defines(data: dict, *, rate_dependent: bool = True) -> str:
-    """The header's lines on the rig the constants belong to (:func:`fit_rig`): ``BPMID_FIT_STEP_S`` and
-    ``BPMID_FIT_ATMOSPHERE_PA`` where the fit file records them, a comment saying so where it does not
-    (``rate_dependent=False``: a rate-independent model, such as Maxwell-slip, says nothing of the step)."""
-    step, atm, gauge = fit_rig(data)
+    """The header's lines on the rig the constants belong to (:func:`fit_rig`): ``BPMID_FIT_STEP_S`` when every
+    fitting log had one step, ``BPMID_FIT_ATMOSPHERE_PA`` when every absolute log was turned to gauge with one
+    ambient and none was gauge already; a comment saying what the file records otherwise (``rate_dependent=False``:
+    a rate-independent model, such as Maxwell-slip, says nothing of the step)."""
+    steps, atm, gauge = fit_rig(data)
     out = []
     if not rate_dependent:
         pass
-    elif step is not None:
+    elif steps and max(steps) <= min(steps) * (1.0 + STEP_SPREAD):
+        step = statistics.median(steps)
         out += ["/* The fit's logs were sampled every BPMID_FIT_STEP_S seconds. The hereditary sum takes each pressure",
                 " * step as a jump at its sample, so the constants hold for this step: call the step functions at it (a",
                 " * much faster rate reads the branch moduli differently; the fit file's notes say by how much). */",
                 f"#define BPMID_FIT_STEP_S {float(f'{step:.6g}')!r}"]
+    elif steps:
+        out += [f"/* The fit's logs were sampled at different steps ({', '.join(f'{s:.4g}' for s in sorted(set(steps)))} s;",
+                " * BPMID_FIT_STEP_S is not defined): the constants hold for the step of the logs they were fitted on, so",
+                " * run the model at the rate of the logs most like the controller's. */"]
     else:
         out += ["/* The fit file records no sampling step of its logs (BPMID_FIT_STEP_S is not defined): run the model at",
                 " * the rate of the logs it was fitted on. */"]
-    if len(atm) == 1:
+    if len(atm) == 1 and not gauge:
         out += ["/* Gauge pressure is pressure above this ambient (Pa): the fit turned its logs' absolute pressures to gauge",
                 " * with it; convert a log the same way (pressure_gauge_pa = pressure_abs_pa - BPMID_FIT_ATMOSPHERE_PA). */",
                 f"#define BPMID_FIT_ATMOSPHERE_PA {float(atm[0])!r}"]
     elif atm:
-        out += [f"/* The fit's logs were turned to gauge with different ambients ({', '.join(f'{a:.9g}' for a in atm)} Pa):",
-                " * convert each log with its own ambient (the fit file's provenance.reading). */"]
+        out += [f"/* The fit's absolute logs were turned to gauge with the ambient {', '.join(f'{a:.9g}' for a in atm)} Pa"
+                + (" and some of its logs gave gauge pressure already" if gauge else "") + " (the fit file's",
+                " * provenance.reading; BPMID_FIT_ATMOSPHERE_PA is not defined): feed the model pressure above the rig's",
+                " * ambient. */"]
     elif gauge:
         out += ["/* The fit's logs gave gauge pressure already: feed the model gauge pressure as the rig measured it. */"]
     else:

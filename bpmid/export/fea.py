@@ -177,7 +177,11 @@ def comsol_text(params, wlf: dict | None, prov: list[str], branches: str | None 
     E_long, pct = comsol_bulk_shift(params)
     out = [f"# {ln}" for ln in prov]
     if branches:
+        import hashlib
+
+        sha = hashlib.sha256(comsol_branch_table(params).encode("utf-8")).hexdigest()
         out.append(f"# the same branches as a table for the Viscoelasticity node (Load from File): {branches}")
+        out.append(f"# (that table's sha256 {sha}: how a later export knows the table as its own)")
     out.append('# generalized Maxwell model: G(t) = G_inf + sum_i G_i exp(-t/tau_i); the bulk modulus is elastic '
                "(the instantaneous K0)")
     out.append(f"# so the long-term tensile modulus of this card is {_num(E_long)} Pa, {pct:+.3g} % from the fit's "
@@ -208,7 +212,7 @@ def export_fea(fit_path: Path, tool: str, out_dir: Path) -> list[Path]:
     fit_path = Path(fit_path)
     tool = str(tool).strip().lower()
     if tool not in TOOLS:
-        raise InputError(f"unknown tool {tool!r} (expected one of {', '.join(TOOLS)})", key="--to")
+        raise InputError(f"unknown tool {tool!r} (expected one of {', '.join(TOOLS)})", key="tool")   # this call's argument
     data = read_result(fit_path, "bpmid.relax/")
     params = relax_fit_from_mapping(data, fit_path)
     if params.tau.size == 0:

@@ -497,6 +497,8 @@ class MotionFit:
                     "linear_start": self.linear,
                     "objective": "angle error (deg) of the forward model, all logs at once",
                     "logs": [{"name": lg.name, "samples": lg.n, "duration_s": round(lg.duration_s, 6),
+                              # the median sampling step: the step these constants hold for (the C export says it)
+                              "step_s": round(lg.dt_s, 9) if lg.n > 1 else None,
                               # the gauge pressures the constants were fitted on (predict says when it goes beyond)
                               "pressure_gauge_pa": [float(np.min(lg.pressure_pa)), float(np.max(lg.pressure_pa))]}
                              for lg in self.logs],

@@ -536,6 +536,9 @@ _BRANCH_KEYS = ("G", "K", "tau", "tauG", "tauK")
 #: the smallest K_inf + sum K (Pa) a fit file may hold: the paper's muscle has 2e7 Pa, the softest silicone tubes
 #: some 1e5; below this the moduli were typed in another unit (MPa under 'unit: Pa')
 MIN_PLAUSIBLE_K_PA = 1e3
+#: the largest modulus (Pa) a fit file may hold: a rubber's bulk modulus is some 2e9 Pa, the VBMM's apparent moduli
+#: 1e4-1e8; above this a value was given in another unit than the file says (a value in Pa under 'unit: MPa')
+MAX_PLAUSIBLE_MODULUS_PA = 1e10
 
 
 def material_from_yaml(data: dict, path=None) -> Material:
@@ -548,13 +551,18 @@ def material_from_yaml(data: dict, path=None) -> Material:
     def val(entry, key, unit):
         # a modulus in kPa/MPa/GPa, a time in ms/min is converted, as a relaxation file's is
         v, _se, u = parse_param_entry(entry, path=path, key=key)
-        if u is None or u == unit:
-            return v
-        table = MODULUS_UNITS if unit == "Pa" else TIME_UNITS
-        factor = table.get(str(u).strip().lower()) if unit == "Pa" else table.get(str(u).strip())
-        if factor is None:
-            raise InputError(f"unit {u!r} where {unit!r} is expected (or {', '.join(k for k in table if k != unit.lower())})",
-                             path=path, key=key)
+        factor = 1.0
+        if u is not None and u != unit:
+            table = MODULUS_UNITS if unit == "Pa" else TIME_UNITS
+            factor = table.get(str(u).strip().lower()) if unit == "Pa" else table.get(str(u).strip())
+            if factor is None:
+                raise InputError(f"unit {u!r} where {unit!r} is expected (or "
+                                 f"{', '.join(k for k in table if k != unit.lower())})", path=path, key=key)
+        if unit == "Pa" and v * factor > MAX_PLAUSIBLE_MODULUS_PA:
+            # a value in Pa under 'unit: MPa' (converted, it is a million times too stiff): refused, never run
+            raise InputError(f"{v:g} {u or unit} is {v * factor:.4g} Pa, above {MAX_PLAUSIBLE_MODULUS_PA:g} Pa: stiffer "
+                             "than any rubber (a value in Pa under a unit of MPa or kPa?); the moduli are read in the "
+                             "unit the file gives", path=path, key=key)
         return v * factor
 
     mat = require(data, "material", path)
