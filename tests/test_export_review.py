@@ -207,3 +207,10 @@ def test_an_export_is_its_own_to_replace_whatever_its_name_and_a_comsol_table_on
     bpmid.export(p, "abaqus", out)                                   # other tools are not held up by it
     with pytest.raises(InputError, match="delete it if an earlier export wrote it|bpmid did not write it"):
         bpmid.export(p, "comsol", out)                               # a table whose card is gone: refused
+
+
+def test_a_card_without_a_shift_says_its_constants_hold_at_the_test_temperature(tmp_path):
+    plain = bpmid.export(fit_file(tmp_path, wlf=False), "ansys", tmp_path / "a")[0].read_text()
+    shifted = bpmid.export(fit_file(tmp_path, name="w.yaml"), "ansys", tmp_path / "b")[0].read_text()
+    assert "no temperature shift in this card" in plain and "WLF shift" not in plain
+    assert "WLF shift" in shifted and "no temperature shift" not in shifted

@@ -85,6 +85,9 @@ def _provenance_lines(fit_path: Path, data: dict, params, wlf: dict | None) -> l
                      "elements in Abaqus)")
     if wlf is not None:
         lines.append(f"WLF shift: log10 aT = -C1 (T - T_ref)/(C2 + T - T_ref); T in C; T_ref = {wlf['T_ref']:g} C")
+    else:
+        lines.append("no temperature shift in this card: the constants hold at the temperature of the tests they were "
+                     "fitted on (not recorded in the fit file)")
     # one comment line stays short (input readers limit line length) and free of commas
     out = []
     for ln in lines:
