@@ -214,3 +214,14 @@ def test_a_card_without_a_shift_says_its_constants_hold_at_the_test_temperature(
     shifted = bpmid.export(fit_file(tmp_path, name="w.yaml"), "ansys", tmp_path / "b")[0].read_text()
     assert "no temperature shift in this card" in plain and "WLF shift" not in plain
     assert "WLF shift" in shifted and "no temperature shift" not in shifted
+
+
+def test_a_prediction_given_to_export_points_to_the_fit_it_ran(vbmm_fit, tmp_path):
+    from tests.test_cli_fit_motion_predict import write_log
+
+    log = write_log(tmp_path / "run.csv", 1.6, 20.0, seed=4)
+    r = runner.invoke(app, ["predict", str(log), "--params", str(vbmm_fit), "--out", str(tmp_path / "pred")])
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(app, ["export", str(tmp_path / "pred" / "predict.yaml"), "--to", "c", "--out", str(tmp_path / "c")])
+    assert r.exit_code == 2 and "a prediction (bpmid predict)" in r.output and f"instead: {vbmm_fit}" in r.output, r.output
+    assert not (tmp_path / "c").exists()

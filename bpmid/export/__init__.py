@@ -125,6 +125,7 @@ _KIND_WORDS = {
     "bpmid.control/": ("a control result", "export its MS-PI feedforward with --to c --model maxwell-slip"),
     "bpmid.relax/": ("a material fit (bpmid fit relax)", "export it with --to abaqus, ansys or comsol"),
     "bpmid.discovery/": ("discover's verdict", "export the fit beside it instead, discover/model.yaml, with --to c"),
+    "bpmid.predict/": ("a prediction (bpmid predict)", "export the fit file it ran instead (its params)"),
     "bpmid.run/": ("a study's record", "export one of its fits instead: relax_fit.yaml (--to abaqus, ansys or "
                                        "comsol), vbmm_fit.yaml (--to c) or compare/compare.yaml (--to c --model ...)"),
 }
@@ -145,6 +146,8 @@ def _say_what_fits(fit_path: Path, to: str, model: str | None, schemas: tuple[st
     if kind is None:
         raise InputError(f"a {schema} file: {asked} takes a {wants} file", path=fit_path, key="schema")
     what, how = _KIND_WORDS[kind]
+    if kind == "bpmid.predict/" and isinstance(data, dict) and data.get("params"):
+        how = f"export the fit it ran instead: {data['params']} (its params)"
     if to == "c" and kind == "bpmid.vbmm/" and model not in (None, "vbmm"):   # the right target, a wrong --model
         raise InputError(f"a {schema} file is {what}: --model {model} takes a comparison or control result; export "
                          "this one with --to c alone (or --model vbmm)", path=fit_path, key="--model")
