@@ -115,20 +115,14 @@ PREDICTION_MARK = "# angle_pred_deg: bpmid predict output"
 def _refuse_foreign_files(out_dir: Path, names: Sequence[str]) -> None:
     """InputError when a file bpmid is about to write into ``out_dir`` exists and is not one bpmid wrote (a
     prediction without its mark, a predict.yaml of another schema): a user's own ``m.csv`` was replaced, silently."""
-    for name in names:
-        f = out_dir / name
-        if not f.is_file():
-            continue
-        try:
-            with open(f, encoding="utf-8", errors="replace") as fh:
-                head = "".join(fh.readline() for _ in range(12))
-        except OSError:
-            head = ""
-        ours = ("schema: bpmid.predict/" in head) if name == "predict.yaml" else (PREDICTION_MARK in head)
-        if not ours:
-            raise InputError(f"{name} is already in {out_dir} and bpmid did not write it (no bpmid predict mark): "
-                             f"nothing was written; give another output folder, or move the file",
-                             path=f, key="--out")
+    from bpmid.io.atomic import file_head, refuse_foreign_files
+
+    def ours(f: Path) -> tuple[bool, str]:
+        head = file_head(f)
+        return ("schema: bpmid.predict/" in head) if f.name == "predict.yaml" else (PREDICTION_MARK in head), \
+            "no bpmid predict mark"
+
+    refuse_foreign_files(out_dir, names, ours)
 
 
 def write_predictions(out_dir: str | Path, preds: Sequence[Prediction], *, prov: dict | None = None,

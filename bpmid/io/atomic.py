@@ -207,6 +207,30 @@ def check_outputs_not_inputs(targets: Iterable[str | Path], inputs: Iterable[str
                              path=t, key=key)
 
 
+def file_head(path: str | Path, lines: int = 12) -> str:
+    """The first ``lines`` lines of a text file ("" when it cannot be read): where a writer finds the mark that says
+    a file in its output folder is its own to replace."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            return "".join(fh.readline() for _ in range(lines))
+    except OSError:
+        return ""
+
+
+def refuse_foreign_files(out_dir: Path, names: Iterable[str], ours, *, after: str = "", key: str = "--out") -> None:
+    """InputError, before anything is written, when a file about to be written into ``out_dir`` is there and bpmid did
+    not write it: ``ours(path) -> (bool, why not)`` judges each existing file by its own mark (a user's own ``m.csv``
+    or ``main.c`` was replaced in silence)."""
+    for name in names:
+        f = Path(out_dir) / name
+        if not f.is_file():
+            continue
+        ok, why = ours(f)
+        if not ok:
+            raise InputError(f"{name} is already in {out_dir} and bpmid did not write it ({why}): nothing was written; "
+                             f"give another output folder, or move the file{after}", path=f, key=key)
+
+
 def _note_written(path: str | Path) -> None:
     g = _guard()
     if g is not None:
