@@ -348,6 +348,8 @@ def test_calibration_on_no_judged_case_is_refused_and_a_thin_one_warned(full_run
     assert (tmp_path / "thresholds.yaml").exists()
     assert len(said) == 2 and f"on {len(cal)} judged case(s)" in said[0] and "too few" in said[0]
     assert "closed paths the shipped gate has open" in said[1] and "no pair will be named" in said[1]
+    # kept in the file, where discover repeats them to whoever uses it
+    assert yaml.safe_load((tmp_path / "thresholds.yaml").read_text())["calibration"]["warnings"] == said
 
 
 def test_a_bad_scheduler_is_refused_before_any_folder_is_made(tmp_path):
@@ -419,7 +421,12 @@ def test_the_code_fingerprint_follows_the_package_source(tmp_path, monkeypatch):
     ("noise_deg: -0.1", "rig.noise_deg", "above 0"),
     ("geometry: {name: mine, th_mm: 2.0}", "rig.geometry.alpha0_deg", "missing alpha0_deg, R0_mm, l0_mm, n"),
     ("geometry: {name: mine, th_mm: -2, alpha0_deg: 30, R0_mm: 15, l0_mm: 180, n: 7}", "rig.geometry.th_mm",
-     "must be positive")])
+     "must be positive"),
+    # metres under a _mm key ran the whole calibration half, every case declined, before the cause was said
+    ("geometry: {name: mine, th_mm: 2.2, alpha0_deg: 26, R0_mm: 0.011, l0_mm: 160, n: 6}", "rig.geometry.R0_mm",
+     "metres given under a _mm key? R0_mm takes millimetres (11 for 0.011 m)"),
+    ("geometry: {name: mine, th_mm: 2.2, alpha0_deg: 26, R0_mm: 11, l0_mm: 160000, n: 6}", "rig.geometry.l0_mm",
+     "too large for a muscle (at most 5000 mm)")])
 def test_a_bad_rig_value_is_named_under_the_users_own_key(tmp_path, rig, key, words):
     """The rig's values were checked as the generator ranges they replace: 'rig.noise_rho' (a key the user never
     wrote), '[1.5, 1.5]', or a Python signature for a geometry."""
@@ -486,3 +493,48 @@ def test_a_calibration_that_closes_a_path_of_the_shipped_gate_says_so():
     said = closed_paths({"pair_share_min": math.inf, "to_floor_drop_min_sigma": math.inf})
     assert any("no pair will be named" in s for s in said) and any("to_floor_drop_min_sigma" in s for s in said)
     assert closed_paths({"pair_share_min": 0.3, "to_floor_drop_min_sigma": 0.1}) == []
+
+
+def test_a_folder_of_another_commands_outputs_is_refused_before_anything_runs(tmp_path):
+    """A sweep's files were written beside a discover result's (discovery.yaml, model.yaml) after a whole sweep."""
+    out = tmp_path / "disc"
+    out.mkdir()
+    (out / "discovery.yaml").write_text("schema: bpmid.discovery/1\n")
+    (out / "model.yaml").write_text("x: 1\n")
+    r = CliRunner().invoke(app, ["calibrate", str(TINY), "--out", str(out), "--workers", "1"])
+    assert r.exit_code == 2, r.output
+    assert "not a sweep's (discovery.yaml, model.yaml)" in r.output and "give a new --out" in r.output
+    assert sorted(p.name for p in out.iterdir()) == ["discovery.yaml", "model.yaml"]
+
+
+def test_a_calibration_half_says_its_names_are_no_verdict(full_run, tmp_path):
+    said = []
+    dst = tmp_path / "again"
+    shutil.copytree(full_run[0], dst)
+    run_sweep(load_sweep(TINY), dst, workers=1, processes=False, progress=said.append)
+    cal = next(m for m in said if m.startswith("calibration half"))
+    assert "0 to run" in cal and "permissive gate" in cal and "not a verdict" in cal
+    assert not any("permissive" in m for m in said if m.startswith("heldout half"))
+
+
+def test_a_models_geometry_block_is_read_as_a_rig_geometry(tmp_path):
+    """The geometry a discover config's model.geometry holds (SI, or keys stating their unit) was refused here as
+    'missing th_mm, ...'; and the name the rig's block needs was refused there as an unknown key without a word."""
+    from bpmid.config import parse_config
+    from bpmid.errors import InputError
+
+    p = tmp_path / "rig.yaml"
+    p.write_text("sweep: {name: m, seed: 1}\ngenerator: {n_cases: 2}\n"
+                 "rig:\n  geometry: {th: 0.0022, alpha0_deg: 26, R0: 0.011, l0_mm: 160, n: 6}\n")
+    (g,) = load_sweep(p).effective_generator.geometries
+    assert (g.name, g.th_mm, g.alpha0_deg, g.R0_mm, g.l0_mm, g.n) == ("rig", pytest.approx(2.2), 26.0,
+                                                                      pytest.approx(11.0), 160.0, 6.0)
+    p.write_text("sweep: {name: m, seed: 1}\ngenerator: {n_cases: 2}\n"
+                 "rig:\n  geometry: {th: 0.0022, alpha0_deg: 26, R0: 11, l0: 0.16, n: 6}\n")
+    with pytest.raises(InputError) as e:
+        load_sweep(p)
+    assert e.value.key == "rig.geometry.R0" and "R0 takes metres (0.011 for 11 mm)" in str(e.value)
+    with pytest.raises(InputError) as e:
+        parse_config({"model": {"geometry": {"name": "mine", "th_mm": 2.2, "alpha0_deg": 26, "R0_mm": 11,
+                                             "l0_mm": 160, "n": 6}}})
+    assert e.value.key == "model.geometry.name" and "the model's geometry has none: remove it" in str(e.value)

@@ -10,7 +10,7 @@ from bpmid.cli._app import app, command
 
 EPILOG = ("Sweeps run on Dask, an optional extra: pip install 'bpmid[cluster]' first. Rerun the same command to "
           "resume an interrupted sweep; --scheduler tcp://HOST:8786 runs it on an existing Dask cluster. Example (24 "
-          "short cases on 2 local workers, about a minute on 2 cores):  "
+          "short cases on 2 local workers, 1-2 minutes on 2 cores):  "
           "bpmid calibrate configs/sweeps/small.yaml --out out/sweep-small --workers 2")
 
 

@@ -44,6 +44,19 @@ class GeometrySpec:
                 raise InputError(f"must be positive, found {v!r}", path=path, key=f"{where}.{k}")
         if not self.alpha0_deg < 90:
             raise InputError(f"must be below 90 deg, found {self.alpha0_deg}", path=path, key=f"{where}.alpha0_deg")
+        # the muscle's sizes as the model checks them, here under this section's own key, before any case runs
+        from bpmid.models.vbmm.model import GEOMETRY_MAX_M, GEOMETRY_MIN_M
+
+        for field in ("th", "R0", "l0"):
+            mm = getattr(self, f"{field}_mm")
+            lo, hi = GEOMETRY_MIN_M[field] * 1e3, GEOMETRY_MAX_M[field] * 1e3
+            if mm < lo:
+                raise InputError(f"{mm:g} mm is too small for a muscle (at least {lo:g} mm): metres given under a _mm "
+                                 f"key? {field}_mm takes millimetres ({mm * 1e3:g} for {mm:g} m)", path=path,
+                                 key=f"{where}.{field}_mm")
+            if mm > hi:
+                raise InputError(f"{mm:g} mm is too large for a muscle (at most {hi:g} mm): {field}_mm takes "
+                                 f"millimetres", path=path, key=f"{where}.{field}_mm")
 
     def si(self) -> np.ndarray:
         """(th, alpha0, R0, l0, n) in m, rad."""

@@ -45,6 +45,9 @@ from bpmid.validation.generator import (GENERATOR, Case, GeneratorConfig, Geomet
 
 SWEEP_SCHEMA = "bpmid.sweep/1"
 RECORDS = "records.jsonl"
+#: what a sweep writes in its folder (a folder holding anything else is not a sweep's)
+SWEEP_FILES = frozenset({"sweep.yaml", RECORDS, "thresholds.yaml", "summary.yaml", "confusion.csv", "confusion.md",
+                         "answers", "cases"})
 #: what a sweep runs: one half, both (calibrate on one, score the other), or ``pool``: every case with the
 #: calibration half's permissive settings, all of them calibrating (more calibration data from a draw whose
 #: held-out half was already looked at, so it can no longer score a gate)
@@ -185,6 +188,41 @@ class SweepConfig:
                 "evaluation": {"discover": dict(self.evaluation.discover)}}
 
 
+#: a model's geometry keys (``model.geometry`` of a config: SI or stating their unit) as the rig's mm/deg keys
+_RIG_GEOMETRY_KEYS = {"th": ("th_mm", 1e3), "th_m": ("th_mm", 1e3), "R0": ("R0_mm", 1e3), "R0_m": ("R0_mm", 1e3),
+                      "l0": ("l0_mm", 1e3), "l0_m": ("l0_mm", 1e3), "alpha0": ("alpha0_deg", 180.0 / math.pi),
+                      "alpha0_rad": ("alpha0_deg", 180.0 / math.pi)}
+
+
+def _rig_geometry(geo: dict, path) -> dict:
+    """``rig.geometry`` as the generator takes it ({name, th_mm, alpha0_deg, R0_mm, l0_mm, n}) from the same block a
+    discover config's ``model.geometry`` holds (th, R0, l0 in m and alpha0 in rad, or keys stating their unit); the
+    name defaults to ``rig``. A field given twice is refused under the second key."""
+    out = {"name": "rig"} if "name" not in geo else {}
+    for k, v in geo.items():
+        if k not in _RIG_GEOMETRY_KEYS:
+            if k in out and k != "name":
+                raise InputError(f"{k} is given twice: keep one", path=path, key=f"rig.geometry.{k}")
+            out[k] = v
+            continue
+        to, factor = _RIG_GEOMETRY_KEYS[k]
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise InputError(f"expected a number, found {v!r}", path=path, key=f"rig.geometry.{k}")
+        if to in out or to in geo:
+            raise InputError(f"{to.split('_')[0]} is given twice ({to} and {k}): keep one", path=path,
+                             key=f"rig.geometry.{k}")
+        field = to.split("_")[0]
+        if field != "alpha0":   # metres as the model checks them, said under the key the user wrote
+            from bpmid.models.vbmm.model import GEOMETRY_MAX_M, GEOMETRY_MIN_M
+            lo, hi = GEOMETRY_MIN_M[field], GEOMETRY_MAX_M[field]
+            if not lo <= float(v) <= hi:
+                raise InputError(f"{float(v):g} m is too {'large' if v > hi else 'small'} for a muscle ({lo:g}-{hi:g} "
+                                 f"m): {k} takes metres ({float(v) * 1e-3:g} for {float(v):g} mm), {to} millimetres",
+                                 path=path, key=f"rig.geometry.{k}")
+        out[to] = float(v) * factor
+    return out
+
+
 def load_sweep(path: str | Path) -> SweepConfig:
     """Read SWEEP.yaml; every key is checked (an unknown or bad key is an InputError naming it)."""
     from bpmid.config import build_dataclass, read_yaml
@@ -213,11 +251,13 @@ def load_sweep(path: str | Path) -> SweepConfig:
                 raise InputError(f"unknown geometry {geo!r} (built in: {', '.join(GEOMETRIES)}; or give a mapping "
                                  "name, th_mm, alpha0_deg, R0_mm, l0_mm, n)", path=path, key="rig.geometry")
         if isinstance(geo, dict):   # a mapping: every key named when one is missing (not a Python signature)
+            rig["geometry"] = geo = _rig_geometry(geo, path)
             need = ("name", "th_mm", "alpha0_deg", "R0_mm", "l0_mm", "n")
             missing = [k for k in need if k not in geo]
             if missing:
                 raise InputError(f"missing {', '.join(missing)} (a geometry is {{name, th_mm, alpha0_deg, R0_mm, "
-                                 f"l0_mm, n}}, or a built-in name: paper, slim, wide)", path=path,
+                                 f"l0_mm, n}}, as a model's geometry may be given (th, R0, l0 in m, alpha0 in rad), "
+                                 f"or a built-in name: paper, slim, wide)", path=path,
                                  key=f"rig.geometry.{missing[0]}")
             from bpmid.validation.generator import GeometrySpec
             build_dataclass(GeometrySpec, geo, "rig.geometry", path)   # each value checked under its own key
@@ -468,6 +508,14 @@ def _check_folder(out: Path, cfg: SweepConfig, force: bool = False) -> None:
     cases_def = {"sweep": dataclasses.asdict(cfg.sweep), "generator": cfg.effective_generator.to_yaml(),
                  "generator_version": GENERATOR}
     fp = hashlib.sha256(json.dumps(cases_def, sort_keys=True, default=str).encode()).hexdigest()
+    if not stamp.exists() and not force:
+        # a folder of another command's outputs (discover's discovery.yaml, a run's stages) is not a sweep's: the
+        # sweep's files would land beside them and read as one result
+        other = sorted(p.name for p in out.iterdir() if p.name not in SWEEP_FILES and not p.name.startswith("."))
+        if other:
+            shown = ", ".join(other[:4]) + (f" and {len(other) - 4} more" if len(other) > 4 else "")
+            raise InputError(f"this folder holds files that are not a sweep's ({shown}); a sweep needs a folder of "
+                             f"its own: give a new --out (nothing was written)", path=out, key="--out")
     if stamp.exists() and not force:
         try:
             old = yaml.safe_load(stamp.read_text("utf-8")) or {}
@@ -731,7 +779,9 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
             now = discover_settings(dcfg)
             todo = [c for c in halves[phase] if c.id not in done or done[c.id].get("discover_settings") != now]
             total = len(halves[phase])
-            say(f"{phase} half: {total} cases, {total - len(todo)} already done, {len(todo)} to run")
+            say(f"{phase} half: {total} cases, {total - len(todo)} already done, {len(todo)} to run"
+                + ("; run with a permissive gate so that every candidate's statistics are recorded for calibration: "
+                   "what it names on a case (even on a null) is not a verdict" if phase == "calibration" else ""))
             if todo and stop_after is not None and new >= stop_after:
                 return SweepOutcome(sorted(done.values(), key=lambda r: r["id"]), thresholds, None, files, False)
             if todo:
@@ -829,22 +879,25 @@ def _calibrate(out: Path, cfg: SweepConfig, recs: list[dict], thresholds_from_re
     records = [r for rec in judged for r in case_records(rec)]
     values = thresholds_from_records(records, [q for rec in judged for q in pair_records(rec)])
     kinds = [r.get("kind") for r in judged]
+    said = []   # kept in thresholds.yaml too: discover repeats them where the file is used
     if kinds.count("null") == 0 or len(judged) < MIN_CALIBRATION_CASES:
-        warn(f"warning: the thresholds were calibrated on {len(judged)} judged case(s), {kinds.count('null')} of them "
-             f"null: too few to bound the false positives on your rig (at least {MIN_CALIBRATION_CASES}, nulls "
-             f"among them, are needed for a gate to mean much); draw more cases (generator.n_cases, "
-             f"generator.mix)")
+        said.append(f"warning: the thresholds were calibrated on {len(judged)} judged case(s), "
+                    f"{kinds.count('null')} of them null: too few to bound the false positives on your rig (at "
+                    f"least {MIN_CALIBRATION_CASES}, nulls among them, are needed for a gate to mean much); draw more "
+                    f"cases (generator.n_cases, generator.mix)")
     closed = closed_paths(values)
     if closed:
-        warn("warning: this calibration closed paths the shipped gate has open (too few cases of their kind to "
-             "open them on your rig): " + "; ".join(closed) + ". Draw more cases of those kinds (generator.n_cases, "
-             "generator.mix), or keep the shipped thresholds for them")
+        said.append("warning: this calibration closed paths the shipped gate has open (too few cases of their kind "
+                    "to open them on your rig): " + "; ".join(closed) + ". Draw more cases of those kinds "
+                    "(generator.n_cases, generator.mix), or keep the shipped thresholds for them")
+    for w in said:
+        warn(w)
     meta = {"produced_by": f"bpmid calibrate {cfg.path or 'SWEEP.yaml'} (sweep {cfg.sweep.name}, "
                            f"seed {cfg.sweep.seed})",
             "data": f"{len(recs)} out-of-family cases ({GENERATOR}), "
                     + ("both halves run as calibration (pool)" if any(r.get("split") == "heldout" for r in recs)
                        else "calibration half") + f"; {n_err} not judged",
-            "generator": cfg.effective_generator.to_yaml()}
+            "generator": cfg.effective_generator.to_yaml(), "warnings": said}
     write_thresholds(values, meta, out / "thresholds.yaml")
     from bpmid.discover.calibrate import gate_values
     return gate_values(values)

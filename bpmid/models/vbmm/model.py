@@ -35,6 +35,12 @@ MPa = PA_PER_MPA
 # ---------------------------------------------------------------------------------------------
 # geometry and material
 # ---------------------------------------------------------------------------------------------
+#: the sizes a muscle can have (m): a wall of 0.02-50 mm, a radius of 0.1-500 mm, a length of 2-5000 mm; outside
+#: them a length was given in the other unit (metres under a _mm key, or millimetres as metres)
+GEOMETRY_MIN_M = {"th": 2e-5, "R0": 1e-4, "l0": 2e-3}
+GEOMETRY_MAX_M = {"th": 0.05, "R0": 0.5, "l0": 5.0}
+
+
 @dataclasses.dataclass(frozen=True)
 class Geometry:
     """Muscle geometry (paper Table I), SI: th, R0, l0 in m; alpha0 in rad; n turns (1).
@@ -59,6 +65,9 @@ class Geometry:
     UNIT_KEYS = {"th_mm": ("th", 1e-3), "th_m": ("th", 1.0), "alpha0_deg": ("alpha0", math.pi / 180.0),
                  "alpha0_rad": ("alpha0", 1.0), "R0_mm": ("R0", 1e-3), "R0_m": ("R0", 1.0),
                  "l0_mm": ("l0", 1e-3), "l0_m": ("l0", 1.0)}
+    #: a key a user brings from another section's geometry, with what to do
+    UNKNOWN_KEY_HINTS = {"name": "a name labels a muscle in a sweep's rig.geometry; the model's geometry has none: "
+                                 "remove it"}
 
     def validate(self, where="geometry", path=None):
         for f in dataclasses.fields(self):
@@ -68,10 +77,10 @@ class Geometry:
         if not self.alpha0 < math.pi / 2:
             raise InputError(f"alpha0 is in rad and must be below pi/2, found {self.alpha0:g}", path=path,
                              key=f"{where}.alpha0")
-        if self.th > 0.05 or self.R0 > 0.5 or self.l0 > 5.0:
+        if any(getattr(self, k) > GEOMETRY_MAX_M[k] for k in GEOMETRY_MAX_M):
             raise InputError("geometry is in metres (th, R0, l0); the values look like millimetres: give them as "
                              "th_mm, R0_mm, l0_mm (and alpha0_deg) to state mm and deg", path=path, key=where)
-        if self.th < 2e-5 or self.R0 < 1e-4 or self.l0 < 2e-3:   # under 0.02 mm wall, 0.1 mm radius, 2 mm length
+        if any(getattr(self, k) < GEOMETRY_MIN_M[k] for k in GEOMETRY_MIN_M):
             raise InputError(f"geometry too small for a muscle (th {self.th * 1e3:.4g} mm, R0 {self.R0 * 1e3:.4g} mm, "
                              f"l0 {self.l0 * 1e3:.4g} mm): metres given under the _mm keys? th_mm, R0_mm and l0_mm "
                              f"take millimetres (R0_mm: 16.73), th, R0 and l0 take metres (R0: 0.01673)",
