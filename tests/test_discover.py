@@ -83,17 +83,24 @@ def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
     ho = [str(paths[n]) for n in ("ho_va_2.0", "ho_vr_0.16", "ho_mixed", "ho_long_2.0")]
     fit = [str(p) for n, p in paths.items() if not n.startswith("ho_")]
     out = tmp_path / "out"
-    # a thresholds file as bpmid calibrate writes it (here the shipped one's copy: the same gate)
-    import shutil
-
+    # a thresholds file as bpmid calibrate writes it (here the shipped one's gate, as if calibrated at 50 Hz)
     from bpmid.discover.calibrate import THRESHOLDS_PATH
 
     thr = tmp_path / "my_rig_thresholds.yaml"
-    shutil.copy(THRESHOLDS_PATH, thr)
+    body = yaml.safe_load(THRESHOLDS_PATH.read_text())
+    body["calibration"]["generator"]["sampling_hz"] = [50.0]
+    thr.write_text(yaml.safe_dump(body, sort_keys=False))
     r = runner.invoke(app, ["--quiet", "discover", *fit, "--holdout", *ho, "--out", str(out), "--thresholds",
                             str(thr)])
     assert r.exit_code == 0, r.output
     d = yaml.safe_load((out / "discovery.yaml").read_text())
+    # the gate's file is named where the verdict ends, and the rate it was not calibrated on is said beside it
+    assert f"gate from {thr.resolve()}" in r.output
+    assert [c for c in d["cautions"] if c.startswith("the gate (")] == [
+        f"the gate ({thr.resolve()}) was calibrated on angle noise 0.1-0.3 deg, lag-1 correlation 0-0.8, 50 Hz; these "
+        "logs show sampling at 10 Hz: outside what it was calibrated on, so how often it names a wrong effect here is "
+        "not measured. Calibrate on these conditions (bpmid calibrate, the sweep's rig: section) or use the shipped "
+        "gate"]
     assert d["schema"] == "bpmid.discovery/1"
     assert isinstance(d["synthetic"], bool) and isinstance(d["synthetic_logs"], list)   # as predict.yaml says it
     assert d["thresholds_from"].startswith(str(thr.resolve()))

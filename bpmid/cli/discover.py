@@ -96,5 +96,7 @@ def discover_cmd(
     typer.echo(result.verdict)
     typer.echo(f"named effects: {', '.join(result.named_effects) or 'none'}; held-out RMSE "
                f"{result.heldout_before:.3f} -> {result.heldout_after:.3f} deg (noise floor "
-               f"{result.noise_floor_deg:.3f} deg); wrote {Path(out) / 'discovery.yaml'} and "
+               f"{result.noise_floor_deg:.3f} deg)"
+               + (f"; gate from {dcfg.thresholds_file}" if dcfg.thresholds_file else "")
+               + f"; wrote {Path(out) / 'discovery.yaml'} and "
                f"{Path(out) / 'model.yaml'} (the final model: bpmid predict --params, bpmid export --to c)")

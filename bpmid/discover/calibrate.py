@@ -131,7 +131,36 @@ def load_thresholds(path: str | Path | None = None) -> dict:
                          key=missing[0])
     data = later_gain_follows(data)
     check_drops_by_effect(data.get(BY_EFFECT_KEY) or {}, path, BY_EFFECT_KEY)
+    check_threshold_values(data, path)
     return gate_values(data)
+
+
+#: the thresholds that are shares of a gap (0 to 1; ``pair_share_min`` may be .inf: the path closed)
+_SHARE_KEYS = ("gap_share_min", "fit_share_min", "pair_share_min")
+
+
+def check_threshold_values(data: Mapping, path) -> None:
+    """Refuse (naming the file and key) a thresholds file's value a calibration never writes: not a number, a
+    family-wise level outside (0, 1), a share outside [0, 1], a negative number of noise floors (a hand-edited file
+    would otherwise change the gate in silence)."""
+    from bpmid.errors import InputError
+
+    for k in THRESHOLD_KEYS:
+        v = data[k]
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v):
+            raise InputError(f"must be a number, found {v!r}", path=path, key=k)
+        if k == "family_alpha":
+            ok, want = 0 < v < 1, "a family-wise level between 0 and 1"
+        elif k == "to_floor_ratio_max":
+            ok, want = v > 0, "above 0 noise floors"
+        elif k in _SHARE_KEYS:
+            ok, want = 0 <= v <= 1 or (k == "pair_share_min" and v == math.inf), (
+                "a share from 0 to 1" + (" (or .inf: the path closed)" if k == "pair_share_min" else ""))
+        else:
+            ok, want = v >= 0, "0 or more noise floors (.inf: never)"
+        if not ok:
+            raise InputError(f"must be {want}, found {v!r}; bpmid calibrate never writes this (a hand-edited file?): "
+                             f"recalibrate, or restore the value it wrote", path=path, key=k)
 
 
 def later_gain_follows(thr: Mapping, given: Mapping | None = None) -> dict:

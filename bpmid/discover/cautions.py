@@ -146,3 +146,71 @@ def ambient_cautions(logs: Sequence[MotionLog], named: Sequence[str]) -> list[st
             f"6.3 kPa high, which bends the muscle further at every pressure, and the angle_offset named here may be "
             "that, not the sensor. State the lab's ambient pressure (io.atmosphere_pa in the config, a "
             "'# atmosphere_pa:' line or an ambient column) and run again"]
+
+
+#: how far a log's conditions may sit outside those a gate was calibrated on before it is said: the noise floor by
+#: this factor, the lag-1 correlation of the noise by this much, the sampling rate by this factor
+GATE_NOISE_FACTOR = 1.25
+GATE_RHO_MARGIN = 0.15
+GATE_RATE_FACTOR = 1.2
+
+
+def _span(v) -> tuple[float, float] | None:
+    """(low, high) of a generator's range or list of choices, None when it is not one."""
+    try:
+        vals = [float(x) for x in (v if isinstance(v, (list, tuple)) else [v])]
+    except (TypeError, ValueError):
+        return None
+    return (min(vals), max(vals)) if vals and all(np.isfinite(vals)) else None
+
+
+def _said(lo: float, hi: float, unit: str, digits: str = ".3g") -> str:
+    a, b = f"{lo:{digits}}", f"{hi:{digits}}"
+    return f"{a}{unit}" if a == b else f"{a}-{b}{unit}"
+
+
+def gate_cautions(thresholds_file: str | None, logs: Sequence[MotionLog], noise: dict) -> list[str]:
+    """Sentences when the gate comes from a thresholds file (``bpmid calibrate``'s) whose calibration warned (too few
+    cases, paths closed), or which was calibrated on other conditions than these logs show: a noise floor, noise
+    colour or sampling rate outside the sweep's. A gate's false-positive rate is measured only on the conditions it
+    was calibrated on; a helper's trial used thresholds made for 25 Hz AR(1) noise on 10 Hz white-noise logs without a
+    word. The shipped gate is not judged here (its conditions are the README's)."""
+    if not thresholds_file:
+        return []
+    import yaml
+
+    try:
+        with open(thresholds_file, encoding="utf-8") as fh:
+            cal = (yaml.safe_load(fh) or {}).get("calibration") or {}
+    except (OSError, yaml.YAMLError, AttributeError):   # read and checked before discovery ran; a courtesy here
+        return []
+    name = str(thresholds_file)
+    out = [f"the gate's calibration ({name}) warned: {w.removeprefix('warning: ')}"
+           for w in (cal.get("warnings") or []) if isinstance(w, str)]
+    gen = cal.get("generator") if isinstance(cal.get("generator"), dict) else {}
+    off, was = [], []
+    sig = float(noise.get("sigma_deg", float("nan")))
+    span = _span(gen.get("noise_deg"))
+    if span and np.isfinite(sig):
+        was.append(f"angle noise {_said(*span, ' deg')}")
+        if not span[0] / GATE_NOISE_FACTOR <= sig <= span[1] * GATE_NOISE_FACTOR:
+            off.append(f"a noise floor of {sig:.3g} deg")
+    rho = float(noise.get("rho", float("nan")))
+    span = _span(gen.get("noise_rho"))
+    if span and np.isfinite(rho):
+        was.append(f"lag-1 correlation {_said(*span, '', '.2g')}")
+        if not span[0] - GATE_RHO_MARGIN <= rho <= span[1] + GATE_RHO_MARGIN:
+            off.append(f"a lag-1 correlation of the noise of {rho:.2g}")
+    span = _span(gen.get("sampling_hz"))
+    rates = [1.0 / float(np.median(np.diff(lg.time_s))) for lg in logs if lg.time_s.size > 1
+             and float(np.median(np.diff(lg.time_s))) > 0]
+    if span and rates:
+        was.append(f"{_said(*span, ' Hz', '.4g')}")
+        lo, hi = min(rates), max(rates)
+        if lo < span[0] / GATE_RATE_FACTOR or hi > span[1] * GATE_RATE_FACTOR:
+            off.append(f"sampling at {_said(lo, hi, ' Hz', '.4g')}")
+    if off:
+        out.append(f"the gate ({name}) was calibrated on {', '.join(was)}; these logs show {' and '.join(off)}: "
+                   "outside what it was calibrated on, so how often it names a wrong effect here is not measured. "
+                   "Calibrate on these conditions (bpmid calibrate, the sweep's rig: section) or use the shipped gate")
+    return out

@@ -54,7 +54,7 @@ from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS
                                       winner_rank)
 from bpmid.discover.confirm import (Confirmation, PairTrial, confirm, excess_deg, heldout_drop_sigma, holm_adjusted,
                                    p_note, p_words, pair_trial)
-from bpmid.discover.cautions import ambient_cautions, data_cautions, sampling_cautions
+from bpmid.discover.cautions import ambient_cautions, data_cautions, gate_cautions, sampling_cautions
 from bpmid.discover.diagnose import diagnose, noise_floor
 from bpmid.discover.rivals import (IMITATES, RIVALS, adds_beside, beats, check_rival, held_against, own_shape,
                                    rival_constants)
@@ -84,7 +84,8 @@ def checked_thresholds_file(value, key: str, config_path=None) -> str:
     try:
         load_thresholds(tf)
     except InputError as exc:
-        raise InputError(f"{tf}: {exc.message}", path=config_path, key=key) from None
+        where = f"{tf}, key '{exc.key}'" if exc.key else str(tf)
+        raise InputError(f"{where}: {exc.message}", path=config_path, key=key) from None
     return str(tf.resolve())
 
 
@@ -1072,7 +1073,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor or any(r.withheld for r in rounds))
     variation = log_to_log_variation(state, ho_logs, raw_after, floor, cfg) if unexplained else None
     cautions, held_out_odd = data_cautions(base_state, state, fit_logs, ho_logs, floor)
-    cautions += ambient_cautions(all_logs, named) + sampling_cautions(all_logs, named) + copies
+    cautions += ambient_cautions(all_logs, named) + sampling_cautions(all_logs, named) + copies \
+        + gate_cautions(cfg.thresholds_file, all_logs, noise)
     verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after,
                            noise, cfg.unexplained_gap_sigma, final=state, cautions=cautions,
                            held_out_odd=held_out_odd)
