@@ -538,3 +538,13 @@ def test_a_models_geometry_block_is_read_as_a_rig_geometry(tmp_path):
         parse_config({"model": {"geometry": {"name": "mine", "th_mm": 2.2, "alpha0_deg": 26, "R0_mm": 11,
                                              "l0_mm": 160, "n": 6}}})
     assert e.value.key == "model.geometry.name" and "the model's geometry has none: remove it" in str(e.value)
+
+
+def test_progress_says_the_time_left_once_a_few_cases_are_done(monkeypatch):
+    import bpmid.validation.sweep as S
+
+    monkeypatch.setattr(S.time, "perf_counter", lambda: 100.0)
+    assert S._time_left({"n": 2, "run": 2, "t0": 40.0}, 10) == ""              # two cases say too little
+    assert S._time_left({"n": 5, "run": 3, "t0": 40.0}, 10) == "; about 2 min left in this half"   # 20 s x 5
+    assert S._time_left({"n": 8, "run": 4, "t0": 60.0}, 10) == "; about 20 s left in this half"
+    assert S._time_left({"n": 10, "run": 4, "t0": 60.0}, 10) == ""             # nothing left

@@ -502,6 +502,17 @@ class RecordWriter:
         self.fh.close()
 
 
+def _time_left(counter: dict, total: int) -> str:
+    """``; about N min left in this half``: the wall time per case so far in this run (workers in parallel) times the
+    cases left; said once a few cases have finished."""
+    left = total - counter["n"]
+    if counter["run"] < 3 or left <= 0:
+        return ""
+    per = (time.perf_counter() - counter["t0"]) / counter["run"]
+    sec = per * left
+    return f"; about {sec / 60:.0f} min left in this half" if sec >= 90 else f"; about {sec:.0f} s left in this half"
+
+
 def _check_folder(out: Path, cfg: SweepConfig, force: bool = False) -> None:
     """A folder holds one sweep: refuse to resume another config's sweep into it."""
     stamp = out / "sweep.yaml"
@@ -789,14 +800,15 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
                     client, cluster = _client(scheduler, workers, processes)
                     say(f"dask: {client.scheduler_info().get('address', '?')}, "
                         f"{len(client.scheduler_info().get('workers', {}))} worker(s)")
-                counter = {"n": total - len(todo)}
+                counter = {"n": total - len(todo), "run": 0, "t0": time.perf_counter()}
 
                 def on_record(rec, counter=counter, total=total, phase=phase):
                     counter["n"] += 1
+                    counter["run"] += 1
                     named = ",".join(rec.get("named") or []) or "-"
                     err = f" error: {rec['error'][:60]}" if rec.get("error") else ""
                     say(f"[{phase} {counter['n']}/{total}] {rec['id']} truth {rec['truth_label']}: named {named} "
-                        f"({rec['elapsed_s']:.1f} s){err}")
+                        f"({rec['elapsed_s']:.1f} s{_time_left(counter, total)}){err}")
                 left = None if stop_after is None else stop_after - new
                 got = run_cases(todo, phase, dcfg, writer, client, keep_dir=keep, stop_after=left, on_record=on_record)
                 new += len(got)
