@@ -82,3 +82,24 @@ def test_a_gate_calibrated_on_other_conditions_is_said_with_what_differs(tmp_pat
     # the shipped gate (no file given) is not judged here
     assert gate_cautions(None, _logs(10), {"sigma_deg": 0.30, "rho": 0.02}) == []
 
+
+
+def test_a_typo_or_an_unreadable_calibration_block_is_refused_before_any_work(tmp_path):
+    """A typo read as the key missing; a calibration block discover could not read crashed after the whole fit."""
+    d = yaml.safe_load(THRESHOLDS_PATH.read_text())
+    d["gap_share_minn"] = d.pop("gap_share_min")
+    p = tmp_path / "typo.yaml"
+    p.write_text(yaml.safe_dump(d))
+    with pytest.raises(InputError) as e:
+        load_thresholds(p)
+    assert e.value.key == "gap_share_minn" and "did you mean gap_share_min?" in str(e.value)
+    for cal, key in (({"warnings": 5}, "calibration.warnings"), ("hello", "calibration"),
+                     ({"generator": {"noise_deg": "abc"}}, "calibration.generator.noise_deg"),
+                     ({"generator": [1, 2]}, "calibration.generator")):
+        d = yaml.safe_load(THRESHOLDS_PATH.read_text())
+        d["calibration"] = cal
+        p.write_text(yaml.safe_dump(d))
+        with pytest.raises(InputError) as e:
+            load_thresholds(p)
+        assert e.value.key == key, (cal, e.value.key)
+        assert gate_cautions(str(p), _logs(10), {"sigma_deg": 0.3, "rho": 0.0}) == []   # and never a crash there

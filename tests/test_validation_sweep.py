@@ -548,3 +548,51 @@ def test_progress_says_the_time_left_once_a_few_cases_are_done(monkeypatch):
     assert S._time_left({"n": 5, "run": 3, "t0": 40.0}, 10) == "; about 2 min left in this half"   # 20 s x 5
     assert S._time_left({"n": 8, "run": 4, "t0": 60.0}, 10) == "; about 20 s left in this half"
     assert S._time_left({"n": 10, "run": 4, "t0": 60.0}, 10) == ""             # nothing left
+
+
+@pytest.mark.parametrize("files, words", [
+    ({"sweep.yaml": "sweep: {name: mine, seed: 1}\n"}, "its sweep.yaml is not one bpmid calibrate wrote"),
+    ({"thresholds.yaml": "schema: bpmid.discover-thresholds/1\n"}, "(thresholds.yaml)")])
+def test_a_users_own_sweep_or_thresholds_file_is_never_replaced(tmp_path, files, words):
+    """A user's sweep config saved as sweep.yaml, or a kept gate as thresholds.yaml, was overwritten (exit 0)."""
+    out = tmp_path / "o"
+    out.mkdir()
+    for name, text in files.items():
+        (out / name).write_text(text)
+    r = CliRunner().invoke(app, ["calibrate", str(TINY), "--out", str(out), "--workers", "1"])
+    assert r.exit_code == 2 and words in r.output and "nothing was written" in r.output, r.output
+    assert {p.name: p.read_text() for p in out.iterdir()} == files
+
+
+def test_a_sweep_folder_with_another_commands_files_is_refused_both_ways(full_run, tmp_path):
+    from bpmid.discover.calibrate import THRESHOLDS_PATH
+
+    out = tmp_path / "sweep"
+    shutil.copytree(full_run[0], out)
+    case = THRESHOLDS_PATH.parents[2] / "datasets" / "discovery" / "case_01"
+    r = CliRunner().invoke(app, ["discover", *map(str, sorted(case.glob("train_*.csv"))), "--out", str(out)])
+    assert r.exit_code == 2 and "holds a sweep of bpmid calibrate" in r.output, r.output
+    assert not (out / "discovery.yaml").exists()
+    (out / "discovery.yaml").write_text("schema: bpmid.discovery/1\n")   # as an older bpmid let it be written
+    r = CliRunner().invoke(app, ["calibrate", str(TINY), "--out", str(out), "--workers", "1"])
+    assert r.exit_code == 2 and "not a sweep's (discovery.yaml)" in r.output, r.output
+
+
+@pytest.mark.parametrize("geometry, key, words", [
+    ("{name: m, th_mm: 2.2, alpha0_deg: 0.4538, R0_mm: 11, l0_mm: 160, n: 6}", "rig.geometry.alpha0_deg",
+     "radians given under a _deg key? alpha0_deg takes degrees (26 for 0.4538 rad)"),
+    ("{th: 0.0022, alpha0: 26, R0: 0.011, l0: 0.16, n: 6}", "rig.geometry.alpha0",
+     "degrees given under alpha0? alpha0 takes radians (0.4538 for 26 deg)")])
+def test_a_braid_angle_in_the_other_unit_is_named(tmp_path, geometry, key, words):
+    from bpmid.config import parse_config
+    from bpmid.errors import InputError
+
+    p = tmp_path / "rig.yaml"
+    p.write_text(f"sweep: {{name: m, seed: 1}}\ngenerator: {{n_cases: 2}}\nrig:\n  geometry: {geometry}\n")
+    with pytest.raises(InputError) as e:
+        load_sweep(p)
+    assert e.value.key == key and words in str(e.value)
+    with pytest.raises(InputError) as e:   # a discover config's model geometry likewise
+        parse_config({"model": {"geometry": {"th_mm": 2.2, "alpha0_deg": 0.5236, "R0_mm": 11, "l0_mm": 160,
+                                             "n": 6}}})
+    assert e.value.key == "model.geometry.alpha0" and "radians given under alpha0_deg?" in str(e.value)

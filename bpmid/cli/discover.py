@@ -62,7 +62,9 @@ def discover_cmd(
     paths = existing_files(list(logs))
     ho_paths = existing_files(list(holdout), "held-out log") if holdout else []
     from bpmid.io.atomic import check_outputs_not_inputs  # before any work: no output may replace an input
+    from bpmid.validation.sweep import refuse_sweep_folder
 
+    refuse_sweep_folder(out, "discover")
     check_outputs_not_inputs([out / "discovery.yaml", out / "verdict.txt", out / "model.yaml"],
                              list(paths) + list(ho_paths)
                              + [init, config, thresholds])

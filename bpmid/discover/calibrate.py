@@ -124,6 +124,14 @@ def load_thresholds(path: str | Path | None = None) -> dict:
     if not isinstance(data, dict) or data.get("schema") != SCHEMA:
         raise InputError(f"not a {SCHEMA} file (a thresholds file written by bpmid calibrate or "
                          "benchmarks/recalibrate.py)", path=path, key="schema")
+    known = {"schema", "calibration", BY_EFFECT_KEY, *THRESHOLD_KEYS}
+    for k in data:
+        if k not in known:   # a typo (gap_share_minn) was read as the key missing, and an extra key ignored
+            import difflib
+            near = difflib.get_close_matches(str(k), sorted(known), n=1)
+            raise InputError("unknown key" + (f" (did you mean {near[0]}?)" if near else
+                                              f" (known: {', '.join(sorted(known))})"), path=path, key=str(k))
+    check_calibration_block(data.get("calibration"), path)
     data = {**OPTIONAL_THRESHOLDS, **data}
     missing = [k for k in THRESHOLD_KEYS if k not in data]
     if missing:
@@ -133,6 +141,34 @@ def load_thresholds(path: str | Path | None = None) -> dict:
     check_drops_by_effect(data.get(BY_EFFECT_KEY) or {}, path, BY_EFFECT_KEY)
     check_threshold_values(data, path)
     return gate_values(data)
+
+
+def check_calibration_block(cal, path) -> None:
+    """Refuse, naming the key, a thresholds file's ``calibration`` block that discover could not read where it says
+    the gate's conditions and warnings (:func:`bpmid.discover.cautions.gate_cautions`): it was read only after the
+    whole fit, and a hand-edited ``warnings: 5`` crashed there."""
+    from bpmid.errors import InputError
+
+    if cal is None:
+        return
+    if not isinstance(cal, Mapping):
+        raise InputError(f"must be a mapping (what the calibration was), found {cal!r}", path=path, key="calibration")
+    w = cal.get("warnings")
+    if w is not None and not (isinstance(w, list) and all(isinstance(x, str) for x in w)):
+        raise InputError(f"must be a list of sentences, found {w!r}", path=path, key="calibration.warnings")
+    gen = cal.get("generator")
+    if gen is None:
+        return
+    if not isinstance(gen, Mapping):
+        raise InputError(f"must be a mapping (the sweep's generator), found {gen!r}", path=path,
+                         key="calibration.generator")
+    for k in ("noise_deg", "noise_rho", "sampling_hz"):
+        v = gen.get(k)
+        vals = v if isinstance(v, list) else [v]
+        if v is not None and not (vals and all(not isinstance(x, bool) and isinstance(x, (int, float))
+                                               and math.isfinite(x) for x in vals)):
+            raise InputError(f"must be a number or a list of numbers, found {v!r}", path=path,
+                             key=f"calibration.generator.{k}")
 
 
 #: the thresholds that are shares of a gap (0 to 1; ``pair_share_min`` may be .inf: the path closed)

@@ -184,9 +184,12 @@ def gate_cautions(thresholds_file: str | None, logs: Sequence[MotionLog], noise:
             cal = (yaml.safe_load(fh) or {}).get("calibration") or {}
     except (OSError, yaml.YAMLError, AttributeError):   # read and checked before discovery ran; a courtesy here
         return []
+    if not isinstance(cal, dict):   # refused when the file was read (check_calibration_block); never a crash here
+        return []
     name = str(thresholds_file)
-    out = [f"the gate's calibration ({name}) warned: {w.removeprefix('warning: ')}"
-           for w in (cal.get("warnings") or []) if isinstance(w, str)]
+    warned = cal.get("warnings") if isinstance(cal.get("warnings"), list) else []
+    out = [f"the gate's calibration ({name}) warned: {w.removeprefix('warning: ')}" for w in warned
+           if isinstance(w, str)]
     gen = cal.get("generator") if isinstance(cal.get("generator"), dict) else {}
     off, was = [], []
     sig = float(noise.get("sigma_deg", float("nan")))

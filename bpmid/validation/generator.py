@@ -45,7 +45,13 @@ class GeometrySpec:
         if not self.alpha0_deg < 90:
             raise InputError(f"must be below 90 deg, found {self.alpha0_deg}", path=path, key=f"{where}.alpha0_deg")
         # the muscle's sizes as the model checks them, here under this section's own key, before any case runs
-        from bpmid.models.vbmm.model import GEOMETRY_MAX_M, GEOMETRY_MIN_M
+        from bpmid.models.vbmm.model import ALPHA0_MIN_DEG, GEOMETRY_MAX_M, GEOMETRY_MIN_M
+
+        if self.alpha0_deg < ALPHA0_MIN_DEG:
+            raise InputError(f"a braid angle of {self.alpha0_deg:g} deg is too small for a muscle (at least "
+                             f"{ALPHA0_MIN_DEG:g} deg): radians given under a _deg key? alpha0_deg takes degrees "
+                             f"({math.degrees(self.alpha0_deg):.4g} for {self.alpha0_deg:g} rad)", path=path,
+                             key=f"{where}.alpha0_deg")
 
         for field in ("th", "R0", "l0"):
             mm = getattr(self, f"{field}_mm")

@@ -212,6 +212,10 @@ def _rig_geometry(geo: dict, path) -> dict:
             raise InputError(f"{to.split('_')[0]} is given twice ({to} and {k}): keep one", path=path,
                              key=f"rig.geometry.{k}")
         field = to.split("_")[0]
+        if field == "alpha0" and not float(v) < math.pi / 2:
+            raise InputError(f"{float(v):g} rad is a right angle or more: degrees given under {k}? {k} takes radians "
+                             f"({math.radians(float(v)):.4g} for {float(v):g} deg), alpha0_deg degrees", path=path,
+                             key=f"rig.geometry.{k}")
         if field != "alpha0":   # metres as the model checks them, said under the key the user wrote
             from bpmid.models.vbmm.model import GEOMETRY_MAX_M, GEOMETRY_MIN_M
             lo, hi = GEOMETRY_MIN_M[field], GEOMETRY_MAX_M[field]
@@ -502,6 +506,20 @@ class RecordWriter:
         self.fh.close()
 
 
+def refuse_sweep_folder(out: str | Path, command: str) -> None:
+    """InputError naming ``--out`` when ``out`` is a sweep's folder (its ``sweep.yaml`` written by ``bpmid
+    calibrate``): another command's files beside a sweep's read as one result, and the sweep could not resume."""
+    stamp = Path(out) / "sweep.yaml"
+    try:
+        head = yaml.safe_load(stamp.read_text("utf-8")) if stamp.is_file() else None
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return
+    if isinstance(head, dict) and head.get("schema") == SWEEP_SCHEMA:
+        raise InputError(f"this folder holds a sweep of bpmid calibrate (sweep.yaml, records.jsonl); bpmid {command} "
+                         f"needs a folder of its own: give another --out (nothing was written)", path=out,
+                         key="--out")
+
+
 def _time_left(counter: dict, total: int) -> str:
     """``; about N min left in this half``: the wall time per case so far in this run (workers in parallel) times the
     cases left; said once a few cases have finished."""
@@ -519,19 +537,25 @@ def _check_folder(out: Path, cfg: SweepConfig, force: bool = False) -> None:
     cases_def = {"sweep": dataclasses.asdict(cfg.sweep), "generator": cfg.effective_generator.to_yaml(),
                  "generator_version": GENERATOR}
     fp = hashlib.sha256(json.dumps(cases_def, sort_keys=True, default=str).encode()).hexdigest()
-    if not stamp.exists() and not force:
-        # a folder of another command's outputs (discover's discovery.yaml, a run's stages) is not a sweep's: the
-        # sweep's files would land beside them and read as one result
-        other = sorted(p.name for p in out.iterdir() if p.name not in SWEEP_FILES and not p.name.startswith("."))
+    if not force:
+        # a folder is a sweep's when its sweep.yaml is one bpmid wrote; any other folder must be empty: a folder of
+        # another command's outputs (discover's discovery.yaml) would read as one result with the sweep's, and a
+        # user's own sweep.yaml or thresholds.yaml there would be replaced
+        try:
+            old = yaml.safe_load(stamp.read_text("utf-8")) if stamp.is_file() else None
+        except (OSError, UnicodeDecodeError, yaml.YAMLError):
+            old = "unreadable"
+        ours = isinstance(old, dict) and old.get("schema") == SWEEP_SCHEMA and bool(old.get("fingerprint"))
+        other = sorted(p.name for p in out.iterdir() if not p.name.startswith(".")
+                       and (not ours or p.name not in SWEEP_FILES))
         if other:
             shown = ", ".join(other[:4]) + (f" and {len(other) - 4} more" if len(other) > 4 else "")
-            raise InputError(f"this folder holds files that are not a sweep's ({shown}); a sweep needs a folder of "
-                             f"its own: give a new --out (nothing was written)", path=out, key="--out")
+            raise InputError(f"this folder holds files that are not a sweep's ({shown}"
+                             + ("; its sweep.yaml is not one bpmid calibrate wrote" if stamp.exists() and not ours
+                                else "") + "); a sweep needs a folder of its own: give a new --out (nothing was "
+                             "written)", path=out, key="--out")
+        old = old if ours else {}
     if stamp.exists() and not force:
-        try:
-            old = yaml.safe_load(stamp.read_text("utf-8")) or {}
-        except yaml.YAMLError:
-            old = {}
         if old.get("fingerprint") not in (None, fp):
             raise InputError("this folder holds a sweep of another config (other cases); give a new --out to "
                              "start a new sweep", path=stamp, key="fingerprint")
@@ -790,7 +814,8 @@ def run_sweep(cfg: SweepConfig, out: str | Path, *, split: str = "all", schedule
             now = discover_settings(dcfg)
             todo = [c for c in halves[phase] if c.id not in done or done[c.id].get("discover_settings") != now]
             total = len(halves[phase])
-            say(f"{phase} half: {total} cases, {total - len(todo)} already done, {len(todo)} to run"
+            say(f"{'every case (pool), as the calibration half' if split == 'pool' else phase + ' half'}: {total} "
+                f"case{'s' if total != 1 else ''}, {total - len(todo)} already done, {len(todo)} to run"
                 + ("; run with a permissive gate so that every candidate's statistics are recorded for calibration: "
                    "what it names on a case (even on a null) is not a verdict" if phase == "calibration" else ""))
             if todo and stop_after is not None and new >= stop_after:

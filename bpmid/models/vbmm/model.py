@@ -39,6 +39,8 @@ MPa = PA_PER_MPA
 #: them a length was given in the other unit (metres under a _mm key, or millimetres as metres)
 GEOMETRY_MIN_M = {"th": 2e-5, "R0": 1e-4, "l0": 2e-3}
 GEOMETRY_MAX_M = {"th": 0.05, "R0": 0.5, "l0": 5.0}
+#: the smallest braid angle a muscle has (deg): below it, radians were given under a _deg key
+ALPHA0_MIN_DEG = 1.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,6 +79,10 @@ class Geometry:
         if not self.alpha0 < math.pi / 2:
             raise InputError(f"alpha0 is in rad and must be below pi/2, found {self.alpha0:g}", path=path,
                              key=f"{where}.alpha0")
+        if math.degrees(self.alpha0) < ALPHA0_MIN_DEG:
+            raise InputError(f"a braid angle of {math.degrees(self.alpha0):.4g} deg is too small for a muscle (at least "
+                             f"{ALPHA0_MIN_DEG:g} deg): radians given under alpha0_deg? alpha0 takes radians, "
+                             f"alpha0_deg degrees", path=path, key=f"{where}.alpha0")
         if any(getattr(self, k) > GEOMETRY_MAX_M[k] for k in GEOMETRY_MAX_M):
             raise InputError("geometry is in metres (th, R0, l0); the values look like millimetres: give them as "
                              "th_mm, R0_mm, l0_mm (and alpha0_deg) to state mm and deg", path=path, key=where)
