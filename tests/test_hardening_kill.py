@@ -342,3 +342,36 @@ def test_bpmid_run_killed_inside_its_stage_leaves_old_or_new(repo_root, tmp_path
     after = _snapshot(killed)
     assert _hidden(killed) == [] and {k: after[k] for k in recovered} == recovered
     assert set(after) - set(recovered) == {"sim.csv", "manifest.yaml"}
+
+
+def test_a_sigterm_that_compiled_code_turns_into_its_own_error_still_ends_as_terminated():
+    """matplotlib's renderer turned the SIGTERM raised in its callback into "ValueError: Invalid bounding box", and
+    `bpmid run` ended as an internal error (exit 1) instead of terminated (143); a later command starts clean."""
+    import typer
+    from typer.testing import CliRunner
+
+    from bpmid.cli._app import command
+    from bpmid.io.atomic import Terminated, termination_received
+
+    app = typer.Typer()
+
+    @command(app, "draw")
+    def draw(swallow: bool = True):
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(2)
+        except Terminated:
+            if swallow:
+                raise ValueError("Invalid bounding box") from None   # what the renderer raised instead
+            raise
+
+    @command(app, "fail")
+    def fail_():
+        raise ValueError("a real internal error")
+
+    r = CliRunner().invoke(app, ["draw"])
+    assert r.exit_code == 143 and "terminated (SIGTERM)" in r.output and "internal error" not in r.output
+    assert termination_received() == "SIGTERM"
+    r = CliRunner().invoke(app, ["fail"])
+    assert r.exit_code == 1 and "internal error: ValueError: a real internal error" in r.output
+    assert termination_received() is None

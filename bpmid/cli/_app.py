@@ -114,6 +114,9 @@ def command(typer_app: typer.Typer, name: str, **kw):
                 fail(os_error(exc, exc.filename if exc.filename is not None else "output",
                               "read or write").format(), 2)
             except Exception as exc:  # an internal failure: say so, keep the traceback one variable away
+                from bpmid.io.atomic import termination_received
+                if termination_received():   # a SIGTERM that compiled code turned into an error of its own
+                    fail(f"terminated ({termination_received()}); nothing was left half-written", 143)
                 if os.environ.get("BPMID_DEBUG"):
                     raise
                 typer.echo(traceback.format_exc(limit=-3), err=True)

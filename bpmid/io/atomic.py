@@ -259,6 +259,17 @@ def signals_held() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
+#: the signals :func:`sigterm_as_interrupt` turned into :class:`Terminated` in the running command
+_RECEIVED: list[str] = []
+
+
+def termination_received() -> str | None:
+    """The name of the SIGTERM or SIGHUP the running command received (None: none). A library's compiled code can
+    turn the :class:`Terminated` raised inside one of its callbacks into an error of its own (matplotlib's renderer
+    raised "ValueError: Invalid bounding box"): the command still ends as terminated, not as an internal error."""
+    return _RECEIVED[-1] if _RECEIVED else None
+
+
 @contextlib.contextmanager
 def sigterm_as_interrupt() -> Iterator[None]:
     """Within the block SIGTERM and SIGHUP raise :class:`Terminated` (a KeyboardInterrupt) in the main thread."""
@@ -267,7 +278,10 @@ def sigterm_as_interrupt() -> Iterator[None]:
         return
 
     def handler(signum, _frame):
+        _RECEIVED.append(signal.Signals(signum).name)
         raise Terminated(signal.Signals(signum).name)
+
+    _RECEIVED.clear()
 
     previous = {}
     for s in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)):
