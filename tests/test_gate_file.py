@@ -8,7 +8,7 @@ import yaml
 from typer.testing import CliRunner
 
 from bpmid.cli import app
-from bpmid.discover.calibrate import THRESHOLDS_PATH, load_thresholds
+from bpmid.discover.calibrate import THRESHOLDS_PATH, load_thresholds, thresholds_calibration
 from bpmid.discover.cautions import gate_cautions
 from bpmid.errors import InputError
 from bpmid.io.motion_logs import from_arrays
@@ -69,18 +69,19 @@ def test_a_gate_calibrated_on_other_conditions_is_said_with_what_differs(tmp_pat
     warned = "warning: the thresholds were calibrated on 11 judged case(s), 2 of them null: too few"
     f = _file(tmp_path, calibration={"generator": {"noise_deg": [0.25, 0.25], "noise_rho": [0.5, 0.5],
                                                    "sampling_hz": [25.0]}, "warnings": [warned]})
-    said = gate_cautions(str(f), _logs(10), {"sigma_deg": 0.30, "rho": 0.02})
+    cal = thresholds_calibration(f)
+    said = gate_cautions(str(f), cal, _logs(10), {"sigma_deg": 0.30, "rho": 0.02})
     assert len(said) == 2
     assert said[0] == f"the gate's calibration ({f}) warned: " + warned.removeprefix("warning: ")
     assert "calibrated on angle noise 0.25 deg, lag-1 correlation 0.5, 25 Hz" in said[1]
     assert "a lag-1 correlation of the noise of 0.02 and sampling at 10 Hz" in said[1]
     assert "noise floor" not in said[1]          # 0.30 deg is within 1.25 times 0.25 deg
     # the same conditions: only the calibration's own warning; a far noise floor is said
-    assert gate_cautions(str(f), _logs(25), {"sigma_deg": 0.26, "rho": 0.45}) == said[:1]
-    far = gate_cautions(str(f), _logs(25), {"sigma_deg": 0.05, "rho": 0.45})
+    assert gate_cautions(str(f), cal, _logs(25), {"sigma_deg": 0.26, "rho": 0.45}) == said[:1]
+    far = gate_cautions(str(f), cal, _logs(25), {"sigma_deg": 0.05, "rho": 0.45})
     assert "a noise floor of 0.05 deg" in far[1] and "sampling" not in far[1]
     # the shipped gate (no file given) is not judged here
-    assert gate_cautions(None, _logs(10), {"sigma_deg": 0.30, "rho": 0.02}) == []
+    assert gate_cautions(None, {}, _logs(10), {"sigma_deg": 0.30, "rho": 0.02}) == []
 
 
 
@@ -102,4 +103,5 @@ def test_a_typo_or_an_unreadable_calibration_block_is_refused_before_any_work(tm
         with pytest.raises(InputError) as e:
             load_thresholds(p)
         assert e.value.key == key, (cal, e.value.key)
-        assert gate_cautions(str(p), _logs(10), {"sigma_deg": 0.3, "rho": 0.0}) == []   # and never a crash there
+        with pytest.raises(InputError):   # the only way to the cautions: never a crash there
+            thresholds_calibration(p)

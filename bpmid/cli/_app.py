@@ -77,7 +77,7 @@ def command(typer_app: typer.Typer, name: str, **kw):
         @functools.wraps(fn)
         def wrapper(*args, **kwargs):
             from bpmid.errors import command_prints_warnings
-            from bpmid.io.atomic import Terminated, guard_inputs, sigterm_as_interrupt
+            from bpmid.io.atomic import Terminated, guard_inputs, sigterm_as_interrupt, terminated_message
             from bpmid.plots.options import figure_format_kept
 
             try:
@@ -89,7 +89,7 @@ def command(typer_app: typer.Typer, name: str, **kw):
                     _recover_outputs(kwargs)
                     return fn(*args, **kwargs)
             except Terminated as exc:
-                fail(f"terminated ({exc}); nothing was left half-written", 143)
+                fail(terminated_message(str(exc)), 143)
             except InputError as exc:
                 fail(exc.format(), 2)
             except (typer.Exit, typer.Abort, SystemExit):
@@ -116,7 +116,7 @@ def command(typer_app: typer.Typer, name: str, **kw):
             except Exception as exc:  # an internal failure: say so, keep the traceback one variable away
                 from bpmid.io.atomic import termination_received
                 if termination_received():   # a SIGTERM that compiled code turned into an error of its own
-                    fail(f"terminated ({termination_received()}); nothing was left half-written", 143)
+                    fail(terminated_message(termination_received()), 143)
                 if os.environ.get("BPMID_DEBUG"):
                     raise
                 typer.echo(traceback.format_exc(limit=-3), err=True)

@@ -116,6 +116,17 @@ SCHEMA = "bpmid.discover-thresholds/1"
 
 def load_thresholds(path: str | Path | None = None) -> dict:
     """The calibrated thresholds (:data:`THRESHOLD_KEYS`)."""
+    return read_thresholds(path)[0]
+
+
+def thresholds_calibration(path: str | Path) -> dict:
+    """What a thresholds file says of the calibration that made it (its checked ``calibration`` block: the sweep's
+    ``generator`` and the ``warnings`` calibrate gave; empty when it has none)."""
+    return read_thresholds(path)[1]
+
+
+def read_thresholds(path: str | Path | None = None) -> tuple[dict, dict]:
+    """(the gate's values, the ``calibration`` block) of a thresholds file, every key checked."""
     path = Path(path) if path else THRESHOLDS_PATH
     from bpmid.io.yamlsafe import load_file
 
@@ -140,7 +151,7 @@ def load_thresholds(path: str | Path | None = None) -> dict:
     data = later_gain_follows(data)
     check_drops_by_effect(data.get(BY_EFFECT_KEY) or {}, path, BY_EFFECT_KEY)
     check_threshold_values(data, path)
-    return gate_values(data)
+    return gate_values(data), dict(data.get("calibration") or {})
 
 
 def check_calibration_block(cal, path) -> None:

@@ -10,7 +10,7 @@ the advice to fit on other logs, and a lab at 950 hPa read as a 5 deg angle offs
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -156,12 +156,12 @@ GATE_RATE_FACTOR = 1.2
 
 
 def _span(v) -> tuple[float, float] | None:
-    """(low, high) of a generator's range or list of choices, None when it is not one."""
-    try:
-        vals = [float(x) for x in (v if isinstance(v, (list, tuple)) else [v])]
-    except (TypeError, ValueError):
+    """(low, high) of a generator's range or list of choices (numbers: checked when the file was read), None when
+    the calibration does not say."""
+    if v is None:
         return None
-    return (min(vals), max(vals)) if vals and all(np.isfinite(vals)) else None
+    vals = [float(x) for x in (v if isinstance(v, list) else [v])]
+    return min(vals), max(vals)
 
 
 def _said(lo: float, hi: float, unit: str, digits: str = ".3g") -> str:
@@ -169,28 +169,18 @@ def _said(lo: float, hi: float, unit: str, digits: str = ".3g") -> str:
     return f"{a}{unit}" if a == b else f"{a}-{b}{unit}"
 
 
-def gate_cautions(thresholds_file: str | None, logs: Sequence[MotionLog], noise: dict) -> list[str]:
+def gate_cautions(thresholds_file: str | None, cal: Mapping, logs: Sequence[MotionLog], noise: dict) -> list[str]:
     """Sentences when the gate comes from a thresholds file (``bpmid calibrate``'s) whose calibration warned (too few
     cases, paths closed), or which was calibrated on other conditions than these logs show: a noise floor, noise
-    colour or sampling rate outside the sweep's. A gate's false-positive rate is measured only on the conditions it
-    was calibrated on; a helper's trial used thresholds made for 25 Hz AR(1) noise on 10 Hz white-noise logs without a
-    word. The shipped gate is not judged here (its conditions are the README's)."""
+    colour or sampling rate outside the sweep's. ``cal``: the file's checked ``calibration`` block
+    (:func:`bpmid.discover.calibrate.thresholds_calibration`). A gate's false-positive rate is measured only on the
+    conditions it was calibrated on; a helper's trial used thresholds made for 25 Hz AR(1) noise on 10 Hz white-noise
+    logs without a word. The shipped gate is not judged here (its conditions are the README's)."""
     if not thresholds_file:
         return []
-    import yaml
-
-    try:
-        with open(thresholds_file, encoding="utf-8") as fh:
-            cal = (yaml.safe_load(fh) or {}).get("calibration") or {}
-    except (OSError, yaml.YAMLError, AttributeError):   # read and checked before discovery ran; a courtesy here
-        return []
-    if not isinstance(cal, dict):   # refused when the file was read (check_calibration_block); never a crash here
-        return []
     name = str(thresholds_file)
-    warned = cal.get("warnings") if isinstance(cal.get("warnings"), list) else []
-    out = [f"the gate's calibration ({name}) warned: {w.removeprefix('warning: ')}" for w in warned
-           if isinstance(w, str)]
-    gen = cal.get("generator") if isinstance(cal.get("generator"), dict) else {}
+    out = [f"the gate's calibration ({name}) warned: {w.removeprefix('warning: ')}" for w in cal.get("warnings") or []]
+    gen = cal.get("generator") or {}
     off, was = [], []
     sig = float(noise.get("sigma_deg", float("nan")))
     span = _span(gen.get("noise_deg"))

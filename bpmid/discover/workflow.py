@@ -51,7 +51,7 @@ import numpy as np
 
 from bpmid.discover.calibrate import (BY_EFFECT_KEY, THRESHOLD_KEYS as GATE_KEYS, check_drops_by_effect,
                                       floor_drops, gain_winner, later_gain_follows, load_thresholds,
-                                      winner_rank)
+                                      thresholds_calibration, winner_rank)
 from bpmid.discover.confirm import (Confirmation, PairTrial, confirm, excess_deg, heldout_drop_sigma, holm_adjusted,
                                    p_note, p_words, pair_trial)
 from bpmid.discover.cautions import ambient_cautions, data_cautions, gate_cautions, sampling_cautions
@@ -1074,7 +1074,8 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
     variation = log_to_log_variation(state, ho_logs, raw_after, floor, cfg) if unexplained else None
     cautions, held_out_odd = data_cautions(base_state, state, fit_logs, ho_logs, floor)
     cautions += ambient_cautions(all_logs, named) + sampling_cautions(all_logs, named) + copies \
-        + gate_cautions(cfg.thresholds_file, all_logs, noise)
+        + gate_cautions(cfg.thresholds_file, thresholds_calibration(cfg.thresholds_file) if cfg.thresholds_file
+                        else {}, all_logs, noise)
     verdict = make_verdict(named, rounds, before, after, floor, unexplained, variation, thr, base_report, raw_after,
                            noise, cfg.unexplained_gap_sigma, final=state, cautions=cautions,
                            held_out_odd=held_out_odd)

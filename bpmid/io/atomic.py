@@ -263,6 +263,11 @@ def signals_held() -> Iterator[None]:
 _RECEIVED: list[str] = []
 
 
+def terminated_message(signal_name: str) -> str:
+    """What a command says when a SIGTERM or SIGHUP ended it (exit 143)."""
+    return f"terminated ({signal_name}); nothing was left half-written"
+
+
 def termination_received() -> str | None:
     """The name of the SIGTERM or SIGHUP the running command received (None: none). A library's compiled code can
     turn the :class:`Terminated` raised inside one of its callbacks into an error of its own (matplotlib's renderer

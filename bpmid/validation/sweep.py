@@ -188,24 +188,33 @@ class SweepConfig:
                 "evaluation": {"discover": dict(self.evaluation.discover)}}
 
 
-#: a model's geometry keys (``model.geometry`` of a config: SI or stating their unit) as the rig's mm/deg keys
-_RIG_GEOMETRY_KEYS = {"th": ("th_mm", 1e3), "th_m": ("th_mm", 1e3), "R0": ("R0_mm", 1e3), "R0_m": ("R0_mm", 1e3),
-                      "l0": ("l0_mm", 1e3), "l0_m": ("l0_mm", 1e3), "alpha0": ("alpha0_deg", 180.0 / math.pi),
-                      "alpha0_rad": ("alpha0_deg", 180.0 / math.pi)}
+def _model_geometry_keys() -> dict:
+    """A model's geometry keys (``model.geometry``: the SI fields, and :attr:`Geometry.UNIT_KEYS`, which state their
+    unit) that are not the rig's own mm/deg keys -> (the rig's key, factor to it)."""
+    from bpmid.models.vbmm.model import Geometry
+
+    rig = {"th": ("th_mm", 1e3), "R0": ("R0_mm", 1e3), "l0": ("l0_mm", 1e3), "alpha0": ("alpha0_deg", 180.0 / math.pi)}
+    keys = dict(rig)
+    for k, (field, to_si) in Geometry.UNIT_KEYS.items():
+        to, factor = rig[field]
+        if k != to:
+            keys[k] = (to, to_si * factor)
+    return keys
 
 
 def _rig_geometry(geo: dict, path) -> dict:
     """``rig.geometry`` as the generator takes it ({name, th_mm, alpha0_deg, R0_mm, l0_mm, n}) from the same block a
     discover config's ``model.geometry`` holds (th, R0, l0 in m and alpha0 in rad, or keys stating their unit); the
     name defaults to ``rig``. A field given twice is refused under the second key."""
+    keys = _model_geometry_keys()
     out = {"name": "rig"} if "name" not in geo else {}
     for k, v in geo.items():
-        if k not in _RIG_GEOMETRY_KEYS:
+        if k not in keys:
             if k in out and k != "name":
                 raise InputError(f"{k} is given twice: keep one", path=path, key=f"rig.geometry.{k}")
             out[k] = v
             continue
-        to, factor = _RIG_GEOMETRY_KEYS[k]
+        to, factor = keys[k]
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise InputError(f"expected a number, found {v!r}", path=path, key=f"rig.geometry.{k}")
         if to in out or to in geo:
@@ -506,15 +515,21 @@ class RecordWriter:
         self.fh.close()
 
 
-def refuse_sweep_folder(out: str | Path, command: str) -> None:
-    """InputError naming ``--out`` when ``out`` is a sweep's folder (its ``sweep.yaml`` written by ``bpmid
-    calibrate``): another command's files beside a sweep's read as one result, and the sweep could not resume."""
+def sweep_stamp(out: str | Path) -> dict | None:
+    """The folder's ``sweep.yaml`` when ``bpmid calibrate`` wrote it (its schema and fingerprint), else None."""
     stamp = Path(out) / "sweep.yaml"
     try:
         head = yaml.safe_load(stamp.read_text("utf-8")) if stamp.is_file() else None
     except (OSError, UnicodeDecodeError, yaml.YAMLError):
-        return
-    if isinstance(head, dict) and head.get("schema") == SWEEP_SCHEMA:
+        return None
+    ok = isinstance(head, dict) and head.get("schema") == SWEEP_SCHEMA and bool(head.get("fingerprint"))
+    return head if ok else None
+
+
+def refuse_sweep_folder(out: str | Path, command: str) -> None:
+    """InputError naming ``--out`` when ``out`` is a sweep's folder (:func:`sweep_stamp`): another command's files
+    beside a sweep's read as one result, and the sweep could not resume."""
+    if sweep_stamp(out) is not None:
         raise InputError(f"this folder holds a sweep of bpmid calibrate (sweep.yaml, records.jsonl); bpmid {command} "
                          f"needs a folder of its own: give another --out (nothing was written)", path=out,
                          key="--out")
@@ -541,22 +556,16 @@ def _check_folder(out: Path, cfg: SweepConfig, force: bool = False) -> None:
         # a folder is a sweep's when its sweep.yaml is one bpmid wrote; any other folder must be empty: a folder of
         # another command's outputs (discover's discovery.yaml) would read as one result with the sweep's, and a
         # user's own sweep.yaml or thresholds.yaml there would be replaced
-        try:
-            old = yaml.safe_load(stamp.read_text("utf-8")) if stamp.is_file() else None
-        except (OSError, UnicodeDecodeError, yaml.YAMLError):
-            old = "unreadable"
-        ours = isinstance(old, dict) and old.get("schema") == SWEEP_SCHEMA and bool(old.get("fingerprint"))
+        old = sweep_stamp(out)
         other = sorted(p.name for p in out.iterdir() if not p.name.startswith(".")
-                       and (not ours or p.name not in SWEEP_FILES))
+                       and (old is None or p.name not in SWEEP_FILES))
         if other:
             shown = ", ".join(other[:4]) + (f" and {len(other) - 4} more" if len(other) > 4 else "")
             raise InputError(f"this folder holds files that are not a sweep's ({shown}"
-                             + ("; its sweep.yaml is not one bpmid calibrate wrote" if stamp.exists() and not ours
+                             + ("; its sweep.yaml is not one bpmid calibrate wrote" if stamp.exists() and old is None
                                 else "") + "); a sweep needs a folder of its own: give a new --out (nothing was "
                              "written)", path=out, key="--out")
-        old = old if ours else {}
-    if stamp.exists() and not force:
-        if old.get("fingerprint") not in (None, fp):
+        if old is not None and old["fingerprint"] != fp:
             raise InputError("this folder holds a sweep of another config (other cases); give a new --out to "
                              "start a new sweep", path=stamp, key="fingerprint")
     from bpmid.io.atomic import write_text
