@@ -195,8 +195,7 @@ def gate_cautions(thresholds_file: str | None, cal: Mapping, logs: Sequence[Moti
         if not span[0] - GATE_RHO_MARGIN <= rho <= span[1] + GATE_RHO_MARGIN:
             off.append(f"a lag-1 correlation of the noise of {rho:.2g}")
     span = _span(gen.get("sampling_hz"))
-    rates = [1.0 / float(np.median(np.diff(lg.time_s))) for lg in logs if lg.time_s.size > 1
-             and float(np.median(np.diff(lg.time_s))) > 0]
+    rates = [1.0 / lg.dt_s for lg in logs if lg.n > 1 and lg.dt_s > 0]   # each log's median step
     if span and rates:
         was.append(f"{_said(*span, ' Hz', '.4g')}")
         lo, hi = min(rates), max(rates)
