@@ -440,6 +440,10 @@ def predict(logs, params, *, config=None):
         if note:
             warnings.insert(0, f"{ppath}: {note}")
     warnings += plaus.beyond_fit_warnings(motion, fit_body)
+    from bpmid.models.vbmm.rig import step_warnings
+
+    mat = (model.base if hasattr(model, "base") else model).material
+    warnings += step_warnings(motion, fit_body, tuple(mat.tauG) + tuple(mat.tauK or ()))
     _give(warnings, cfg, "the prediction")
     body = {**predict_yaml_body(preds, params=ppath, model=model), "warnings": warnings}
     prov = plaus.attach(provenance(list(paths) + ([ppath] if ppath else []), config=cfg), motion, warnings)

@@ -322,3 +322,36 @@ def test_predict_says_when_a_log_runs_far_beyond_the_fitted_pressures(tmp_path, 
     res = runner.invoke(app, ["predict", str(slip), "--params", str(fit), "--out", str(tmp_path / "o")])
     assert res.exit_code == 0 and "far beyond the" in " ".join(res.output.split()), res.output
     assert "the constants were fitted on" in " ".join(res.output.split())
+
+
+def test_a_log_at_another_step_or_in_milliseconds_under_seconds_is_said_and_refused_with_strict(fitted, tmp_path):
+    """The fit file records its logs' step (0.1 s); the hereditary sum makes the constants hold for it. A log at
+    50 Hz, and one whose milliseconds (with fractions: the whole-number check misses them) sit under a seconds
+    header, used to be predicted without a word (the second 1000 times too slow: RMSE twice the right one)."""
+    params, _ = fitted
+    rng = np.random.default_rng(11)
+    t = np.round(np.arange(0.0, 30.0, 0.02), 10)
+    p = (triangle_pressure(t, 1.2, 2.0, 0.2) - 1.01325) * 1e5
+    fast = tmp_path / "fast.csv"
+    write_motion_log(fast, from_arrays("fast", t, p, VBMM(material=Material.paper_fit()).forward_deg(t, p)),
+                     unit="bar", reference="absolute")
+    slow = tmp_path / "ms_under_s.csv"
+    src = pd.read_csv(write_log(tmp_path / "src.csv", 2.0, 30.0, seed=4), comment="#")
+    ms = src.time_s.to_numpy() * 1000 + np.r_[0.0, rng.uniform(-0.4, 0.4, len(src) - 1)]
+    slow.write_text("# pressure_reference: absolute\ntime_s,pressure_bar,angle_deg\n" + "".join(
+        f"{a:.3f},{b},{c}\n" for a, b, c in zip(ms, src.pressure_bar, src.angle_deg)))
+    for log, said in ((fast, ["samples are 0.02 s apart", "fitted on logs sampled every 0.1 s"]),
+                      (slow, ["s apart (0.01 Hz), too slow", "time_ms=time_s"])):
+        out = tmp_path / f"p_{log.stem}"
+        r = runner.invoke(app, ["predict", str(log), "--params", str(params), "--out", str(out), "--strict"])
+        assert r.exit_code == 2, r.output
+        assert all(s in r.output for s in said), r.output
+        assert not out.exists()
+        r = runner.invoke(app, ["predict", str(log), "--params", str(params), "--out", str(out)])
+        assert r.exit_code == 0, r.output
+        kept = " ".join(yaml.safe_load((out / "predict.yaml").read_text())["warnings"])
+        assert said[0] in kept
+    # the fit's own step says nothing
+    r = runner.invoke(app, ["predict", str(tmp_path / "src.csv"), "--params", str(params),
+                            "--out", str(tmp_path / "same"), "--strict"])
+    assert r.exit_code == 0, r.output

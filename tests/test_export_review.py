@@ -10,7 +10,8 @@ from typer.testing import CliRunner
 import bpmid
 from bpmid.cli import app
 from bpmid.errors import BpmidWarning, InputError
-from bpmid.export.c import fit_rig, rig_defines
+from bpmid.export.c import rig_defines
+from bpmid.models.vbmm.rig import fit_rig
 from bpmid.models.vbmm import VBMM
 from tests.test_export_c import write_fit
 from tests.test_relax_export import fit_file

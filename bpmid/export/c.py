@@ -37,6 +37,7 @@ from string import Template
 from typing import Sequence
 
 from bpmid.errors import InputError
+from bpmid.models.vbmm.rig import STEP_SPREAD, fit_rig
 
 FILES = ("bpmid_model.h", "bpmid_model.c", "main.c")
 MODELS = ("vbmm", "vbmm-fit", "vbmm-mat", "maxwell-slip")
@@ -726,48 +727,6 @@ def _ms_sources(ms: MaxwellSlipMap, meta: dict) -> dict[str, str]:
     return {"bpmid_model.h": _template("common.h.in").substitute(subs),
             "bpmid_model.c": _template("maxwell_slip.c.in").substitute(subs),
             "main.c": _template("main.c.in").substitute(subs)}
-
-
-def _finite(x) -> float | None:
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        return None
-    return v if math.isfinite(v) else None
-
-
-def fit_rig(data: dict) -> tuple[list[float], list[float], bool]:
-    """What a fit file records of the rig its constants belong to: the sampling step of each fitting log (s: its
-    median step ``fit.logs[*].step_s``; in files written before it was recorded, duration / (samples - 1)), the
-    ambient pressures (Pa) its logs' absolute pressures were turned to gauge with, and whether any log was read as
-    gauge already. Values that are not numbers (a hand-edited file) are left out."""
-    fit = data.get("fit") if isinstance(data.get("fit"), dict) else {}
-    steps = []
-    for lg in fit.get("logs") or ():
-        if not isinstance(lg, dict):
-            continue
-        step = _finite(lg.get("step_s"))
-        if step is None:
-            n, dur = _finite(lg.get("samples")), _finite(lg.get("duration_s"))
-            step = dur / (n - 1) if n is not None and dur is not None and n > 1 else None
-        if step is not None and step > 0:
-            steps.append(step)
-    prov = data.get("provenance") if isinstance(data.get("provenance"), dict) else {}
-    atm, gauge = set(), False
-    for rd in (prov.get("reading") or {}).values():
-        ref = rd.get("pressure_reference") if isinstance(rd, dict) else None
-        if not isinstance(ref, dict):
-            continue
-        a = _finite(ref.get("atmosphere_pa"))
-        if ref.get("reference") == "absolute" and a is not None and a > 0:
-            atm.add(a)
-        elif ref.get("reference") == "gauge":
-            gauge = True
-    return steps, sorted(atm), gauge
-
-
-#: logs whose steps differ by less than this share have one step (rounding of the logged times)
-STEP_SPREAD = 0.01
 
 
 def rig_defines(data: dict, *, rate_dependent: bool = True) -> str:

@@ -13,7 +13,10 @@ The thresholds are stated here, once:
 - :data:`PRESSURE_RANGE_PA`: peak gauge pressures a pneumatic muscle is driven with
 - :data:`RADIAN_MAX`: a degree column whose largest angle stays below 2 pi while the pressure moves
 - :data:`ATMOSPHERE_BAND_PA`: a gauge log that never drops below about one atmosphere (a rest pressure in the band)
-- :data:`MIN_DURATION_S`: a motion log shorter than a second (seconds stated as milliseconds)
+- :data:`MIN_DURATION_S`: a motion log or relaxation test shorter than a second (seconds stated as milliseconds)
+- :data:`MAX_MOTION_STEP_S`: a motion log sampled a second or more apart in a seconds column (milliseconds under a
+  seconds unit, whatever their digits)
+- :data:`RELAX_RAMP_MAX_S`: a relaxation test whose loading ramp lasts over ten minutes in a seconds column
 - whole-number times at least half a second apart in a seconds column, motion and relaxation test logs alike
   (:func:`milliseconds_warnings`: milliseconds under a seconds unit)
 
@@ -47,6 +50,14 @@ RADIAN_MAX = 2 * math.pi
 ATMOSPHERE_BAND_PA = (0.88e5, 3.0e5)
 #: a motion log shorter than this (s) is flagged: a muscle run lasts seconds to minutes (times in ms read as s?)
 MIN_DURATION_S = 1.0
+#: a motion log whose samples are this far apart (s) or more, in a column read as seconds, is flagged: a rig logs a
+#: muscle at 10-1000 Hz, and a step of seconds cannot show its lag, creep or hysteresis (the VBMM's shortest time
+#: constant is a fraction of a second): milliseconds under a seconds unit, fractions and all (0.1 s read as 100 s)
+MAX_MOTION_STEP_S = 1.0
+#: a relaxation test whose loading ramp (to the held strain) lasts longer than this (s) is flagged: a relaxation
+#: test approximates a step, ramping in seconds (the shipped tests: 1.1-4 s), so a ramp of many minutes is
+#: milliseconds read as seconds (a 2 s ramp read as 2000 s)
+RELAX_RAMP_MAX_S = 600.0
 #: a parameter within this share of its bound (for a zero bound: within 1e-6 of the other bound's size) is
 #: "at the bound"
 BOUND_SHARE = 1e-3
@@ -217,7 +228,14 @@ def motion_data_warnings(logs: Iterable) -> list[str]:
                            f"the clipped stretches or log with the limit out of reach")
         t = np.asarray(lg.time_s, float)
         tcol = _column(lg, "time")
-        out += milliseconds_warnings(lg)
+        ms = milliseconds_warnings(lg)
+        out += ms
+        if not ms and t.size > 2 and tcol.get("unit") == "s":
+            dt = float(np.median(np.diff(t)))
+            if dt >= MAX_MOTION_STEP_S:
+                out.append(f"{where}: samples are {dt:.4g} s apart ({1.0 / dt:.3g} Hz), too slow to show a pneumatic "
+                           f"muscle's lag, creep and hysteresis (a rig logs at 10-1000 Hz): if the times are "
+                           f"milliseconds, {unit_fix(lg, 'time', 'ms')}")
         if t.size > 2 and float(t[-1] - t[0]) < MIN_DURATION_S:
             if tcol.get("unit") == "s":
                 # the column already says seconds: no unit to suggest, only the warning that so short a log says
@@ -325,12 +343,16 @@ def relax_warnings(records: Sequence, fit) -> list[str]:
     """Warnings after ``fit relax``: times that look like milliseconds (the motion logs' check), strain that looks
     like percent, a modulus no elastomer has, a poor fit."""
     out: list[str] = []
+    # each test log's loading ramp (s), as the fit read it (step and ramp mode alike: its hold curve)
+    ramps = {str(lg.name): float(lg.hold.ramp_s) for lg in getattr(fit, "logs", None) or ()
+             if getattr(lg, "hold", None) is not None}
     for r in records:
         where = _name(r)
         if not getattr(r, "is_modulus_curve", False):
             # the motion logs' check, shared; modulus curves are sampled evenly in log time (whole-number times
             # decades apart are common there), so it says nothing about them
-            out += milliseconds_warnings(r)
+            ms = milliseconds_warnings(r)
+            out += ms + ([] if ms else _relax_time_warnings(r, ramps.get(str(r.name))))
         if r.strain is not None and r.strain.size and float(np.max(r.strain)) > 1.0:
             if getattr(r, "source", "") == "load-extension":   # strain = extension / gauge length: the length's
                 out.append(f"{where}: the strain reaches {float(np.max(r.strain)):.4g} (over 100 %), the extension "
@@ -353,6 +375,29 @@ def relax_warnings(records: Sequence, fit) -> list[str]:
                           r.strain is not None and r.strain.size and float(np.max(r.strain)) <= 1.0
                           for r in records) else ""))
     return out
+
+
+def _relax_time_warnings(r, ramp_s: float | None) -> list[str]:
+    """A relaxation test log whose times look like another unit than its column states: the whole test within a
+    second (seconds under a milliseconds unit), or a loading ramp of many minutes in a seconds column
+    (milliseconds under a seconds unit, fractions and all)."""
+    t = np.asarray(r.time_s, float)
+    if t.size < 3:
+        return []
+    col = _column(r, "time")
+    unit = col.get("unit", "s")
+    span = float(t[-1] - t[0])
+    if span < MIN_DURATION_S:
+        fix = (unit_fix(r, "time", "s") if unit != "s" else "check that the time column holds seconds")
+        return [f"{_name(r)}: the test lasts only {span:.3g} s ({t.size} samples), too short for a relaxation test "
+                f"(a ramp of seconds and a hold of minutes): if the times are seconds, not {unit}, {fix}"
+                if unit != "s" else f"{_name(r)}: the test lasts only {span:.3g} s ({t.size} samples), too short for "
+                f"a relaxation test (a ramp of seconds and a hold of minutes): {fix}"]
+    if unit == "s" and ramp_s is not None and ramp_s > RELAX_RAMP_MAX_S:
+        return [f"{_name(r)}: the loading ramp lasts {ramp_s:.4g} s and the test {span:.4g} s: a relaxation test "
+                f"ramps in seconds to approximate a step, so these look like milliseconds read as seconds. If so, "
+                f"{unit_fix(r, 'time', 'ms')}"]
+    return []
 
 
 def poisson_warnings(fit, nu: float, stated: bool) -> list[str]:

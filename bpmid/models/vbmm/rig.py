@@ -1,0 +1,95 @@
+"""The rig a fitted VBMM's constants belong to, as its fit file records it: the sampling step of the logs it was
+fitted on and the ambient their absolute pressures were turned to gauge with.
+
+The model's hereditary sum (VBMM.md eq. 5) takes each pressure step as a jump at its sample, so the constants hold
+for the step they were fitted at (:func:`bpmid.models.vbmm.model.sampling_note`). Whatever runs a fit file (``bpmid
+predict``, the C export) reads the rig from here; :func:`step_warnings` says when a log is run at another step.
+
+Units: s, Pa.
+"""
+from __future__ import annotations
+
+import math
+from typing import Iterable, Mapping
+
+import numpy as np
+
+
+def _finite(x) -> float | None:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def fit_rig(data: dict) -> tuple[list[float], list[float], bool]:
+    """What a fit file records of the rig its constants belong to: the sampling step of each fitting log (s: its
+    median step ``fit.logs[*].step_s``; in files written before it was recorded, duration / (samples - 1)), the
+    ambient pressures (Pa) its logs' absolute pressures were turned to gauge with, and whether any log was read as
+    gauge already. Values that are not numbers (a hand-edited file) are left out."""
+    fit = data.get("fit") if isinstance(data.get("fit"), dict) else {}
+    steps = []
+    for lg in fit.get("logs") or ():
+        if not isinstance(lg, dict):
+            continue
+        step = _finite(lg.get("step_s"))
+        if step is None:
+            n, dur = _finite(lg.get("samples")), _finite(lg.get("duration_s"))
+            step = dur / (n - 1) if n is not None and dur is not None and n > 1 else None
+        if step is not None and step > 0:
+            steps.append(step)
+    prov = data.get("provenance") if isinstance(data.get("provenance"), dict) else {}
+    atm, gauge = set(), False
+    for rd in (prov.get("reading") or {}).values():
+        ref = rd.get("pressure_reference") if isinstance(rd, dict) else None
+        if not isinstance(ref, dict):
+            continue
+        a = _finite(ref.get("atmosphere_pa"))
+        if ref.get("reference") == "absolute" and a is not None and a > 0:
+            atm.add(a)
+        elif ref.get("reference") == "gauge":
+            gauge = True
+    return steps, sorted(atm), gauge
+
+
+#: logs whose steps differ by less than this share have one step (rounding of the logged times)
+STEP_SPREAD = 0.01
+
+
+def step_warnings(logs: Iterable, fit_body: Mapping | None, taus: Iterable[float]) -> list[str]:
+    """A warning for each log sampled at a step other than the fit's, by enough to move the prediction: the
+    hereditary sum's error against the smooth history grows as about step / (2 tau) of the shortest branch's
+    moduli (:data:`~bpmid.models.vbmm.model.SAMPLING_NOTE_SHARE`, the share at which a fit notes its step), so a
+    log whose step differs from every fitting log's by more than that share of 2 tau gets one (a rate slip, such
+    as milliseconds read as seconds, gets the log's own check instead:
+    :data:`~bpmid.io.plausibility.MAX_MOTION_STEP_S`). ``taus``: the model's time constants (s); a fit file that
+    records no step (written before it did) says nothing."""
+    from bpmid.io.plausibility import MAX_MOTION_STEP_S
+    from bpmid.models.vbmm.model import SAMPLING_NOTE_SHARE
+
+    steps, _atm, _gauge = fit_rig(dict(fit_body or {}))
+    taus = [float(t) for t in taus if t is not None and float(t) > 0]
+    if not steps or not taus:
+        return []
+    tau = min(taus)
+    lo, hi = min(steps), max(steps)
+    fitted = f"{lo:.4g} s" if hi <= lo * (1.0 + STEP_SPREAD) else f"{lo:.4g}-{hi:.4g} s"
+    out = []
+    for lg in logs:
+        t = np.asarray(lg.time_s, float)
+        if t.size < 2:
+            continue
+        dt = float(np.median(np.diff(t)))
+        if dt >= MAX_MOTION_STEP_S:   # a rate no rig logs at: the log's own check says it, with the unit fix
+            continue
+        off = min(abs(dt - s) for s in steps)
+        share = off / (2.0 * tau)
+        if share > SAMPLING_NOTE_SHARE:
+            name = str(lg.path) if getattr(lg, "path", None) is not None else str(lg.name)
+            out.append(f"{name}: samples are {dt:.4g} s apart ({1.0 / dt:.3g} Hz), the constants were fitted on logs "
+                       f"sampled every {fitted}; the model's hereditary sum takes each pressure step as a jump at its "
+                       f"sample, so at this step the moduli of its shortest branch ({tau:.3g} s) act some "
+                       f"{100.0 * share:.0f} % off the fitted ones and the prediction is not the fitted model's (check the time "
+                       f"unit; resample the log to the fit's step, or fit on logs taken at this rate)")
+    return out
