@@ -222,3 +222,80 @@ def test_fit_motion_init_refuses_bad_mode(repo_root, relax_fit_file, tmp_path):
     res = runner.invoke(app, ["fit", "motion", str(repo_root / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv"),
                               "--init", str(p), "--out", str(out), "--no-plot"])
     _refused(res, out, "mode.yaml", "mode")
+
+
+def _relax_frame(repo_root, rel=REL):
+    import pandas as pd
+
+    return pd.read_csv(repo_root / rel, comment="#")
+
+
+def test_milliseconds_with_fractions_under_seconds_and_seconds_under_ms_are_said_and_refused_with_strict(
+        repo_root, tmp_path):
+    """A 2 s ramp read as 2000 s (milliseconds with fractions under time_s: the whole-number check misses them) and
+    a 60 s test read as 0.06 s (seconds under time_ms): both fit without error and give a time constant 1000 times
+    off, so each is said with the unit map that fixes it, and --strict refuses it with nothing written."""
+    d = _relax_frame(repo_root)
+    rng = np.random.default_rng(5)
+    ms = d.time_s.to_numpy() * 1000 + np.r_[0.0, rng.uniform(-0.4, 0.4, len(d) - 1)]
+    slow = tmp_path / "ms_as_s.csv"
+    slow.write_text("time_s,strain,stress_mpa\n" + "".join(
+        f"{t:.3f},{e},{s}\n" for t, e, s in zip(ms, d.strain, d.stress_mpa)))
+    fast = tmp_path / "s_as_ms.csv"
+    fast.write_text("time_ms,strain,stress_mpa\n" + "".join(
+        f"{t},{e},{s}\n" for t, e, s in zip(d.time_s, d.strain, d.stress_mpa)))
+    for path, said, fix in ((slow, "loading ramp lasts", "time_ms=time_s"), (fast, "lasts only", "time_s=time_ms")):
+        out = tmp_path / f"{path.stem}.yaml"
+        r = runner.invoke(app, ["fit", "relax", str(path), "--out", str(out), "--strict"])
+        assert r.exit_code == 2, r.output
+        assert said in r.output and fix in r.output and path.name in r.output
+        assert not out.exists() and not out.with_suffix(".png").exists()
+        r = runner.invoke(app, ["fit", "relax", str(path), "--out", str(out)])
+        assert r.exit_code == 0, r.output
+        assert any(said in w for w in yaml.safe_load(out.read_text())["warnings"])
+    # the shipped test (a 1.1-4 s ramp, 50 Hz, seconds) says neither
+    r = runner.invoke(app, ["fit", "relax", str(repo_root / REL), "--out", str(tmp_path / "ok.yaml"), "--strict"])
+    assert r.exit_code == 0, r.output
+
+
+def _four_columns(repo_root, path, *, L0_machine, A0_machine, L0_stated=50, A0_stated=12, stress=True):
+    d = _relax_frame(repo_root)
+    head = f"# gauge_length_mm: {L0_stated}\n# cross_section_mm2: {A0_stated}\n" if L0_stated else ""
+    ext, load = d.strain * 50.0, d.stress_mpa * 12.0            # what the specimen (50 mm, 12 mm^2) gave
+    cols = "Time (s),Extension (mm),Load (N),Tensile strain (%)" + (",Tensile stress (MPa)" if stress else "")
+    rows = [f"{t},{x:.8f},{f:.10f},{100 * x / L0_machine:.8f}" + (f",{f / A0_machine:.10f}" if stress else "")
+            for t, x, f in zip(d.time_s, ext, load)]
+    path.write_text(head + cols + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def test_strain_stress_beside_extension_load_must_agree_over_the_stated_specimen(repo_root, tmp_path):
+    """A machine export with both pairs: its strain and stress computed with a wrongly entered specimen (40 mm,
+    10 mm^2) while the file states 50 mm and 12 mm^2 gave E_inf 4 % off without a word. Now refused, naming both
+    pairs and the specimen each implies; when they agree the machine's pair is read and the check recorded; a lone
+    machine strain beside extension and load no longer hides the usable pair."""
+    bad = _four_columns(repo_root, tmp_path / "wrong_specimen.csv", L0_machine=40, A0_machine=10)
+    r = runner.invoke(app, ["fit", "relax", str(bad), "--out", str(tmp_path / "bad.yaml")])
+    assert r.exit_code == 2, r.output
+    assert "disagree" in r.output and "gauge_length_mm = 40" in r.output and "cross_section_mm2 = 10" in r.output
+    assert "wrong_specimen.csv" in r.output and not (tmp_path / "bad.yaml").exists()
+    # a config's specimen is checked the same way (and its key named)
+    cfg = tmp_path / "spec.yaml"
+    cfg.write_text("relax:\n  specimen: {gauge_length_mm: 50, cross_section_mm2: 12}\n")
+    nolines = _four_columns(repo_root, tmp_path / "no_lines.csv", L0_machine=40, A0_machine=10, L0_stated=None)
+    r = runner.invoke(app, ["fit", "relax", str(nolines), "--config", str(cfg), "--out", str(tmp_path / "b2.yaml")])
+    assert r.exit_code == 2 and "relax.specimen" in r.output, r.output
+    good = _four_columns(repo_root, tmp_path / "agree.csv", L0_machine=50, A0_machine=12)
+    out = tmp_path / "good.yaml"
+    r = runner.invoke(app, ["fit", "relax", str(good), "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    body = yaml.safe_load(out.read_text())
+    assert body["data"]["logs"][0]["source"] == "stress-strain"
+    check = body["provenance"]["reading"]["agree"]["load_extension"]
+    assert "agree" in check["note"] and check["implied_specimen"]["gauge_length_mm"] == pytest.approx(50, rel=1e-4)
+    lone = _four_columns(repo_root, tmp_path / "lone_strain.csv", L0_machine=50, A0_machine=12, stress=False)
+    r = runner.invoke(app, ["fit", "relax", str(lone), "--out", str(tmp_path / "lone.yaml")])
+    assert r.exit_code == 0, r.output
+    lone_body = yaml.safe_load((tmp_path / "lone.yaml").read_text())
+    assert lone_body["data"]["logs"][0]["source"] == "load-extension"
+    assert lone_body["prony"]["E_inf"]["value"] == pytest.approx(body["prony"]["E_inf"]["value"], rel=1e-3)

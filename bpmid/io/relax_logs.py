@@ -108,6 +108,55 @@ def _specimen_value(name: str, cfg_value: float | None, meta: dict, path: Path) 
     return float(value)
 
 
+#: a file's strain and stress agree with its extension and load over the stated specimen within this share
+#: (the machine's rounding of its columns is far below it; a wrongly entered specimen is far above)
+PAIRS_AGREE_SHARE = 0.01
+
+
+def _implied(num: np.ndarray, den: np.ndarray) -> float:
+    """The median of num / den where den is at least a fifth of its peak (the ramp's top and the hold)."""
+    peak = float(np.max(np.abs(den))) if den.size else 0.0
+    k = np.abs(den) >= 0.2 * peak if peak > 0 else np.zeros(den.size, bool)
+    return float(np.median(num[k] / den[k])) if k.any() else float("nan")
+
+
+def _check_both_pairs(table, path: Path, gauge_length_mm, cross_section_mm2) -> dict:
+    """A file with strain and stress and also extension and load: the strain and stress are read (the machine's
+    own), and where the specimen is stated (config or file) the two pairs must agree over it, else the file is
+    refused (one of them rests on a wrongly entered specimen, and which one is the user's to say). Returns what the
+    reading records of the check."""
+    strain, stress = table.columns["strain"], table.columns["stress"]
+    ext, load = table.columns["extension"], table.columns["load"]
+    L_implied = _implied(ext, strain)          # mm: the gauge length the machine's strain was computed with
+    A_implied = _implied(load, stress)         # mm^2: N / MPa
+    given = {}
+    for name, cfg_value in (("gauge_length_mm", gauge_length_mm), ("cross_section_mm2", cross_section_mm2)):
+        if cfg_value is not None or table.meta.get(name) is not None:
+            given[name] = _specimen_value(name, cfg_value, table.meta, path)
+    heads = {q: table.headers.get(q, q) for q in ("strain", "stress", "extension", "load")}
+    record = {"columns": [heads["extension"], heads["load"]], "used": False,
+              "implied_specimen": {"gauge_length_mm": round(L_implied, 6), "cross_section_mm2": round(A_implied, 6)}}
+    if not given:
+        record["note"] = ("strain and stress read; extension and load not used (no specimen stated to check them "
+                          "against)")
+        return record
+    bad = []
+    for name, implied, what in (("gauge_length_mm", L_implied, f"{heads['extension']!r} / {heads['strain']!r}"),
+                                ("cross_section_mm2", A_implied, f"{heads['load']!r} / {heads['stress']!r}")):
+        if name in given and np.isfinite(implied) and abs(implied / given[name] - 1.0) > PAIRS_AGREE_SHARE:
+            bad.append(f"{what} gives {name} = {implied:.4g}, the specimen says {given[name]:g}")
+    if bad:
+        where = ("config relax.specimen" if gauge_length_mm is not None or cross_section_mm2 is not None
+                 else "the file's '# gauge_length_mm:' / '# cross_section_mm2:' lines")
+        raise InputError("the file has both strain/stress and extension/load columns, and they disagree: "
+                         + "; ".join(bad) + f" ({where}). One pair rests on a wrongly entered specimen: correct the "
+                         "specimen to the one tested, or delete the wrong pair's columns from the file",
+                         path=path, key=heads["strain"])
+    record["note"] = (f"strain and stress read; extension and load agree with them over the stated specimen within "
+                      f"{PAIRS_AGREE_SHARE:.0%}")
+    return record
+
+
 def _check_tension(values: np.ndarray, table, path: Path, what: str, unit: str) -> None:
     """Refuse a test log whose strain (or extension) goes clearly below zero, naming the first such line."""
     peak = float(np.max(np.abs(values))) if values.size else 0.0
@@ -164,6 +213,10 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
     table = read_table(path, kind=KIND, optional=("time",), **opts)
     if table.has("modulus"):
         need = ("time", "modulus")
+    elif table.has("strain") and table.has("stress"):
+        need = ("time", "strain", "stress")
+    elif table.has("load") and table.has("extension"):   # a lone machine strain (or stress) beside them is unused
+        need = ("time", "extension", "load")
     elif table.has("strain") or table.has("stress"):
         need = ("time", "strain", "stress")
     elif table.has("load") or table.has("extension"):
@@ -189,6 +242,8 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
         return RelaxLog(modulus_mpa=E, source="modulus", **common)
     if need[1] == "strain":
         _check_tension(table.columns["strain"], table, path, "strain", "")
+        if table.has("load") and table.has("extension"):
+            common["reading"]["load_extension"] = _check_both_pairs(table, path, gauge_length_mm, cross_section_mm2)
         return RelaxLog(strain=table.columns["strain"], stress_mpa=table.columns["stress"], source="stress-strain",
                         **common)
     _check_tension(table.columns["extension"], table, path, "extension", " mm")
