@@ -23,6 +23,7 @@ import dataclasses
 import glob
 import os
 import inspect
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -32,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from bpmid import metrics as M
-from bpmid.errors import InputError
+from bpmid.errors import _IN_COMMAND, InputError
 from bpmid.fitting import FitResult
 from bpmid.io.motion_logs import MotionLog, is_synthetic, synthetic_line, synthetic_note
 from bpmid.models import REGISTRY, model_class
@@ -411,8 +412,11 @@ def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models
     if fitted_too and len(fitted_too) == len(test):
         raise InputError("every test log is also a training log (the same file or the same data): nothing would "
                          "test prediction; give test logs the models are not fitted on", key="--test")
-    for w in warn:
-        warnings.warn(w, CompareWarning, stacklevel=2)
+    for w in warn:   # a command (bpmid compare, the run's compare stage) says them as its other warnings
+        if _IN_COMMAND.get():
+            print(f"warning: {w}", file=sys.stderr, flush=True)
+        else:
+            warnings.warn(w, CompareWarning, stacklevel=2)
     # a log the models were fitted on tests nothing: out of every pooled score and set (kept, marked, in metrics)
     names = [n for n in names if n not in fitted_too]
     sets = {k: [n for n in v if n not in fitted_too] for k, v in sets.items()}

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import dataclasses
 import signal
+import sys
 import time
 from pathlib import Path
 from typing import Mapping, Optional
@@ -338,6 +339,31 @@ def _prov(inputs, config, seed, command):
     return provenance([p for p in inputs if p is not None], config=config, seed=seed, command=command)
 
 
+def _ambient_note(logs, ctx: dict) -> None:
+    """The stand-alone commands' note for logs turned to gauge with an ambient nothing stated, each log once per
+    run (the motion stage notes its logs before the stages after it are forked, so they note only others)."""
+    from bpmid.io import plausibility as plaus
+
+    seen = ctx.setdefault("ambient_noted", set())
+    new = [lg for lg in logs if str(getattr(lg, "path", None) or lg.name) not in seen]
+    seen.update(str(getattr(lg, "path", None) or lg.name) for lg in new)
+    text = plaus.assumed_ambient_note(new)
+    if text:
+        print("note: " + text, file=sys.stderr, flush=True)
+
+
+def _log_warnings(logs, config, what: Path, ctx: dict) -> list[str]:
+    """What the stand-alone command says of its logs before any model runs on them: the readers' warnings and the
+    unit and reference checks (printed; ``io.strict`` refuses them), then the ambient note. Returns the warnings
+    (the stage's file records them with the reading, :func:`bpmid.io.plausibility.attach`)."""
+    from bpmid.io import plausibility as plaus
+
+    warnings = plaus.log_warnings(logs)
+    plaus.emit(warnings, strict=config.section("io").strict, what=str(what), key=plaus.strict_key(config.section("io")))
+    _ambient_note(logs, ctx)
+    return warnings
+
+
 # --------------------------------------------------------------------------------------------------
 # stages (each returns the files it wrote, relative to DIR)
 # --------------------------------------------------------------------------------------------------
@@ -402,6 +428,7 @@ def stage_motion(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     warnings = plaus.reader_warnings(logs) + plaus.motion_fit_warnings(mf)
     plaus.emit(warnings, strict=config.section("io").strict, what=str(out / "vbmm_fit.yaml"),
                key=plaus.strict_key(config.section("io")))
+    _ambient_note(logs, ctx)
     fig = figure_path(out / "vbmm_fit.png")
     deferred = ctx.get("deferred")
     write_motion_fit(out / "vbmm_fit.yaml", mf, plaus.attach(dict(prov), logs, warnings),
@@ -442,10 +469,14 @@ def stage_history(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     model = starting_vbmm(ctx.get("vbmm_fit"), mcfg)[0]
     source = "VBMM-fit of this run (vbmm_fit.yaml)" if ctx.get("vbmm_fit") else "the paper's VBMM-fit constants"
     log = read_motion_log(inp.long_term, config.section("io"), require_angle=True)
+    from bpmid.io import plausibility as plaus
+
+    warnings = _log_warnings([log], config, out / "history_modes.yaml", ctx)
     rc: RunConfig = config.section("run")
     study = history_mode_study(model, log, durations_s=rc.history_durations_s, repeats=rc.history_repeats)
     inputs = [inp.long_term] + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
-    written = write_history_study(study, out, _prov(inputs, config, ctx["seed"], ctx["command"]),
+    written = write_history_study(study, out, plaus.attach(_prov(inputs, config, ctx["seed"], ctx["command"]), [log],
+                                                            warnings),
                                   params_source=source, synthetic=synthetic_note([log]))
     return [Path(p).name for p in written]
 
@@ -459,12 +490,17 @@ def stage_discover(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     io_cfg = config.section("io")
     fit_logs = read_motion_logs(inp.discover_logs, io_cfg, require_angle=True)
     ho = read_motion_logs(inp.discover_holdout, io_cfg, require_angle=True) if inp.discover_holdout else None
+    every = fit_logs + (ho or [])
+    warnings = _log_warnings(every, config, out / "discover", ctx)
     base = starting_vbmm(ctx.get("vbmm_fit"), config.section("model"))[0]
     base_from = "vbmm_fit.yaml (motion fit of this run)" if ctx.get("vbmm_fit") else "paper VBMM-fit constants"
     result = discover(fit_logs, base, holdout=ho, cfg=config.section("discover"))
     inputs = inp.discover_logs + inp.discover_holdout + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else []) \
         + ([Path(result.thresholds_file)] if result.thresholds_file else [])   # the gate's file is an input too
-    written = write_discovery(out / "discover", result, _prov(inputs, config, ctx["seed"], ctx["command"]),
+    from bpmid.io import plausibility as plaus
+
+    written = write_discovery(out / "discover", result,
+                              plaus.attach(_prov(inputs, config, ctx["seed"], ctx["command"]), every, warnings),
                               base_from=base_from)
     return [f"discover/{name}" for name in written if not name.endswith(".png")]
 

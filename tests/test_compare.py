@@ -190,7 +190,7 @@ def test_verdicts_say_when_a_baseline_beats_the_weaker_vbmm_variant():
     assert not any("beats the VBMM variant vbmm-fit" in x for x in lines)
 
 
-def test_overlap_is_detected_by_path_and_by_content(rate_logs, tmp_path):
+def test_overlap_is_detected_by_path_and_by_content(rate_logs, tmp_path, capsys):
     train, test = rate_logs
     paths = write_logs(tmp_path, train)
     from bpmid.io.motion_logs import read_motion_logs
@@ -226,6 +226,17 @@ def test_overlap_is_detected_by_path_and_by_content(rate_logs, tmp_path):
     with pytest.warns(CompareWarning, match="repeats training log train_0p2 within rounding"):
         res = compare_models(train, [redo, test[0]], ["two-branch"], timing=False)
     assert set(res.metrics["set"]) == {"test"}         # scored as a test, with the warning
+    # inside a command (bpmid compare, and bpmid run's compare stage, which used to show a raw Python warning with
+    # a source line) it is said on stderr as the command's other warnings are, and raised as none
+    import warnings as W
+
+    from bpmid.errors import command_prints_warnings
+
+    with W.catch_warnings(record=True) as caught, command_prints_warnings():
+        W.simplefilter("always")
+        compare_models(train, [redo, test[0]], ["two-branch"], timing=False)
+    assert not [w for w in caught if issubclass(w.category, CompareWarning)]
+    assert "warning: test log reexported repeats training log train_0p2" in capsys.readouterr().err
     with pytest.warns(CompareWarning):
         res = compare_models(train, [MotionLog(**copy), test[0]], ["two-branch"], timing=False)
     # the copy is scored, marked, and left out of the pooled score: ALL is the real test log alone

@@ -125,6 +125,11 @@ def test_run_writes_every_stage_file_with_cli_names(timed_small_study):
     assert mat["material"]["K_inf"]["value"] == pytest.approx(relax["bulk"]["K_inf"]["value"], rel=1e-9)
     disc = yaml.safe_load((out / "discover" / "discovery.yaml").read_text())
     assert disc["schema"] == "bpmid.discovery/1" and "named_effects" in disc and "unexplained" in disc
+    # what the reader found is recorded by the run's stages as by the commands (it used to be missing here)
+    for f in ("discover/discovery.yaml", "discover/model.yaml", "history_modes.yaml"):
+        prov = yaml.safe_load((out / f).read_text())["provenance"]
+        assert prov["reading"] and all("columns" in r for r in prov["reading"].values()), f
+        assert prov["warnings"] == [], f
     run = yaml.safe_load((out / "run.yaml").read_text())
     assert [s["name"] for s in run["stages"]] == ["relax", "motion", "compare", "history", "discover", "control", "report"]
     assert all(s["status"] == "done" for s in run["stages"])
