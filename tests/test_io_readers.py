@@ -245,6 +245,9 @@ def test_two_columns_for_one_quantity(tmp_path):
     ("pressure_psig", "pressure", "psi"), ("theta_rad", "angle", "rad"), ("Winkel [°]", "angle", "deg"),
     ("time_epoch_ms", "time", "epoch_ms"), ("run.t", "time", None), ("angle_pred_deg", None, None),
     ("pressure", "pressure", None),
+    # quantity/unit without spaces (DIN 1313), split only at a unit bpmid knows: 'dp/dt' is no unit
+    ("t/s", "time", "s"), ("p/bar", "pressure", "bar"), ("angle/deg", "angle", "deg"), ("strain/%", "strain", "%"),
+    ("Zeit/ms", "time", "ms"), ("dp/dt", None, None),
 ])
 def test_header_forms(header, q, unit):
     assert parse_header(header) == (q, unit)

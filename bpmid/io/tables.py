@@ -125,6 +125,8 @@ _DERIVED_PREFIXES = ("soll",)
 
 _PAREN = re.compile(r"^(.*?)\s*[\(\[\{]\s*([^\)\]\}]*)\s*[\)\]\}]\s*$")
 _SLASH = re.compile(r"^(.*?\S)\s+(?:/|in)\s+(\S+)$")
+#: a quantity and its unit with one slash and no spaces ('t/s', 'p/bar'); read only when the unit is one bpmid knows
+_SLASH_TIGHT = re.compile(r"^([^/]*[^\s/])/([^\s/]+)$")
 _COMMA_UNIT = re.compile(r"^(.*?\S),\s+(\S+)$")
 _PRESSURE_REF = re.compile(r"^(pa|hpa|kpa|mpa|mbar|bar|psi)(a|abs|absolute|g|gauge|gage|rel|relative)?$")
 #: words of a pressure column's name that state its reference ('Gauge pressure', 'Druck rel.', 'p abs')
@@ -287,6 +289,9 @@ def _unit_part(name: str) -> tuple[str, str | None]:
         return m.group(1), m.group(2).strip()
     m = _SLASH.match(raw)
     if m:
+        return m.group(1), m.group(2).strip()
+    m = _SLASH_TIGHT.match(raw)   # 't/s', 'strain/%' (DIN 1313's quantity/unit): only a unit bpmid knows after it
+    if m and any(split_unit(q, m.group(2))[0] is not None for q in UNITS):
         return m.group(1), m.group(2).strip()
     m = _COMMA_UNIT.match(raw)   # 'Time, s' in a ';' or tab file: only a unit bpmid knows after the comma
     if m and any(split_unit(q, m.group(2))[0] is not None for q in UNITS):
