@@ -394,6 +394,10 @@ def test_filter_refuses_bad_lines(plain):
         res = subprocess.run([str(exe), *flag], input=f"{head}\n0,1.2\n0.1,1.3\n", capture_output=True, text=True)
         assert res.returncode == 2 and res.stdout == "", res.stderr
         assert f"line 1: the header names '{head}'" in res.stderr and "time in s" in res.stderr
+    # a tab-separated header is shown with its tab (it read 'time_spressure_gauge_pa'), the comma asked for
+    res = subprocess.run([str(exe)], input="time_s\tpressure_gauge_pa\n0\t1000\n", capture_output=True, text=True)
+    assert res.returncode == 2 and "names 'time_s\\tpressure_gauge_pa'" in res.stderr, res.stderr
+    assert "separated by a comma" in res.stderr
     # a value the model refuses (status 3) stops the filter naming the line, printing nothing for it (it printed
     # the previous angle again and went on); a hexadecimal number is refused, not read as 16 Pa
     for text, what, printed in (("0,50000\n0.1,5e10\n0.2,60000\n", "line 2: input refused", 1),
