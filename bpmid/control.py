@@ -153,6 +153,8 @@ class Reference:
     path: Path | None = None
     #: how a file's samples were put on the control grid (None: the file was on it already), in words
     resampled: str | None = None
+    #: what the reader found and assumed in the file (columns, units, dialect); {} for a built-in reference
+    reading: dict = dataclasses.field(default_factory=dict)
 
 
 def shipped_dir() -> Path:
@@ -234,7 +236,7 @@ def read_reference(path: Path, rate_hz: float, name: str | None = None, io=None)
     if abs(float(t[0])) > 1e-9:   # the run starts at the reference's first sample: said, with its shift
         shift = f"its time starts at {float(t[0]):.6g} s and runs from 0 here (shifted by {-float(t[0]):.6g} s)"
         resampled = f"{resampled}; {shift}" if resampled else shift
-    return Reference(name or path.stem, t - t[0], a, path, resampled)
+    return Reference(name or path.stem, t - t[0], a, path, resampled, dict(table.reading))
 
 
 def load_references(spec: str, rate_hz: float = 10.0, io=None) -> list[Reference]:
@@ -725,6 +727,8 @@ def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig
             pd.DataFrame(cols).to_csv(tmp / "traces" / f"{safe}.csv", index=False, float_format="%.6f")
             written.append(out_dir / "traces" / f"{safe}.csv")
         body = control_yaml_body(result, cfg, model=model, plant=plant)
+        if "reading" not in prov:   # what the reader found in each reference file, as every output records it
+            prov = {**prov, "reading": {r.name: r.reading for r in result.references if r.reading}}
         write_result(tmp / "control.yaml", "bpmid.control/1", body, prov)
         written.append(out_dir / "control.yaml")
         if figure:

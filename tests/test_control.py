@@ -196,6 +196,11 @@ def test_cli_control_reads_a_reference_in_the_users_units_by_flag_or_config(tmp_
     assert r2.exit_code == 0, r2.output
     s1, s2 = (pd.read_csv(tmp_path / o / "summary.csv") for o in ("o1", "o2"))
     assert s1.rmse_deg.tolist() == s2.rmse_deg.tolist()
+    # what the reader took from the file is recorded, as in every output (the units as the flags stated them)
+    import yaml
+
+    read = yaml.safe_load((tmp_path / "o1" / "control.yaml").read_text())["provenance"]["reading"]["r"]
+    assert read["columns"]["time"]["unit"] == "min" and read["columns"]["angle"]["unit"] == "rad"
     # the same reference in deg and s gives the same result: the units were converted, not read as numbers
     # (under the same name: the sensor noise is drawn from the seed and the reference's name)
     (tmp_path / "si").mkdir()
