@@ -454,6 +454,33 @@ def test_whole_numbers_with_thousands_points_are_refused_and_decimal_columns_sti
         assert read_motion_log(f).pressure_pa[3] == pytest.approx(100.8)
 
 
+def test_thousands_points_before_a_decimal_comma_are_read_and_ambiguous_ones_refused_naming_them(tmp_path):
+    """'18.775,0' in a ';' file with decimal commas is 18775.0 (German Excel's number format), never 'a unit in each
+    cell'; a whole '18.775' among decimal commas is refused naming the thousands separator and a form that reads."""
+    pa = [18775.0, 18275.0, 991.5, 21050.0, 20000.0]
+    def de(x):
+        return f"{x:,.1f}".replace(",", "X").replace(".", ",").replace("X", ".")
+    head = "# pressure_reference: gauge\nZeit (s);Druck (Pa);Winkel (deg)\n"
+    f = _write(tmp_path, "de.csv", head + "".join(f"{k},0;{de(p)};1{k},5\n" for k, p in enumerate(pa)))
+    log = read_motion_log(f)
+    assert np.allclose(log.pressure_pa, pa) and np.allclose(log.angle_deg, [10.5, 11.5, 12.5, 13.5, 14.5])
+    assert "Druck (Pa)" in str(log.reading)
+    whole = _write(tmp_path, "int.csv", head + "".join(f"{k},0;{de(p)[:-2]};1{k},5\n" for k, p in enumerate(pa)))
+    with pytest.raises(InputError, match=r"thousands separator \(18775\)") as e:
+        read_motion_log(whole)
+    assert e.value.line == 3 and e.value.key == "Druck (Pa)" and "18.775,0" in e.value.message
+    mixed = _write(tmp_path, "mixed.csv", head + "0,0;18.775,0;1,5\n1,0;18.75,0;2,5\n2,0;1.000,0;3,5\n")
+    with pytest.raises(InputError, match="written otherwise") as e:
+        read_motion_log(mixed)
+    assert e.value.line == 4 and e.value.key == "Druck (Pa)"
+    # the same cells quoted in a comma-separated file: named a thousands separator, not a unit in each cell
+    quoted = _write(tmp_path, "q.csv", "# pressure_reference: gauge\ntime_s,pressure_pa,angle_deg\n"
+                    + "".join(f'{k},"{de(p)}",1{k}.5\n' for k, p in enumerate(pa)))
+    with pytest.raises(InputError, match="a thousands separator beside the decimal separator") as e:
+        read_motion_log(quoted)
+    assert "unit written in each cell" not in e.value.message and e.value.line == 3
+
+
 # ---- an ambient-pressure column under a one-word name ------------------------------------------------------------
 @pytest.mark.parametrize("name", ["Ambient (hPa)", "Barometer (hPa)", "baro_hpa", "Atmospheric [hPa]"])
 def test_an_ambient_column_under_a_one_word_name_is_the_ambient_pressure(tmp_path, name):

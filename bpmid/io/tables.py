@@ -757,15 +757,27 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
         rows, row_lines = rows[1:], row_lines[1:]
     # decimal separator: a comma only where the columns are not comma-separated, and never mixed with points
     decimal = "."
+    grouped_cols: list[str] = []
     if delim != "," and any("," in ln for _, ln in body):
-        first_comma = next(((r, c) for r, row in enumerate(rows) for c in row if _COMMA_NUM.match(c)), None)
+        first_comma = next(((r, c) for r, row in enumerate(rows) for c in row
+                            if _COMMA_NUM.match(c) or _GROUPED_COMMA.match(c)), None)
         if first_comma is not None:
             decimal = ","
-            dot = next(((r, c) for r, row in enumerate(rows) for c in row if "." in c and _DOT_NUM.match(c)), None)
+            dot = next(((r, c, j) for r, row in enumerate(rows) for j, c in enumerate(row)
+                        if "." in c and _DOT_NUM.match(c)), None)
             if dot is not None:
+                hint = "export the log with one decimal separator"
+                if _THOUSANDS.match(dot[1]):   # '18.775' among decimal commas: a thousands separator, or a decimal?
+                    hint = (f"if the point in {dot[1]!r} is a thousands separator ({dot[1].replace('.', '')}), export "
+                            f"the log without thousands separators (in Excel: Format Cells > Number, untick 'Use "
+                            f"1000 Separator'), or with every value's decimals written out ({dot[1]},0); if it is a "
+                            f"decimal point, export the log with one decimal separator")
                 raise InputError(f"mixed decimal separators: {first_comma[1]!r} (line {row_lines[first_comma[0]]}) "
-                                 f"and {dot[1]!r}; export the log with one decimal separator", path=where,
-                                 line=row_lines[dot[0]])
+                                 f"and {dot[1]!r}; {hint}", path=where, line=row_lines[dot[0]],
+                                 key=header[dot[2]] if dot[2] < len(header) else None)
+            # '18.775,0': a point between groups of three digits before a decimal comma is a thousands separator
+            # (18775.0), read so when every cell of its column that holds a point is written so
+            rows, grouped_cols = _thousands_with_decimal_comma(header, rows, row_lines, where)
             # only the cells that are numbers with a decimal comma: any other cell is quoted as written when refused
             rows = [[c.replace(",", ".") if _COMMA_NUM.match(c.strip()) else c for c in row] for row in rows]
     cols = [list(c) for c in zip(*rows)] if rows else [[] for _ in header]
@@ -773,6 +785,8 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
         _refuse_thousands_points(header, cols, row_lines, where)
     info = {"format": "text", "encoding": enc, "delimiter": info_delim, "decimal": "comma" if decimal == "," else
             "point"}
+    if grouped_cols:
+        info["thousands_separator"] = f"point, before a decimal comma ({', '.join(repr(h) for h in grouped_cols)})"
     if info_rows:
         info["name_rows_skipped"] = info_rows
     if index_col:
@@ -785,6 +799,40 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
 #: a whole number written with points between groups of three digits (German, Swiss: 1.008 for 1008)
 _THOUSANDS = re.compile(r"^[-+]?[1-9]\d{0,2}(?:\.\d{3})+$")
 _WHOLE = re.compile(r"^[-+]?\d+$")
+#: a number with a point between groups of three digits and a decimal comma (German, Swiss: 18.775,0 for 18775.0)
+_GROUPED_COMMA = re.compile(r"^[-+]?[1-9]\d{0,2}(?:\.\d{3})+,\d+$")
+#: the English form: commas between groups of three digits, then a decimal point (18,775.0)
+_THOUSANDS_DOT_DECIMAL = re.compile(r"^[-+]?[1-9]\d{0,2}(?:,\d{3})+\.\d+$")
+
+
+def _thousands_with_decimal_comma(header: list[str], rows: list[list[str]], row_lines: list[int],
+                                  where: str) -> tuple[list[list[str]], list[str]]:
+    """Read the thousands separators of a file with decimal commas: a column whose every cell with a point in it is
+    written ``18.775,0`` (points between groups of three digits, then a decimal comma) has its points dropped
+    (``18775,0``, then read with its decimal comma); the point can be nothing else there. A column that holds such a
+    cell and another with a point written otherwise (``18.75,0``, ``18.775``) is refused, naming both. Returns the
+    rows and the headers of the columns so read."""
+    width = max((len(r) for r in rows), default=0)
+    grouped: list[int] = []
+    for j in range(width):
+        cells = [(r, row[j].strip()) for r, row in enumerate(rows) if j < len(row)]
+        first = next(((r, c) for r, c in cells if _GROUPED_COMMA.match(c)), None)
+        if first is None:
+            continue
+        other = next(((r, c) for r, c in cells if "." in c and not _GROUPED_COMMA.match(c)), None)
+        name = header[j] if j < len(header) else f"column {j + 1}"
+        if other is not None:
+            raise InputError(f"column {name!r}: {first[1]!r} (line {row_lines[first[0]]}) reads as a point between "
+                             f"thousands and a decimal comma ({first[1].replace('.', '').replace(',', '.')}), but "
+                             f"{other[1]!r} is written otherwise and bpmid does not guess; export the log without "
+                             f"thousands separators (in Excel: Format Cells > Number, untick 'Use 1000 Separator')",
+                             path=where, line=row_lines[other[0]], key=name)
+        grouped.append(j)
+    if not grouped:
+        return rows, []
+    out = [[c.replace(".", "") if j in grouped and _GROUPED_COMMA.match(c.strip()) else c
+            for j, c in enumerate(row)] for row in rows]
+    return out, [header[j] if j < len(header) else f"column {j + 1}" for j in grouped]
 
 
 def _refuse_thousands_points(header: list[str], cols: list[list], row_lines: list[int], where: str) -> None:
@@ -1436,7 +1484,14 @@ def _numbers(values: list, where: str, header: str, lines: list[int], excel: boo
                 x = float(cell)
             except ValueError:
                 what = "an empty cell" if not cell else f"{cell!r} is not a number"
-                if _COMMA_NUM.match(cell) and excel:
+                if _GROUPED_COMMA.match(cell) or _THOUSANDS_DOT_DECIMAL.match(cell):
+                    # '18.775,0' (German) or '18,775.0' (English): a thousands separator beside the decimal one
+                    what += ("; a thousands separator beside the decimal separator"
+                             + (": format the column's cells as numbers in the spreadsheet" if excel else
+                                ": export the log without thousands separators (in Excel: Format Cells > Number, "
+                                "untick 'Use 1000 Separator')"
+                                + (", or separate the columns with ';'" if _GROUPED_COMMA.match(cell) else "")))
+                elif _COMMA_NUM.match(cell) and excel:
                     what += ("; a number stored as text with a decimal comma: format the column's cells as numbers "
                              "in the spreadsheet (or export it as a ';'-separated text file)")
                 elif _COMMA_NUM.match(cell):
