@@ -512,10 +512,14 @@ def test_a_column_map_unit_that_contradicts_the_header_is_refused_and_the_names_
 
 def test_a_cell_that_is_no_number_is_quoted_as_written_in_a_decimal_comma_file(tmp_path):
     log = _write(tmp_path, "d.csv", "# pressure_reference: gauge\ntime_s;pressure_kpa;angle_deg\n0,0;20,5;1,0\n"
-                 "0,1;1.201,0;2,0\n")
+                 "0,1;1,201.0;2,0\n")
     with pytest.raises(InputError) as e:
         read_motion_log(log)
-    assert "'1.201,0' is not a number" in e.value.message and e.value.line == 4
+    assert "'1,201.0' is not a number" in e.value.message and e.value.line == 4
+    # a point between thousands before the decimal comma is no such cell: 1.201,0 is 1201.0
+    ok = _write(tmp_path, "k.csv", "# pressure_reference: gauge\ntime_s;pressure_kpa;angle_deg\n0,0;20,5;1,0\n"
+                "0,1;1.201,0;2,0\n")
+    assert read_motion_log(ok).pressure_pa[1] == pytest.approx(1201.0e3)
 
 
 def test_a_column_with_a_pressure_unit_but_an_unknown_name_is_refused_with_its_own_units_name(tmp_path):
