@@ -180,6 +180,41 @@ def test_a_reversed_io_columns_map_is_said_to_be_reversed(tmp_path):
         assert res.exit_code == 0, res.output
 
 
+def test_a_map_key_that_nearly_names_a_column_is_not_called_reversed_and_every_hint_reads_the_file(tmp_path):
+    """Two angle columns: --columns angle_deg=angle_imu (the column is angle_imu_deg) was said to look reversed and
+    advised angle_imu=angle_deg, which was refused for an unknown unit 'imu' with the advice angle_deg=angle_deg (a
+    map of the column to itself). Each message now gives a map that takes the column meant, and it works."""
+    rng = np.random.default_rng(3)
+    t = np.arange(40) * 0.1
+    p = 1.2 + 0.4 * np.sin(np.pi * t / t[-1])
+    a = VBMM(material=Material.paper_fit()).forward_deg(t, p * 1e5 - 101325.0)
+    imu = a + 4.0 + rng.normal(0, 0.1, t.size)
+    f = _write(tmp_path, "g1.csv", "# pressure_reference: absolute\ntime_s,pressure_bar,angle_deg,angle_imu_deg\n"
+               + "".join(f"{ti:.1f},{pi:.5f},{ai:.4f},{bi:.4f}\n" for ti, pi, ai, bi in zip(t, p, a, imu)))
+    params = str(_params(tmp_path))
+
+    def run(cols: str, out: str):
+        return runner.invoke(app, ["predict", str(f), "--params", params, "--columns", cols, "--out",
+                                   str(tmp_path / out)])
+
+    res = run("angle_deg=angle_imu", "a")
+    msg = " ".join(res.output.split())
+    assert res.exit_code == 0 and "looks reversed" not in msg and "angle_imu=angle_deg" not in msg, res.output
+    assert "the column map names 'angle_imu', not a column of this file, which has 'angle_imu_deg'" in msg
+    assert "--columns angle_deg=angle_imu_deg" in msg
+    res = run("angle_imu=angle_deg", "b")
+    msg = " ".join(res.output.split())
+    assert res.exit_code == 2 and "g1.csv:2, key 'angle_deg'" in msg and "unknown unit 'imu'" in msg, res.output
+    assert "angle_deg=angle_deg" not in msg and "--columns angle=angle_imu_deg" in msg
+    for cols, out in (("angle_deg=angle_imu_deg", "c"), ("angle=angle_imu_deg", "d")):
+        res = run(cols, out)
+        assert res.exit_code == 0, res.output
+        assert "angle_imu_deg" in (tmp_path / out / "predict.yaml").read_text()
+    # a map of a column to a name with no unit, the column's own name reading already: drop the entry
+    with pytest.raises(InputError, match="reads as the angle by its own name: drop the entry"):
+        read_motion_log(f, IOConfig(columns={"angle_deg": "angle_xyz"}))
+
+
 # ---- item 4: a plausibility hint names the form that works -------------------------------------------------------
 def _warnings(output: str) -> list[str]:
     return [" ".join(w.split()) for w in output.split("warning: ")[1:]]

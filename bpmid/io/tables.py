@@ -1289,9 +1289,18 @@ def _map_note(grid: Grid, cmap: Mapping[str, tuple[str, str]], used: set) -> str
         words = _norm(k).split(" ")
         return _parse(k)[0] is not None or words[0] in ALIASES or words[0] in BPMID_NAME
 
-    rev = [cmap[k] for k in unmatched if is_column(cmap[k][1]) and bpmid_like(cmap[k][0])]
-    other = [cmap[k][0] for k in unmatched if cmap[k] not in rev]
+    # a key that is no column but one of the file's names nearly ('angle_imu' for 'angle_imu_deg'): the map's
+    # direction is right (its value a bpmid name), the column misnamed; never said to look reversed then
+    near = {k: like for k in unmatched if (like := _like_column(cmap[k][0], grid.header, exclude=cmap[k][1]))
+            and _parse(cmap[k][1])[0] is not None}
+    rev = [cmap[k] for k in unmatched if k not in near and is_column(cmap[k][1]) and bpmid_like(cmap[k][0])]
+    other = [cmap[k][0] for k in unmatched if cmap[k] not in rev and k not in near]
     note = ""
+    for k, like in near.items():
+        key, value = cmap[k]
+        note += (f"; the column map names {key!r}, not a column of this file, which has {like!r}: to take that column "
+                 f"as {value}, {columns_arg(f'{value}={like}')} (config io.columns: {{'{like}': {value}}}); "
+                 f"--columns takes bpmid's name, then the file's column")
     if rev:
         pairs = ", ".join(f"{k}: {v}" for k, v in rev)
         right = ", ".join(f"{v}: {k}" for k, v in rev)
@@ -1302,6 +1311,29 @@ def _map_note(grid: Grid, cmap: Mapping[str, tuple[str, str]], used: set) -> str
     if other:
         note += f"; the column map names {', '.join(repr(k) for k in other)}, not a column of this file"
     return note
+
+
+def _like_column(name: str, header: Sequence[str], exclude: str | None = None) -> str | None:
+    """The file's column that ``name`` nearly names, or None: the column's name without the unit written after it
+    (``angle_imu`` for ``angle_imu_deg`` or ``Angle IMU (deg)``), a name it starts ('angle_imu' for
+    'angle_imu_2'), or one spelled almost alike; never ``exclude`` (folded) nor ``name`` itself."""
+    import difflib
+
+    n = _norm(name)
+    skip = {n} | ({_norm(exclude)} if exclude is not None else set())
+    cands = [h for h in header if h and _norm(h) not in skip]
+    for h in cands:
+        raw, unit = _unit_part(h)
+        words = _norm(raw).split(" ")
+        if unit is not None and _norm(raw) == n:
+            return h
+        if len(words) > 1 and " ".join(words[:-1]) == n and any(split_unit(q, words[-1])[0] for q in UNITS):
+            return h
+    starts = [h for h in cands if _norm(h).startswith(n + " ")]
+    if len(starts) == 1:
+        return starts[0]
+    close = difflib.get_close_matches(n, [_norm(h) for h in cands], n=1, cutoff=0.85)
+    return next((h for h in cands if close and _norm(h) == close[0]), None)
 
 
 def _resolve(grid: Grid, cmap: dict[str, tuple[str, str]], units: Mapping[str, str], unit_sources: Mapping[str, str],
@@ -1675,6 +1707,9 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     if "looks reversed" in grid.info.get("map_note", ""):   # said on a good read too, not only in errors
         note = grid.info["map_note"].lstrip("; ").split("; the column map names")[0]
         pre_warns = pre_warns + [f"{where}: {note}; the map was not applied"]
+    for note in grid.info.get("map_note", "").split("; the column map names ")[1:]:
+        if "not a column of this file, which has" in note:   # a key that nearly names a column: said too
+            pre_warns = pre_warns + [f"{where}: the column map names {note}; that entry was not applied"]
     warns = pre_warns + rival_warns + ([f"the file ends in {grid.info['nul_bytes_at_end']} NUL bytes (a logger that lost power?): "
                             f"read the rows before them; check that its last row (line {lines[n_rows - 1]}) is "
                             f"complete"] if grid.info.get("nul_bytes_at_end") and n_rows else [])
@@ -1835,6 +1870,9 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
                 f"the unit written after the name says {written}"
             raise InputError(f"the name of column {h!r} says {u1} and {part}; make them agree", path=where,
                              line=hline, key=h)
+        if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None and unit_from == "column map":
+            raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})"
+                             f"{_mapped_unit_hint(grid, q, h, unit)}", path=where, line=hline, key=h)
         if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None:
             in_row = unit_from == "units row"
             raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})"
@@ -2079,6 +2117,25 @@ def _unknown_unit_hint(q: str, h: str, unit: str, unit_from: str | None) -> str:
         if ref is not None:
             out += f" (and --pressure-reference {ref} unless the file states the reference)"
     return out
+
+
+def _mapped_unit_hint(grid: Grid, q: str, h: str, unit: str) -> str:
+    """What to do when the column map sends column ``h`` to a name whose part after the quantity is no unit
+    (``--columns angle_imu=angle_deg``: 'angle_imu' read as the angle in 'imu'): say how the map is read and give a
+    map that differs from the one written (never ``h`` to itself when its own name already reads)."""
+    mapped = f"{q}_{unit}"
+    out = (f": the column map sends the column {h!r} to {mapped!r}, and bpmid reads the part after the quantity as "
+           f"its unit. --columns takes bpmid's name ({q}, or with a unit: {BPMID_NAME[q]}) on the left of '=' and "
+           f"the file's column on the right")
+    like = _like_column(mapped, grid.header, exclude=h)
+    if like is not None:   # the map written the other way round ('angle_imu' for the column 'angle_imu_deg')
+        return out + (f"; to take the column {like!r} as the {q}: {columns_arg(f'{q}={like}')} (config io.columns: "
+                      f"{{'{like}': {q}}})")
+    own_q, own_u, _r, _d = _parse(h)
+    if own_q == q and own_u is not None and own_u in UNITS[q]:
+        return out + f"; the column {h!r} reads as the {q} by its own name: drop the entry"
+    return out + (f"; to take {h!r} as the {q}: {columns_arg(f'{BPMID_NAME[q]}={h}')} if its values are in "
+                  f"{EXAMPLE_UNIT[q]} (or {q}_<unit> with the unit they are in)")
 
 
 def _known(q: str) -> list[str]:
