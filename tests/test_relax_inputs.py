@@ -222,3 +222,39 @@ def test_fit_motion_init_refuses_bad_mode(repo_root, relax_fit_file, tmp_path):
     res = runner.invoke(app, ["fit", "motion", str(repo_root / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv"),
                               "--init", str(p), "--out", str(out), "--no-plot"])
     _refused(res, out, "mode.yaml", "mode")
+
+
+# ---- an instrument's specimen lines above the table ('Gauge Length (mm),50'): read, or refused naming them --------
+def test_instrument_specimen_lines_are_read_with_their_units_and_refused_without_one(tmp_path):
+    from bpmid.io.relax_logs import read_relax_log
+
+    rows = "Time (s),Extension (mm),Load (N)\n" + "".join(
+        f"{t:.2f},{min(t, 1.0) * 7.5:.4f},{0.3 * min(t, 1.0):.4f}\n" for t in np.arange(0, 5, 0.05))
+    f = tmp_path / "instron.csv"
+    f.write_text("Specimen label,S1\nGauge Length (mm),50\nArea (mm^2),12\n" + rows)
+    log = read_relax_log(f)
+    assert log.strain.max() == pytest.approx(7.5 / 50) and log.stress_mpa.max() == pytest.approx(0.3 / 12)
+    assert log.reading["specimen"]["from"] == {"gauge_length_mm": "file line 2 (gauge_length_(mm))",
+                                               "cross_section_mm2": "file line 3 (area_(mm^2))"}
+    # other units and the unit after the value: converted
+    g = tmp_path / "cm.csv"
+    g.write_text("Gauge length: 5 cm\nArea (cm^2),0.12\n" + rows)
+    log = read_relax_log(g)
+    assert log.strain.max() == pytest.approx(7.5 / 50) and log.stress_mpa.max() == pytest.approx(0.3 / 12)
+    # the command fits it (it asked for a '# gauge_length_mm:' line)
+    res, out = _fit(tmp_path, f)
+    assert res.exit_code == 0, res.output
+    # no unit: refused naming the line and the forms that read (and the config still serves)
+    h = tmp_path / "nounit.csv"
+    h.write_text("Gauge Length,50\nArea (mm^2),12\n" + rows)
+    with pytest.raises(InputError, match="states no unit; units are never guessed") as e:
+        read_relax_log(h)
+    assert e.value.line == 1 and "'# gauge_length_mm: <value>'" in e.value.message
+    assert read_relax_log(h, gauge_length_mm=50.0).strain.max() == pytest.approx(7.5 / 50)
+    # two lines that disagree, or one that disagrees with the config: refused
+    k = tmp_path / "two.csv"
+    k.write_text("Gauge Length (mm),50\nL0 (mm),40\nArea (mm^2),12\n" + rows)
+    with pytest.raises(InputError, match="disagree"):
+        read_relax_log(k)
+    with pytest.raises(InputError, match="says 45"):
+        read_relax_log(f, gauge_length_mm=45.0)

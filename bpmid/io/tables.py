@@ -148,9 +148,10 @@ _YMD_SLASH = re.compile(r"^\s*(\d{4})/(\d{1,2})/(\d{1,2})(?:[ T]+(.*))?\s*$")
 #: a 12-hour clock time (12:59:50.000 PM, 1:05 am)
 _CLOCK_12 = re.compile(r"^\s*(\d{1,2}):(\d{2})(?::(\d{2})(?:[.,](\d+))?)?\s*([AaPp])\.?\s*[Mm]\.?\s*$")
 _SEP_LINE = re.compile(r'^\s*"?sep=(.)"?\s*$', re.IGNORECASE)
-_META = re.compile(r"^\s*([A-Za-z][\w \-./()\[\]]*?)\s*[:=]\s*(.*)$")
-#: a metadata key standing in a cell of its own ('Pressure Reference' | 'Gauge'): the key of :data:`_META`
-_META_KEY = re.compile(r"^[A-Za-z][\w \-./()\[\]]*$")
+_META = re.compile(r"^\s*([A-Za-z][\w \-./()\[\]^]*?)\s*[:=]\s*(.*)$")
+#: a metadata key standing in a cell of its own ('Pressure Reference' | 'Gauge', 'Area (mm^2)' | 12): the key of
+#: :data:`_META`
+_META_KEY = re.compile(r"^[A-Za-z][\w \-./()\[\]^]*$")
 _MAGIC_XLSX = b"PK\x03\x04"
 _MAGIC_OLE = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"
 _MAGIC_HDF5 = b"\x89HDF\r\n\x1a\n"
