@@ -258,3 +258,26 @@ def test_instrument_specimen_lines_are_read_with_their_units_and_refused_without
         read_relax_log(k)
     with pytest.raises(InputError, match="says 45"):
         read_relax_log(f, gauge_length_mm=45.0)
+
+
+def test_fit_motion_init_with_a_motion_fit_says_what_init_takes_and_how_to_start_from_it(repo_root, tmp_path):
+    """--init VBMM.yaml (a motion fit where a relaxation fit is expected) said only 'expected bpmid.relax/1'; it now
+    says what --init takes, how to predict with the file, and gives the config that starts a fit from it, which
+    works."""
+    from bpmid.models.vbmm import VBMM, Material, vbmm_yaml_body
+
+    vb = tmp_path / "VBMM_fit.yaml"
+    vb.write_text(yaml.safe_dump({"schema": "bpmid.vbmm/1", **vbmm_yaml_body(VBMM(material=Material.paper_fit()))},
+                                 sort_keys=False))
+    log = repo_root / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv"
+    out = tmp_path / "VBMM.yaml"
+    res = runner.invoke(app, ["fit", "motion", str(log), "--init", str(vb), "--out", str(out), "--no-plot"])
+    _refused(res, out, "VBMM_fit.yaml", "bpmid fit relax writes", "this file is a motion fit")
+    msg = " ".join(res.output.split())
+    assert f"bpmid predict LOG --params {vb}" in msg and "drop --init" in msg
+    cfg = tmp_path / "start.yaml"
+    cfg.write_text(msg.split("(--config): ")[1].split(" (Pa, s)")[0] + "\n")
+    start = yaml.safe_load(cfg.read_text())["motion"]["start"]
+    assert start["K_inf"] == pytest.approx(Material.paper_fit().K_inf, rel=1e-5) and "tau_1" in start
+    res = runner.invoke(app, ["fit", "motion", str(log), "--config", str(cfg), "--out", str(out), "--no-plot"])
+    assert res.exit_code == 0 and out.exists(), res.output
