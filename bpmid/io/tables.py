@@ -46,7 +46,7 @@ import numpy as np
 
 from bpmid.errors import InputError
 from bpmid.io.atomic import note_input
-from bpmid.units import millipascal_slip
+from bpmid.units import PRESSURE_REF_SUFFIXES, PRESSURE_UNITS, millipascal_slip, split_pressure_unit
 
 #: quantity -> canonical unit
 CANONICAL = {
@@ -65,7 +65,7 @@ UNITS: dict[str, dict[str, float]] = {
     "load": {"n": 1.0, "kn": 1e3, "mn": 1e-3, "lbf": 4.4482216152605},
     "extension": {"mm": 1.0, "m": 1e3, "um": 1e-3, "µm": 1e-3, "μm": 1e-3, "cm": 10.0, "in": 25.4},
     "modulus": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "n/mm²": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3},
-    "pressure": {"pa": 1.0, "hpa": 1e2, "kpa": 1e3, "bar": 1e5, "mbar": 1e2, "mpa": 1e6, "psi": 6894.757293168},
+    "pressure": PRESSURE_UNITS,   # bpmid.units' one list (from_arrays takes the same)
     "angle": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "°": 1.0, "rad": 180.0 / np.pi, "mrad": 0.18 / np.pi,
               "gon": 0.9},
 }
@@ -126,12 +126,10 @@ _DERIVED_PREFIXES = ("soll",)
 _PAREN = re.compile(r"^(.*?)\s*[\(\[\{]\s*([^\)\]\}]*)\s*[\)\]\}]\s*$")
 _SLASH = re.compile(r"^(.*?\S)\s+(?:/|in)\s+(\S+)$")
 _COMMA_UNIT = re.compile(r"^(.*?\S),\s+(\S+)$")
-_PRESSURE_REF = re.compile(r"^(pa|hpa|kpa|mpa|mbar|bar|psi)(a|abs|absolute|g|gauge|gage|rel|relative)?$")
 #: words of a pressure column's name that state its reference ('Gauge pressure', 'Druck rel.', 'p abs')
 _NAME_REF_WORDS = {"gauge": "gauge", "gage": "gauge", "relative": "gauge", "rel": "gauge", "relativ": "gauge",
                    "absolute": "absolute", "abs": "absolute", "absolut": "absolute"}
-_REF_WORDS = {"a": "absolute", "abs": "absolute", "absolute": "absolute", "g": "gauge", "gauge": "gauge",
-              "gage": "gauge", "rel": "gauge", "relative": "gauge"}
+_REF_WORDS = PRESSURE_REF_SUFFIXES
 _COMMA_NUM = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
 _DOT_NUM = re.compile(r"^[+-]?\d*\.\d+(?:[eE][+-]?\d+)?$")
 _CLOCK = re.compile(r"^\s*\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?\s*$")
@@ -272,9 +270,9 @@ def split_unit(quantity: str, unit: str) -> tuple[str | None, str | None]:
     if u in UNITS[quantity]:
         return u, None
     if quantity in ("pressure", "ambient"):
-        m = _PRESSURE_REF.match(re.sub(r"[\s()\[\]._\-]+", "", u))
-        if m:
-            return m.group(1), (_REF_WORDS[m.group(2)] if m.group(2) else None)
+        got = split_pressure_unit(u)
+        if got[0] is not None:
+            return got
     return None, None
 
 
