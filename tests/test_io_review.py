@@ -215,6 +215,36 @@ def test_a_map_key_that_nearly_names_a_column_is_not_called_reversed_and_every_h
         read_motion_log(f, IOConfig(columns={"angle_deg": "angle_xyz"}))
 
 
+def test_predicts_refusal_of_a_pressure_beyond_the_model_names_the_line_and_the_unit_slip(tmp_path):
+    """kPa values under a pressure_bar header: predict refused 'pressure 2.6e+06 Pa gauge at t = ... s is above the
+    model's range' with neither a line nor a unit hint (fit motion's warning had both); it now names the file's line
+    and column and gives the same hint, and the hint reads the file."""
+    t = np.arange(50) * 0.1
+    kpa = 20.0 + 250.0 * np.sin(np.pi * t / t[-1])
+    rows = "".join(f"{ti:.1f},{pi:.3f},{10 + 0.05 * pi:.3f}\n" for ti, pi in zip(t, kpa))
+    f = _write(tmp_path, "kb.csv", "# pressure_reference: gauge\ntime_s,pressure_bar,angle_deg\n" + rows)
+    params = str(_params(tmp_path))
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "a")])
+    msg = " ".join(res.output.split())
+    assert res.exit_code == 2 and not (tmp_path / "a").exists(), res.output
+    import re as _re
+    m = _re.search(r"kb\.csv:(\d+), key 'pressure_bar': .*above the model's range", msg)
+    assert m, msg
+    line = int(m.group(1))
+    said = f.read_text().splitlines()[line - 1].split(",")[1]
+    assert f"the log gives {float(said):g} bar (gauge) there" in msg
+    assert "likely a unit slip" in msg and "--columns pressure_kpa=pressure_bar" in msg
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "b"), "--columns",
+                              "pressure_kpa=pressure_bar"])
+    assert res.exit_code == 0, res.output
+    # the library's call names the line too
+    import bpmid
+
+    with pytest.raises(InputError) as e:
+        bpmid.predict([f], params=params)
+    assert e.value.line == line and e.value.key == "pressure_bar"
+
+
 # ---- item 4: a plausibility hint names the form that works -------------------------------------------------------
 def _warnings(output: str) -> list[str]:
     return [" ".join(w.split()) for w in output.split("warning: ")[1:]]
