@@ -105,20 +105,20 @@ _SPECIMEN_UNITS = {
 }
 
 
-def _instrument_specimen(name: str, table, path: Path) -> tuple[float, str] | None:
+def _instrument_specimen(name: str, meta: dict, meta_lines: dict, path: Path) -> tuple[float, str] | None:
     """The specimen value ``name`` (gauge_length_mm, cross_section_mm2) from an instrument's lines above the table
     (``Gauge Length (mm),50``, ``Area: 12 mm^2``), in bpmid's unit, with the line it came from (for the output's
     record); None when no such line. A line whose unit is not stated or not a length (an area) is refused, naming it
     and the form that reads: units are never guessed. Lines that disagree are refused too."""
     found = []
-    for key, raw in table.meta.items():
+    for key, raw in meta.items():
         m = re.match(r"^(.*?)_*[(\[]([^)\]]*)[)\]]$", key)
         base, unit = (m.group(1), m.group(2)) if m else (key, None)
         if _SPECIMEN_KEYS.get(base.strip("_")) != name:
             continue
         value = str(raw).strip()
         v = re.match(r"^([-+]?(?:\d+[.,]?\d*|[.,]\d+)(?:[eE][-+]?\d+)?)\s*(.*)$", value)
-        line = table.meta_lines.get(key)
+        line = meta_lines.get(key)
         said = f"the line {line}" if line else "a line above the table"
         units = _SPECIMEN_UNITS[name]
         form = f"'# {name}: <value>'"
@@ -148,12 +148,13 @@ def _instrument_specimen(name: str, table, path: Path) -> tuple[float, str] | No
     return value, f"file line {line} ({key})" if line else f"file header ({key})"
 
 
-def _specimen_value(name: str, cfg_value: float | None, table, path: Path) -> tuple[float, str]:
-    """The specimen's ``name`` and where it came from: the config, a ``# name:`` line, or an instrument's line above
-    the table (:func:`_instrument_specimen`); the file's and the config's must agree."""
-    meta = table.meta
+def _specimen_value(name: str, cfg_value: float | None, meta: dict, path: Path, *, meta_lines: dict | None = None,
+                    source: dict | None = None) -> float:
+    """The specimen's ``name``: from the config, a ``# name:`` line, or an instrument's line above the table
+    (:func:`_instrument_specimen`, its lines in ``meta_lines``); the file's and the config's must agree. Where it came
+    from goes into ``source[name]`` when given."""
     file_value = meta.get(name)
-    source = "file header"
+    said = "file header"
     if file_value is not None:
         try:
             file_value = float(file_value)
@@ -161,13 +162,13 @@ def _specimen_value(name: str, cfg_value: float | None, table, path: Path) -> tu
             raise InputError(f"'# {name}:' must be a number, found {file_value!r}", path=path, key=name) from None
     else:
         try:
-            got = _instrument_specimen(name, table, path)
+            got = _instrument_specimen(name, meta, meta_lines or {}, path)
         except InputError:
             if cfg_value is None:
                 raise
             got = None   # the config states it: a line above the table it cannot read is no reason to refuse
         if got is not None:
-            file_value, source = got
+            file_value, said = got
     if file_value is not None and not (np.isfinite(file_value) and file_value > 0):
         raise InputError(f"'# {name}:' must be positive, found {file_value:g}", path=path, key=name)
     if cfg_value is not None and file_value is not None and not np.isclose(cfg_value, file_value, rtol=1e-9):
@@ -178,7 +179,9 @@ def _specimen_value(name: str, cfg_value: float | None, table, path: Path) -> tu
         raise InputError(f"a load/extension log needs the specimen's {name}: set relax.specimen.{name} in the "
                          f"config or add a line '# {name}: <value>' to the file", path=path,
                          key=f"relax.specimen.{name}")
-    return float(value), ("config relax.specimen" if cfg_value is not None else source)
+    if source is not None:
+        source[name] = "config relax.specimen" if cfg_value is not None else said
+    return float(value)
 
 
 def _check_tension(values: np.ndarray, table, path: Path, what: str, unit: str) -> None:
@@ -265,11 +268,13 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
         return RelaxLog(strain=table.columns["strain"], stress_mpa=table.columns["stress"], source="stress-strain",
                         **common)
     _check_tension(table.columns["extension"], table, path, "extension", " mm")
-    L0, L0_from = _specimen_value("gauge_length_mm", gauge_length_mm, table, path)
-    A0, A0_from = _specimen_value("cross_section_mm2", cross_section_mm2, table, path)
+    came: dict = {}
+    L0 = _specimen_value("gauge_length_mm", gauge_length_mm, table.meta, path, meta_lines=table.meta_lines,
+                         source=came)
+    A0 = _specimen_value("cross_section_mm2", cross_section_mm2, table.meta, path, meta_lines=table.meta_lines,
+                         source=came)
     # what turned load and extension into stress and strain, and where it came from (the output records it)
-    common["reading"]["specimen"] = {"gauge_length_mm": L0, "cross_section_mm2": A0,
-                                     "from": {"gauge_length_mm": L0_from, "cross_section_mm2": A0_from}}
+    common["reading"]["specimen"] = {"gauge_length_mm": L0, "cross_section_mm2": A0, "from": came}
     return RelaxLog(strain=table.columns["extension"] / L0, stress_mpa=table.columns["load"] / A0,
                     source="load-extension", **common)
 
