@@ -196,8 +196,10 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
     pressure : (N,) pressure in ``pressure_unit``
     angle_deg : (N,) measured bending angle in ``angle_unit`` (degrees unless stated), or None (a pressure-only
         log, e.g. for ``predict``)
-    pressure_unit : ``"bar"``, ``"kPa"``, ``"Pa"``, ``"MPa"``, ``"mbar"`` or ``"psi"`` (required)
-    reference : ``"gauge"`` or ``"absolute"`` (required)
+    pressure_unit : ``"bar"``, ``"kPa"``, ``"Pa"``, ``"hPa"``, ``"MPa"``, ``"mbar"`` or ``"psi"`` (required): the units
+        the command line's ``--pressure-unit`` takes, also with the reference after them (``"psig"``, ``"psia"``,
+        ``"bar(a)"``, ``"kPa abs"``), which then states ``reference``
+    reference : ``"gauge"`` or ``"absolute"`` (required unless ``pressure_unit`` carries it; the two must agree)
     name : the log's name (output file names)
     atmosphere_pa : ambient pressure (Pa) for an absolute reference (50-120 kPa)
     time_unit : ``"s"``, ``"ms"`` or ``"min"``: the unit of ``time_s``
@@ -212,14 +214,27 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
 
     from bpmid.io.ambient import AMBIENT_RANGE_PA
     from bpmid.io.motion_logs import MotionLog
-    from bpmid.units import ANGLE_UNITS, PRESSURE_UNITS, TIME_UNITS, to_gauge_pa
+    from bpmid.units import (ANGLE_UNITS, PRESSURE_UNITS, TIME_UNITS, millipascal_slip, split_pressure_unit,
+                             to_gauge_pa)
 
     if pressure_unit is None:
         raise InputError("state the pressure's unit: from_arrays(..., pressure_unit='bar'|'kPa'|'Pa', ...)",
                          key="pressure_unit")
-    if reference is None:
-        raise InputError("state the pressure's reference: from_arrays(..., reference='gauge'|'absolute')",
-                         key="reference")
+    if (slip := millipascal_slip(pressure_unit)) is not None:
+        raise InputError(slip, key="pressure_unit")
+    # the units the command line's --pressure-unit takes (one list, bpmid.units): a reference after the unit
+    # (psig, bar(a), kPa abs) states the reference
+    unit, unit_ref = split_pressure_unit(pressure_unit) if isinstance(pressure_unit, str) else (None, None)
+    if unit is None:
+        raise InputError(f"unknown pressure unit {pressure_unit!r} (known: {', '.join(PRESSURE_UNITS)}, or with the "
+                         f"reference after it: psig, psia, bar(a), kPa abs)", key="pressure_unit")
+    if reference is None and unit_ref is None:
+        raise InputError("state the pressure's reference: from_arrays(..., reference='gauge'|'absolute'), or a unit "
+                         "that carries it (pressure_unit='psig', 'bar(a)')", key="reference")
+    if reference is not None and unit_ref is not None and reference != unit_ref:
+        raise InputError(f"pressure_unit={pressure_unit!r} is {unit_ref}, reference={reference!r} says otherwise: a "
+                         f"reference stated twice must agree; drop one", key="reference")
+    reference = reference if reference is not None else unit_ref
     for key, value, known in (("time_unit", time_unit, TIME_UNITS), ("angle_unit", angle_unit, ANGLE_UNITS)):
         if not isinstance(value, str) or value.strip().lower() not in known:
             raise InputError(f"unknown {key.split('_')[0]} unit {value!r} (known: {', '.join(known)})", key=key)
@@ -247,7 +262,7 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
         raise InputError("time_s must hold at least two strictly increasing times", key=name)
     if not (np.all(np.isfinite(given)) and (a is None or np.all(np.isfinite(a)))):
         raise InputError("pressure and angle must be finite numbers", key=name)
-    gauge = to_gauge_pa(given, pressure_unit, reference, atmosphere_pa=atmosphere_pa)
+    gauge = to_gauge_pa(given, unit, reference, atmosphere_pa=atmosphere_pa)
     span = float(np.max(gauge))
     if span < 1e3:
         raise InputError(f"the largest gauge pressure is {span:.4g} Pa ({span / PA_PER_BAR:.4g} bar) for pressure_unit="
@@ -256,10 +271,6 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
     if float(np.min(gauge)) < -0.05 * PA_PER_BAR:
         raise InputError(f"pressure {float(np.min(gauge)) / PA_PER_BAR:.3g} bar gauge is below atmosphere: a wrong "
                          "reference (absolute vs gauge) or unit", key="reference")
-    unit = str(pressure_unit).strip().lower()
-    if unit not in PRESSURE_UNITS:  # to_gauge_pa read it: only a spelling it accepts and this table does not
-        raise InputError(f"unknown pressure unit {pressure_unit!r} (known: {', '.join(sorted(PRESSURE_UNITS))})",
-                         key="pressure_unit")
     # what the plausibility checks read (a whole-number time a second apart in seconds: milliseconds?), with where
     # each unit came from, so that their hints name this function's arguments
     said = "from_arrays"
@@ -599,7 +610,8 @@ def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequ
     """
     import dataclasses
 
-    from bpmid.control import build_plant, control_yaml_body, load_references, run_control, scaled_plant_model
+    from bpmid.control import (build_plant, control_yaml_body, load_references, references_reading, run_control,
+                               scaled_plant_model)
     from bpmid.io.results import provenance
     from bpmid.results import ControlResult
 
@@ -642,6 +654,7 @@ def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequ
     warn_caller(list(res.warnings))
     inputs = [p for p in (ppath, plant_path) if p is not None] + [r.path for r in refs if r.path is not None]
     prov = provenance(inputs, config=cfg_all if cfg_all.path else None, seed=cfg.seed)
+    prov["reading"] = references_reading(refs)
     out = ControlResult(control_yaml_body(res, cfg, model=model, plant=plant), prov, raw=res)
     out._write_context = {"cfg": cfg, "model": model, "plant": plant}
     return out

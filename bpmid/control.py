@@ -239,6 +239,12 @@ def read_reference(path: Path, rate_hz: float, name: str | None = None, io=None)
     return Reference(name or path.stem, t - t[0], a, path, resampled, dict(table.reading))
 
 
+def references_reading(refs: Sequence[Reference]) -> dict:
+    """Reference name -> what the reader found and assumed in its file (the ``provenance.reading`` every output that
+    reads files records); the built-in references, read from no file, have none."""
+    return {r.name: dict(r.reading) for r in refs if r.reading}
+
+
 def load_references(spec: str, rate_hz: float = 10.0, io=None) -> list[Reference]:
     """``spec``: a comma list of CSV paths or names (a shipped reference in datasets/control/, else a
     built-in one); ``all`` = every shipped reference (the built-in ones when none is shipped). ``io``: the config's
@@ -727,8 +733,6 @@ def write_control(result: ControlResult, out_dir: str | Path, cfg: ControlConfig
             pd.DataFrame(cols).to_csv(tmp / "traces" / f"{safe}.csv", index=False, float_format="%.6f")
             written.append(out_dir / "traces" / f"{safe}.csv")
         body = control_yaml_body(result, cfg, model=model, plant=plant)
-        if "reading" not in prov:   # what the reader found in each reference file, as every output records it
-            prov = {**prov, "reading": {r.name: r.reading for r in result.references if r.reading}}
         write_result(tmp / "control.yaml", "bpmid.control/1", body, prov)
         written.append(out_dir / "control.yaml")
         if figure:

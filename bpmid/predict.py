@@ -19,6 +19,7 @@ from bpmid.io.ambient import atmosphere_line
 from bpmid.io.motion_logs import MotionLog, is_synthetic, pressure_column_name, synthetic_line
 from bpmid.io.tables import UNITS
 from bpmid.models.vbmm import VBMM
+from bpmid.models.vbmm.model import PressureAboveRange
 from bpmid.models.vbmm.fit import check_pressure_range, log_metrics
 from bpmid.units import PA_PER_BAR
 
@@ -77,13 +78,33 @@ def predict(logs: Sequence[MotionLog], model) -> list[Prediction]:
     out = []
     for lg in logs:
         check_pressure_range(lg)
-        if isinstance(model, AugmentedVBMM):
-            pred = model.simulate_deg(lg.time_s, lg.pressure_pa, name=lg.name, path=lg.path)
-        else:
-            pred = model.forward_deg(lg.time_s, lg.pressure_pa, name=lg.name, path=lg.path)
+        try:
+            if isinstance(model, AugmentedVBMM):
+                pred = model.simulate_deg(lg.time_s, lg.pressure_pa, name=lg.name, path=lg.path)
+            else:
+                pred = model.forward_deg(lg.time_s, lg.pressure_pa, name=lg.name, path=lg.path)
+        except PressureAboveRange as exc:
+            raise _above_range(lg, exc) from None
         met = None if lg.angle_deg is None else log_metrics(lg.angle_deg, pred)
         out.append(Prediction(lg, pred, met))
     return out
+
+
+def _above_range(lg: MotionLog, exc: PressureAboveRange) -> InputError:
+    """The model's refusal of a pressure beyond its range, with the log's file line, the value as logged and, when
+    the log's pressure peak looks like a unit slip, the same hint the reading checks give (what it would be in, and
+    the form that states it: :func:`bpmid.io.plausibility.pressure_slip`)."""
+    from bpmid.io.plausibility import _column, pressure_slip
+
+    k = exc.sample
+    msg = exc.message
+    if lg.pressure_as_given is not None and 0 <= k < lg.n:
+        msg += f"; the log gives {lg.pressure_as_given[k]:g} {lg.pressure_unit} ({lg.pressure_reference}) there"
+    slip = pressure_slip(lg)
+    msg += f". In the log, {slip}" if slip is not None else (
+        ". Check the pressure column's unit and reference, and that the parameter file (--params) is for this muscle")
+    return InputError(msg, path=lg.path if lg.path is not None else exc.path, line=lg.line_of(k),
+                      key=_column(lg, "pressure").get("column"))
 
 
 def predict_yaml_body(preds: Sequence[Prediction], *, params: str | Path | None = None, model=None) -> dict:

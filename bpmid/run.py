@@ -508,7 +508,7 @@ def stage_discover(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
 def stage_control(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     """The paper's experiment 3 in kind: PI, VBMM-PI and MS-PI on the shipped references, the controller's
     model being this run's VBMM-fit (else the paper's constants), the plant the same model with sensor noise."""
-    from bpmid.control import build_plant, load_references, run_control, write_control
+    from bpmid.control import build_plant, load_references, references_reading, run_control, write_control
     from bpmid.models.vbmm import VBMM, Material, load_vbmm
 
     cfg = config.section("control")
@@ -524,7 +524,9 @@ def stage_control(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
 
     plaus.emit([f"control: {w}" for w in result.warnings])   # said on stderr as bpmid control says them
     inputs = [r.path for r in refs if r.path is not None] + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
-    written = write_control(result, out / "control", cfg, _prov(inputs, config, cfg.seed, ctx["command"]),
+    prov = _prov(inputs, config, cfg.seed, ctx["command"])
+    prov["reading"] = references_reading(refs)
+    written = write_control(result, out / "control", cfg, prov,
                             model=model, plant=plant, figure=True)
     return [Path(p).relative_to(out).as_posix() for p in written if Path(p).parent.name != "traces"]
 

@@ -18,11 +18,28 @@ PA_PER_PSI = 6894.757293168
 #: standard atmosphere (Pa): the default ambient pressure turning absolute into gauge pressure
 ATMOSPHERE_PA = 101325.0
 
-#: pressure unit name (lower case) -> Pa per unit
-PRESSURE_UNITS: dict[str, float] = {"pa": 1.0, "kpa": PA_PER_KPA, "bar": PA_PER_BAR, "mbar": PA_PER_MBAR,
-                                    "mpa": PA_PER_MPA, "psi": PA_PER_PSI}
+#: pressure unit name (lower case) -> Pa per unit: the one list every reader of a pressure unit takes (a log's
+#: header, ``--pressure-unit``, ``io.units``, :func:`bpmid.from_arrays`)
+PRESSURE_UNITS: dict[str, float] = {"pa": 1.0, "hpa": 1e2, "kpa": PA_PER_KPA, "bar": PA_PER_BAR,
+                                    "mbar": PA_PER_MBAR, "mpa": PA_PER_MPA, "psi": PA_PER_PSI}
 #: pressure references a value can be given in
 PRESSURE_REFERENCES = ("gauge", "absolute")
+#: a reference written after a pressure unit (``psig``, ``bar(a)``, ``kPa abs``) -> the reference
+PRESSURE_REF_SUFFIXES = {"a": "absolute", "abs": "absolute", "absolute": "absolute", "g": "gauge", "gauge": "gauge",
+                         "gage": "gauge", "rel": "gauge", "relative": "gauge"}
+#: a pressure unit with the reference it may carry, written without spaces, brackets, points or dashes
+PRESSURE_UNIT_REF = re.compile(r"^(" + "|".join(sorted(PRESSURE_UNITS, key=len, reverse=True)) + r")("
+                               + "|".join(sorted(PRESSURE_REF_SUFFIXES, key=len, reverse=True)) + r")?$")
+
+
+def split_pressure_unit(unit) -> tuple[str | None, str | None]:
+    """A pressure unit as written -> (key of :data:`PRESSURE_UNITS`, reference it carries or None); (None, None)
+    for a spelling that is no pressure unit. ``'psig'`` -> ``('psi', 'gauge')``, ``'bar(a)'`` -> ``('bar',
+    'absolute')``, ``'kPa abs'`` -> ``('kpa', 'absolute')``, ``'hPa'`` -> ``('hpa', None)``."""
+    m = PRESSURE_UNIT_REF.match(re.sub(r"[\s()\[\]._\-]+", "", str(unit).strip().lower()))
+    if m is None:
+        return None, None
+    return m.group(1), (PRESSURE_REF_SUFFIXES[m.group(2)] if m.group(2) else None)
 #: angle unit -> degrees per unit
 ANGLE_UNITS: dict[str, float] = {"deg": 1.0, "rad": 57.29577951308232}
 #: time unit -> seconds per unit
@@ -84,4 +101,5 @@ def to_gauge_pa(values, unit: str, reference: str, *, atmosphere_pa: float = ATM
 
 __all__ = ["PA_PER_BAR", "PA_PER_KPA", "PA_PER_MPA", "PA_PER_MBAR", "PA_PER_PSI", "ATMOSPHERE_PA",
            "PRESSURE_UNITS", "PRESSURE_REFERENCES", "ANGLE_UNITS", "TIME_UNITS", "millipascal_slip", "pa_per",
+           "split_pressure_unit",
            "to_gauge_pa"]

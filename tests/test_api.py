@@ -57,6 +57,36 @@ def test_from_arrays_needs_units_and_converts_them():
         bpmid.from_arrays(t, p_bar - 1.4, pressure_unit="bar", reference="gauge")
 
 
+def test_from_arrays_takes_the_pressure_units_of_the_command_line_with_their_reference():
+    """pressure_unit='psig' was asked for a reference and then refused as unknown; from_arrays now reads the units
+    --pressure-unit reads (one list), a reference after the unit stating the reference, a conflicting one refused."""
+    from bpmid.io.tables import UNITS
+    from bpmid.units import PRESSURE_UNITS, PA_PER_PSI
+
+    assert UNITS["pressure"] is PRESSURE_UNITS   # one list, not a copy
+    t = np.linspace(0, 10, 101)
+    p_psi = 10.0 + 5.0 * np.sin(t)
+    for unit, ref in (("psig", None), ("psig", "gauge"), ("PSI g", None), ("psi", "gauge")):
+        lg = bpmid.from_arrays(t, p_psi, pressure_unit=unit, reference=ref)
+        np.testing.assert_allclose(lg.pressure_pa, p_psi * PA_PER_PSI)
+        assert lg.pressure_reference == "gauge" and lg.pressure_unit == "psi"
+    lg = bpmid.from_arrays(t, p_psi + 14.6959, pressure_unit="psia")
+    assert lg.pressure_reference == "absolute"
+    np.testing.assert_allclose(lg.pressure_pa, p_psi * PA_PER_PSI, atol=1.0)
+    lg = bpmid.from_arrays(t, (p_psi * PA_PER_PSI + 101325.0) / 100.0, pressure_unit="hPa", reference="absolute")
+    np.testing.assert_allclose(lg.pressure_pa, p_psi * PA_PER_PSI, atol=1e-6)
+    lg = bpmid.from_arrays(t, (p_psi * PA_PER_PSI + 101325.0) / 1e5, pressure_unit="bar(a)")
+    assert lg.pressure_reference == "absolute"
+    with pytest.raises(InputError, match="a reference stated twice must agree") as e:
+        bpmid.from_arrays(t, p_psi, pressure_unit="psig", reference="absolute")
+    assert e.value.key == "reference"
+    with pytest.raises(InputError, match=r"pressure_unit='psig'") as e:   # the hint names the form that works
+        bpmid.from_arrays(t, p_psi, pressure_unit="psi")
+    assert e.value.key == "reference"
+    with pytest.raises(InputError, match="millipascal"):
+        bpmid.from_arrays(t, p_psi, pressure_unit="mPa", reference="gauge")
+
+
 def test_a_results_warnings_reach_a_library_caller_once_and_a_command_prints_them_once(tmp_path):
     """A script that prints only ``.params`` still sees a likely unit slip (a BpmidWarning); a command prints each
     warning once, on stderr, not also as a Python warning."""

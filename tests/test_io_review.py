@@ -180,6 +180,71 @@ def test_a_reversed_io_columns_map_is_said_to_be_reversed(tmp_path):
         assert res.exit_code == 0, res.output
 
 
+def test_a_map_key_that_nearly_names_a_column_is_not_called_reversed_and_every_hint_reads_the_file(tmp_path):
+    """Two angle columns: --columns angle_deg=angle_imu (the column is angle_imu_deg) was said to look reversed and
+    advised angle_imu=angle_deg, which was refused for an unknown unit 'imu' with the advice angle_deg=angle_deg (a
+    map of the column to itself). Each message now gives a map that takes the column meant, and it works."""
+    rng = np.random.default_rng(3)
+    t = np.arange(40) * 0.1
+    p = 1.2 + 0.4 * np.sin(np.pi * t / t[-1])
+    a = VBMM(material=Material.paper_fit()).forward_deg(t, p * 1e5 - 101325.0)
+    imu = a + 4.0 + rng.normal(0, 0.1, t.size)
+    f = _write(tmp_path, "g1.csv", "# pressure_reference: absolute\ntime_s,pressure_bar,angle_deg,angle_imu_deg\n"
+               + "".join(f"{ti:.1f},{pi:.5f},{ai:.4f},{bi:.4f}\n" for ti, pi, ai, bi in zip(t, p, a, imu)))
+    params = str(_params(tmp_path))
+
+    def run(cols: str, out: str):
+        return runner.invoke(app, ["predict", str(f), "--params", params, "--columns", cols, "--out",
+                                   str(tmp_path / out)])
+
+    res = run("angle_deg=angle_imu", "a")
+    msg = " ".join(res.output.split())
+    assert res.exit_code == 0 and "looks reversed" not in msg and "angle_imu=angle_deg" not in msg, res.output
+    assert "the column map names 'angle_imu', not a column of this file, which has 'angle_imu_deg'" in msg
+    assert "--columns angle_deg=angle_imu_deg" in msg
+    res = run("angle_imu=angle_deg", "b")
+    msg = " ".join(res.output.split())
+    assert res.exit_code == 2 and "g1.csv:2, key 'angle_deg'" in msg and "unknown unit 'imu'" in msg, res.output
+    assert "angle_deg=angle_deg" not in msg and "--columns angle=angle_imu_deg" in msg
+    for cols, out in (("angle_deg=angle_imu_deg", "c"), ("angle=angle_imu_deg", "d")):
+        res = run(cols, out)
+        assert res.exit_code == 0, res.output
+        assert "angle_imu_deg" in (tmp_path / out / "predict.yaml").read_text()
+    # a map of a column to a name with no unit, the column's own name reading already: drop the entry
+    with pytest.raises(InputError, match="reads as the angle by its own name: drop the entry"):
+        read_motion_log(f, IOConfig(columns={"angle_deg": "angle_xyz"}))
+
+
+def test_predicts_refusal_of_a_pressure_beyond_the_model_names_the_line_and_the_unit_slip(tmp_path):
+    """kPa values under a pressure_bar header: predict refused 'pressure 2.6e+06 Pa gauge at t = ... s is above the
+    model's range' with neither a line nor a unit hint (fit motion's warning had both); it now names the file's line
+    and column and gives the same hint, and the hint reads the file."""
+    t = np.arange(50) * 0.1
+    kpa = 20.0 + 250.0 * np.sin(np.pi * t / t[-1])
+    rows = "".join(f"{ti:.1f},{pi:.3f},{10 + 0.05 * pi:.3f}\n" for ti, pi in zip(t, kpa))
+    f = _write(tmp_path, "kb.csv", "# pressure_reference: gauge\ntime_s,pressure_bar,angle_deg\n" + rows)
+    params = str(_params(tmp_path))
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "a")])
+    msg = " ".join(res.output.split())
+    assert res.exit_code == 2 and not (tmp_path / "a").exists(), res.output
+    import re as _re
+    m = _re.search(r"kb\.csv:(\d+), key 'pressure_bar': .*above the model's range", msg)
+    assert m, msg
+    line = int(m.group(1))
+    said = f.read_text().splitlines()[line - 1].split(",")[1]
+    assert f"the log gives {float(said):g} bar (gauge) there" in msg
+    assert "likely a unit slip" in msg and "--columns pressure_kpa=pressure_bar" in msg
+    res = runner.invoke(app, ["predict", str(f), "--params", params, "--out", str(tmp_path / "b"), "--columns",
+                              "pressure_kpa=pressure_bar"])
+    assert res.exit_code == 0, res.output
+    # the library's call names the line too
+    import bpmid
+
+    with pytest.raises(InputError) as e:
+        bpmid.predict([f], params=params)
+    assert e.value.line == line and e.value.key == "pressure_bar"
+
+
 # ---- item 4: a plausibility hint names the form that works -------------------------------------------------------
 def _warnings(output: str) -> list[str]:
     return [" ".join(w.split()) for w in output.split("warning: ")[1:]]
@@ -454,6 +519,33 @@ def test_whole_numbers_with_thousands_points_are_refused_and_decimal_columns_sti
         assert read_motion_log(f).pressure_pa[3] == pytest.approx(100.8)
 
 
+def test_thousands_points_before_a_decimal_comma_are_read_and_ambiguous_ones_refused_naming_them(tmp_path):
+    """'18.775,0' in a ';' file with decimal commas is 18775.0 (German Excel's number format), never 'a unit in each
+    cell'; a whole '18.775' among decimal commas is refused naming the thousands separator and a form that reads."""
+    pa = [18775.0, 18275.0, 991.5, 21050.0, 20000.0]
+    def de(x):
+        return f"{x:,.1f}".replace(",", "X").replace(".", ",").replace("X", ".")
+    head = "# pressure_reference: gauge\nZeit (s);Druck (Pa);Winkel (deg)\n"
+    f = _write(tmp_path, "de.csv", head + "".join(f"{k},0;{de(p)};1{k},5\n" for k, p in enumerate(pa)))
+    log = read_motion_log(f)
+    assert np.allclose(log.pressure_pa, pa) and np.allclose(log.angle_deg, [10.5, 11.5, 12.5, 13.5, 14.5])
+    assert "Druck (Pa)" in str(log.reading)
+    whole = _write(tmp_path, "int.csv", head + "".join(f"{k},0;{de(p)[:-2]};1{k},5\n" for k, p in enumerate(pa)))
+    with pytest.raises(InputError, match=r"thousands separator \(18775\)") as e:
+        read_motion_log(whole)
+    assert e.value.line == 3 and e.value.key == "Druck (Pa)" and "18.775,0" in e.value.message
+    mixed = _write(tmp_path, "mixed.csv", head + "0,0;18.775,0;1,5\n1,0;18.75,0;2,5\n2,0;1.000,0;3,5\n")
+    with pytest.raises(InputError, match="written otherwise") as e:
+        read_motion_log(mixed)
+    assert e.value.line == 4 and e.value.key == "Druck (Pa)"
+    # the same cells quoted in a comma-separated file: named a thousands separator, not a unit in each cell
+    quoted = _write(tmp_path, "q.csv", "# pressure_reference: gauge\ntime_s,pressure_pa,angle_deg\n"
+                    + "".join(f'{k},"{de(p)}",1{k}.5\n' for k, p in enumerate(pa)))
+    with pytest.raises(InputError, match="a thousands separator beside the decimal separator") as e:
+        read_motion_log(quoted)
+    assert "unit written in each cell" not in e.value.message and e.value.line == 3
+
+
 # ---- an ambient-pressure column under a one-word name ------------------------------------------------------------
 @pytest.mark.parametrize("name", ["Ambient (hPa)", "Barometer (hPa)", "baro_hpa", "Atmospheric [hPa]"])
 def test_an_ambient_column_under_a_one_word_name_is_the_ambient_pressure(tmp_path, name):
@@ -485,10 +577,14 @@ def test_a_column_map_unit_that_contradicts_the_header_is_refused_and_the_names_
 
 def test_a_cell_that_is_no_number_is_quoted_as_written_in_a_decimal_comma_file(tmp_path):
     log = _write(tmp_path, "d.csv", "# pressure_reference: gauge\ntime_s;pressure_kpa;angle_deg\n0,0;20,5;1,0\n"
-                 "0,1;1.201,0;2,0\n")
+                 "0,1;1,201.0;2,0\n")
     with pytest.raises(InputError) as e:
         read_motion_log(log)
-    assert "'1.201,0' is not a number" in e.value.message and e.value.line == 4
+    assert "'1,201.0' is not a number" in e.value.message and e.value.line == 4
+    # a point between thousands before the decimal comma is no such cell: 1.201,0 is 1201.0
+    ok = _write(tmp_path, "k.csv", "# pressure_reference: gauge\ntime_s;pressure_kpa;angle_deg\n0,0;20,5;1,0\n"
+                "0,1;1.201,0;2,0\n")
+    assert read_motion_log(ok).pressure_pa[1] == pytest.approx(1201.0e3)
 
 
 def test_a_column_with_a_pressure_unit_but_an_unknown_name_is_refused_with_its_own_units_name(tmp_path):

@@ -258,9 +258,12 @@ def test_milliseconds_with_fractions_under_seconds_and_seconds_under_ms_are_said
     assert r.exit_code == 0, r.output
 
 
-def _four_columns(repo_root, path, *, L0_machine, A0_machine, L0_stated=50, A0_stated=12, stress=True):
+def _four_columns(repo_root, path, *, L0_machine, A0_machine, L0_stated=50, A0_stated=12, stress=True,
+                  instrument=False):
     d = _relax_frame(repo_root)
     head = f"# gauge_length_mm: {L0_stated}\n# cross_section_mm2: {A0_stated}\n" if L0_stated else ""
+    if instrument and L0_stated:   # an instrument's lines above the table
+        head = f"Gauge Length (mm),{L0_stated}\nArea (mm^2),{A0_stated}\n"
     ext, load = d.strain * 50.0, d.stress_mpa * 12.0            # what the specimen (50 mm, 12 mm^2) gave
     cols = "Time (s),Extension (mm),Load (N),Tensile strain (%)" + (",Tensile stress (MPa)" if stress else "")
     rows = [f"{t},{x:.8f},{f:.10f},{100 * x / L0_machine:.8f}" + (f",{f / A0_machine:.10f}" if stress else "")
@@ -279,6 +282,9 @@ def test_strain_stress_beside_extension_load_must_agree_over_the_stated_specimen
     assert r.exit_code == 2, r.output
     assert "disagree" in r.output and "gauge_length_mm = 40" in r.output and "cross_section_mm2 = 10" in r.output
     assert "wrong_specimen.csv" in r.output and not (tmp_path / "bad.yaml").exists()
+    inst = _four_columns(repo_root, tmp_path / "instrument.csv", L0_machine=40, A0_machine=10, instrument=True)
+    r = runner.invoke(app, ["fit", "relax", str(inst), "--out", str(tmp_path / "inst.yaml")])
+    assert r.exit_code == 2 and "gauge_length_mm = 40" in r.output, r.output
     # a config's specimen is checked the same way (and its key named)
     cfg = tmp_path / "spec.yaml"
     cfg.write_text("relax:\n  specimen: {gauge_length_mm: 50, cross_section_mm2: 12}\n")
@@ -299,3 +305,62 @@ def test_strain_stress_beside_extension_load_must_agree_over_the_stated_specimen
     lone_body = yaml.safe_load((tmp_path / "lone.yaml").read_text())
     assert lone_body["data"]["logs"][0]["source"] == "load-extension"
     assert lone_body["prony"]["E_inf"]["value"] == pytest.approx(body["prony"]["E_inf"]["value"], rel=1e-3)
+
+
+# ---- an instrument's specimen lines above the table ('Gauge Length (mm),50'): read, or refused naming them --------
+def test_instrument_specimen_lines_are_read_with_their_units_and_refused_without_one(tmp_path):
+    from bpmid.io.relax_logs import read_relax_log
+
+    rows = "Time (s),Extension (mm),Load (N)\n" + "".join(
+        f"{t:.2f},{min(t, 1.0) * 7.5:.4f},{0.3 * min(t, 1.0):.4f}\n" for t in np.arange(0, 5, 0.05))
+    f = tmp_path / "instron.csv"
+    f.write_text("Specimen label,S1\nGauge Length (mm),50\nArea (mm^2),12\n" + rows)
+    log = read_relax_log(f)
+    assert log.strain.max() == pytest.approx(7.5 / 50) and log.stress_mpa.max() == pytest.approx(0.3 / 12)
+    assert log.reading["specimen"]["from"] == {"gauge_length_mm": "file line 2 (gauge_length_(mm))",
+                                               "cross_section_mm2": "file line 3 (area_(mm^2))"}
+    # other units and the unit after the value: converted
+    g = tmp_path / "cm.csv"
+    g.write_text("Gauge length: 5 cm\nArea (cm^2),0.12\n" + rows)
+    log = read_relax_log(g)
+    assert log.strain.max() == pytest.approx(7.5 / 50) and log.stress_mpa.max() == pytest.approx(0.3 / 12)
+    # the command fits it (it asked for a '# gauge_length_mm:' line)
+    res, out = _fit(tmp_path, f)
+    assert res.exit_code == 0, res.output
+    # no unit: refused naming the line and the forms that read (and the config still serves)
+    h = tmp_path / "nounit.csv"
+    h.write_text("Gauge Length,50\nArea (mm^2),12\n" + rows)
+    with pytest.raises(InputError, match="states no unit; units are never guessed") as e:
+        read_relax_log(h)
+    assert e.value.line == 1 and "'# gauge_length_mm: <value>'" in e.value.message
+    assert read_relax_log(h, gauge_length_mm=50.0).strain.max() == pytest.approx(7.5 / 50)
+    # two lines that disagree, or one that disagrees with the config: refused
+    k = tmp_path / "two.csv"
+    k.write_text("Gauge Length (mm),50\nL0 (mm),40\nArea (mm^2),12\n" + rows)
+    with pytest.raises(InputError, match="disagree"):
+        read_relax_log(k)
+    with pytest.raises(InputError, match="says 45"):
+        read_relax_log(f, gauge_length_mm=45.0)
+
+
+def test_fit_motion_init_with_a_motion_fit_says_what_init_takes_and_how_to_start_from_it(repo_root, tmp_path):
+    """--init VBMM.yaml (a motion fit where a relaxation fit is expected) said only 'expected bpmid.relax/1'; it now
+    says what --init takes, how to predict with the file, and gives the config that starts a fit from it, which
+    works."""
+    from bpmid.models.vbmm import VBMM, Material, vbmm_yaml_body
+
+    vb = tmp_path / "VBMM_fit.yaml"
+    vb.write_text(yaml.safe_dump({"schema": "bpmid.vbmm/1", **vbmm_yaml_body(VBMM(material=Material.paper_fit()))},
+                                 sort_keys=False))
+    log = repo_root / "datasets/motion/fitting_set/fit_1p2_1p6_r1.csv"
+    out = tmp_path / "VBMM.yaml"
+    res = runner.invoke(app, ["fit", "motion", str(log), "--init", str(vb), "--out", str(out), "--no-plot"])
+    _refused(res, out, "VBMM_fit.yaml", "bpmid fit relax writes", "this file is a motion fit")
+    msg = " ".join(res.output.split())
+    assert f"bpmid predict LOG --params {vb}" in msg and "drop --init" in msg
+    cfg = tmp_path / "start.yaml"
+    cfg.write_text(msg.split("(--config): ")[1].split(" (Pa, s)")[0] + "\n")
+    start = yaml.safe_load(cfg.read_text())["motion"]["start"]
+    assert start["K_inf"] == pytest.approx(Material.paper_fit().K_inf, rel=1e-5) and "tau_1" in start
+    res = runner.invoke(app, ["fit", "motion", str(log), "--config", str(cfg), "--out", str(out), "--no-plot"])
+    assert res.exit_code == 0 and out.exists(), res.output

@@ -107,6 +107,7 @@ class MotionLog:
     meta : ``# key: value`` lines of the file
     reading : what the reader found and assumed (format, columns and units, reference and where it came from)
     warnings : reader warnings (gaps, ignored columns)
+    lines : (N,) the file line (sheet row) of each sample, or None (an in-memory log): for messages
     """
 
     name: str
@@ -121,10 +122,17 @@ class MotionLog:
     meta: dict = dataclasses.field(default_factory=dict)
     reading: dict = dataclasses.field(default_factory=dict)
     warnings: list = dataclasses.field(default_factory=list)
+    lines: np.ndarray | None = None
 
     @property
     def n(self) -> int:
         return int(self.time_s.size)
+
+    def line_of(self, k: int) -> int | None:
+        """The file line of sample ``k``, or None when the log does not know it (in memory, or cut from another)."""
+        if self.lines is None or len(self.lines) != self.n or not 0 <= int(k) < self.n:
+            return None
+        return int(self.lines[int(k)])
 
     @property
     def duration_s(self) -> float:
@@ -161,8 +169,9 @@ class MotionLog:
     def slice(self, start: int, stop: int) -> "MotionLog":
         pg = None if self.pressure_as_given is None else self.pressure_as_given[start:stop]
         ang = None if self.angle_deg is None else self.angle_deg[start:stop]
+        ln = None if self.lines is None or len(self.lines) != self.n else self.lines[start:stop]
         return dataclasses.replace(self, time_s=self.time_s[start:stop], pressure_pa=self.pressure_pa[start:stop],
-                                   angle_deg=ang, pressure_as_given=pg)
+                                   angle_deg=ang, pressure_as_given=pg, lines=ln)
 
 
 def from_arrays(name: str, time_s, pressure_pa_gauge, angle_deg=None, **kw) -> MotionLog:
@@ -262,7 +271,8 @@ def _read_motion_log(path: Path, io_cfg: IOConfig, require_angle: bool) -> Motio
         warnings += unread_ambient_lines(table, io_cfg.atmosphere_pa)
     return MotionLog(name=path.stem, time_s=t, pressure_pa=gauge, angle_deg=angle, pressure_reference=ref,
                      pressure_unit=unit, pressure_as_given=given, atmosphere_pa=atm_mean,
-                     path=path, meta=dict(table.meta), reading=reading, warnings=warnings)
+                     path=path, meta=dict(table.meta), reading=reading, warnings=warnings,
+                     lines=None if table.lines is None else np.asarray(table.lines, int))
 
 
 def read_motion_logs(paths: Sequence[str | Path], io_cfg: IOConfig | None = None, *,

@@ -147,6 +147,30 @@ def _units_that_fit(peak_given: float) -> list[str]:
     return [u for u, f in _P_UNITS.items() if lo <= peak_given * f <= hi * 0.5]
 
 
+def pressure_slip(lg) -> str | None:
+    """What a log's pressure peak says when it lies outside :data:`PRESSURE_RANGE_PA` (too little to drive a muscle,
+    or more than one takes): a likely unit slip, the units it would make sense in and the form that states one
+    (:func:`unit_fix`); None for a peak in the range. Said as a warning after reading and in predict's refusal of
+    a pressure beyond the model's range."""
+    p = np.asarray(lg.pressure_pa, float)
+    if not p.size:
+        return None
+    peak = float(np.max(np.abs(p)))
+    unit = str(getattr(lg, "pressure_unit", "pa"))
+    given = np.asarray(lg.pressure_as_given if lg.pressure_as_given is not None else p, float)
+    peak_given = float(np.max(np.abs(given))) if given.size else 0.0
+    lo, hi = PRESSURE_RANGE_PA
+    fits = [u for u in _units_that_fit(peak_given) if u != unit]
+    hint = f"; in {' or '.join(fits)} it would make sense" if fits else ""
+    if peak < lo and np.ptp(p) > 0:
+        return (f"the pressure peaks at {peak:.4g} Pa ({peak_given:g} {unit}), too little to drive a pneumatic muscle: "
+                f"likely a unit slip{hint}. {_pressure_fix(lg, fits)}")
+    if peak > hi:
+        return (f"the pressure peaks at {peak / 1e5:.4g} bar ({peak_given:g} {unit}), more than a pneumatic muscle "
+                f"takes: likely a unit slip{hint}. {_pressure_fix(lg, fits)}")
+    return None
+
+
 def _pressure_fix(lg, fits: Sequence[str]) -> str:
     if fits:
         return f"If it is {fits[0]}, {unit_fix(lg, 'pressure', fits[0])}"
@@ -202,16 +226,10 @@ def motion_data_warnings(logs: Iterable) -> list[str]:
             out.append(f"{where}: the gauge pressure never drops below {np.min(p) / 1e5:.3g} bar, one atmosphere "
                        f"or more: these look like absolute pressures read as gauge. If so, "
                        f"{reference_fix(lg, 'absolute')}")
-        elif peak < lo and np.ptp(p) > 0:
-            fits = [u for u in _units_that_fit(peak_given) if u != unit]
-            hint = f"; in {' or '.join(fits)} it would make sense" if fits else ""
-            out.append(f"{where}: the pressure peaks at {peak:.4g} Pa ({peak_given:g} {unit}), too little to drive a "
-                       f"pneumatic muscle: likely a unit slip{hint}. {_pressure_fix(lg, fits)}")
-        elif peak > hi:
-            fits = [u for u in _units_that_fit(peak_given) if u != unit]
-            hint = f"; in {' or '.join(fits)} it would make sense" if fits else ""
-            out.append(f"{where}: the pressure peaks at {peak / 1e5:.4g} bar ({peak_given:g} {unit}), more than a "
-                       f"pneumatic muscle takes: likely a unit slip{hint}. {_pressure_fix(lg, fits)}")
+        else:
+            slip = pressure_slip(lg)
+            if slip is not None:
+                out.append(f"{where}: {slip}")
         a = getattr(lg, "angle_deg", None)
         stated = (getattr(lg, "reading", {}) or {}).get("columns", {}).get("angle", {}).get("unit", "deg")
         if a is not None and np.size(a) and stated in ("deg", "degree", "degrees", "°"):

@@ -88,15 +88,89 @@ class RelaxLog:
         return int(self.time_s.size)
 
 
-def _specimen_value(name: str, cfg_value: float | None, meta: dict, path: Path) -> float:
+#: specimen keys an instrument writes above its table ('Gauge Length (mm),50', 'Area (mm^2),12'; keys folded, the
+#: unit in brackets or after the value cut off) -> bpmid's key
+_SPECIMEN_KEYS = {
+    "gauge_length": "gauge_length_mm", "gage_length": "gauge_length_mm", "initial_gauge_length": "gauge_length_mm",
+    "specimen_gauge_length": "gauge_length_mm", "gauge_length_l0": "gauge_length_mm", "l0": "gauge_length_mm",
+    "area": "cross_section_mm2", "specimen_area": "cross_section_mm2", "cross_section": "cross_section_mm2",
+    "cross_sectional_area": "cross_section_mm2", "cross_section_area": "cross_section_mm2",
+    "initial_area": "cross_section_mm2", "a0": "cross_section_mm2", "s0": "cross_section_mm2",
+}
+#: the units of each specimen key -> factor to bpmid's (mm, mm^2)
+_SPECIMEN_UNITS = {
+    "gauge_length_mm": {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4},
+    "cross_section_mm2": {"mm^2": 1.0, "mm2": 1.0, "mm²": 1.0, "cm^2": 100.0, "cm2": 100.0, "cm²": 100.0,
+                          "m^2": 1e6, "m2": 1e6, "m²": 1e6, "in^2": 645.16, "in2": 645.16, "in²": 645.16},
+}
+
+
+def _instrument_specimen(name: str, meta: dict, meta_lines: dict, path: Path) -> tuple[float, str] | None:
+    """The specimen value ``name`` (gauge_length_mm, cross_section_mm2) from an instrument's lines above the table
+    (``Gauge Length (mm),50``, ``Area: 12 mm^2``), in bpmid's unit, with the line it came from (for the output's
+    record); None when no such line. A line whose unit is not stated or not a length (an area) is refused, naming it
+    and the form that reads: units are never guessed. Lines that disagree are refused too."""
+    found = []
+    for key, raw in meta.items():
+        m = re.match(r"^(.*?)_*[(\[]([^)\]]*)[)\]]$", key)
+        base, unit = (m.group(1), m.group(2)) if m else (key, None)
+        if _SPECIMEN_KEYS.get(base.strip("_")) != name:
+            continue
+        value = str(raw).strip()
+        v = re.match(r"^([-+]?(?:\d+[.,]?\d*|[.,]\d+)(?:[eE][-+]?\d+)?)\s*(.*)$", value)
+        line = meta_lines.get(key)
+        said = f"the line {line}" if line else "a line above the table"
+        units = _SPECIMEN_UNITS[name]
+        form = f"'# {name}: <value>'"
+        words, bpmid_unit = ("gauge length", "mm") if name == "gauge_length_mm" else ("cross-section", "mm^2")
+        if v is None:
+            raise InputError(f"{said} states the specimen's {words} as {value!r}, not a number; write it as a "
+                             f"number, or as a line {form}", path=path, line=line, key=key)
+        number = float(v.group(1).replace(",", "."))
+        stated = [x.strip().lower().replace(" ", "") for x in (unit, v.group(2)) if x and x.strip()]
+        u = stated[0] if stated else None
+        if u is None or u not in units or len(set(stated)) > 1:
+            what = "states no unit" if u is None else (
+                f"states it in {' and '.join(stated)}" if len(set(stated)) > 1 else
+                f"states it in {u!r}, which bpmid does not read here")
+            raise InputError(f"{said} gives the specimen's {words} ({value}) but {what}; units are never guessed: "
+                             f"state it in {bpmid_unit} as a line {form}, or with its unit in brackets (known: "
+                             f"{', '.join(units)}), or set relax.specimen.{name} in the config", path=path,
+                             line=line, key=key)
+        found.append((number * units[u], key, line))
+    if not found:
+        return None
+    if len({round(v, 9) for v, _k, _l in found}) > 1:
+        said = ", ".join(f"{k} = {v:g} (line {ln})" for v, k, ln in found)
+        raise InputError(f"the lines above the table give the specimen's {name} twice and they disagree ({said}); "
+                         f"keep one", path=path, line=found[-1][2], key=found[-1][1])
+    value, key, line = found[0]
+    return value, f"file line {line} ({key})" if line else f"file header ({key})"
+
+
+def _specimen_value(name: str, cfg_value: float | None, meta: dict, path: Path, *, meta_lines: dict | None = None,
+                    source: dict | None = None) -> float:
+    """The specimen's ``name``: from the config, a ``# name:`` line, or an instrument's line above the table
+    (:func:`_instrument_specimen`, its lines in ``meta_lines``); the file's and the config's must agree. Where it came
+    from goes into ``source[name]`` when given."""
     file_value = meta.get(name)
+    said = "file header"
     if file_value is not None:
         try:
             file_value = float(file_value)
         except ValueError:
             raise InputError(f"'# {name}:' must be a number, found {file_value!r}", path=path, key=name) from None
-        if not (np.isfinite(file_value) and file_value > 0):
-            raise InputError(f"'# {name}:' must be positive, found {file_value:g}", path=path, key=name)
+    else:
+        try:
+            got = _instrument_specimen(name, meta, meta_lines or {}, path)
+        except InputError:
+            if cfg_value is None:
+                raise
+            got = None   # the config states it: a line above the table it cannot read is no reason to refuse
+        if got is not None:
+            file_value, said = got
+    if file_value is not None and not (np.isfinite(file_value) and file_value > 0):
+        raise InputError(f"'# {name}:' must be positive, found {file_value:g}", path=path, key=name)
     if cfg_value is not None and file_value is not None and not np.isclose(cfg_value, file_value, rtol=1e-9):
         raise InputError(f"the file says {name} = {file_value:g}, the config relax.specimen.{name} says "
                          f"{cfg_value:g}", path=path, key=name)
@@ -105,6 +179,8 @@ def _specimen_value(name: str, cfg_value: float | None, meta: dict, path: Path) 
         raise InputError(f"a load/extension log needs the specimen's {name}: set relax.specimen.{name} in the "
                          f"config or add a line '# {name}: <value>' to the file", path=path,
                          key=f"relax.specimen.{name}")
+    if source is not None:
+        source[name] = "config relax.specimen" if cfg_value is not None else said
     return float(value)
 
 
@@ -131,8 +207,14 @@ def _check_both_pairs(table, path: Path, gauge_length_mm, cross_section_mm2) -> 
     A_implied = _implied(load, stress)         # mm^2: N / MPa
     given = {}
     for name, cfg_value in (("gauge_length_mm", gauge_length_mm), ("cross_section_mm2", cross_section_mm2)):
-        if cfg_value is not None or table.meta.get(name) is not None:
-            given[name] = _specimen_value(name, cfg_value, table.meta, path)
+        stated = cfg_value is not None or table.meta.get(name) is not None
+        if not stated:   # an instrument's line above the table ('Gauge Length (mm),50'); one it cannot read is
+            try:         # no reason to refuse a file whose strain and stress are read
+                stated = _instrument_specimen(name, table.meta, table.meta_lines, path) is not None
+            except InputError:
+                stated = False
+        if stated:
+            given[name] = _specimen_value(name, cfg_value, table.meta, path, meta_lines=table.meta_lines)
     heads = {q: table.headers.get(q, q) for q in ("strain", "stress", "extension", "load")}
     record = {"columns": [heads["extension"], heads["load"]], "used": False,
               "implied_specimen": {"gauge_length_mm": round(L_implied, 6), "cross_section_mm2": round(A_implied, 6)}}
@@ -247,13 +329,13 @@ def _read_relax_log(path: Path, column_map, gauge_length_mm, cross_section_mm2, 
         return RelaxLog(strain=table.columns["strain"], stress_mpa=table.columns["stress"], source="stress-strain",
                         **common)
     _check_tension(table.columns["extension"], table, path, "extension", " mm")
-    L0 = _specimen_value("gauge_length_mm", gauge_length_mm, table.meta, path)
-    A0 = _specimen_value("cross_section_mm2", cross_section_mm2, table.meta, path)
+    came: dict = {}
+    L0 = _specimen_value("gauge_length_mm", gauge_length_mm, table.meta, path, meta_lines=table.meta_lines,
+                         source=came)
+    A0 = _specimen_value("cross_section_mm2", cross_section_mm2, table.meta, path, meta_lines=table.meta_lines,
+                         source=came)
     # what turned load and extension into stress and strain, and where it came from (the output records it)
-    common["reading"]["specimen"] = {
-        "gauge_length_mm": L0, "cross_section_mm2": A0,
-        "from": {k: ("config relax.specimen" if v is not None else "file header")
-                 for k, v in (("gauge_length_mm", gauge_length_mm), ("cross_section_mm2", cross_section_mm2))}}
+    common["reading"]["specimen"] = {"gauge_length_mm": L0, "cross_section_mm2": A0, "from": came}
     return RelaxLog(strain=table.columns["extension"] / L0, stress_mpa=table.columns["load"] / A0,
                     source="load-extension", **common)
 

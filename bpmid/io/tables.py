@@ -46,7 +46,7 @@ import numpy as np
 
 from bpmid.errors import InputError
 from bpmid.io.atomic import note_input
-from bpmid.units import millipascal_slip
+from bpmid.units import PRESSURE_REF_SUFFIXES, PRESSURE_UNITS, millipascal_slip, split_pressure_unit
 
 #: quantity -> canonical unit
 CANONICAL = {
@@ -65,7 +65,7 @@ UNITS: dict[str, dict[str, float]] = {
     "load": {"n": 1.0, "kn": 1e3, "mn": 1e-3, "lbf": 4.4482216152605},
     "extension": {"mm": 1.0, "m": 1e3, "um": 1e-3, "µm": 1e-3, "μm": 1e-3, "cm": 10.0, "in": 25.4},
     "modulus": {"mpa": 1.0, "n/mm^2": 1.0, "n/mm2": 1.0, "n/mm²": 1.0, "kpa": 1e-3, "pa": 1e-6, "gpa": 1e3},
-    "pressure": {"pa": 1.0, "hpa": 1e2, "kpa": 1e3, "bar": 1e5, "mbar": 1e2, "mpa": 1e6, "psi": 6894.757293168},
+    "pressure": PRESSURE_UNITS,   # bpmid.units' one list (from_arrays takes the same)
     "angle": {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "°": 1.0, "rad": 180.0 / np.pi, "mrad": 0.18 / np.pi,
               "gon": 0.9},
 }
@@ -128,12 +128,10 @@ _SLASH = re.compile(r"^(.*?\S)\s+(?:/|in)\s+(\S+)$")
 #: a quantity and its unit with one slash and no spaces ('t/s', 'p/bar'); read only when the unit is one bpmid knows
 _SLASH_TIGHT = re.compile(r"^([^/]*[^\s/])/([^\s/]+)$")
 _COMMA_UNIT = re.compile(r"^(.*?\S),\s+(\S+)$")
-_PRESSURE_REF = re.compile(r"^(pa|hpa|kpa|mpa|mbar|bar|psi)(a|abs|absolute|g|gauge|gage|rel|relative)?$")
 #: words of a pressure column's name that state its reference ('Gauge pressure', 'Druck rel.', 'p abs')
 _NAME_REF_WORDS = {"gauge": "gauge", "gage": "gauge", "relative": "gauge", "rel": "gauge", "relativ": "gauge",
                    "absolute": "absolute", "abs": "absolute", "absolut": "absolute"}
-_REF_WORDS = {"a": "absolute", "abs": "absolute", "absolute": "absolute", "g": "gauge", "gauge": "gauge",
-              "gage": "gauge", "rel": "gauge", "relative": "gauge"}
+_REF_WORDS = PRESSURE_REF_SUFFIXES
 _COMMA_NUM = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
 _DOT_NUM = re.compile(r"^[+-]?\d*\.\d+(?:[eE][+-]?\d+)?$")
 _CLOCK = re.compile(r"^\s*\d{1,2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?\s*$")
@@ -150,9 +148,10 @@ _YMD_SLASH = re.compile(r"^\s*(\d{4})/(\d{1,2})/(\d{1,2})(?:[ T]+(.*))?\s*$")
 #: a 12-hour clock time (12:59:50.000 PM, 1:05 am)
 _CLOCK_12 = re.compile(r"^\s*(\d{1,2}):(\d{2})(?::(\d{2})(?:[.,](\d+))?)?\s*([AaPp])\.?\s*[Mm]\.?\s*$")
 _SEP_LINE = re.compile(r'^\s*"?sep=(.)"?\s*$', re.IGNORECASE)
-_META = re.compile(r"^\s*([A-Za-z][\w \-./()\[\]]*?)\s*[:=]\s*(.*)$")
-#: a metadata key standing in a cell of its own ('Pressure Reference' | 'Gauge'): the key of :data:`_META`
-_META_KEY = re.compile(r"^[A-Za-z][\w \-./()\[\]]*$")
+_META = re.compile(r"^\s*([A-Za-z][\w \-./()\[\]^]*?)\s*[:=]\s*(.*)$")
+#: a metadata key standing in a cell of its own ('Pressure Reference' | 'Gauge', 'Area (mm^2)' | 12): the key of
+#: :data:`_META`
+_META_KEY = re.compile(r"^[A-Za-z][\w \-./()\[\]^]*$")
 _MAGIC_XLSX = b"PK\x03\x04"
 _MAGIC_OLE = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"
 _MAGIC_HDF5 = b"\x89HDF\r\n\x1a\n"
@@ -273,9 +272,9 @@ def split_unit(quantity: str, unit: str) -> tuple[str | None, str | None]:
     if u in UNITS[quantity]:
         return u, None
     if quantity in ("pressure", "ambient"):
-        m = _PRESSURE_REF.match(re.sub(r"[\s()\[\]._\-]+", "", u))
-        if m:
-            return m.group(1), (_REF_WORDS[m.group(2)] if m.group(2) else None)
+        got = split_pressure_unit(u)
+        if got[0] is not None:
+            return got
     return None, None
 
 
@@ -762,15 +761,27 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
         rows, row_lines = rows[1:], row_lines[1:]
     # decimal separator: a comma only where the columns are not comma-separated, and never mixed with points
     decimal = "."
+    grouped_cols: list[str] = []
     if delim != "," and any("," in ln for _, ln in body):
-        first_comma = next(((r, c) for r, row in enumerate(rows) for c in row if _COMMA_NUM.match(c)), None)
+        first_comma = next(((r, c) for r, row in enumerate(rows) for c in row
+                            if _COMMA_NUM.match(c) or _GROUPED_COMMA.match(c)), None)
         if first_comma is not None:
             decimal = ","
-            dot = next(((r, c) for r, row in enumerate(rows) for c in row if "." in c and _DOT_NUM.match(c)), None)
+            dot = next(((r, c, j) for r, row in enumerate(rows) for j, c in enumerate(row)
+                        if "." in c and _DOT_NUM.match(c)), None)
             if dot is not None:
+                hint = "export the log with one decimal separator"
+                if _THOUSANDS.match(dot[1]):   # '18.775' among decimal commas: a thousands separator, or a decimal?
+                    hint = (f"if the point in {dot[1]!r} is a thousands separator ({dot[1].replace('.', '')}), export "
+                            f"the log without thousands separators (in Excel: Format Cells > Number, untick 'Use "
+                            f"1000 Separator'), or with every value's decimals written out ({dot[1]},0); if it is a "
+                            f"decimal point, export the log with one decimal separator")
                 raise InputError(f"mixed decimal separators: {first_comma[1]!r} (line {row_lines[first_comma[0]]}) "
-                                 f"and {dot[1]!r}; export the log with one decimal separator", path=where,
-                                 line=row_lines[dot[0]])
+                                 f"and {dot[1]!r}; {hint}", path=where, line=row_lines[dot[0]],
+                                 key=header[dot[2]] if dot[2] < len(header) else None)
+            # '18.775,0': a point between groups of three digits before a decimal comma is a thousands separator
+            # (18775.0), read so when every cell of its column that holds a point is written so
+            rows, grouped_cols = _thousands_with_decimal_comma(header, rows, row_lines, where)
             # only the cells that are numbers with a decimal comma: any other cell is quoted as written when refused
             rows = [[c.replace(",", ".") if _COMMA_NUM.match(c.strip()) else c for c in row] for row in rows]
     cols = [list(c) for c in zip(*rows)] if rows else [[] for _ in header]
@@ -778,6 +789,8 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
         _refuse_thousands_points(header, cols, row_lines, where)
     info = {"format": "text", "encoding": enc, "delimiter": info_delim, "decimal": "comma" if decimal == "," else
             "point"}
+    if grouped_cols:
+        info["thousands_separator"] = f"point, before a decimal comma ({', '.join(repr(h) for h in grouped_cols)})"
     if info_rows:
         info["name_rows_skipped"] = info_rows
     if index_col:
@@ -790,6 +803,40 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
 #: a whole number written with points between groups of three digits (German, Swiss: 1.008 for 1008)
 _THOUSANDS = re.compile(r"^[-+]?[1-9]\d{0,2}(?:\.\d{3})+$")
 _WHOLE = re.compile(r"^[-+]?\d+$")
+#: a number with a point between groups of three digits and a decimal comma (German, Swiss: 18.775,0 for 18775.0)
+_GROUPED_COMMA = re.compile(r"^[-+]?[1-9]\d{0,2}(?:\.\d{3})+,\d+$")
+#: the English form: commas between groups of three digits, then a decimal point (18,775.0)
+_THOUSANDS_DOT_DECIMAL = re.compile(r"^[-+]?[1-9]\d{0,2}(?:,\d{3})+\.\d+$")
+
+
+def _thousands_with_decimal_comma(header: list[str], rows: list[list[str]], row_lines: list[int],
+                                  where: str) -> tuple[list[list[str]], list[str]]:
+    """Read the thousands separators of a file with decimal commas: a column whose every cell with a point in it is
+    written ``18.775,0`` (points between groups of three digits, then a decimal comma) has its points dropped
+    (``18775,0``, then read with its decimal comma); the point can be nothing else there. A column that holds such a
+    cell and another with a point written otherwise (``18.75,0``, ``18.775``) is refused, naming both. Returns the
+    rows and the headers of the columns so read."""
+    width = max((len(r) for r in rows), default=0)
+    grouped: list[int] = []
+    for j in range(width):
+        cells = [(r, row[j].strip()) for r, row in enumerate(rows) if j < len(row)]
+        first = next(((r, c) for r, c in cells if _GROUPED_COMMA.match(c)), None)
+        if first is None:
+            continue
+        other = next(((r, c) for r, c in cells if "." in c and not _GROUPED_COMMA.match(c)), None)
+        name = header[j] if j < len(header) else f"column {j + 1}"
+        if other is not None:
+            raise InputError(f"column {name!r}: {first[1]!r} (line {row_lines[first[0]]}) reads as a point between "
+                             f"thousands and a decimal comma ({first[1].replace('.', '').replace(',', '.')}), but "
+                             f"{other[1]!r} is written otherwise and bpmid does not guess; export the log without "
+                             f"thousands separators (in Excel: Format Cells > Number, untick 'Use 1000 Separator')",
+                             path=where, line=row_lines[other[0]], key=name)
+        grouped.append(j)
+    if not grouped:
+        return rows, []
+    out = [[c.replace(".", "") if j in grouped and _GROUPED_COMMA.match(c.strip()) else c
+            for j, c in enumerate(row)] for row in rows]
+    return out, [header[j] if j < len(header) else f"column {j + 1}" for j in grouped]
 
 
 def _refuse_thousands_points(header: list[str], cols: list[list], row_lines: list[int], where: str) -> None:
@@ -1246,9 +1293,18 @@ def _map_note(grid: Grid, cmap: Mapping[str, tuple[str, str]], used: set) -> str
         words = _norm(k).split(" ")
         return _parse(k)[0] is not None or words[0] in ALIASES or words[0] in BPMID_NAME
 
-    rev = [cmap[k] for k in unmatched if is_column(cmap[k][1]) and bpmid_like(cmap[k][0])]
-    other = [cmap[k][0] for k in unmatched if cmap[k] not in rev]
+    # a key that is no column but one of the file's names nearly ('angle_imu' for 'angle_imu_deg'): the map's
+    # direction is right (its value a bpmid name), the column misnamed; never said to look reversed then
+    near = {k: like for k in unmatched if (like := _like_column(cmap[k][0], grid.header, exclude=cmap[k][1]))
+            and _parse(cmap[k][1])[0] is not None}
+    rev = [cmap[k] for k in unmatched if k not in near and is_column(cmap[k][1]) and bpmid_like(cmap[k][0])]
+    other = [cmap[k][0] for k in unmatched if cmap[k] not in rev and k not in near]
     note = ""
+    for k, like in near.items():
+        key, value = cmap[k]
+        note += (f"; the column map names {key!r}, not a column of this file, which has {like!r}: to take that column "
+                 f"as {value}, {columns_arg(f'{value}={like}')} (config io.columns: {{'{like}': {value}}}); "
+                 f"--columns takes bpmid's name, then the file's column")
     if rev:
         pairs = ", ".join(f"{k}: {v}" for k, v in rev)
         right = ", ".join(f"{v}: {k}" for k, v in rev)
@@ -1259,6 +1315,29 @@ def _map_note(grid: Grid, cmap: Mapping[str, tuple[str, str]], used: set) -> str
     if other:
         note += f"; the column map names {', '.join(repr(k) for k in other)}, not a column of this file"
     return note
+
+
+def _like_column(name: str, header: Sequence[str], exclude: str | None = None) -> str | None:
+    """The file's column that ``name`` nearly names, or None: the column's name without the unit written after it
+    (``angle_imu`` for ``angle_imu_deg`` or ``Angle IMU (deg)``), a name it starts ('angle_imu' for
+    'angle_imu_2'), or one spelled almost alike; never ``exclude`` (folded) nor ``name`` itself."""
+    import difflib
+
+    n = _norm(name)
+    skip = {n} | ({_norm(exclude)} if exclude is not None else set())
+    cands = [h for h in header if h and _norm(h) not in skip]
+    for h in cands:
+        raw, unit = _unit_part(h)
+        words = _norm(raw).split(" ")
+        if unit is not None and _norm(raw) == n:
+            return h
+        if len(words) > 1 and " ".join(words[:-1]) == n and any(split_unit(q, words[-1])[0] for q in UNITS):
+            return h
+    starts = [h for h in cands if _norm(h).startswith(n + " ")]
+    if len(starts) == 1:
+        return starts[0]
+    close = difflib.get_close_matches(n, [_norm(h) for h in cands], n=1, cutoff=0.85)
+    return next((h for h in cands if close and _norm(h) == close[0]), None)
 
 
 def _resolve(grid: Grid, cmap: dict[str, tuple[str, str]], units: Mapping[str, str], unit_sources: Mapping[str, str],
@@ -1441,7 +1520,14 @@ def _numbers(values: list, where: str, header: str, lines: list[int], excel: boo
                 x = float(cell)
             except ValueError:
                 what = "an empty cell" if not cell else f"{cell!r} is not a number"
-                if _COMMA_NUM.match(cell) and excel:
+                if _GROUPED_COMMA.match(cell) or _THOUSANDS_DOT_DECIMAL.match(cell):
+                    # '18.775,0' (German) or '18,775.0' (English): a thousands separator beside the decimal one
+                    what += ("; a thousands separator beside the decimal separator"
+                             + (": format the column's cells as numbers in the spreadsheet" if excel else
+                                ": export the log without thousands separators (in Excel: Format Cells > Number, "
+                                "untick 'Use 1000 Separator')"
+                                + (", or separate the columns with ';'" if _GROUPED_COMMA.match(cell) else "")))
+                elif _COMMA_NUM.match(cell) and excel:
                     what += ("; a number stored as text with a decimal comma: format the column's cells as numbers "
                              "in the spreadsheet (or export it as a ';'-separated text file)")
                 elif _COMMA_NUM.match(cell):
@@ -1625,6 +1711,9 @@ def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional
     if "looks reversed" in grid.info.get("map_note", ""):   # said on a good read too, not only in errors
         note = grid.info["map_note"].lstrip("; ").split("; the column map names")[0]
         pre_warns = pre_warns + [f"{where}: {note}; the map was not applied"]
+    for note in grid.info.get("map_note", "").split("; the column map names ")[1:]:
+        if "not a column of this file, which has" in note:   # a key that nearly names a column: said too
+            pre_warns = pre_warns + [f"{where}: the column map names {note}; that entry was not applied"]
     warns = pre_warns + rival_warns + ([f"the file ends in {grid.info['nul_bytes_at_end']} NUL bytes (a logger that lost power?): "
                             f"read the rows before them; check that its last row (line {lines[n_rows - 1]}) is "
                             f"complete"] if grid.info.get("nul_bytes_at_end") and n_rows else [])
@@ -1785,6 +1874,9 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
                 f"the unit written after the name says {written}"
             raise InputError(f"the name of column {h!r} says {u1} and {part}; make them agree", path=where,
                              line=hline, key=h)
+        if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None and unit_from == "column map":
+            raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})"
+                             f"{_mapped_unit_hint(grid, q, h, unit)}", path=where, line=hline, key=h)
         if unit is not None and unit not in UNITS[q] and split_unit(q, unit)[0] is None:
             in_row = unit_from == "units row"
             raise InputError(f"unknown unit {unit!r} for {q} (known: {', '.join(_known(q))})"
@@ -2029,6 +2121,25 @@ def _unknown_unit_hint(q: str, h: str, unit: str, unit_from: str | None) -> str:
         if ref is not None:
             out += f" (and --pressure-reference {ref} unless the file states the reference)"
     return out
+
+
+def _mapped_unit_hint(grid: Grid, q: str, h: str, unit: str) -> str:
+    """What to do when the column map sends column ``h`` to a name whose part after the quantity is no unit
+    (``--columns angle_imu=angle_deg``: 'angle_imu' read as the angle in 'imu'): say how the map is read and give a
+    map that differs from the one written (never ``h`` to itself when its own name already reads)."""
+    mapped = f"{q}_{unit}"
+    out = (f": the column map sends the column {h!r} to {mapped!r}, and bpmid reads the part after the quantity as "
+           f"its unit. --columns takes bpmid's name ({q}, or with a unit: {BPMID_NAME[q]}) on the left of '=' and "
+           f"the file's column on the right")
+    like = _like_column(mapped, grid.header, exclude=h)
+    if like is not None:   # the map written the other way round ('angle_imu' for the column 'angle_imu_deg')
+        return out + (f"; to take the column {like!r} as the {q}: {columns_arg(f'{q}={like}')} (config io.columns: "
+                      f"{{'{like}': {q}}})")
+    own_q, own_u, _r, _d = _parse(h)
+    if own_q == q and own_u is not None and own_u in UNITS[q]:
+        return out + f"; the column {h!r} reads as the {q} by its own name: drop the entry"
+    return out + (f"; to take {h!r} as the {q}: {columns_arg(f'{BPMID_NAME[q]}={h}')} if its values are in "
+                  f"{EXAMPLE_UNIT[q]} (or {q}_<unit> with the unit they are in)")
 
 
 def _known(q: str) -> list[str]:

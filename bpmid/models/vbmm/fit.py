@@ -138,7 +138,13 @@ def material_from_relax(source, path=None) -> Material:
     # one reader for relaxation fits (units converted, mode and Poisson's ratio checked, shear and bulk
     # checked against prony and poisson_ratio), whoever asks for one
     if isinstance(source, (str, Path)):
-        rf = load_relax_fit(source)
+        try:
+            rf = load_relax_fit(source)
+        except InputError as exc:
+            if exc.key != "schema":
+                raise
+            raise InputError(exc.message + _not_a_relax_fit(Path(source)), path=exc.path, line=exc.line,
+                             key=exc.key) from None
         path = Path(source)
     elif isinstance(source, Mapping):
         rf = relax_fit_from_mapping(dict(source), None if path is None else Path(path))
@@ -156,6 +162,42 @@ def material_from_relax(source, path=None) -> Material:
                         tuple(map(float, rf.tau)), None)
     except InputError as exc:
         raise InputError(exc.message, path=path, key=exc.key) from None
+
+
+def _not_a_relax_fit(path: Path) -> str:
+    """What to do with a file given where a relaxation fit is expected (``--init``, ``motion.relax_fit``): what it
+    takes, and, for a motion fit (``bpmid.vbmm/1``), how to predict with it or start a motion fit from its constants
+    (a config's ``motion.start``, with its values written out)."""
+    from bpmid.config import read_yaml
+    from bpmid.models.vbmm import material_params
+    from bpmid.models.vbmm.model import Geometry, geometry_from_yaml, material_from_yaml
+
+    out = ("; --init (and motion.relax_fit) takes a relaxation fit, the file bpmid fit relax writes (schema "
+           "bpmid.relax/1)")
+    try:
+        data, _sha = read_yaml(path)
+        schema = str(data.get("schema", "")) if isinstance(data, dict) else ""
+    except InputError:
+        return out
+    if not schema.startswith("bpmid.vbmm/"):
+        return out + (f"; this file is a {schema.split('/')[0].removeprefix('bpmid.')} result" if schema.startswith(
+            "bpmid.") else "")
+    out += (f"; this file is a motion fit (what bpmid fit motion writes): to predict with it, bpmid predict LOG "
+            f"--params {path}; to start a new motion fit from its constants, drop --init and give them as start "
+            f"values in a config (--config)")
+    try:
+        mat = material_from_yaml(data, path)
+        geo = geometry_from_yaml(data.get("geometry"), path) if "geometry" in data else Geometry()
+    except InputError:
+        return out + ": motion: {start: {G_inf: ..., K_inf: ..., G_1: ..., K_1: ..., tau_1: ...}} (Pa, s)"
+    start = ", ".join(f"{p.name}: {p.value:.6g}" for p in material_params(mat))
+    extra = (f", branches: {mat.n_branches}" if mat.n_branches != 1 else "") + (", split_tau: true" if mat.split
+                                                                               else "")
+    out += f": motion: {{start: {{{start}}}{extra}}} (Pa, s)"
+    if geo != Geometry():
+        out += (f", with its geometry as model: {{geometry: {{th: {geo.th:.6g}, alpha0: {geo.alpha0:.6g}, "
+                f"R0: {geo.R0:.6g}, l0: {geo.l0:.6g}, n: {geo.n:.6g}}}}}")
+    return out
 
 
 def initial_material(cfg: MotionFitConfig, init=None, *, base_dir: Path | None = None) -> tuple[Material, str]:

@@ -43,6 +43,15 @@ GEOMETRY_MAX_M = {"th": 0.05, "R0": 0.5, "l0": 5.0}
 ALPHA0_MIN_DEG = 1.0
 
 
+class PressureAboveRange(InputError):
+    """A pressure the model cannot bend to (beyond 4 pi rad): ``sample`` is its index in the log, so that a caller
+    holding the log can name the file's line and a likely unit slip (:func:`bpmid.predict.predict`)."""
+
+    def __init__(self, message: str, *, sample: int, **kw):
+        self.sample = int(sample)
+        super().__init__(message, **kw)
+
+
 @dataclasses.dataclass(frozen=True)
 class Geometry:
     """Muscle geometry (paper Table I), SI: th, R0, l0 in m; alpha0 in rad; n turns (1).
@@ -401,8 +410,8 @@ class VBMM:
         bad = np.flatnonzero(out["status"] == K.STATUS_ABOVE_RANGE)
         if bad.size:
             k = int(bad[0])
-            raise InputError(f"{name}: pressure {p_gauge_pa[k]:.6g} Pa gauge at t = {t[k]:g} s is above the model's "
-                             f"range (it would bend the muscle beyond 4 pi rad)", path=path)
+            raise PressureAboveRange(f"{name}: pressure {p_gauge_pa[k]:.6g} Pa gauge at t = {t[k]:g} s is above the "
+                                     f"model's range (it would bend the muscle beyond 4 pi rad)", path=path, sample=k)
         if np.any(out["status"] == K.STATUS_NO_CONVERGENCE):
             # the bracketed solve converges wherever the pressure rises with the angle: a model whose does not
             # (a geometry far from any muscle's, such as n = 1e6 turns) is the input's fault, said as such
