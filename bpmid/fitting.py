@@ -238,6 +238,9 @@ def _value_space_cov(params: ParamSet, cov_x: np.ndarray) -> np.ndarray:
 
 #: a held parameter correlated at least this much with an estimated one makes that one's standard error conditional
 CONDITIONAL_CORR = 0.9
+#: how a refit that does not check identifiability marks a free parameter whose standard error fails the verdict
+#: (the next refit that judges it otherwise drops the note: a stale verdict beside a new standard error misleads)
+UNCHECKED_NOTE = "(estimated, not held: this refit does not check identifiability)"
 
 
 def correlated_with(names: Sequence[str], corr: np.ndarray, held: str) -> dict[str, float]:
@@ -360,8 +363,10 @@ def fit_least_squares(residual_fn: Callable[[ParamSet], np.ndarray], params: Par
                 out = out.replace(name, stderr=float(se[i]) if np.isfinite(se[i]) else None, identifiable=True)
                 if name in judged:   # unchecked (a refit that holds nothing): free, but never read as identifiable
                     out = out.replace(name, identifiable=False,
-                                      note=f"not identifiable: {judged[name]} (estimated, not held: this refit "
-                                           f"does not check identifiability)")
+                                      note=f"not identifiable: {judged[name]} {UNCHECKED_NOTE}")
+                elif UNCHECKED_NOTE in (out[name].note or ""):   # an earlier refit's verdict, not this one's
+                    out = out.replace(name, note="; ".join(part for part in out[name].note.split("; ")
+                                                           if UNCHECKED_NOTE not in part))
             out = _held_notes(out, held, at_fit)
             out = conditional_on_held(out, names, links, at_fit)
             return FitResult(out, names, cov, corr, r, r.size, n_eff, bool(sol.success), str(sol.message),

@@ -36,7 +36,8 @@ from bpmid.discover.screen import _orthonormal  # one basis routine for screenin
 from bpmid.discover.model import (ModelState, fit_state, gained_residuals, heldout_residual, nuisance_block_columns,
                                   rmse_deg, sensitivities, simulate, stacked)
 from bpmid.effects.base import Effect
-from bpmid.fitting import ZERO_SENSITIVITY, FitResult, effective_sample_size
+from bpmid.fitting import (ZERO_SENSITIVITY, FitResult, conditional_on_held, correlated_with,
+                            effective_sample_size)
 from bpmid.io.motion_logs import MotionLog
 
 
@@ -367,6 +368,7 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     bad, ses = own_identifiability(fitted, res, fit_logs, own, per_log_gain=per_log_gain, rel_se_max=rel_se_max,
                               corr_max=corr_max)
     held: dict[str, str] = {}
+    links: dict[str, dict[str, float]] = {}   # held -> the constants it traded off against while it was free
     while bad and len(held) < len(own) - 1:
         # hold first a parameter that ran onto a bound (the bound is the range's statement, and the parameter
         # it traded off against then carries the effect: e.g. a softening linear in time drives the amount to
@@ -381,6 +383,7 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
         back = {} if simpler is None or bad[name] == _ON_BOUND else {"value": float(simpler)}
         if back:
             held[name] = f"{bad[name]}; held at {simpler:g}, the simpler form"
+        links[name] = correlated_with(res.free_names, res.corr, name)
         cand = dataclasses.replace(fitted, params=fitted.params.replace(name, fixed=True, **back))
         fitted, res = fit_state(cand, fit_logs, max_nfev=max_nfev, check_identifiability=False,
                                 per_log_gain=per_log_gain)
@@ -393,7 +396,8 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
     bad = {**by_fit, **held, **bad}
     for nm in bad:   # say where it is kept (a note said 'ended on its lower bound 0' beside a held 0.5)
         if "held at" not in bad[nm] and fitted.params[nm].fixed:
-            bad[nm] = f"{bad[nm]}; kept at {fitted.params[nm].value:.6g}, its start"
+            bad[nm] = (f"{bad[nm]}; held at {fitted.params[nm].value:.6g}, where the refit with it free left it"
+                       if nm in held else f"{bad[nm]}; kept at {fitted.params[nm].value:.6g}, its start")
     estimated = [nm for nm in own if nm not in bad]
     for nm in own:
         if nm in bad:
@@ -404,6 +408,10 @@ def confirm(state: ModelState, effect: Effect, fit_logs: Sequence[MotionLog], ho
             # note, which judged the standard error with every constant free beside it
             fitted = dataclasses.replace(fitted, params=fitted.params.replace(nm, identifiable=True,
                                                                                   stderr=ses.get(nm), note=""))
+    # the constants that traded off against a held one: their standard errors assume it at the value it is held at
+    # (the base model's K and tau beside a lag time constant the data do not determine apart from them)
+    fitted = dataclasses.replace(fitted, params=conditional_on_held(
+        fitted.params, res.free_names, links, at_fit=[nm for nm in held if "simpler form" not in held[nm]]))
     r1 = res.residual
     sse1 = max(float(r1 @ r1), 1e-300)
     n = r0.size
