@@ -128,6 +128,8 @@ def test_cli_discover_names_offset_and_writes_the_contract(tmp_path):
     assert text.split() == d["verdict"].split()
     # one statement per paragraph: as many blank-line-separated paragraphs as the verdict has statements
     assert len(text.strip().split("\n\n")) == len([ln for ln in d["verdict"].split("\n") if ln.strip()]) > 1
+    # the gate (some 3000 characters) starts a line at each numbered rule and each sentence, to be read
+    assert "\n    (2) it cuts the held-out error" in text and "\n  When no candidate passes" in text
     assert "angle_offset" in r.output and "held-out error from" in r.output
     # model.yaml: the final model as a bpmid.vbmm/1 fit with the named effect, run by predict as discovery scored it
     m = yaml.safe_load((out / "model.yaml").read_text())

@@ -4,6 +4,7 @@ figures and ``model.yaml`` (the final model as a ``bpmid.vbmm/1`` fit with its `
 and by ``bpmid run``."""
 from __future__ import annotations
 
+import re
 import textwrap
 from pathlib import Path
 
@@ -29,12 +30,42 @@ FIGURES = {"residual_before_after.png": P.residual_figure, "screening_ranking.pn
 VERDICT_WIDTH = 110
 
 
+def _fill(text: str, first: str = "", rest: str = "  ") -> str:
+    return textwrap.fill(text, VERDICT_WIDTH, initial_indent=first, subsequent_indent=rest, break_long_words=False,
+                         break_on_hyphens=False)
+
+
+def _gate_parts(statement: str) -> list[tuple[int, str]]:
+    """The gate's statement cut before each numbered rule's first appearance ("(1) its refit ...") and before each
+    sentence: (depth, text) pieces, their words in order and unchanged."""
+    cuts = {m.start() for m in re.finditer(r"(?<=\.) (?=[A-Z])", statement)}
+    seen = set()
+    for m in re.finditer(r"(?<= )\((\d)\) (?=[a-z])", statement):
+        if m.group(1) not in seen:
+            seen.add(m.group(1))
+            cuts.add(m.start() - 1)
+    out, start = [], 0
+    for c in sorted(cuts):
+        out.append(statement[start:c].strip())
+        start = c
+    out.append(statement[start:].strip())
+    return [(1 if re.match(r"\(\d\) ", x) else 0, x) for x in out if x]
+
+
 def readable(verdict: str) -> str:
     """The verdict as ``verdict.txt`` gives it: each statement wrapped to :data:`VERDICT_WIDTH` columns, its
-    continuation lines indented, words and numbers never split, and a blank line between statements."""
+    continuation lines indented, words and numbers never split, and a blank line between statements. The gate's
+    statement (some 3000 characters) starts a line at each numbered rule and each sentence: the same words as in
+    ``discovery.yaml``."""
     lines = [ln for ln in verdict.split("\n") if ln.strip()]
-    return "\n\n".join(textwrap.fill(ln, VERDICT_WIDTH, subsequent_indent="  ", break_long_words=False,
-                                      break_on_hyphens=False) for ln in lines)
+    out = []
+    for ln in lines:
+        if ln.startswith("gate: "):
+            out.append("\n".join(_fill(x, "  " * (depth + bool(k)), "  " * (depth + bool(k)) + "    ")
+                                 for k, (depth, x) in enumerate(_gate_parts(ln))))
+        else:
+            out.append(_fill(ln))
+    return "\n\n".join(out)
 
 
 def write_discovery(out_dir: str | Path, result, prov: dict, *, base_from: str) -> list[str]:
