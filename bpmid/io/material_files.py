@@ -303,6 +303,11 @@ def _data_like(cells) -> bool:
     return sum(_is_num(str(c).strip()) for c in cells if str(c).strip()) >= 2
 
 
+#: two frequencies (times) of a master curve, or two moduli, this close (relative) are the same number written to
+#: other digits (1584.893192461108 and 1584.8931924611134 in pyvisco's curve; 13 digits in a re-export)
+REPEAT_RTOL = 1e-9
+
+
 def _drop_repeated_tables(rows, header, units, path: Path):
     """The data rows of a file that repeats its table once per step (TRIOS: ``[step]``, the step's name, the header
     and units again, then its data): a run of rows that are not data is dropped when it repeats the header, and
@@ -650,13 +655,16 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
         step = np.diff(x)
         unit_word = "Hz" if freq else "s"
         if np.all(step <= 0) or np.all(step >= 0):  # monotone: a repeated value is a repeated measurement
-            same = np.flatnonzero(step == 0)
-            if same.size:
-                i = int(same[0])
-                raise InputError(f"the {what} {x[i]:g} {unit_word} appears on lines {int(lines[i])} and "
-                                 f"{int(lines[i + 1])}: a master curve takes each {what} once (drop or average the "
-                                 "repeat)", path=path, line=int(lines[i + 1]))
-            if step.size and np.all(step < 0):  # logged high to low, as many instruments do
+            # a row repeated whole (within rounding) is a copy, refused; the same frequency with other moduli is two
+            # measurements (a master curve joined from parts that overlap, as pyvisco's are), both fitted, whether
+            # its file wrote the two frequencies apart in their last digit or, re-exported, as one number
+            same = np.flatnonzero(np.abs(step) <= REPEAT_RTOL * np.abs(x[1:]))
+            for i in (int(k) for k in same):
+                if all(np.isclose(m[i], m[i + 1], rtol=REPEAT_RTOL, atol=0.0) for m in (stor, loss) if m is not None):
+                    raise InputError(f"line {int(lines[i + 1])} repeats line {int(lines[i])} ({what} {x[i]:g} "
+                                     f"{unit_word}, the same moduli): a copied row; drop it", path=path,
+                                     line=int(lines[i + 1]))
+            if step.size and np.all(step <= 0) and np.any(step < 0):  # logged high to low, as many instruments do
                 o = np.arange(x.size)[::-1]
                 x, stor, lines = x[o], stor[o], lines[o]
                 loss = None if loss is None else loss[o]
