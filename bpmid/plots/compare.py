@@ -127,6 +127,6 @@ def summary_bars(summary, by_set=None, *, synthetic: bool | str | None = True):
 
     handles = [mpatches.Patch(facecolor="white", edgecolor="black", hatch=hatches[g % len(hatches)],
                               label="all test logs" if s == "ALL" else s) for g, s in enumerate(groups)]
-    outside_legend(fig, handles, [h.get_label() for h in handles], title="RMSE bars")
+    outside_legend(fig, handles, [h.get_label() for h in handles], title="hatching of the\nRMSE panel (top left)")
     fig.suptitle("Model comparison, pooled over all test logs", y=1 - 0.08 / fig.get_size_inches()[1], va="top")
     return finish(fig, synthetic)
