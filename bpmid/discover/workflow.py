@@ -569,8 +569,9 @@ def rnd_explanation(c: Confirmation, rnd: Round, floor: float) -> str:
                f"of {floor:.2f} deg; ")
     return (f"{e.describe(c.state.params, mark_held=True)}: {e.meaning}. Where it shows: {e.where_it_shows}. "
             f"Here the residual {residual_feature(rnd.diagnostics)}, and the effect's signature explains "
-            f"{s.explained:.0%} of what the model left after the base constants' own compensation; adding it cut the "
-            f"held-out error from "
+            f"{s.explained:.0%} of what the model left after the base constants' own compensation (screening's "
+            f"first-order ranking; the refit moves the base constants with the effect, and its held-out error "
+            f"decides); adding it cut the held-out error from "
             + (f"{c.heldout_rmse_before:.3f}" if c.passed_by == "floor" else f"{c.heldout_rmse_before:.2f}")
             + " to "
             + how +
