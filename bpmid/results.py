@@ -132,6 +132,19 @@ def _verdict_of(entry: Mapping) -> str:
     return ""
 
 
+def _effect_unit(effect_id: str, name: str) -> str:
+    """The unit of catalogue effect ``effect_id``'s constant ``name`` ("" when the catalogue does not know it): for
+    an effects-list entry written as a bare number."""
+    from bpmid.effects import CATALOGUE, get_effect
+
+    if effect_id not in CATALOGUE:
+        return ""
+    try:
+        return get_effect(effect_id).default_params()[f"{effect_id}.{name}"].unit
+    except (KeyError, TypeError, ValueError, InputError):
+        return ""
+
+
 def _entry(name: str, entry, unit: str = "", identifiability: str = "") -> ParamInfo:
     """A ParamInfo from a ``{value, stderr, unit}`` entry or a bare number."""
     if isinstance(entry, Mapping):
@@ -626,7 +639,47 @@ class VBMMFitResult(Result):
                 if key in b:
                     name = f"{key}_{j}"
                     out.append(_entry(name, b[key], unit, ident.get(name, "")))
+        # the constants of the effects the file runs with the VBMM (discover's model.yaml): <id>.<name>, as a
+        # comparison names its models' constants; the metrics are those of the model with them
+        for eid, _settings, prm in self._effects():
+            for name, entry in prm.items():
+                try:
+                    out.append(_entry(f"{eid}.{name}", entry, _effect_unit(eid, name)))
+                except (TypeError, ValueError):   # a hand-edited entry without a number: not a constant to show
+                    continue
         return Parameters(out)
+
+    def _effects(self) -> list[tuple[str, dict, dict]]:
+        """The file's ``effects`` list as (id, settings, parameters); entries that are not mappings are left out."""
+        fx = self.body.get("effects")
+        out = []
+        for e in fx if isinstance(fx, list) else []:
+            if isinstance(e, Mapping) and isinstance(e.get("id"), str):
+                sets, prm = e.get("settings"), e.get("parameters")
+                out.append((e["id"], dict(sets) if isinstance(sets, Mapping) else {},
+                            dict(prm) if isinstance(prm, Mapping) else {}))
+        return out
+
+    @property
+    def effects(self) -> list[str]:
+        """The ids of the catalogue effects the file runs with the VBMM, in the order they act ([] for a plain
+        fit); their constants are in :attr:`params` as ``<id>.<name>``."""
+        return [eid for eid, _s, _p in self._effects()]
+
+    def _extra_sections(self):
+        fx = self._effects()
+        if not fx:
+            return []
+        from bpmid.effects.fitfile import settings_words
+
+        lines = []
+        for eid, sets, prm in fx:
+            words = settings_words(eid, sets)
+            lines.append(f"{eid}: constants {', '.join(f'{eid}.{n}' for n in prm) or 'none'} (in [[Parameters]])"
+                         + (f"; settings {words}" if words else ""))
+        lines.append("the model runs them with the VBMM: the fit statistics above include them (.model_with_effects"
+                     " runs the same model; .model is the constants alone)")
+        return [("Effects", "\n".join(lines))]
 
     @property
     def metrics(self) -> dict[str, float]:
@@ -645,7 +698,9 @@ class VBMMFitResult(Result):
 
     def _headline(self) -> str:
         m = self.metrics
-        return f"RMSE {_num(m.get('rmse_deg'))} deg, R^2 {_num(m.get('r2'))}"
+        fx = self.effects
+        return (f"RMSE {_num(m.get('rmse_deg'))} deg, R^2 {_num(m.get('r2'))}"
+                + (f", with effects {', '.join(fx)}" if fx else ""))
 
     @property
     def model(self):
