@@ -1027,28 +1027,26 @@ class SimulationResult(Result):
         return [("Simulation", "\n".join(lines))]
 
     def plot(self):
+        """Every log the simulation made, one panel each (the angle, or a relaxation log's stress, against time);
+        the title says how many logs of how many are drawn; stamped synthetic."""
         import io
 
         import pandas as pd
-        from matplotlib.figure import Figure
 
-        fig = Figure(figsize=(7.0, 4.0), layout="constrained")
-        ax = fig.add_subplot()
+        from bpmid.plots.simulate import MAX_PANELS, simulation_figure
+
         files = {}
         if self.raw is not None:
             files = {n: io.BytesIO(b) for n, b in self.raw.files.items() if n.endswith(".csv")}
         elif self.source is not None:
-            files = {p.name: p for p in sorted(self.source.parent.glob("*.csv"))}
-        for name, f in list(files.items())[:6]:
-            df = pd.read_csv(f, comment="#")
-            y = next((c for c in df.columns if c.startswith("angle")), df.columns[-1])
-            ax.plot(df[df.columns[0]], df[y], label=name)
-        ax.set_xlabel("time (s)")
-        ax.set_ylabel("bending angle (deg)")
-        if files:
-            ax.legend(fontsize="small")
-        ax.set_title(f"{self.title} (synthetic)")
-        return fig
+            listed = [n for n in self.logs if n.endswith(".csv") and (self.source.parent / n).is_file()]
+            names = listed or [p.name for p in sorted(self.source.parent.glob("*.csv"))]
+            files = {n: self.source.parent / n for n in names}
+        frames = {Path(n).stem: pd.read_csv(f, comment="#") for n, f in list(files.items())[:MAX_PANELS]}
+        prot = self.body.get("protocol") or {}
+        name = prot.get("name") if isinstance(prot, Mapping) else None
+        title = "Digital-twin simulation" + (f", protocol {name}" if name else "")
+        return simulation_figure(frames, title=title, total=len(files))
 
     def save(self, path: str | Path) -> Path:
         """The logs and manifest.yaml (a blind case's answer beside the folder, ``<DIR>_ANSWER.yaml``): written for a

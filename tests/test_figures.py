@@ -108,3 +108,38 @@ def test_a_vector_figure_keeps_its_text_as_text_and_draws_dense_dots_as_an_image
     text = path.read_text()
     assert "<image" in text and ">time (s)</text>" in text
     assert path.stat().st_size < 400_000     # 40 000 dots as paths: several MB
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the library's .plot() of results loaded from their folders: the CLI's figures, in the house style
+# ---------------------------------------------------------------------------------------------------------------
+def _stamp_of(fig) -> list[str]:
+    return [t.get_text() for t in fig.texts if "synthetic" in t.get_text()]
+
+
+def test_a_simulation_draws_every_log_or_says_how_many_it_draws(repo_root, monkeypatch):
+    """bpmid.simulate(<protocol>).plot() drew 6 of 15 logs without saying so, its legend over the data: one panel
+    per log, titled by the log, the count in the title, the synthetic stamp in the footer."""
+    from pathlib import Path
+
+    import bpmid
+    import bpmid.plots.simulate as S
+    from bpmid.plots.check import text_problems
+
+    sim = bpmid.load(Path(repo_root) / "datasets" / "motion" / "variable_rate")
+    fig = sim.plot()
+    shown = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(sim.logs) == 15 and len(shown) == 15
+    assert fig.get_suptitle() == "Digital-twin simulation, protocol variable_rate: all 15 logs"
+    assert [ax.get_title() for ax in shown] == [Path(n).stem for n in sim.logs]
+    assert all(ax.get_ylabel() == "bending angle (°)" and ax.get_xlabel() == "time (s)" for ax in shown)
+    assert not fig.legends and not any(ax.get_legend() for ax in fig.axes)
+    assert _stamp_of(fig) == ["synthetic data (bpmid digital twin)"] and not text_problems(fig)
+    plt.close(fig)
+    monkeypatch.setattr(S, "MAX_PANELS", 6)
+    fig = sim.plot()
+    assert sum(ax.get_visible() for ax in fig.axes) == 6 and "6 of 15 logs drawn" in fig.get_suptitle()
+    plt.close(fig)
+    fig = bpmid.load(Path(repo_root) / "datasets" / "relaxation").plot()   # a relaxation protocol: its stress
+    assert fig.axes[0].get_ylabel() == "stress (MPa)"
+    plt.close(fig)
