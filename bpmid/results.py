@@ -821,23 +821,36 @@ class PredictionResult(Result):
         return [("Logs", "\n".join(rows))] if rows else []
 
     def plot(self):
-        from matplotlib.figure import Figure
+        """The figure ``bpmid predict`` writes (predict.png): measured and predicted angle as a loop and against
+        time, and the error, one row per log; from a loaded folder the logs are read back from its CSVs."""
+        from bpmid.io.motion_logs import synthetic_note
+        from bpmid.plots.report import prediction_figure
 
-        fig = Figure(figsize=(7.0, 4.0), layout="constrained")
-        ax = fig.add_subplot()
         if self.raw is not None:
-            for p in self.raw:
-                line, = ax.plot(p.log.time_s, p.angle_pred_deg, label=f"{p.log.name} predicted")
-                if p.log.angle_deg is not None:
-                    ax.plot(p.log.time_s, p.log.angle_deg, ":", color=line.get_color(), label=f"{p.log.name} measured")
+            logs, preds = [p.log for p in self.raw], {p.log.name: p.angle_pred_deg for p in self.raw}
         else:
-            for name, y in self.predictions.items():
-                ax.plot(y, label=f"{name} predicted")
-        ax.set_xlabel("time (s)" if self.raw is not None else "sample")
-        ax.set_ylabel("bending angle (deg)")
-        ax.legend(fontsize="small")
-        ax.set_title(self.title)
-        return fig
+            logs, preds = self._logs_read_back()
+        return prediction_figure(logs, preds, synthetic=synthetic_note(logs))
+
+    def _logs_read_back(self):
+        """The logs of a loaded prediction as its CSVs hold them (time, pressure in their reference, the measured
+        angle when the log had one) with the predicted angles; InputError naming a CSV that is not beside it."""
+        import dataclasses as _dc
+
+        import pandas as pd
+
+        from bpmid.io.motion_logs import read_motion_log
+
+        base = self.source.parent if self.source is not None else Path(".")
+        logs, preds = [], {}
+        for name, d in (self.body.get("logs") or {}).items():
+            f = base / str((d or {}).get("file", f"{name}.csv"))
+            if not f.is_file():
+                raise InputError(f"the prediction of log {name!r} is not beside its result (it was written to "
+                                 f"{f.name!r}): copy or move the whole output folder", path=f)
+            logs.append(_dc.replace(read_motion_log(f), name=str(name)))
+            preds[str(name)] = pd.read_csv(f, comment="#")["angle_pred_deg"].to_numpy()
+        return logs, preds
 
     def save(self, path: str | Path, *, figure: bool = False) -> Path:
         """Write ``DIR/<log>.csv`` per log and ``DIR/predict.yaml`` (and with ``figure`` ``DIR/predict.png``), all

@@ -117,6 +117,29 @@ def _stamp_of(fig) -> list[str]:
     return [t.get_text() for t in fig.texts if "synthetic" in t.get_text()]
 
 
+def test_a_loaded_prediction_draws_the_figure_predict_writes(timed_small_study):
+    """A prediction loaded from its folder plotted against 'sample' with no measured angle and its legend over the
+    data: it draws predict.png's figure (loop, angle and error against time, one row per log), from its CSVs."""
+    import yaml
+
+    import bpmid
+    from bpmid.plots.check import text_problems
+
+    folder = timed_small_study.parent / "pred"
+    res = bpmid.load(folder)
+    fig = res.plot()
+    names = list(yaml.safe_load((folder / "predict.yaml").read_text())["logs"])
+    assert fig.get_suptitle() == "Prediction: measured and predicted angle, error" and len(fig.axes) == 3 * len(names)
+    loop, angle, err = fig.axes[:3]
+    assert loop.get_title() == f"{names[0]}: loop" and loop.get_xlabel().startswith("gauge pressure (bar")
+    assert angle.get_xlabel() == "time (s)" and angle.get_ylabel() == "bending angle (°)"
+    assert len(angle.get_lines()) == 2 and err.get_title().startswith(f"{names[0]}: error, RMSE ")
+    assert abs(angle.get_lines()[0].get_xdata()[-1] - res.body["logs"][names[0]]["samples"] * 0.1) < 1.0  # seconds
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == ["measured", "prediction"]
+    assert not any(ax.get_legend() for ax in fig.axes) and _stamp_of(fig) and not text_problems(fig)
+    plt.close(fig)
+
+
 def test_a_simulation_draws_every_log_or_says_how_many_it_draws(repo_root, monkeypatch):
     """bpmid.simulate(<protocol>).plot() drew 6 of 15 logs without saying so, its legend over the data: one panel
     per log, titled by the log, the count in the title, the synthetic stamp in the footer."""
