@@ -394,6 +394,24 @@ class Result:
         return "\n".join(parts)
 
     # ----- figures --------------------------------------------------------------------------------
+    def _stamp(self) -> str | None:
+        """The synthetic-data stamp of a loaded result's figure, as the command that wrote it stamps it: from the
+        headers of its input logs (:func:`bpmid.io.motion_logs.stamp_for_files`) when every one is found, else
+        from what the file records (``synthetic``, ``synthetic_logs``); None for measured data."""
+        from bpmid.io.motion_logs import stamp_for_files
+
+        ins = [Path(p) for p in (self.provenance.get("inputs") or {})
+               if Path(p).suffix.lower() in (".csv", ".txt", ".tsv", ".dat")]
+        if ins and all(p.is_file() for p in ins):
+            return stamp_for_files(ins)
+        if self.body.get("synthetic") is True:
+            return "synthetic data (the logs' own headers say so)"
+        syn = self.body.get("synthetic_logs")
+        if isinstance(syn, list) and syn:
+            return (f"partly synthetic: {len(syn)} of {len(ins)} logs" if len(ins) >= len(syn) else
+                    f"partly synthetic: {len(syn)} logs")
+        return None
+
     def plot(self):
         """A matplotlib Figure of the result (the CLI's figure where the live result is at hand, else a
         figure drawn from the file's numbers)."""
@@ -917,11 +935,25 @@ class ComparisonResult(Result):
     def _headline(self) -> str:
         return f"{len(self.body.get('models') or {})} model(s)"
 
-    def plot(self):
-        if self.raw is not None:
-            from bpmid.plots.compare import summary_bars
+    def plot(self, *, synthetic: "bool | str | None" = None):
+        """The figure ``bpmid compare`` writes as compare_summary (RMSE pooled and per test set, R², MAPE, cost per
+        step of every model), from the live result or the folder's summary.csv and summary_by_set.csv; stamped as
+        the logs' headers say (``synthetic``: the stamp to use instead). A loaded compare.yaml without its tables
+        draws the training RMSE it records."""
+        from bpmid.plots.compare import summary_bars
 
-            return summary_bars(self.raw.summary, self.raw.by_set)
+        if self.raw is not None:
+            from bpmid.io.motion_logs import synthetic_note
+
+            note = synthetic_note(list(self.raw.train) + list(self.raw.test)) if synthetic is None else synthetic
+            return summary_bars(self.raw.summary, self.raw.by_set, synthetic=note)
+        table = self.table
+        if len(table) and {"model", "rmse_deg", "r2", "mape_pct", "us_per_step"} <= set(table.columns):
+            import pandas as pd
+
+            f = self.source.parent / "summary_by_set.csv"
+            by_set = pd.read_csv(f) if f.is_file() else None
+            return summary_bars(table, by_set, synthetic=self._stamp() if synthetic is None else synthetic)
         from matplotlib.figure import Figure
 
         m = self.metrics
@@ -1154,6 +1186,27 @@ class StudyResult(Result):
             return {}
         base = self.source.parent
         return {k: load(base / f) for k, f in self.STAGE_FILES.items() if (base / f).exists()}
+
+    def plot(self):
+        """The study's model comparison, as ``bpmid run`` drew it (compare/compare_summary: RMSE pooled and per
+        test set, R², MAPE and cost per step of every model), stamped as the run's figures. A study whose
+        comparison did not run raises InputError naming the stage results it has, whose own ``.plot()`` draws
+        each stage."""
+        base = self.source.parent if self.source is not None else None
+        status = {str(s.get("name")): s.get("status") for s in self.body.get("stages") or [] if isinstance(s, Mapping)}
+        cmp = load(base / "compare") if base is not None and (base / "compare" / "compare.yaml").is_file() else None
+        if cmp is None or status.get("compare") != "done" or not len(cmp.table):
+            have = [k for k, f in self.STAGE_FILES.items() if base is not None and (base / f).exists()
+                    and k != "compare"]
+            why = ("its comparison was not run by this study (run.yaml lists compare as "
+                   f"{status.get('compare') or 'not run'})" if cmp is not None and status.get("compare") != "done"
+                   else "it has no model comparison (compare/summary.csv)")
+            raise InputError(f"a study draws its model comparison, and {why}: plot a stage's own result instead, "
+                             + (f"study.results[{have[0]!r}].plot() (stages here: {', '.join(have)})" if have else
+                                "once a stage has run"), path=base)
+        # the run's record (None: measured); a run.yaml written before the stamp was recorded: the comparison's
+        stamp = self.body["synthetic_stamp"] if "synthetic_stamp" in self.body else cmp._stamp()
+        return cmp.plot(synthetic=stamp)
 
     def _extra_sections(self):
         rows = [f"{s.get('name', '?'):<9} {s.get('status', '?'):<8} {s.get('seconds', 0) or 0:7.1f} s"

@@ -117,6 +117,32 @@ def _stamp_of(fig) -> list[str]:
     return [t.get_text() for t in fig.texts if "synthetic" in t.get_text()]
 
 
+def test_a_loaded_study_plots_its_comparison_or_names_the_stages_to_plot(timed_small_study, tmp_path):
+    """bpmid.load(<run folder>).plot() drew an empty axes titled 'parameter uncertainty': it draws the study's model
+    comparison (compare_summary, as the run drew it and the report shows it), stamped as the run's figures; a study
+    without a comparison says which stage results to plot."""
+    import shutil
+
+    import bpmid
+    from bpmid.plots.check import text_problems
+
+    study = bpmid.load(timed_small_study)
+    fig = study.plot()
+    assert fig.get_suptitle() == "Model comparison, pooled over all test logs"
+    assert [ax.get_ylabel() for ax in fig.axes] == ["RMSE (°)", "R²", "MAPE (%)", "cost per simulated step (µs)"]
+    assert [t.get_text() for t in fig.axes[0].get_xticklabels()] == list(study.results["compare"].table["model"])
+    assert _stamp_of(fig) == [study.body["synthetic_stamp"]] and not text_problems(fig)
+    assert not any(ax.get_legend() for ax in fig.axes) and fig.legends   # beside the axes, never over the bars
+    plt.close(fig)
+    d = tmp_path / "no_compare"
+    d.mkdir()
+    for f in ("run.yaml", "relax_fit.yaml"):
+        shutil.copy(timed_small_study / f, d / f)
+    with pytest.raises(bpmid.InputError, match=r"plot a stage's own result instead, study.results\['relax'\].plot\(\) "
+                                               r"\(stages here: relax\)"):
+        bpmid.load(d).plot()
+
+
 def test_a_loaded_prediction_draws_the_figure_predict_writes(timed_small_study):
     """A prediction loaded from its folder plotted against 'sample' with no measured angle and its legend over the
     data: it draws predict.png's figure (loop, angle and error against time, one row per log), from its CSVs."""
