@@ -418,18 +418,20 @@ class Result:
         return self._params_figure()
 
     def _params_figure(self):
-        from matplotlib.figure import Figure
+        """The relative standard error of each constant (house style; stamped as the inputs' headers say)."""
+        from bpmid.plots.common import OKABE_ITO, finish, new_figure
 
         ps = [p for p in self.params.values() if p.value]
-        fig = Figure(figsize=(6.4, 0.4 * max(len(ps), 3) + 1.0), layout="constrained")
-        ax = fig.add_subplot()
+        fig, ax = new_figure(1, 1, width=6.4, height=0.3 * max(len(ps), 3) + 1.6, left=2.2)
         if ps:
             rel = [100.0 * (p.rel_stderr or 0.0) for p in ps]
-            ax.barh([f"{p.name} ({p.unit})" for p in ps], rel, color="#4a7ab5")
+            ax.barh([f"{p.name} ({p.unit})" for p in ps], rel, color=OKABE_ITO["blue"])
             ax.invert_yaxis()
+        else:
+            ax.text(0.5, 0.5, "no constants in this file", transform=ax.transAxes, ha="center", color="0.4")
         ax.set_xlabel("relative standard error (%)")
         ax.set_title(f"{self.title}: parameter uncertainty")
-        return fig
+        return finish(fig, self._stamp())
 
     # ----- files ----------------------------------------------------------------------------------
     def _check_folder_path(self, path) -> None:
@@ -590,18 +592,17 @@ class RelaxationResult(Result):
         if self.raw is not None:
             return self._figure()
         import numpy as np
-        from matplotlib.figure import Figure
+
+        from bpmid.plots.common import finish, new_figure
 
         taus = [float(t["tau"]["value"]) for t in (self.body.get("prony") or {}).get("terms") or []] or [1.0]
         t = np.logspace(np.log10(min(taus)) - 2, np.log10(max(taus)) + 2, 300)
-        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
-        ax = fig.add_subplot()
-        ax.semilogx(t, self.modulus_pa(t, "E") / 1e6, label="E(t) fitted Prony series")
+        fig, ax = new_figure(1, 1, width=6.4, height=4.0)
+        ax.semilogx(t, self.modulus_pa(t, "E") / 1e6)
         ax.set_xlabel("time (s)")
         ax.set_ylabel("relaxation modulus E (MPa)")
-        ax.legend()
-        ax.set_title(self.title)
-        return fig
+        ax.set_title(f"{self.title}: E(t) of the file's Prony series")
+        return finish(fig, self._stamp())
 
     def save(self, path: str | Path, *, figure: str | Path | bool | None = None) -> Path:
         """Write the ``bpmid.relax/1`` YAML (and, for a live result, the figure: True = beside it as .png)."""
@@ -755,11 +756,11 @@ class VBMMFitResult(Result):
             from bpmid.plots.motion import motion_fit_figure
 
             r = self.raw
-            return motion_fit_figure(r.logs, r.predictions, title=f"VBMM fit: RMSE {r.metrics['rmse_deg']:.3g} deg")
+            return motion_fit_figure(r.logs, r.predictions, title=f"VBMM fit: RMSE {r.metrics['rmse_deg']:.3g}°")
         import numpy as np
-        from matplotlib.figure import Figure
 
         from bpmid.models.vbmm import vbmm_from_mapping
+        from bpmid.plots.common import PRESSURE_LABEL, finish, new_figure
         from bpmid.units import PA_PER_BAR
 
         model = vbmm_from_mapping(self.to_dict(), self.source)   # the constants (no warning of its effects)
@@ -769,14 +770,13 @@ class VBMMFitResult(Result):
         p_hi = max((float(x[1]) for x in spans), default=0.8 * PA_PER_BAR)
         p = np.linspace(0.0, max(p_hi, 1e3), 60)
         beta = model.equilibrium_angle(p)
-        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
-        ax = fig.add_subplot()
-        ax.plot(p / PA_PER_BAR, np.degrees(beta), label="long-term equilibrium (G_inf, K_inf)")
-        ax.set_xlabel("pressure (bar, gauge)")
-        ax.set_ylabel("bending angle (deg)")
-        ax.legend()
-        ax.set_title(f"{self.title}: the file's constants" + (" over the fitted pressures" if spans else ""))
-        return fig
+        fig, ax = new_figure(1, 1, width=6.4, height=4.0)
+        ax.plot(p / PA_PER_BAR, np.degrees(beta))
+        ax.set_xlabel(PRESSURE_LABEL)
+        ax.set_ylabel("long-term equilibrium angle (°)")
+        ax.set_title(f"{self.title}: equilibrium of the file's G_inf, K_inf"
+                     + (" over the fitted pressures" if spans else ""))
+        return finish(fig, self._stamp())
 
     def save(self, path: str | Path, *, figure: str | Path | bool | None = None, synthetic: "bool | str | None" = False) -> Path:
         """Write the ``bpmid.vbmm/1`` YAML; with ``figure`` (a path, or True: beside it as .png) the fit figure too,
@@ -954,16 +954,16 @@ class ComparisonResult(Result):
             f = self.source.parent / "summary_by_set.csv"
             by_set = pd.read_csv(f) if f.is_file() else None
             return summary_bars(table, by_set, synthetic=self._stamp() if synthetic is None else synthetic)
-        from matplotlib.figure import Figure
+        from bpmid.plots.common import color_of, finish, new_figure
 
         m = self.metrics
-        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
-        ax = fig.add_subplot()
-        ax.barh([k.split(".")[0] for k in m], list(m.values()))
+        names = [k.split(".")[0] for k in m]
+        fig, ax = new_figure(1, 1, width=6.4, height=4.0, left=1.4)
+        ax.barh(names, list(m.values()), color=[color_of(n, i) for i, n in enumerate(names)])
         ax.invert_yaxis()
-        ax.set_xlabel("training RMSE (deg)")
-        ax.set_title(self.title)
-        return fig
+        ax.set_xlabel("training RMSE (°)")
+        ax.set_title(f"{self.title}: training RMSE (compare.yaml; no summary.csv beside it)")
+        return finish(fig, self._stamp() if synthetic is None else synthetic)
 
     def save(self, path: str | Path) -> Path:
         """The whole comparison folder (tables, compare.yaml, predictions, figures): written for a live result,
@@ -1142,16 +1142,15 @@ class ControlResult(Result):
 
             lim = self.body.get("pressure_limits_bar_abs")
             return fig18(self.raw.runs, limits_bar=tuple(lim) if lim else None)
-        from matplotlib.figure import Figure
+        from bpmid.plots.common import OKABE_ITO, finish, new_figure
 
         m = self.metrics
-        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
-        ax = fig.add_subplot()
-        ax.bar([k.split(".")[0] for k in m], list(m.values()))
+        fig, ax = new_figure(1, 1, width=6.4, height=4.0)
+        ax.bar([k.split(".")[0] for k in m], list(m.values()), color=OKABE_ITO["blue"])
         ax.set_xlabel("controller")
-        ax.set_ylabel("tracking RMSE over all references (deg)")
+        ax.set_ylabel("tracking RMSE over all references (°)")
         ax.set_title(self.title)
-        return fig
+        return finish(fig, True)   # a closed loop on a simulated plant, stamped as bpmid control stamps fig18
 
     def save(self, path: str | Path, *, figure: bool = True) -> Path:
         """summary.csv, control.yaml, traces/ and fig18.png: written for a live result, copied whole for a loaded

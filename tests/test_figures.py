@@ -192,3 +192,20 @@ def test_a_simulation_draws_every_log_or_says_how_many_it_draws(repo_root, monke
     fig = bpmid.load(Path(repo_root) / "datasets" / "relaxation").plot()   # a relaxation protocol: its stress
     assert fig.axes[0].get_ylabel() == "stress (MPa)"
     plt.close(fig)
+
+
+def test_figures_of_loaded_files_are_in_the_house_style(timed_small_study):
+    """The figures a loaded fit, control or discovery draws from its file's numbers: the house style (bpmid's layout,
+    angles in °, gauge pressure), stamped when the logs say they are synthetic (they said 'deg', stamped nothing)."""
+    import bpmid
+    from bpmid.plots.check import text_problems
+    from bpmid.plots.common import PRESSURE_LABEL
+
+    for name in ("relax_fit.yaml", "vbmm_fit.yaml", "control", "discover"):
+        fig = bpmid.load(timed_small_study / name).plot()
+        labels = [t for ax in fig.axes for t in (ax.get_xlabel(), ax.get_ylabel(), ax.get_title())]
+        assert hasattr(fig, "_bpmid_legend") and not any("deg" in t for t in labels), (name, labels)
+        assert _stamp_of(fig) and not text_problems(fig), name
+        if name == "vbmm_fit.yaml":
+            assert fig.axes[0].get_xlabel() == PRESSURE_LABEL and fig.axes[0].get_ylabel().endswith("(°)")
+        plt.close(fig)
