@@ -132,6 +132,19 @@ def _verdict_of(entry: Mapping) -> str:
     return ""
 
 
+def _effect_unit(effect_id: str, name: str) -> str:
+    """The unit of catalogue effect ``effect_id``'s constant ``name`` ("" when the catalogue does not know it): for
+    an effects-list entry written as a bare number."""
+    from bpmid.effects import CATALOGUE, get_effect
+
+    if effect_id not in CATALOGUE:
+        return ""
+    try:
+        return get_effect(effect_id).default_params()[f"{effect_id}.{name}"].unit
+    except (KeyError, TypeError, ValueError, InputError):
+        return ""
+
+
 def _entry(name: str, entry, unit: str = "", identifiability: str = "") -> ParamInfo:
     """A ParamInfo from a ``{value, stderr, unit}`` entry or a bare number."""
     if isinstance(entry, Mapping):
@@ -381,24 +394,44 @@ class Result:
         return "\n".join(parts)
 
     # ----- figures --------------------------------------------------------------------------------
+    def _stamp(self) -> str | None:
+        """The synthetic-data stamp of a loaded result's figure, as the command that wrote it stamps it: from the
+        headers of its input logs (:func:`bpmid.io.motion_logs.stamp_for_files`) when every one is found, else
+        from what the file records (``synthetic``, ``synthetic_logs``); None for measured data."""
+        from bpmid.io.motion_logs import stamp_for_files
+
+        ins = [Path(p) for p in (self.provenance.get("inputs") or {})
+               if Path(p).suffix.lower() in (".csv", ".txt", ".tsv", ".dat")]
+        if ins and all(p.is_file() for p in ins):
+            return stamp_for_files(ins)
+        if self.body.get("synthetic") is True:
+            return "synthetic data (the logs' own headers say so)"
+        syn = self.body.get("synthetic_logs")
+        if isinstance(syn, list) and syn:
+            return (f"partly synthetic: {len(syn)} of {len(ins)} logs" if len(ins) >= len(syn) else
+                    f"partly synthetic: {len(syn)} logs")
+        return None
+
     def plot(self):
         """A matplotlib Figure of the result (the CLI's figure where the live result is at hand, else a
         figure drawn from the file's numbers)."""
         return self._params_figure()
 
     def _params_figure(self):
-        from matplotlib.figure import Figure
+        """The relative standard error of each constant (house style; stamped as the inputs' headers say)."""
+        from bpmid.plots.common import OKABE_ITO, finish, new_figure
 
         ps = [p for p in self.params.values() if p.value]
-        fig = Figure(figsize=(6.4, 0.4 * max(len(ps), 3) + 1.0), layout="constrained")
-        ax = fig.add_subplot()
+        fig, ax = new_figure(1, 1, width=6.4, height=0.3 * max(len(ps), 3) + 1.6, left=2.2)
         if ps:
             rel = [100.0 * (p.rel_stderr or 0.0) for p in ps]
-            ax.barh([f"{p.name} ({p.unit})" for p in ps], rel, color="#4a7ab5")
+            ax.barh([f"{p.name} ({p.unit})" for p in ps], rel, color=OKABE_ITO["blue"])
             ax.invert_yaxis()
+        else:
+            ax.text(0.5, 0.5, "no constants in this file", transform=ax.transAxes, ha="center", color="0.4")
         ax.set_xlabel("relative standard error (%)")
         ax.set_title(f"{self.title}: parameter uncertainty")
-        return fig
+        return finish(fig, self._stamp())
 
     # ----- files ----------------------------------------------------------------------------------
     def _check_folder_path(self, path) -> None:
@@ -559,18 +592,17 @@ class RelaxationResult(Result):
         if self.raw is not None:
             return self._figure()
         import numpy as np
-        from matplotlib.figure import Figure
+
+        from bpmid.plots.common import finish, new_figure
 
         taus = [float(t["tau"]["value"]) for t in (self.body.get("prony") or {}).get("terms") or []] or [1.0]
         t = np.logspace(np.log10(min(taus)) - 2, np.log10(max(taus)) + 2, 300)
-        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
-        ax = fig.add_subplot()
-        ax.semilogx(t, self.modulus_pa(t, "E") / 1e6, label="E(t) fitted Prony series")
+        fig, ax = new_figure(1, 1, width=6.4, height=4.0)
+        ax.semilogx(t, self.modulus_pa(t, "E") / 1e6)
         ax.set_xlabel("time (s)")
         ax.set_ylabel("relaxation modulus E (MPa)")
-        ax.legend()
-        ax.set_title(self.title)
-        return fig
+        ax.set_title(f"{self.title}: E(t) of the file's Prony series")
+        return finish(fig, self._stamp())
 
     def save(self, path: str | Path, *, figure: str | Path | bool | None = None) -> Path:
         """Write the ``bpmid.relax/1`` YAML (and, for a live result, the figure: True = beside it as .png)."""
@@ -626,7 +658,47 @@ class VBMMFitResult(Result):
                 if key in b:
                     name = f"{key}_{j}"
                     out.append(_entry(name, b[key], unit, ident.get(name, "")))
+        # the constants of the effects the file runs with the VBMM (discover's model.yaml): <id>.<name>, as a
+        # comparison names its models' constants; the metrics are those of the model with them
+        for eid, _settings, prm in self._effects():
+            for name, entry in prm.items():
+                try:
+                    out.append(_entry(f"{eid}.{name}", entry, _effect_unit(eid, name)))
+                except (TypeError, ValueError):   # a hand-edited entry without a number: not a constant to show
+                    continue
         return Parameters(out)
+
+    def _effects(self) -> list[tuple[str, dict, dict]]:
+        """The file's ``effects`` list as (id, settings, parameters); entries that are not mappings are left out."""
+        fx = self.body.get("effects")
+        out = []
+        for e in fx if isinstance(fx, list) else []:
+            if isinstance(e, Mapping) and isinstance(e.get("id"), str):
+                sets, prm = e.get("settings"), e.get("parameters")
+                out.append((e["id"], dict(sets) if isinstance(sets, Mapping) else {},
+                            dict(prm) if isinstance(prm, Mapping) else {}))
+        return out
+
+    @property
+    def effects(self) -> list[str]:
+        """The ids of the catalogue effects the file runs with the VBMM, in the order they act ([] for a plain
+        fit); their constants are in :attr:`params` as ``<id>.<name>``."""
+        return [eid for eid, _s, _p in self._effects()]
+
+    def _extra_sections(self):
+        fx = self._effects()
+        if not fx:
+            return []
+        from bpmid.effects.fitfile import settings_words
+
+        lines = []
+        for eid, sets, prm in fx:
+            words = settings_words(eid, sets)
+            lines.append(f"{eid}: constants {', '.join(f'{eid}.{n}' for n in prm) or 'none'} (in [[Parameters]])"
+                         + (f"; settings {words}" if words else ""))
+        lines.append("the model runs them with the VBMM: the fit statistics above include them (.model_with_effects"
+                     " runs the same model; .model is the constants alone)")
+        return [("Effects", "\n".join(lines))]
 
     @property
     def metrics(self) -> dict[str, float]:
@@ -645,7 +717,9 @@ class VBMMFitResult(Result):
 
     def _headline(self) -> str:
         m = self.metrics
-        return f"RMSE {_num(m.get('rmse_deg'))} deg, R^2 {_num(m.get('r2'))}"
+        fx = self.effects
+        return (f"RMSE {_num(m.get('rmse_deg'))} deg, R^2 {_num(m.get('r2'))}"
+                + (f", with effects {', '.join(fx)}" if fx else ""))
 
     @property
     def model(self):
@@ -682,11 +756,11 @@ class VBMMFitResult(Result):
             from bpmid.plots.motion import motion_fit_figure
 
             r = self.raw
-            return motion_fit_figure(r.logs, r.predictions, title=f"VBMM fit: RMSE {r.metrics['rmse_deg']:.3g} deg")
+            return motion_fit_figure(r.logs, r.predictions, title=f"VBMM fit: RMSE {r.metrics['rmse_deg']:.3g}°")
         import numpy as np
-        from matplotlib.figure import Figure
 
         from bpmid.models.vbmm import vbmm_from_mapping
+        from bpmid.plots.common import PRESSURE_LABEL, finish, new_figure
         from bpmid.units import PA_PER_BAR
 
         model = vbmm_from_mapping(self.to_dict(), self.source)   # the constants (no warning of its effects)
@@ -696,14 +770,13 @@ class VBMMFitResult(Result):
         p_hi = max((float(x[1]) for x in spans), default=0.8 * PA_PER_BAR)
         p = np.linspace(0.0, max(p_hi, 1e3), 60)
         beta = model.equilibrium_angle(p)
-        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
-        ax = fig.add_subplot()
-        ax.plot(p / PA_PER_BAR, np.degrees(beta), label="long-term equilibrium (G_inf, K_inf)")
-        ax.set_xlabel("pressure (bar, gauge)")
-        ax.set_ylabel("bending angle (deg)")
-        ax.legend()
-        ax.set_title(f"{self.title}: the file's constants" + (" over the fitted pressures" if spans else ""))
-        return fig
+        fig, ax = new_figure(1, 1, width=6.4, height=4.0)
+        ax.plot(p / PA_PER_BAR, np.degrees(beta))
+        ax.set_xlabel(PRESSURE_LABEL)
+        ax.set_ylabel("long-term equilibrium angle (°)")
+        ax.set_title(f"{self.title}: equilibrium of the file's G_inf, K_inf"
+                     + (" over the fitted pressures" if spans else ""))
+        return finish(fig, self._stamp())
 
     def save(self, path: str | Path, *, figure: str | Path | bool | None = None, synthetic: "bool | str | None" = False) -> Path:
         """Write the ``bpmid.vbmm/1`` YAML; with ``figure`` (a path, or True: beside it as .png) the fit figure too,
@@ -766,23 +839,36 @@ class PredictionResult(Result):
         return [("Logs", "\n".join(rows))] if rows else []
 
     def plot(self):
-        from matplotlib.figure import Figure
+        """The figure ``bpmid predict`` writes (predict.png): measured and predicted angle as a loop and against
+        time, and the error, one row per log; from a loaded folder the logs are read back from its CSVs."""
+        from bpmid.io.motion_logs import synthetic_note
+        from bpmid.plots.report import prediction_figure
 
-        fig = Figure(figsize=(7.0, 4.0), layout="constrained")
-        ax = fig.add_subplot()
         if self.raw is not None:
-            for p in self.raw:
-                line, = ax.plot(p.log.time_s, p.angle_pred_deg, label=f"{p.log.name} predicted")
-                if p.log.angle_deg is not None:
-                    ax.plot(p.log.time_s, p.log.angle_deg, ":", color=line.get_color(), label=f"{p.log.name} measured")
+            logs, preds = [p.log for p in self.raw], {p.log.name: p.angle_pred_deg for p in self.raw}
         else:
-            for name, y in self.predictions.items():
-                ax.plot(y, label=f"{name} predicted")
-        ax.set_xlabel("time (s)" if self.raw is not None else "sample")
-        ax.set_ylabel("bending angle (deg)")
-        ax.legend(fontsize="small")
-        ax.set_title(self.title)
-        return fig
+            logs, preds = self._logs_read_back()
+        return prediction_figure(logs, preds, synthetic=synthetic_note(logs))
+
+    def _logs_read_back(self):
+        """The logs of a loaded prediction as its CSVs hold them (time, pressure in their reference, the measured
+        angle when the log had one) with the predicted angles; InputError naming a CSV that is not beside it."""
+        import dataclasses as _dc
+
+        import pandas as pd
+
+        from bpmid.io.motion_logs import read_motion_log
+
+        base = self.source.parent if self.source is not None else Path(".")
+        logs, preds = [], {}
+        for name, d in (self.body.get("logs") or {}).items():
+            f = base / str((d or {}).get("file", f"{name}.csv"))
+            if not f.is_file():
+                raise InputError(f"the prediction of log {name!r} is not beside its result (it was written to "
+                                 f"{f.name!r}): copy or move the whole output folder", path=f)
+            logs.append(_dc.replace(read_motion_log(f), name=str(name)))
+            preds[str(name)] = pd.read_csv(f, comment="#")["angle_pred_deg"].to_numpy()
+        return logs, preds
 
     def save(self, path: str | Path, *, figure: bool = False) -> Path:
         """Write ``DIR/<log>.csv`` per log and ``DIR/predict.yaml`` (and with ``figure`` ``DIR/predict.png``), all
@@ -849,21 +935,35 @@ class ComparisonResult(Result):
     def _headline(self) -> str:
         return f"{len(self.body.get('models') or {})} model(s)"
 
-    def plot(self):
-        if self.raw is not None:
-            from bpmid.plots.compare import summary_bars
+    def plot(self, *, synthetic: "bool | str | None" = None):
+        """The figure ``bpmid compare`` writes as compare_summary (RMSE pooled and per test set, R², MAPE, cost per
+        step of every model), from the live result or the folder's summary.csv and summary_by_set.csv; stamped as
+        the logs' headers say (``synthetic``: the stamp to use instead). A loaded compare.yaml without its tables
+        draws the training RMSE it records."""
+        from bpmid.plots.compare import summary_bars
 
-            return summary_bars(self.raw.summary, self.raw.by_set)
-        from matplotlib.figure import Figure
+        if self.raw is not None:
+            from bpmid.io.motion_logs import synthetic_note
+
+            note = synthetic_note(list(self.raw.train) + list(self.raw.test)) if synthetic is None else synthetic
+            return summary_bars(self.raw.summary, self.raw.by_set, synthetic=note)
+        table = self.table
+        if len(table) and {"model", "rmse_deg", "r2", "mape_pct", "us_per_step"} <= set(table.columns):
+            import pandas as pd
+
+            f = self.source.parent / "summary_by_set.csv"
+            by_set = pd.read_csv(f) if f.is_file() else None
+            return summary_bars(table, by_set, synthetic=self._stamp() if synthetic is None else synthetic)
+        from bpmid.plots.common import color_of, finish, new_figure
 
         m = self.metrics
-        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
-        ax = fig.add_subplot()
-        ax.barh([k.split(".")[0] for k in m], list(m.values()))
+        names = [k.split(".")[0] for k in m]
+        fig, ax = new_figure(1, 1, width=6.4, height=4.0, left=1.4)
+        ax.barh(names, list(m.values()), color=[color_of(n, i) for i, n in enumerate(names)])
         ax.invert_yaxis()
-        ax.set_xlabel("training RMSE (deg)")
-        ax.set_title(self.title)
-        return fig
+        ax.set_xlabel("training RMSE (°)")
+        ax.set_title(f"{self.title}: training RMSE (compare.yaml; no summary.csv beside it)")
+        return finish(fig, self._stamp() if synthetic is None else synthetic)
 
     def save(self, path: str | Path) -> Path:
         """The whole comparison folder (tables, compare.yaml, predictions, figures): written for a live result,
@@ -972,28 +1072,26 @@ class SimulationResult(Result):
         return [("Simulation", "\n".join(lines))]
 
     def plot(self):
+        """Every log the simulation made, one panel each (the angle, or a relaxation log's stress, against time);
+        the title says how many logs of how many are drawn; stamped synthetic."""
         import io
 
         import pandas as pd
-        from matplotlib.figure import Figure
 
-        fig = Figure(figsize=(7.0, 4.0), layout="constrained")
-        ax = fig.add_subplot()
+        from bpmid.plots.simulate import MAX_PANELS, simulation_figure
+
         files = {}
         if self.raw is not None:
             files = {n: io.BytesIO(b) for n, b in self.raw.files.items() if n.endswith(".csv")}
         elif self.source is not None:
-            files = {p.name: p for p in sorted(self.source.parent.glob("*.csv"))}
-        for name, f in list(files.items())[:6]:
-            df = pd.read_csv(f, comment="#")
-            y = next((c for c in df.columns if c.startswith("angle")), df.columns[-1])
-            ax.plot(df[df.columns[0]], df[y], label=name)
-        ax.set_xlabel("time (s)")
-        ax.set_ylabel("bending angle (deg)")
-        if files:
-            ax.legend(fontsize="small")
-        ax.set_title(f"{self.title} (synthetic)")
-        return fig
+            listed = [n for n in self.logs if n.endswith(".csv") and (self.source.parent / n).is_file()]
+            names = listed or [p.name for p in sorted(self.source.parent.glob("*.csv"))]
+            files = {n: self.source.parent / n for n in names}
+        frames = {Path(n).stem: pd.read_csv(f, comment="#") for n, f in list(files.items())[:MAX_PANELS]}
+        prot = self.body.get("protocol") or {}
+        name = prot.get("name") if isinstance(prot, Mapping) else None
+        title = "Digital-twin simulation" + (f", protocol {name}" if name else "")
+        return simulation_figure(frames, title=title, total=len(files))
 
     def save(self, path: str | Path) -> Path:
         """The logs and manifest.yaml (a blind case's answer beside the folder, ``<DIR>_ANSWER.yaml``): written for a
@@ -1044,16 +1142,15 @@ class ControlResult(Result):
 
             lim = self.body.get("pressure_limits_bar_abs")
             return fig18(self.raw.runs, limits_bar=tuple(lim) if lim else None)
-        from matplotlib.figure import Figure
+        from bpmid.plots.common import OKABE_ITO, finish, new_figure
 
         m = self.metrics
-        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
-        ax = fig.add_subplot()
-        ax.bar([k.split(".")[0] for k in m], list(m.values()))
+        fig, ax = new_figure(1, 1, width=6.4, height=4.0)
+        ax.bar([k.split(".")[0] for k in m], list(m.values()), color=OKABE_ITO["blue"])
         ax.set_xlabel("controller")
-        ax.set_ylabel("tracking RMSE over all references (deg)")
+        ax.set_ylabel("tracking RMSE over all references (°)")
         ax.set_title(self.title)
-        return fig
+        return finish(fig, True)   # a closed loop on a simulated plant, stamped as bpmid control stamps fig18
 
     def save(self, path: str | Path, *, figure: bool = True) -> Path:
         """summary.csv, control.yaml, traces/ and fig18.png: written for a live result, copied whole for a loaded
@@ -1088,6 +1185,27 @@ class StudyResult(Result):
             return {}
         base = self.source.parent
         return {k: load(base / f) for k, f in self.STAGE_FILES.items() if (base / f).exists()}
+
+    def plot(self):
+        """The study's model comparison, as ``bpmid run`` drew it (compare/compare_summary: RMSE pooled and per
+        test set, R², MAPE and cost per step of every model), stamped as the run's figures. A study whose
+        comparison did not run raises InputError naming the stage results it has, whose own ``.plot()`` draws
+        each stage."""
+        base = self.source.parent if self.source is not None else None
+        status = {str(s.get("name")): s.get("status") for s in self.body.get("stages") or [] if isinstance(s, Mapping)}
+        cmp = load(base / "compare") if base is not None and (base / "compare" / "compare.yaml").is_file() else None
+        if cmp is None or status.get("compare") != "done" or not len(cmp.table):
+            have = [k for k, f in self.STAGE_FILES.items() if base is not None and (base / f).exists()
+                    and k != "compare"]
+            why = ("its comparison was not run by this study (run.yaml lists compare as "
+                   f"{status.get('compare') or 'not run'})" if cmp is not None and status.get("compare") != "done"
+                   else "it has no model comparison (compare/summary.csv)")
+            raise InputError(f"a study draws its model comparison, and {why}: plot a stage's own result instead, "
+                             + (f"study.results[{have[0]!r}].plot() (stages here: {', '.join(have)})" if have else
+                                "once a stage has run"), path=base)
+        # the run's record (None: measured); a run.yaml written before the stamp was recorded: the comparison's
+        stamp = self.body["synthetic_stamp"] if "synthetic_stamp" in self.body else cmp._stamp()
+        return cmp.plot(synthetic=stamp)
 
     def _extra_sections(self):
         rows = [f"{s.get('name', '?'):<9} {s.get('status', '?'):<8} {s.get('seconds', 0) or 0:7.1f} s"

@@ -622,6 +622,33 @@ def test_summaries_of_a_simulation_and_a_prediction_say_what_they_hold():
     assert "[[Logs]]" in pred.summary() and "RMSE" in pred.summary().split("[[Logs]]")[1]
 
 
+def test_a_loaded_fit_with_effects_shows_them_with_their_constants_and_units(tmp_path, timed_small_study):
+    """discover's model.yaml runs the VBMM with pressure_lag, and its RMSE includes the lag: loaded, its summary,
+    repr and .params showed the five VBMM constants only (new-user trial)."""
+    import yaml
+
+    body = yaml.safe_load((Path(timed_small_study) / "discover" / "model.yaml").read_text())
+    body["effects"] = [{"id": "pressure_lag", "settings": {"dead_time": 0.0}, "parameters": {
+        "tau": {"value": 0.09, "stderr": None, "unit": "s", "fixed": True, "identifiable": False,
+                "note": "not identifiable: relative standard error 53% > 50%; kept at 0.09, its start"},
+        "share": 0.5}}]   # a bare number takes the catalogue's unit
+    (tmp_path / "model.yaml").write_text(yaml.safe_dump(body, sort_keys=False))
+    res = bpmid.load(tmp_path / "model.yaml")
+    assert res.effects == ["pressure_lag"]
+    tau = res.params["pressure_lag.tau"]
+    assert tau.value == 0.09 and tau.unit == "s" and tau.identifiability.startswith("not identifiable: relative")
+    assert res.params["pressure_lag.share"].unit == "1" and "K_inf" in res.params
+    assert "with effects pressure_lag" in repr(res) and len(repr(res)) < 300
+    text = res.summary()
+    assert "pressure_lag.tau   =         0.09 s  [not identifiable" in text
+    effects = text.split("[[Effects]]")[1]
+    assert "pressure_lag: constants pressure_lag.tau, pressure_lag.share" in effects
+    assert "settings dead_time = 0 s" in effects and "the fit statistics above include them" in effects
+    assert "pressure_lag.tau" in res._repr_html_()
+    plain = bpmid.load(Path(timed_small_study) / "vbmm_fit.yaml")   # a fit without effects says nothing of them
+    assert plain.effects == [] and "[[Effects]]" not in plain.summary() and "effects" not in repr(plain)
+
+
 def test_model_with_effects_and_a_bad_scale(tmp_path, timed_small_study):
     import warnings as _w
 

@@ -108,3 +108,104 @@ def test_a_vector_figure_keeps_its_text_as_text_and_draws_dense_dots_as_an_image
     text = path.read_text()
     assert "<image" in text and ">time (s)</text>" in text
     assert path.stat().st_size < 400_000     # 40 000 dots as paths: several MB
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the library's .plot() of results loaded from their folders: the CLI's figures, in the house style
+# ---------------------------------------------------------------------------------------------------------------
+def _stamp_of(fig) -> list[str]:
+    return [t.get_text() for t in fig.texts if "synthetic" in t.get_text()]
+
+
+def test_a_loaded_study_plots_its_comparison_or_names_the_stages_to_plot(timed_small_study, tmp_path):
+    """bpmid.load(<run folder>).plot() drew an empty axes titled 'parameter uncertainty': it draws the study's model
+    comparison (compare_summary, as the run drew it and the report shows it), stamped as the run's figures; a study
+    without a comparison says which stage results to plot."""
+    import shutil
+
+    import bpmid
+    from bpmid.plots.check import text_problems
+
+    study = bpmid.load(timed_small_study)
+    fig = study.plot()
+    assert fig.get_suptitle() == "Model comparison, pooled over all test logs"
+    assert [ax.get_ylabel() for ax in fig.axes] == ["RMSE (°)", "R²", "MAPE (%)", "cost per simulated step (µs)"]
+    assert [t.get_text() for t in fig.axes[0].get_xticklabels()] == list(study.results["compare"].table["model"])
+    assert _stamp_of(fig) == [study.body["synthetic_stamp"]] and not text_problems(fig)
+    assert not any(ax.get_legend() for ax in fig.axes) and fig.legends   # beside the axes, never over the bars
+    plt.close(fig)
+    d = tmp_path / "no_compare"
+    d.mkdir()
+    for f in ("run.yaml", "relax_fit.yaml"):
+        shutil.copy(timed_small_study / f, d / f)
+    with pytest.raises(bpmid.InputError, match=r"plot a stage's own result instead, study.results\['relax'\].plot\(\) "
+                                               r"\(stages here: relax\)"):
+        bpmid.load(d).plot()
+
+
+def test_a_loaded_prediction_draws_the_figure_predict_writes(timed_small_study):
+    """A prediction loaded from its folder plotted against 'sample' with no measured angle and its legend over the
+    data: it draws predict.png's figure (loop, angle and error against time, one row per log), from its CSVs."""
+    import yaml
+
+    import bpmid
+    from bpmid.plots.check import text_problems
+
+    folder = timed_small_study.parent / "pred"
+    res = bpmid.load(folder)
+    fig = res.plot()
+    names = list(yaml.safe_load((folder / "predict.yaml").read_text())["logs"])
+    assert fig.get_suptitle() == "Prediction: measured and predicted angle, error" and len(fig.axes) == 3 * len(names)
+    loop, angle, err = fig.axes[:3]
+    assert loop.get_title() == f"{names[0]}: loop" and loop.get_xlabel().startswith("gauge pressure (bar")
+    assert angle.get_xlabel() == "time (s)" and angle.get_ylabel() == "bending angle (°)"
+    assert len(angle.get_lines()) == 2 and err.get_title().startswith(f"{names[0]}: error, RMSE ")
+    assert abs(angle.get_lines()[0].get_xdata()[-1] - res.body["logs"][names[0]]["samples"] * 0.1) < 1.0  # seconds
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == ["measured", "prediction"]
+    assert not any(ax.get_legend() for ax in fig.axes) and _stamp_of(fig) and not text_problems(fig)
+    plt.close(fig)
+
+
+def test_a_simulation_draws_every_log_or_says_how_many_it_draws(repo_root, monkeypatch):
+    """bpmid.simulate(<protocol>).plot() drew 6 of 15 logs without saying so, its legend over the data: one panel
+    per log, titled by the log, the count in the title, the synthetic stamp in the footer."""
+    from pathlib import Path
+
+    import bpmid
+    import bpmid.plots.simulate as S
+    from bpmid.plots.check import text_problems
+
+    sim = bpmid.load(Path(repo_root) / "datasets" / "motion" / "variable_rate")
+    fig = sim.plot()
+    shown = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(sim.logs) == 15 and len(shown) == 15
+    assert fig.get_suptitle() == "Digital-twin simulation, protocol variable_rate: all 15 logs"
+    assert [ax.get_title() for ax in shown] == [Path(n).stem for n in sim.logs]
+    assert all(ax.get_ylabel() == "bending angle (°)" and ax.get_xlabel() == "time (s)" for ax in shown)
+    assert not fig.legends and not any(ax.get_legend() for ax in fig.axes)
+    assert _stamp_of(fig) == ["synthetic data (bpmid digital twin)"] and not text_problems(fig)
+    plt.close(fig)
+    monkeypatch.setattr(S, "MAX_PANELS", 6)
+    fig = sim.plot()
+    assert sum(ax.get_visible() for ax in fig.axes) == 6 and "6 of 15 logs drawn" in fig.get_suptitle()
+    plt.close(fig)
+    fig = bpmid.load(Path(repo_root) / "datasets" / "relaxation").plot()   # a relaxation protocol: its stress
+    assert fig.axes[0].get_ylabel() == "stress (MPa)"
+    plt.close(fig)
+
+
+def test_figures_of_loaded_files_are_in_the_house_style(timed_small_study):
+    """The figures a loaded fit, control or discovery draws from its file's numbers: the house style (bpmid's layout,
+    angles in °, gauge pressure), stamped when the logs say they are synthetic (they said 'deg', stamped nothing)."""
+    import bpmid
+    from bpmid.plots.check import text_problems
+    from bpmid.plots.common import PRESSURE_LABEL
+
+    for name in ("relax_fit.yaml", "vbmm_fit.yaml", "control", "discover"):
+        fig = bpmid.load(timed_small_study / name).plot()
+        labels = [t for ax in fig.axes for t in (ax.get_xlabel(), ax.get_ylabel(), ax.get_title())]
+        assert hasattr(fig, "_bpmid_legend") and not any("deg" in t for t in labels), (name, labels)
+        assert _stamp_of(fig) and not text_problems(fig), name
+        if name == "vbmm_fit.yaml":
+            assert fig.axes[0].get_xlabel() == PRESSURE_LABEL and fig.axes[0].get_ylabel().endswith("(°)")
+        plt.close(fig)

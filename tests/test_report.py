@@ -548,3 +548,69 @@ def test_the_study_s_synthetic_wording_is_recorded_and_kept_wherever_the_report_
     assert runner.invoke(app, ["report", str(d)]).exit_code == 0
     md = (d / "report.md").read_text()
     assert "synthetic (their own headers say so)" in md and "made by bpmid's digital twin" not in md
+
+
+def _discovery_folder(study, tmp_path, *, sha: str, protocol: str = "mymuscle"):
+    """A copy of the small study's discover folder whose model.yaml runs pressure_lag on another muscle, and whose
+    logs sit beside a manifest.yaml naming ``protocol`` with the sha256 ``sha``."""
+    d = tmp_path / "d_geo"
+    shutil.copytree(study / "discover", d)
+    logs = tmp_path / "sim"
+    logs.mkdir()
+    model = yaml.safe_load((d / "model.yaml").read_text())
+    disc = yaml.safe_load((d / "discovery.yaml").read_text())
+    inputs = {}
+    for path, digest in model["provenance"]["inputs"].items():
+        if Path(path).suffix == ".csv":
+            shutil.copy(path, logs / Path(path).name)
+            inputs[str(logs / Path(path).name)] = digest
+    (logs / "manifest.yaml").write_text(yaml.safe_dump({
+        "schema": "bpmid.simulation/1", "protocol": {"name": protocol, "kind": "motion", "sha256": sha},
+        "logs": [{"file": Path(p).name} for p in inputs]}))
+    for body in (model, disc):
+        body["provenance"]["inputs"] = inputs
+    model["geometry"]["th"] = 0.0025
+    model["effects"] = [{"id": "pressure_lag", "settings": {"dead_time": 0.0}, "parameters": {
+        "tau": {"value": 0.0901, "stderr": None, "unit": "s", "fixed": True, "identifiable": False,
+                "note": "not identifiable: relative standard error 53% > 50%; kept at 0.0901, its start"},
+        "share": {"value": 0.5, "stderr": None, "unit": "1", "fixed": True},
+        "sat": {"value": 0.0, "stderr": None, "unit": "1/kPa", "fixed": True}}}]
+    model["fit"]["named_effects"] = ["pressure_lag"]
+    (d / "model.yaml").write_text(yaml.safe_dump(model, sort_keys=False))
+    (d / "discovery.yaml").write_text(yaml.safe_dump(disc, sort_keys=False))
+    return d, model
+
+
+def test_report_on_a_discovery_folder_states_what_its_files_record(study, tmp_path):
+    """bpmid report on a discover folder (new-user trial): the fit was refitted on its fitting logs (it said 0), the
+    constants discovery does not refit are held at the starting model's values (it said 'prior (relaxation)'), the
+    motion fit says it runs pressure_lag, and the paper panel says the protocols and muscle differ (it said 'the
+    same protocols')."""
+    import hashlib
+
+    from bpmid import data
+
+    d, model = _discovery_folder(study, tmp_path, sha="0" * 64)
+    r = runner.invoke(app, ["report", str(d)])
+    assert r.exit_code == 0, r.output
+    md = " ".join((d / "report.md").read_text().split())
+    names = [lg["name"] for lg in model["fit"]["logs"]]
+    assert f"refitted by bpmid discover on {len(names)} fitting log(s) ({', '.join(names)})" in md
+    assert "0 fitting log(s)" not in md and "prior (relaxation)" not in md
+    assert "the rest held at the starting model's values (vbmm_fit.yaml (motion fit of this run))" in md
+    assert "VBMM-fit with pressure_lag (model.yaml)" in md and "pressure_lag (tau = 0.0901 s, share = 0.5" in md
+    motion = md[md.index("## Motion fit"):md.index("## Model comparison")]
+    assert "model.yaml runs the VBMM with the effect(s) pressure_lag" in motion
+    assert "| pressure_lag.tau | 0.0901 | - | s | not identifiable: relative standard error 53%" in motion
+    assert "dead_time = 0 s" in motion and "with pressure_lag acting: RMSE" in motion
+    assert "| G_inf | - |" in motion and "held at the starting model's value (discovery refits" in motion
+    paper = md[md.index("## The paper's numbers"):md.index("**Paper's numbers")]
+    assert "same protocols" not in paper
+    assert "follow other protocols than the paper's (mymuscle, as the manifest.yaml beside them records)" in paper
+    assert "this study's muscle is not the paper's" in paper and "th 2.5 mm against 2 mm" in paper
+    # logs made from a shipped protocol file (its sha256): the paper's protocols, said as such
+    shipped = hashlib.sha256(data.path("configs/datasets/fitting_set.yaml").read_bytes()).hexdigest()
+    d2, _ = _discovery_folder(study, tmp_path / "b", sha=shipped, protocol="fitting_set")
+    assert runner.invoke(app, ["report", str(d2)]).exit_code == 0
+    md = " ".join((d2 / "report.md").read_text().split())
+    assert "this study's logs follow the paper's protocols (bpmid's shipped fitting_set" in md

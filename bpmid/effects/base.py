@@ -44,6 +44,8 @@ class Effect(abc.ABC):
     #: place on the signal path (logged pressure -> tubing -> friction -> rubber -> sensor): effects act in
     #: ascending order; the pressure and angle transforms do not commute, so each effect states its place
     signal_order: ClassVar[int] = 50
+    #: settings (constructor arguments, ``SETTINGS``) -> their unit, for those that have one (``dead_time``: s)
+    SETTING_UNITS: ClassVar[dict[str, str]] = {}
 
     @abc.abstractmethod
     def default_params(self) -> ParamSet:

@@ -211,6 +211,7 @@ class PressureLag(Effect):
     meaning = "the muscle's internal pressure lags the logged pressure: valve, tubing, dead time"
     where_it_shows = "residual correlates with the pressure rate at positive lag; loops widen with rate"
     SETTINGS: ClassVar[tuple[str, ...]] = ("dead_time",)
+    SETTING_UNITS: ClassVar[dict[str, str]] = {"dead_time": "s"}
     #: parameters added after the first release; share = 0 is the first-order lag, so older files may omit it
     OPTIONAL_PARAMS: ClassVar[tuple[str, ...]] = ("share", "sat")
     #: starting values a refit tries (the physical range: a total lag of a few samples at 100 Hz to 1 s; one

@@ -92,6 +92,22 @@ def effects_to_yaml(effects, params) -> list[dict]:
     return out
 
 
+def settings_words(effect_id: str, settings) -> str:
+    """An effects-list entry's settings in words with their units ("dead_time = 0 s"); "" for none. An id or
+    setting the catalogue does not know is shown as written, without a unit."""
+    from bpmid.effects import CATALOGUE, effect_class
+
+    if not isinstance(settings, dict):
+        return ""
+    units = getattr(effect_class(effect_id), "SETTING_UNITS", {}) if effect_id in CATALOGUE else {}
+
+    def word(k, v):
+        num = isinstance(v, (int, float)) and not isinstance(v, bool)
+        return (f"{k} = {v:g}" if num else f"{k} = {v}") + (f" {units[k]}" if k in units else "")
+
+    return ", ".join(word(k, v) for k, v in settings.items())
+
+
 def _fit_body(fit) -> tuple[dict, str | Path | None]:
     """The mapping of a fit and its file: read from a ``bpmid.vbmm/1`` path, or a loaded result's (``to_dict``,
     ``source``) or a mapping."""

@@ -171,6 +171,15 @@ class RelaxInfo:
         return sum(1 for p in self.constants if p.name.startswith("tau_"))
 
 
+@dataclasses.dataclass(frozen=True)
+class EffectInfo:
+    """One effect of a fit file's ``effects`` list: its id, settings and constants."""
+
+    id: str
+    settings: dict
+    params: list[Param]
+
+
 @dataclasses.dataclass
 class MotionInfo:
     fit: list[Param]
@@ -188,6 +197,16 @@ class MotionInfo:
     fit_file: str | None = "vbmm_fit.yaml"
     #: the muscle geometry of the fit file (SI: th, R0, l0 in m, alpha0 in rad, n), {} when absent
     geometry: dict = dataclasses.field(default_factory=dict)
+    #: what made the fit (``fit.by``: "bpmid discover" for discovery's model.yaml), None when the file does not say
+    by: str | None = None
+    #: where its starting (prior) constants came from (``fit.initial``), None when the file does not say
+    initial: str | None = None
+    #: the catalogue effects the fit file runs with its constants (its ``effects`` list): its metrics include them
+    effects: list[EffectInfo] = dataclasses.field(default_factory=list)
+
+    @property
+    def effect_ids(self) -> list[str]:
+        return [e.id for e in self.effects]
 
 
 @dataclasses.dataclass
@@ -237,6 +256,8 @@ class DiscoveryInfo:
     raw_before_deg: float | None = None
     raw_after_deg: float | None = None
     scoring: str = ""
+    #: where the starting VBMM came from (discovery.yaml base_from), None when the file does not say
+    base_from: str | None = None
 
 
 def fmt_value(v) -> str:
@@ -390,6 +411,50 @@ class Study:
                 return "synthetic data (the logs' own headers say so)"
         return TWIN_NOTE
 
+    def protocols(self) -> tuple[list[str], list[str], int]:
+        """The protocols this study's data logs follow, as the ``manifest.yaml`` beside each log records them
+        (``bpmid simulate`` writes it): (the paper's: names of bpmid's shipped protocol files, matched by their
+        sha256; others: names of any other protocol; the number of logs whose protocol no file states: measured
+        logs, a log not found from here, a log without a manifest)."""
+        import hashlib
+
+        from bpmid import data
+        from bpmid.config import read_yaml
+
+        shipped = {}
+        for f in sorted((data.root() / "configs" / "datasets").glob("*.yaml")):
+            try:
+                shipped[hashlib.sha256(f.read_bytes()).hexdigest()] = f.stem
+            except OSError:
+                continue
+        cfg = _dict(_dict(self.run.provenance if self.run else {}).get("config")).get("path")
+        paper: set[str] = set()
+        other: set[str] = set()
+        unknown = 0
+        manifests: dict[Path, dict | None] = {}
+        for path in self.inputs():
+            f = Path(path)
+            if f.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat"):
+                continue
+            if not f.is_absolute() and not f.is_file() and cfg and (Path(cfg).parent / f).is_file():
+                f = Path(cfg).parent / f   # recorded relative to the config's folder
+            man = f.parent / "manifest.yaml"
+            if man not in manifests:
+                try:
+                    manifests[man] = read_yaml(man)[0] if f.is_file() and man.is_file() else None
+                except (InputError, OSError):
+                    manifests[man] = None
+            m = _dict(manifests[man])
+            listed = {str(_dict(lg).get("file")) for lg in _list(m.get("logs"))}
+            proto = _dict(m.get("protocol"))
+            if not proto or f.name not in listed:   # a manifest that does not list this log says nothing of it
+                unknown += 1
+            elif shipped.get(str(proto.get("sha256"))) is not None:
+                paper.add(shipped[str(proto["sha256"])])
+            else:
+                other.add(str(proto.get("name") or "unnamed"))
+        return sorted(paper), sorted(other), unknown
+
     def data_origins(self) -> list[str]:
         """What made the synthetic data logs, read from their own header lines: one entry per protocol with its
         seeds (``protocol fitting_set, seeds 1001-1004 (4 logs)``); logs that say nothing are not listed."""
@@ -486,11 +551,18 @@ def _material(d: dict) -> list[Param]:
         e = _dict(entry)
         caveat = conditional_caveat(str(e.get("note") or ""))   # the caveat the fit file gives an estimate
         cond = f"; {caveat}" if caveat else ""
+        note = str(e.get("note") or "").strip()
         if name in ident:
             return str(ident[name]) + cond
         if e.get("identifiable") is False:
             return "not identifiable, held at prior"
-        return ("estimated" + cond) if e.get("identifiable") else ""
+        if e.get("identifiable"):
+            # an estimate the file notes more of (discovery's refit: "not identifiable: ... (estimated, not held)")
+            said = f"; the file notes: {note}" if note.startswith("not identifiable") else ""
+            return "estimated" + cond + said
+        if e.get("fixed") and note:   # held for another reason the file gives (discovery: "held at the starting
+            return note               # model's value ...")
+        return ""
 
     for k in ("G_inf", "K_inf"):
         if k in mat:
@@ -549,11 +621,36 @@ def load_motion(rd: _Reader) -> MotionInfo | None:
     per_log = list(_dict(m.get("per_log")))
     unc = _dict((fit or {}).get("uncertainty"))
     names, corr = _corr(unc)
+    how = _dict((fit or {}).get("fit"))
+    # the fitting logs as the fit records them (fit.logs; discover's model.yaml has no per-log metrics)
+    logs = [str(_dict(lg).get("name")) for lg in _list(how.get("logs")) if _dict(lg).get("name") is not None]
     return MotionInfo(_material(fit) if fit else [], _material(mat) if mat else [], _num(m.get("rmse_deg")),
                       _num(m.get("mape_pct")), _num(m.get("r2")), _text((fit or mat).get("closure")),
-                      _text(_dict((fit or mat).get("model")).get("history")), per_log,
+                      _text(_dict((fit or mat).get("model")).get("history")), logs or per_log,
                       _dict((fit or mat).get("provenance")), names, corr, fit_file if fit is not None else None,
-                      _dict((fit or mat).get("geometry")))
+                      _dict((fit or mat).get("geometry")), _text(how.get("by")), _text(how.get("initial")),
+                      _effects(fit) if fit else [])
+
+
+def _effects(d: dict) -> list[EffectInfo]:
+    """The ``effects`` list of a fit file as the report shows it (entries that are not mappings are left out)."""
+    out = []
+    for e in _list(d.get("effects")):
+        e = _dict(e)
+        eid = _text(e.get("id"))
+        if eid is None:
+            continue
+        prm = []
+        for name, entry in _dict(e.get("parameters")).items():
+            p = _param(f"{eid}.{name}", entry)
+            ent = _dict(entry)
+            note = str(ent.get("note") or "").strip()
+            verdict = ((note if note.startswith("not identifiable") else "not identifiable, held")
+                       if ent.get("identifiable") is False else
+                       (note or "held") if ent.get("fixed") else "estimated" if ent.get("identifiable") else "")
+            prm.append(dataclasses.replace(p, verdict=verdict))
+        out.append(EffectInfo(eid, _dict(e.get("settings")), prm))
+    return out
 
 
 def _corr(unc: dict) -> tuple[list[str], list[list[float]]]:
@@ -628,7 +725,7 @@ def load_discovery(rd: _Reader) -> DiscoveryInfo | None:
                          any(_dict(_dict(r).get("rival_outside_catalogue")).get("withheld_the_round")
                              for r in _list(d.get("rounds"))),
                          _num(gap.get("raw_before_rmse_deg")), _num(gap.get("raw_after_rmse_deg")),
-                         _text(gap.get("scoring")) or "")
+                         _text(gap.get("scoring")) or "", _text(d.get("base_from")))
 
 
 def load_control(rd: _Reader) -> ControlInfo | None:

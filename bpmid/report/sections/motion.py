@@ -37,14 +37,34 @@ def build(doc, st, figs) -> None:
         unit = (b or a).unit
         rows.append([n, fmt(a.value) if a else "-", fmt(b.value) if b else "-", fmt(b.stderr) if b else "-", unit,
                      (b.verdict if b else "") or "-"])
-    doc.p("VBMM-mat. takes its constants straight from the relaxation fit (nothing refitted); VBMM-fit refits "
-          "them on the fitting set. A constant the motion data cannot determine is held at its prior value and "
-          "says so (identifiability).")
+    if m.by == "bpmid discover":
+        from bpmid.report.sections.summary import held_at
+
+        doc.p(f"VBMM-fit here is the model bpmid discover ended with ({m.fit_file}): it refitted the constants "
+              f"whose verdict below says estimated on the fitting set, with the effects it named acting, and held "
+              f"the others at {held_at(st)}, as their verdicts say.")
+    else:
+        doc.p("VBMM-mat. takes its constants straight from the relaxation fit (nothing refitted); VBMM-fit refits "
+              "them on the fitting set. A constant the motion data cannot determine is held at its prior value and "
+              "says so (identifiability).")
     doc.table(["constant", "VBMM-mat.", "VBMM-fit", "VBMM-fit stderr", "unit", "VBMM-fit verdict"], rows)
+    if m.effects:
+        names = ", ".join(m.effect_ids)
+        doc.p(f"{m.fit_file or 'The fit file'} runs the VBMM with the effect(s) {names} (its effects list), in the "
+              "order they act; their constants:")
+        doc.table(["effect constant", "VBMM-fit", "VBMM-fit stderr", "unit", "verdict"],
+                  [[p.name, fmt(p.value), fmt(p.stderr), p.unit, p.verdict or "-"] for e in m.effects
+                   for p in e.params])
+        from bpmid.effects.fitfile import settings_words
+
+        sets = "; ".join(f"{e.id}: {settings_words(e.id, e.settings)}" for e in m.effects if e.settings)
+        if sets:
+            doc.p(f"Settings of the effects (fixed, not fitted): {sets}.", css="muted")
     if m.rmse_deg is not None:
         how = ", ".join(f"{k} {v}" for k, v in (("closure", m.closure), ("history", m.history)) if v)
-        doc.p(f"VBMM-fit on its own fitting set: RMSE {fmt(m.rmse_deg)}°, MAPE {fmt(m.mape_pct)} %, R² {fmt(m.r2)}"
-              + (f" ({how})." if how else "."))
+        with_fx = f", with {' and '.join(m.effect_ids)} acting" if m.effects else ""
+        doc.p(f"VBMM-fit on its own fitting set{with_fx}: RMSE {fmt(m.rmse_deg)}°, MAPE {fmt(m.mape_pct)} %, "
+              f"R² {fmt(m.r2)}" + (f" ({how})." if how else "."))
     if m.corr_names:
         doc.p("Correlations of the estimated VBMM-fit constants (|r| near 1: the motion data hardly separate them):")
         doc.table(["", *m.corr_names], [[n, *[fmt(v, 3) for v in row]] for n, row in zip(m.corr_names, m.corr)])

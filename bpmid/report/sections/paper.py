@@ -18,11 +18,46 @@ def _set_row(st, names, model):
     return None if g.empty else g.iloc[0]
 
 
+def _what_differs(st) -> str:
+    """What the study's files say of its logs beside the paper's: the protocols they follow (the manifest.yaml
+    beside each log) and the muscle (the motion fit's geometry against the paper's Table I). Nothing is said
+    that the files do not tell."""
+    import math
+
+    from bpmid.models.vbmm.model import Geometry
+
+    paper, other, unknown = st.protocols()
+    parts = []
+    if other:
+        parts.append(f"this study's logs follow other protocols than the paper's ({', '.join(other)}, as the "
+                     "manifest.yaml beside them records)")
+    elif paper and not unknown:
+        parts.append(f"this study's logs follow the paper's protocols (bpmid's shipped {', '.join(paper)}, as the "
+                     "manifest.yaml beside them records)")
+    g = st.motion.geometry if st.motion is not None else {}
+    ref = Geometry()
+    shown = (("th", 1e3, "mm"), ("alpha0", 180 / math.pi, "°"), ("R0", 1e3, "mm"), ("l0", 1e3, "mm"), ("n", 1.0, ""))
+    try:
+        differ = [(k, float(g[k]) * f, getattr(ref, k) * f, u) for k, f, u in shown
+                  if k in g and not math.isclose(float(g[k]), getattr(ref, k), rel_tol=1e-6)]
+    except (TypeError, ValueError):
+        differ = []
+    if differ:
+        def val(x, u):
+            return f"{fmt(x)}{u}" if u in ("", "°") else f"{fmt(x)} {u}"
+
+        words = ", ".join(f"{k} {val(a, u)} against {val(b, u)}" for k, a, b, u in differ)
+        parts.append(f"this study's muscle is not the paper's (the motion fit's geometry against the paper's Table I: {words})")
+    if not parts:
+        return "They are different data."
+    return "They are different data: " + ", and ".join(parts) + "."
+
+
 def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     doc.p("Two separate tables. The left one is QUOTED from the paper and describes the paper's muscle and data; "
-          "the right one is MEASURED HERE by bpmid on this study's logs. They follow the same protocols but are "
-          "different data: read them side by side, never as one table.")
+          "the right one is MEASURED HERE by bpmid on this study's logs. " + _what_differs(st)
+          + " Read them side by side, never as one table.")
     with doc.panel("Paper's numbers (quoted, the paper's data)", "quoted"):
         doc.p(PAPER_SOURCE)
         doc.table(["experiment", "quantity", "value", "unit"], [[e, q, fmt(v), u] for e, q, v, u in PAPER_ROWS])

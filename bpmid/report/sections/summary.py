@@ -30,6 +30,50 @@ def _stale(st, stage):
     return " (STALE: from an earlier run)" if stage in st.stale else ""
 
 
+def held_at(st) -> str:
+    """Where the motion fit's constants that it did not estimate were held, as its files say: the starting
+    model's values (discovery's model.yaml, with discovery.yaml's base_from) or the prior values the fit started
+    from (fit.initial); no source when the files give none."""
+    m = st.motion
+    if m.by == "bpmid discover":
+        base = st.discovery.base_from if st.discovery is not None else None
+        return "the starting model's values" + (f" ({base})" if base else "")
+    return "their prior values" + (f" ({m.initial})" if m.initial else "")
+
+
+def effects_words(m) -> str:
+    """'pressure_lag (tau = 0.09012 s, share = 0.5, sat = 0 1/kPa; none estimated)': a fit file's effects and
+    their constants with units."""
+    out = []
+    for e in m.effects:
+        cons = ", ".join(f"{p.name.split('.', 1)[1]} = {pm(p.value, p.stderr)}" + (f" {p.unit}" if p.unit not in
+                         ("", "1") else "") for p in e.params if p.value is not None)
+        est = sum(1 for p in e.params if p.verdict == "estimated")
+        tail = f"{est} of {len(e.params)} estimated" if est else "none estimated, each held"
+        out.append(f"{e.id} ({cons}; {tail})" if cons else e.id)
+    return "; ".join(out)
+
+
+def _motion_item(st) -> str:
+    m = st.motion
+    estimated = [p for p in m.fit if p.verdict.startswith("estimated")]
+    est = ", ".join(f"{p.name} = {pm(p.value, p.stderr)} {p.unit}" for p in estimated if p.value is not None)
+    src = f" ({m.fit_file})" if m.fit_file not in (None, "vbmm_fit.yaml") else ""
+    with_fx = f" with {', '.join(m.effect_ids)}" if m.effects else ""
+    by = " by bpmid discover" if m.by == "bpmid discover" else ""
+    logs = (f"on {len(m.logs)} fitting log(s) ({', '.join(m.logs)})" if m.logs else
+            "on fitting logs the file does not list")
+    rest = len(m.fit) - len(estimated)
+    text = (f"VBMM-fit{with_fx}{src}{_stale(st, 'motion')}: refitted{by} {logs}: RMSE {fmt(m.rmse_deg)}° on its own "
+            f"fitting set" + (f" (the model with {' and '.join(m.effect_ids)})" if m.effects else "")
+            + f"; {len(estimated)} of {len(m.fit)} VBMM constants estimated" + (f" ({est})" if est else ""))
+    if rest:
+        text += f", the rest held at {held_at(st)}"
+    if m.effects:
+        text += f"; effect constants: {effects_words(m)}"
+    return text + "."
+
+
 def build(doc, st, figs) -> None:
     doc.section(KEY, TITLE)
     if st.synthetic:
@@ -65,15 +109,7 @@ def build(doc, st, figs) -> None:
         items.append(f"Material{_stale(st, 'relax')}: {r.n_terms}-term Prony series ({r.mode} mode) fitted on "
                      f"{len(r.logs)} relaxation log(s): {cons}; R² {fmt(r.r2)}.")
     if st.motion is not None and st.motion.rmse_deg is not None:
-        m = st.motion
-        n_est = sum(1 for p in m.fit if p.verdict.startswith("estimated"))
-        est = ", ".join(f"{p.name} = {pm(p.value, p.stderr)} {p.unit}" for p in m.fit
-                        if p.verdict.startswith("estimated") and p.value is not None)
-        src = f" ({m.fit_file})" if m.fit_file not in (None, "vbmm_fit.yaml") else ""
-        items.append(f"VBMM-fit{src}{_stale(st, 'motion')}: refitted on {len(m.logs)} fitting log(s) "
-                     f"({', '.join(m.logs)}): RMSE {fmt(m.rmse_deg)}° on its own fitting set; {n_est} of "
-                     f"{len(m.fit)} constants estimated" + (f" ({est})" if est else "")
-                     + ", the rest held at their prior (relaxation) values.")
+        items.append(_motion_item(st))
     if st.compare is not None:
         c = st.compare
         rank = c.ranking
