@@ -996,7 +996,10 @@ class DiscoveryResult(Result):
 
     @property
     def metrics(self) -> dict[str, float]:
-        return dict(self.body.get("gap") or {})
+        """The gap's numbers (deg); its ``scoring`` sentence is in ``body["gap"]``, not here (a loop over the metrics
+        met a 700-character string)."""
+        return {k: v for k, v in (self.body.get("gap") or {}).items()
+                if isinstance(v, (int, float)) and not isinstance(v, bool)}
 
     @property
     def warnings(self) -> list[str]:

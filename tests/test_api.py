@@ -319,6 +319,9 @@ def test_every_output_of_a_study_loads(timed_small_study):
     for name, r in res.items():
         assert r == bpmid.load(r.source) and len(repr(r)) < 300, name
         assert r.summary().startswith("[[")
+        # metrics are numbers, for every result type (a discovery's held its scoring sentence there)
+        assert all(isinstance(v, (int, float)) for v in r.metrics.values()), name
+    assert {"before_rmse_deg", "noise_floor_deg"} <= set(res["discover"].metrics)
 
 
 def test_a_loaded_folder_result_saved_elsewhere_keeps_its_files(timed_small_study, tmp_path):
