@@ -1,5 +1,5 @@
 """Ringing of the closed loop (bpmid.control_ringing): found where it happens, with its numbers, in the status,
-summary.csv, control.yaml and the warnings."""
+summary.csv, control.yaml and the warnings; fig18 draws every sample and labels each panel's marks beside it."""
 from __future__ import annotations
 
 import dataclasses
@@ -145,3 +145,59 @@ def test_warnings_summary_and_control_yaml_carry_the_ringing(tmp_path):
     assert len(eps) == int(tab.set_index(["controller", "reference"]).loc[("pi", "steps"), "ringing_episodes"])
     assert body["ringing"]["band_deg"]["pi on steps"] == R.RINGING_MIN_SWING_DEG
     assert {"start_s", "end_s", "swings", "first_swing_deg", "largest_swing_deg", "period_s"} <= set(eps[0])
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# fig18
+# ---------------------------------------------------------------------------------------------------------------
+def _legend_beside(fig, ax):
+    """The figure legends whose top lies within the height of ``ax`` (each panel's legend sits beside it)."""
+    fig.canvas.draw()
+    rnd = fig.canvas.get_renderer()
+    box = ax.get_window_extent(rnd)
+    out = []
+    for leg in fig.legends:
+        top = leg.get_window_extent(rnd).y1
+        if box.y0 - 1 <= top <= box.y1 + 1:
+            out += [t.get_text() for t in leg.get_texts()]
+    return out
+
+
+def test_fig18_labels_each_panels_marks_beside_it_and_draws_every_sample(steps_runs):
+    from bpmid.plots.control import BOUNDARY_LABEL, LIMITS_LABEL, RINGING_LABEL, fig18
+
+    paper, _damped, _half = steps_runs
+    sines = builtin_reference("sines")
+    plant = build_plant(MODEL, [], QUIET)
+    runs = paper + [simulate_loop(c, sines, MODEL, plant, QUIET) for c in ("pi", "vbmm-pi")]
+    fig = fig18(runs, limits_bar=(QUIET.p_min_bar_abs, QUIET.p_max_bar_abs))
+    a, b, c, d = fig.axes[:4]
+    # the artists' own labels, panel by panel
+    la = a.get_legend_handles_labels()[1]
+    assert {"reference", "PI", "VBMM-PI", BOUNDARY_LABEL} <= set(la) and LIMITS_LABEL not in la
+    assert c.get_legend_handles_labels()[1] == [LIMITS_LABEL]
+    # the boundaries (vertical, in a, b, c) and the limits (horizontal, in c) are drawn unlike each other
+    bound = [ln for ln in a.get_lines() if ln.get_label() == BOUNDARY_LABEL][0]
+    limit = [ln for ln in c.get_lines() if ln.get_label() == LIMITS_LABEL][0]
+    assert bound.get_linestyle() != limit.get_linestyle()
+    assert np.ptp(bound.get_xdata()) == 0 and np.ptp(limit.get_ydata()) == 0
+    # the legends, by where they sit
+    beside_a, beside_b, beside_c, beside_d = (_legend_beside(fig, x) for x in (a, b, c, d))
+    assert {"reference", "PI", "VBMM-PI", BOUNDARY_LABEL} <= set(beside_a) and LIMITS_LABEL not in beside_a
+    assert beside_b == [RINGING_LABEL]
+    assert beside_c == [LIMITS_LABEL]
+    assert {"PI", "VBMM-PI"} <= set(beside_d) and LIMITS_LABEL not in beside_d
+    # every sample: the time panels hold each run's samples end to end, solid (a dash pattern hid the ringing)
+    pi_line = [ln for ln in a.get_lines() if ln.get_label() == "PI"][0]
+    assert len(pi_line.get_xdata()) == sum(r.time_s.size for r in runs if r.controller == "pi")
+    assert pi_line.get_linestyle() == "-"
+    # (d): the longest ringing, every sample of it, a marker each
+    name, t0, t1, _words = __import__("bpmid.plots.control", fromlist=["zoom_window"]).zoom_window(runs)
+    assert name == "steps"
+    run = paper[0]
+    k = (run.time_s >= t0 - 1e-9) & (run.time_s <= t1 + 1e-9)
+    zl = [ln for ln in d.get_lines() if ln.get_label() == "PI"][0]
+    np.testing.assert_array_equal(zl.get_xdata(), run.time_s[k])
+    np.testing.assert_array_equal(zl.get_ydata(), run.angle_deg[k])
+    assert zl.get_marker() not in (None, "None", "", " ")
+    assert "rings" in d.get_title(loc="left")
