@@ -40,8 +40,9 @@ def main():
     refs = load_references("all", cfg.rate_hz)
     res = run_control(model, plant, refs, cfg, measure_cost=False)
     print("\nclosed loop, RMSE (deg) per controller and reference; reduction vs pi (%); loop cost per step (us)")
-    print(res.table[["controller", "reference", "rmse_deg", "max_abs_err_deg", "reduction_pct", "status",
-                     "us_per_step"]].to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    print(res.table[["controller", "reference", "rmse_deg", "max_abs_err_deg", "reduction_pct", "ringing_s",
+                     "ringing_swing_deg", "status", "us_per_step"]].to_string(index=False,
+                                                                            float_format=lambda v: f"{v:.3f}"))
     for w in res.warnings:
         print("warning:", w)
 
