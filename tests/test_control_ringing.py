@@ -136,9 +136,7 @@ def test_warnings_summary_and_control_yaml_carry_the_ringing(tmp_path):
     said = [w for w in res.warnings if w.startswith("pi on steps: oscillating")]
     assert said and "swings back and forth" in said[0] and "period 0.2 s" in said[0] and "Nyquist" in said[0]
     note = [w for w in res.warnings if w.startswith("ringing and the reductions against pi: every controller rings")]
-    # the comparison again without the samples at which any controller rings: said beside the one with them
-    red = res.table.set_index(["controller", "reference"]).loc[("vbmm-pi", "ALL"), "reduction_pct"]
-    assert note and "are vbmm-pi " in note[0] and f"({red:.1f} % with them)" in note[0]
+    assert note and "pi's too, holds ringing" in note[0]
     write_control(res, tmp_path / "c", cfg, provenance([], seed=0, command="test"), model=MODEL, plant=plant, figure=False)
     tab = pd.read_csv(tmp_path / "c" / "summary.csv")
     assert {"ringing_episodes", "ringing_s", "ringing_longest_s", "ringing_from_s", "ringing_swing_deg",
