@@ -78,10 +78,11 @@ def main():
         for r in mine:
             keep.setdefault(r.controller, []).append((r.reference_deg - r.true_angle_deg)[ok])
     left = sum(v.size for v in keep["pi"])
-    print(f"without the samples at which any controller rings ({sum(r.time_s.size for r in res.runs if r.controller == 'pi') - left}"
-          f" of {sum(r.time_s.size for r in res.runs if r.controller == 'pi')}):")
+    total = sum(r.time_s.size for r in res.runs if r.controller == "pi")
+    print(f"without the samples at which any controller rings ({total - left} of {total}):")
     for c, v in keep.items():
-        print(f"  {c:8s} RMSE {rms(v):.3f}" + ("" if c == "pi" else f"  {100 * (1 - rms(v) / rms(keep['pi'])):.1f} % below pi's"))
+        below = "" if c == "pi" else f"  {100 * (1 - rms(v) / rms(keep['pi'])):.1f} % below pi's"
+        print(f"  {c:8s} RMSE {rms(v):.3f}{below}")
 
 
 if __name__ == "__main__":

@@ -485,7 +485,8 @@ class Run:
     #: a command change counts toward a reversal above this (bar): 0.01 bar, or three standard deviations of the
     #: change the P term makes from sensor noise alone (kp sqrt(2) sigma; white noise and quantisation), if larger
     reversal_min_bar: float = REVERSAL_MIN_BAR
-    #: the dead band (deg) of the error's turning points in the ringing check (:func:`bpmid.control_ringing.swing_band_deg`)
+    #: the dead band (deg) of the error's turning points in the ringing check
+    #: (:func:`bpmid.control_ringing.swing_band_deg`)
     ringing_band_deg: float = ringing.RINGING_MIN_SWING_DEG
 
     @property
@@ -627,7 +628,8 @@ def ringing_words(eps: Sequence, rate_hz: float) -> str:
     """A run's ringing in words: how many episodes, how long in all, the longest (where, how large, how fast)."""
     longest = max(eps, key=lambda ep: (ep.duration_s, ep.largest_swing_deg))
     nyq = abs(longest.period_s - 2.0 / rate_hz) < 0.5 / rate_hz
-    many = f" in {len(eps)} episodes, {sum(ep.duration_s for ep in eps):.2g} s in all; the longest" if len(eps) > 1 else ""
+    many = (f" in {len(eps)} episodes, {sum(ep.duration_s for ep in eps):.2g} s in all; the longest"
+            if len(eps) > 1 else "")
     return (f"the error swings back and forth{many} " + longest.words()
             + (f" (the {rate_hz / 2:g} Hz Nyquist frequency of the {rate_hz:g} Hz loop)" if nyq else ""))
 
@@ -765,7 +767,7 @@ def control_yaml_body(result: ControlResult, cfg: ControlConfig, *, model: VBMM,
                         "resampled": ref.resampled} for ref in result.references],
         "summary": result.table.to_dict(orient="records"),
         "ringing": {
-            "rule": (f"the error (reference - measured angle) swings back and forth {ringing.RINGING_MIN_SWINGS} times "
+            "rule": (f"the error (reference - true angle) swings back and forth {ringing.RINGING_MIN_SWINGS} times "
                      f"or more in a row, each swing at most {ringing.RINGING_MAX_HALF_PERIOD_S:g} s and larger than "
                      f"band_deg peak to peak, the reference not turning and the angle moving at least as far as the "
                      "reference over each"),

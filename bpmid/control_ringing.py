@@ -1,8 +1,9 @@
 """Ringing of a closed loop: the tracking error swinging back and forth, found where it happens (episodes), not
 averaged over a run.
 
-A run's error e = reference - measured angle is walked with a dead band: a turning point is an extreme that the
-error has left by more than the band the other way (the noise of the sensor cannot make one), so the error becomes
+A run's error e = reference - angle (``bpmid control`` passes the true angle, what the muscle did, as its RMSE does)
+is walked with a dead band: a turning point is an extreme that the error has left by more than the band the other
+way (a band sensor noise cannot cross, so a reading of the angle would show the same swings), so the error becomes
 a chain of half-swings from one turning point to the next, each larger than the band. A half-swing is the loop's
 own when it is quick (at most :data:`RINGING_MAX_HALF_PERIOD_S`), the reference does not turn during it, and the
 angle moved at least as far as the reference over it (a reference's jump moves the error, not the loop). An
@@ -114,8 +115,8 @@ def turning_points(x: np.ndarray, band: float) -> np.ndarray:
 def episodes(time_s: np.ndarray, reference_deg: np.ndarray, angle_deg: np.ndarray, band_deg: float, *,
              min_swings: int = RINGING_MIN_SWINGS, max_half_period_s: float = RINGING_MAX_HALF_PERIOD_S
              ) -> list[Episode]:
-    """The ringing episodes of a run (module docstring): ``time_s``, ``reference_deg`` and the measured
-    ``angle_deg`` (N,); ``band_deg`` from :func:`swing_band_deg`."""
+    """The ringing episodes of a run (module docstring): ``time_s``, ``reference_deg`` and ``angle_deg`` (N,);
+    ``band_deg`` from :func:`swing_band_deg`."""
     t = np.asarray(time_s, float)
     r = np.asarray(reference_deg, float)
     y = np.asarray(angle_deg, float)

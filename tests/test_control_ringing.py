@@ -114,12 +114,16 @@ def test_a_higher_gain_rings_longer_and_a_lower_one_not_at_all(steps_runs):
     assert sum(ep.duration_s for ep in run.ringing) > sum(ep.duration_s for ep in paper[0].ringing)
 
 
-def test_a_plant_with_a_pressure_lag_damps_the_ringing():
-    # seed 004's dead time and a valve lag: the loop no longer answers within the sample, and the paper's gains settle
-    cfg = QUIET
-    run = simulate_loop("pi", builtin_reference("steps"), MODEL,
-                        build_plant(MODEL, ["pressure_lag:tau=0.25,dead_time=0.15"], cfg), cfg)
+def test_a_plant_with_a_pressure_lag_damps_the_ringing_and_twice_the_gain_rings_slower():
+    # seed 004's dead time and a valve lag: the loop no longer answers within the sample, and the paper's gains settle;
+    # twice the P gain rings again, at about 1 Hz (not the Nyquist frequency), and is found the same way
+    lag = ["pressure_lag:tau=0.25,dead_time=0.15"]
+    run = simulate_loop("pi", builtin_reference("steps"), MODEL, build_plant(MODEL, lag, QUIET), QUIET)
     assert run.ringing == []
+    hot = dataclasses.replace(QUIET, kp_bar_per_deg=0.08)
+    run = simulate_loop("pi", builtin_reference("steps"), MODEL, build_plant(MODEL, lag, hot), hot)
+    assert run.ringing and "oscillating" in run.metrics(hot)["status"]
+    assert all(0.6 <= ep.period_s <= 1.6 for ep in run.ringing)
 
 
 def test_warnings_summary_and_control_yaml_carry_the_ringing(tmp_path):
@@ -137,7 +141,8 @@ def test_warnings_summary_and_control_yaml_carry_the_ringing(tmp_path):
     assert said and "swings back and forth" in said[0] and "period 0.2 s" in said[0] and "Nyquist" in said[0]
     note = [w for w in res.warnings if w.startswith("ringing and the reductions against pi: every controller rings")]
     assert note and "pi's too, holds ringing" in note[0]
-    write_control(res, tmp_path / "c", cfg, provenance([], seed=0, command="test"), model=MODEL, plant=plant, figure=False)
+    write_control(res, tmp_path / "c", cfg, provenance([], seed=0, command="test"), model=MODEL, plant=plant,
+                  figure=False)
     tab = pd.read_csv(tmp_path / "c" / "summary.csv")
     assert {"ringing_episodes", "ringing_s", "ringing_longest_s", "ringing_from_s", "ringing_swing_deg",
             "ringing_period_s"} <= set(tab.columns)
@@ -165,7 +170,7 @@ def _legend_beside(fig, ax):
 
 
 def test_fig18_labels_each_panels_marks_beside_it_and_draws_every_sample(steps_runs):
-    from bpmid.plots.control import BOUNDARY_LABEL, LIMITS_LABEL, RINGING_LABEL, fig18
+    from bpmid.plots.control import BOUNDARY_LABEL, LIMITS_LABEL, RINGING_LABEL, fig18, zoom_window
 
     paper, _damped, _half = steps_runs
     sines = builtin_reference("sines")
@@ -193,7 +198,7 @@ def test_fig18_labels_each_panels_marks_beside_it_and_draws_every_sample(steps_r
     assert len(pi_line.get_xdata()) == sum(r.time_s.size for r in runs if r.controller == "pi")
     assert pi_line.get_linestyle() == "-"
     # (d): the longest ringing, every sample of it, a marker each
-    name, t0, t1, _words = __import__("bpmid.plots.control", fromlist=["zoom_window"]).zoom_window(runs)
+    name, t0, t1, _words = zoom_window(runs)
     assert name == "steps"
     run = paper[0]
     k = (run.time_s >= t0 - 1e-9) & (run.time_s <= t1 + 1e-9)
