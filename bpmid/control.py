@@ -19,11 +19,15 @@ bar/deg, I = 0.01 bar/(deg s), i.e. 0.001 bar/deg per step at 10 Hz. Reading eq.
 (0.01 bar/deg per step) is ``--ki 0.1``; on the twin that makes the PI alone track to about 1 deg RMSE,
 far better than the paper's 5.1 deg, so the per-second reading is the default. Pressures are absolute, clipped to the
 rig's range [p_min, p_max] with conditional integration (anti-windup); saturation and oscillation are
-reported per run.
+reported per run. Oscillation is looked for where it happens (:mod:`bpmid.control_ringing`: the error swinging back
+and forth six times in a row, each swing quick and beyond the sensor's noise), not averaged over the run: at the
+paper's gains on a plant without valve lag the loop rings at the Nyquist frequency for one to two seconds after
+each step (P times the rubber's instantaneous gain is about 0.9), under every controller alike.
 """
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 import zlib
@@ -34,6 +38,7 @@ import numpy as np
 import pandas as pd
 
 from bpmid import control_kernels as CK
+from bpmid import control_ringing as ringing
 from bpmid import metrics
 from bpmid.errors import InputError
 from bpmid.models.vbmm import VBMM, _CLOSURES, triangle_pressure
@@ -71,10 +76,11 @@ class ControlConfig:
     ms_elements, ms_poly_degree : size of the Maxwell-slip inverse feedforward
     ms_train_bar_abs : pressure range of the open-loop training triangles of the Maxwell-slip feedforward
     oscillation_limit_pct : a run whose command reverses (by more than 0.01 bar, or than three standard deviations
-        of the change sensor noise alone makes through the P term, if larger) on more than this share of the
-        steps is reported as oscillating (a lightly damped loop ringing near the Nyquist frequency); a run
-        whose command swings between both limits (three switches within 2 s), or asks for a bend beyond
-        the model's range, is reported as unstable
+        of the change sensor noise alone makes through the P term, if larger) on more than this share of all its
+        steps is reported as oscillating (a loop ringing all the time). A run is also reported as oscillating
+        when it rings anywhere, for a while (:mod:`bpmid.control_ringing`: after a step, say, however quiet the
+        rest of the run is); a run whose command swings between both limits (three switches within 2 s), or
+        asks for a bend beyond the model's range, is reported as unstable
     """
 
     kp_bar_per_deg: float = 0.04
@@ -479,10 +485,19 @@ class Run:
     #: a command change counts toward a reversal above this (bar): 0.01 bar, or three standard deviations of the
     #: change the P term makes from sensor noise alone (kp sqrt(2) sigma; white noise and quantisation), if larger
     reversal_min_bar: float = REVERSAL_MIN_BAR
+    #: the dead band (deg) of the error's turning points in the ringing check
+    #: (:func:`bpmid.control_ringing.swing_band_deg`)
+    ringing_band_deg: float = ringing.RINGING_MIN_SWING_DEG
 
     @property
     def error_deg(self) -> np.ndarray:
         return self.reference_deg - self.angle_deg
+
+    @functools.cached_property
+    def ringing(self) -> list:
+        """The episodes in which the error swings back and forth (:mod:`bpmid.control_ringing`), in time order: of
+        the true angle, what the muscle did (as the RMSE), with a band a reading of the angle can tell from noise."""
+        return ringing.episodes(self.time_s, self.reference_deg, self.true_angle_deg, self.ringing_band_deg)
 
     def metrics(self, cfg: ControlConfig) -> dict:
         du = np.diff(self.command_bar_abs)
@@ -499,7 +514,8 @@ class Run:
         flags = []
         if out_of_range or bang >= 3:
             flags.append("unstable")
-        if osc_pct > cfg.oscillation_limit_pct:
+        # ringing found where it happens (after a step, a jump), or a command reversing on most steps of the run
+        if self.ringing or osc_pct > cfg.oscillation_limit_pct:
             flags.append("oscillating")
         if sat_pct > 0:
             flags.append("saturated")
@@ -511,6 +527,7 @@ class Run:
             "saturated_high_steps": int(np.sum(self.saturated > 0)),
             "saturated_low_steps": int(np.sum(self.saturated < 0)),
             "reversal_pct": osc_pct,
+            **ringing.summary(self.ringing),
             "limit_switches": bang,
             "status": ",".join(flags) if flags else "ok",
             "us_per_step": 1e6 * self.wall_s / max(self.time_s.size, 1),
@@ -560,7 +577,7 @@ def simulate_loop(controller: str, ref: Reference, model: VBMM, plant: Plant, cf
     sigma = math.sqrt(sn.angle_noise_deg ** 2 + sn.angle_resolution_deg ** 2 / 12.0)
     thr = max(REVERSAL_MIN_BAR, 3.0 * kp * math.sqrt(2.0) * sigma)
     return Run(controller, ref.name, t, np.asarray(ref.angle_deg, float), y, np.degrees(beta), u / PA_PER_BAR,
-               pm / PA_PER_BAR, ff / PA_PER_BAR, sat, status, wall, thr)
+               pm / PA_PER_BAR, ff / PA_PER_BAR, sat, status, wall, thr, ringing.swing_band_deg(sigma))
 
 
 @dataclasses.dataclass
@@ -585,12 +602,15 @@ def summary_table(runs: Sequence[Run], cfg: ControlConfig) -> pd.DataFrame:
         ang = np.concatenate([r.true_angle_deg for r in mine])
         sat = np.concatenate([r.saturated for r in mine])
         st = sorted({f for r in mine for f in r.metrics(cfg)["status"].split(",") if f != "ok"})
+        eps = [ep for r in mine for ep in r.ringing]
+        rings = {**ringing.summary(eps), "ringing_from_s": float("nan")}   # times of different references
         rows.append({"controller": c, "reference": "ALL", "rmse_deg": metrics.rmse(ref, ang),
                      "max_abs_err_deg": metrics.max_abs_err(ref, ang),
                      "rmse_measured_deg": metrics.rmse(ref, np.concatenate([r.angle_deg for r in mine])),
                      "saturated_pct": 100.0 * float(np.mean(sat != 0)),
                      "saturated_high_steps": int(np.sum(sat > 0)), "saturated_low_steps": int(np.sum(sat < 0)),
                      "reversal_pct": float(np.mean([r.metrics(cfg)["reversal_pct"] for r in mine])),
+                     **rings,
                      "status": ",".join(st) if st else "ok",
                      "us_per_step": float(np.mean([r.metrics(cfg)["us_per_step"] for r in mine]))})
     df = pd.DataFrame(rows)
@@ -598,8 +618,46 @@ def summary_table(runs: Sequence[Run], cfg: ControlConfig) -> pd.DataFrame:
     df["reduction_pct"] = [100.0 * (1.0 - row.rmse_deg / base[row.reference]) if row.reference in base.index
                            else float("nan") for row in df.itertuples()]
     cols = ["controller", "reference", "rmse_deg", "max_abs_err_deg", "reduction_pct", "rmse_measured_deg",
-            "saturated_pct", "saturated_high_steps", "saturated_low_steps", "reversal_pct", "status", "us_per_step"]
+            "saturated_pct", "saturated_high_steps", "saturated_low_steps", "reversal_pct", "ringing_episodes",
+            "ringing_s", "ringing_longest_s", "ringing_from_s", "ringing_swing_deg", "ringing_period_s", "status",
+            "us_per_step"]
     return df[cols]
+
+
+def ringing_words(eps: Sequence, rate_hz: float) -> str:
+    """A run's ringing in words: how many episodes, how long in all, the longest (where, how large, how fast)."""
+    longest = max(eps, key=lambda ep: (ep.duration_s, ep.largest_swing_deg))
+    nyq = abs(longest.period_s - 2.0 / rate_hz) < 0.5 / rate_hz
+    many = (f" in {len(eps)} episodes, {sum(ep.duration_s for ep in eps):.2g} s in all; the longest"
+            if len(eps) > 1 else "")
+    return (f"the error swings back and forth{many} " + longest.words()
+            + (f" (the {rate_hz / 2:g} Hz Nyquist frequency of the {rate_hz:g} Hz loop)" if nyq else ""))
+
+
+def ringing_comparison(table: pd.DataFrame) -> str | None:
+    """What ringing does to the reductions against ``pi``, said when any controller rings: time ringing per
+    controller over all references, and each reference where one of pi and a compared controller rings and the other
+    does not (there the reduction holds the difference). How much of each RMSE the ringing is depends on how it is
+    taken out (leaving out its seconds also leaves out PI's slow lag after each step), so no number is made up here:
+    ``benchmarks/bench_control.py`` takes the 5 Hz part out of every error and says what is left."""
+    if "pi" not in set(table.controller) or not (table["ringing_episodes"] > 0).any():
+        return None
+    pooled = table[table.reference == "ALL"].set_index("controller")
+    if len(pooled) < 2:
+        return None
+    secs = ", ".join(f"{c} {row.ringing_s:.2g} s" for c, row in pooled.iterrows())
+    per = table[table.reference != "ALL"].set_index(["controller", "reference"])["ringing_episodes"]
+    uneven = []
+    for ref in dict.fromkeys(table.reference[table.reference != "ALL"]):
+        pi_rings = per.get(("pi", ref), 0) > 0
+        for c in pooled.index:
+            if c != "pi" and (c, ref) in per.index and (per[(c, ref)] > 0) != pi_rings:
+                uneven.append(f"on {ref} pi rings and {c} does not (part of its reduction there is pi's ringing)"
+                              if pi_rings else f"on {ref} {c} rings and pi does not (its RMSE there holds its ringing)")
+    both = ("every controller rings" if (pooled["ringing_episodes"] > 0).all() else "some controllers ring")
+    return (f"ringing and the reductions against pi: {both} (over all references: {secs}); the P term closes the "
+            "same loop under each controller and a feedforward does not damp it, so every RMSE, pi's too, holds "
+            "ringing" + ("; " + "; ".join(uneven) if uneven else ""))
 
 
 def feedforward_cost(model: VBMM, n_steps: int = 200_000, repeats: int = 3, period_s: float = 0.1) -> dict:
@@ -650,11 +708,22 @@ def run_control(model: VBMM, plant: Plant, references: Sequence[Reference], cfg:
             runs.append(simulate_loop(c, ref, model, plant, cfg, ms_ff=ms_ff, kp=kp, ki=ki, noise=noise))
     table = summary_table(runs, cfg)
     warnings = []
+    by_name = {(r.controller, r.reference): r for r in runs}
     for row in table.itertuples():
         if row.reference != "ALL" and row.status != "ok":
-            warnings.append(f"{row.controller} on {row.reference}: {row.status} (command at a pressure limit on "
-                            f"{row.saturated_pct:.1f} % of the steps: {row.saturated_high_steps} high, "
-                            f"{row.saturated_low_steps} low; command reversals {row.reversal_pct:.0f} %)")
+            said = []
+            eps = by_name[(row.controller, row.reference)].ringing
+            if eps:
+                said.append(ringing_words(eps, cfg.rate_hz))
+            said.append(f"command at a pressure limit on {row.saturated_pct:.1f} % of the steps: "
+                        f"{row.saturated_high_steps} high, {row.saturated_low_steps} low")
+            said.append(f"command reversals {row.reversal_pct:.0f} % of all steps"
+                        + (f", more than the {cfg.oscillation_limit_pct:g} % limit"
+                           if row.reversal_pct > cfg.oscillation_limit_pct else ""))
+            warnings.append(f"{row.controller} on {row.reference}: {row.status} ({'; '.join(said)})")
+    note = ringing_comparison(table)
+    if note:
+        warnings.append(note)
     # a reference beyond what the plant can bend to at the top pressure: no controller can follow it
     reach = float(np.degrees(plant.model.equilibrium_angle(
         np.array([(cfg.p_max_bar_abs - cfg.atmosphere_bar) * PA_PER_BAR]))[0])) if hasattr(plant, "model") else None
@@ -697,6 +766,15 @@ def control_yaml_body(result: ControlResult, cfg: ControlConfig, *, model: VBMM,
                         "samples": int(ref.time_s.size), "duration_s": float(ref.time_s[-1]),
                         "resampled": ref.resampled} for ref in result.references],
         "summary": result.table.to_dict(orient="records"),
+        "ringing": {
+            "rule": (f"the error (reference - true angle) swings back and forth {ringing.RINGING_MIN_SWINGS} times "
+                     f"or more in a row, each swing at most {ringing.RINGING_MAX_HALF_PERIOD_S:g} s and larger than "
+                     f"band_deg peak to peak, the reference not turning and the angle moving at least as far as the "
+                     "reference over each"),
+            "band_deg": {f"{r.controller} on {r.reference}": r.ringing_band_deg for r in result.runs},
+            "episodes": [{"controller": r.controller, "reference": r.reference, **dataclasses.asdict(ep),
+                          "duration_s": ep.duration_s} for r in result.runs for ep in r.ringing],
+        },
         "warnings": result.warnings,
     }
     if result.ms_feedforward is not None:

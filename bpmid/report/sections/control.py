@@ -40,8 +40,9 @@ def build(doc, st, figs) -> None:
               "below are an upper bound for this model; the paper's are on its rig. A plant off the model: bpmid "
               "control --plant-modulus-scale, --plant-tau-scale, --plant-effect, --pressure-dynamics.", css="verdict")
     if k.warnings:
-        doc.p(f"Warnings of the control stage ({len(k.warnings)}): runs whose command touched a pressure limit or "
-              "reversed often.", css="verdict")
+        doc.p(f"Warnings of the control stage ({len(k.warnings)}): runs whose command touched a pressure limit, "
+              "runs that ring (the error swinging back and forth after a step or jump, with where, how long and how "
+              "large) and what ringing does to the comparison.", css="verdict")
         doc.list(k.warnings, css="muted")
     pooled = k.table[k.table.reference == "ALL"]
     with doc.panel("Paper's control result (quoted, the paper's data)", "quoted"):
@@ -65,6 +66,7 @@ def build(doc, st, figs) -> None:
               "machine).")
     f = find_figure(st.root, "control/fig18")
     if f:
-        doc.fig(f, "Closed-loop tracking (the paper's Fig. 18 in kind): (a) reference and response of each "
-                "controller, (b) tracking error, (c) command pressure (gauge) with its limits; references end to "
-                "end.")
+        doc.fig(f, "Closed-loop tracking (the paper's Fig. 18 in kind): (a) reference and measured response of each "
+                "controller, (b) tracking error with each run's ringing episodes marked, (c) command pressure (gauge) "
+                "with its limits; references end to end, every sample; (d) every sample of the longest ringing, a "
+                "marker each.")

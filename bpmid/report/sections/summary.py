@@ -142,7 +142,10 @@ def build(doc, st, figs) -> None:
         bad = k.troubled_runs()
         items.append(f"Control{_stale(st, 'control')} (closed loop on {refs}"
                      + (f", plant {plant}" if plant else "") + ", tracking RMSE): " + ", ".join(parts) + "."
-                     + (f" Caution: {bad}; the RMSEs compare loops that do not track well (the gains are "
+                     + (f" Caution: {bad}; the RMSEs compare loops that do not track well"
+                        + (" (an oscillating run rings: its error swings back and forth, control's warnings say where, "
+                           "how long and how large)" if "oscillating" in bad else "")
+                        + f" (the gains are "
                         f"{'the paper' + chr(39) + 's' if k.paper_gains() else 'the config' + chr(39) + 's'}, "
                         f"control.kp_bar_per_deg and control.ki_bar_per_deg_s set them for another muscle)."
                         if bad else ""))
