@@ -400,16 +400,24 @@ class Study:
             return self.run.stamp
         if not self.synthetic:
             return None
+        for f in self.data_log_files():
+            if not f.is_file() or (file_is_synthetic(f) and not file_is_twin(f)):
+                return "synthetic data (the logs' own headers say so)"
+        return TWIN_NOTE
+
+    def data_log_files(self) -> list[Path]:
+        """The study's input files that are data logs (text tables), each resolved as recorded: as given, else
+        relative to the run config's folder (where a run records them); a file not found stays as given."""
         cfg = _dict(_dict(self.run.provenance if self.run else {}).get("config")).get("path")
+        out = []
         for path in self.inputs():
             f = Path(path)
             if f.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat"):
                 continue
             if not f.is_absolute() and not f.is_file() and cfg and (Path(cfg).parent / f).is_file():
                 f = Path(cfg).parent / f   # recorded relative to the config's folder
-            if not f.is_file() or (file_is_synthetic(f) and not file_is_twin(f)):
-                return "synthetic data (the logs' own headers say so)"
-        return TWIN_NOTE
+            out.append(f)
+        return out
 
     def protocols(self) -> tuple[list[str], list[str], int]:
         """The protocols this study's data logs follow, as the ``manifest.yaml`` beside each log records them
@@ -427,17 +435,11 @@ class Study:
                 shipped[hashlib.sha256(f.read_bytes()).hexdigest()] = f.stem
             except OSError:
                 continue
-        cfg = _dict(_dict(self.run.provenance if self.run else {}).get("config")).get("path")
         paper: set[str] = set()
         other: set[str] = set()
         unknown = 0
         manifests: dict[Path, dict | None] = {}
-        for path in self.inputs():
-            f = Path(path)
-            if f.suffix.lower() not in (".csv", ".txt", ".tsv", ".dat"):
-                continue
-            if not f.is_absolute() and not f.is_file() and cfg and (Path(cfg).parent / f).is_file():
-                f = Path(cfg).parent / f   # recorded relative to the config's folder
+        for f in self.data_log_files():
             man = f.parent / "manifest.yaml"
             if man not in manifests:
                 try:
