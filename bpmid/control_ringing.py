@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from bpmid._jit import lazy_njit
+
 #: the smallest peak-to-peak swing (deg) that counts when the sensor is quiet: 1 deg is a fifth of the paper's PI
 #: tracking error (5.1 deg RMSE) and under half its VBMM-PI error (2.4 deg); a smaller ringing cannot move the
 #: comparison experiment 3 makes
@@ -77,11 +79,21 @@ def turning_points(x: np.ndarray, band: float) -> np.ndarray:
     """Indices of the alternating extremes of ``x`` that ``x`` left by more than ``band`` the other way (a dead-band
     walk), with the first sample's extreme and the last extreme reached; consecutive points differ by more than
     ``band``. Fewer than two points: ``x`` never moved by more than ``band``."""
-    x = np.asarray(x, float)
+    x = np.ascontiguousarray(x, dtype=np.float64)
     if x.size < 2:
         return np.zeros(0, np.int64)
-    pts = []
-    i_hi = i_lo = 0
+    out = np.empty(x.size + 1, np.int64)
+    n = _turning_points_kernel(x, float(band), out)
+    return out[:n].copy()
+
+
+@lazy_njit(cache=True)
+def _turning_points_kernel(x, band, out):   # pragma: no cover - compiled; its Python twin is tested as well
+    """The dead-band walk of :func:`turning_points`, sample by sample: writes the indices into ``out`` and returns
+    how many."""
+    n = 0
+    i_hi = 0
+    i_lo = 0
     direction = 0
     ext = 0
     for k in range(1, x.size):
@@ -93,23 +105,29 @@ def turning_points(x: np.ndarray, band: float) -> np.ndarray:
                 i_lo = k
             if x[i_hi] - x[i_lo] > band:
                 direction = 1 if i_hi > i_lo else -1
-                pts.append(min(i_hi, i_lo))
+                out[n] = min(i_hi, i_lo)
+                n += 1
                 ext = max(i_hi, i_lo)
         elif direction > 0:
             if v > x[ext]:
                 ext = k
             elif x[ext] - v > band:
-                pts.append(ext)
-                direction, ext = -1, k
+                out[n] = ext
+                n += 1
+                direction = -1
+                ext = k
         else:
             if v < x[ext]:
                 ext = k
             elif v - x[ext] > band:
-                pts.append(ext)
-                direction, ext = 1, k
+                out[n] = ext
+                n += 1
+                direction = 1
+                ext = k
     if direction != 0:
-        pts.append(ext)
-    return np.asarray(pts, np.int64)
+        out[n] = ext
+        n += 1
+    return n
 
 
 def episodes(time_s: np.ndarray, reference_deg: np.ndarray, angle_deg: np.ndarray, band_deg: float, *,

@@ -27,6 +27,9 @@ def _loop() -> None:
     # the loop itself, not run_control: its Maxwell-slip feedforward runs the open-loop forward kernel, which the
     # other half compiles (both compiled it at once before)
     simulate_loop("vbmm-pi", short, base, build_plant(base, cfg=cfg), cfg)
+    from bpmid.control_ringing import turning_points
+
+    turning_points(short.angle_deg, 1.0)   # the ringing check's dead-band walk, which every control run makes
     CK.inverse_incremental(short.time_s, np.radians(short.angle_deg), *pack_model(base))
     t = np.arange(0.0, 20.0, 0.1)
     log = from_arrays("warm", t, 1e5 * (0.2 + 0.4 * np.abs(np.sin(t / 3.0))))

@@ -33,6 +33,47 @@ def _ringing_step(a: float, n: int = 200, rate_hz: float = 10.0, height: float =
 # ---------------------------------------------------------------------------------------------------------------
 # the detector on signals whose answer is known
 # ---------------------------------------------------------------------------------------------------------------
+def _walk(x, band):
+    """The dead-band walk written out in plain Python, as the module first had it (the compiled kernel's twin)."""
+    pts, i_hi, i_lo, direction, ext = [], 0, 0, 0, 0
+    for k in range(1, len(x)):
+        v = x[k]
+        if direction == 0:
+            i_hi = k if v > x[i_hi] else i_hi
+            i_lo = k if v < x[i_lo] else i_lo
+            if x[i_hi] - x[i_lo] > band:
+                direction = 1 if i_hi > i_lo else -1
+                pts.append(min(i_hi, i_lo))
+                ext = max(i_hi, i_lo)
+        elif direction > 0:
+            if v > x[ext]:
+                ext = k
+            elif x[ext] - v > band:
+                pts.append(ext)
+                direction, ext = -1, k
+        else:
+            if v < x[ext]:
+                ext = k
+            elif v - x[ext] > band:
+                pts.append(ext)
+                direction, ext = 1, k
+    if direction != 0:
+        pts.append(ext)
+    return pts
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_compiled_turning_points_equal_the_plain_walk_and_alternate_beyond_the_band(seed):
+    rng = np.random.default_rng(seed)
+    x = np.cumsum(rng.normal(0.0, 1.0, 3000))
+    band = 2.5
+    p = R.turning_points(x, band)
+    assert p.tolist() == _walk(x, band)
+    d = np.diff(x[p])
+    assert p.size > 10 and np.all(np.abs(d) > band) and np.all(np.sign(d[1:]) == -np.sign(d[:-1]))
+    assert R.turning_points(np.zeros(5), band).size == 0 and R.turning_points(x[:1], band).size == 0
+
+
 def test_a_lightly_damped_step_response_is_one_episode_with_its_numbers():
     t, r, y = _ringing_step(0.9)
     eps = R.episodes(t, r, y, R.swing_band_deg(0.0))
