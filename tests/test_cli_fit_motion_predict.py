@@ -355,3 +355,28 @@ def test_a_log_at_another_step_or_in_milliseconds_under_seconds_is_said_and_refu
     r = runner.invoke(app, ["predict", str(tmp_path / "src.csv"), "--params", str(params),
                             "--out", str(tmp_path / "same"), "--strict"])
     assert r.exit_code == 0, r.output
+
+
+def test_the_unit_fix_a_warning_gives_works_when_followed_for_bracketed_headers_and_units_rows(fitted, tmp_path):
+    """A unit in brackets ('Time (s)') or in a units row cannot be overridden by a flag or a column map (a unit
+    stated twice must agree: such a map is refused), so the warning's advice was a map that failed when followed.
+    It now says to correct the file's header (or units row), and doing so reads the log right."""
+    params, _ = fitted
+    rng = np.random.default_rng(12)
+    src = pd.read_csv(write_log(tmp_path / "src.csv", 2.0, 30.0, seed=4), comment="#")
+    ms = src.time_s.to_numpy() * 1000 + np.r_[0.0, rng.uniform(-0.4, 0.4, len(src) - 1)]
+    rows = "".join(f"{a:.3f},{b},{c}\n" for a, b, c in zip(ms, src.pressure_bar, src.angle_deg))
+    for name, head, advice, fixed in (
+            ("bracket", "Time (s),Pressure (bar),Angle (deg)\n", "correct the header in the file to 'Time (ms)'",
+             "Time (ms),Pressure (bar),Angle (deg)\n"),
+            ("units_row", "Time,Pressure,Angle\ns,bar,deg\n", "correct the units row under the header to ms",
+             "Time,Pressure,Angle\nms,bar,deg\n")):
+        log = tmp_path / f"{name}.csv"
+        log.write_text("# pressure_reference: absolute\n" + head + rows)
+        r = runner.invoke(app, ["predict", str(log), "--params", str(params), "--out", str(tmp_path / name)])
+        assert r.exit_code == 0 and advice in r.output and "--columns" not in r.output.split(advice)[0][-300:], \
+            r.output
+        log.write_text("# pressure_reference: absolute\n" + fixed + rows)   # the advice, followed
+        r = runner.invoke(app, ["predict", str(log), "--params", str(params), "--out", str(tmp_path / f"{name}_ok"),
+                                "--strict"])
+        assert r.exit_code == 0, r.output

@@ -82,7 +82,7 @@ def unit_fix(lg, q: str, unit: str) -> str:
     """How to state that the ``q`` column of ``lg`` is in ``unit``, in the form that works given where its current
     unit came from: a unit flag is refused as a conflict when the header (or units row) states the unit, so then
     the hint is the column map that overrides the name (``--columns time_ms=time_s``)."""
-    from bpmid.io.tables import UNIT_FLAGS, columns_arg
+    from bpmid.io.tables import UNIT_FLAGS, _unit_part, columns_arg
 
     col = _column(lg, q)
     h, src = col.get("column"), col.get("unit_from")
@@ -94,12 +94,20 @@ def unit_fix(lg, q: str, unit: str) -> str:
     if h is None or src is None:
         return f"state {flag} {unit} (or name the column {name})" if flag else f"name the column {name}"
     mapped = f"{columns_arg(f'{name}={h}')} (config io.columns: {{'{h}': {name}}})"
+    if src == "header" and _unit_part(str(h))[1] is not None:
+        # a unit in brackets or after a slash ('Time (s)'): a flag or a column map that contradicts it is refused
+        # (a unit stated twice must agree), so the file's header is what to correct
+        raw = _unit_part(str(h))[0]
+        return (f"the header {h!r} states {col.get('unit')}, and a flag or column map that says otherwise is refused "
+                f"(a unit stated twice must agree): correct the header in the file to '{raw} ({unit})', or rename "
+                f"the column {name}")
     if src == "header":
         refused = f", so {flag} {unit} would be refused as a conflict" if flag else ""
         return f"the header {h!r} states {col.get('unit')}{refused}: map the column with its unit, {mapped}, or " \
                f"rename the column {name}"
     if src == "units row":
-        return f"correct the units row under the header, or map the column with its unit: {mapped}"
+        return (f"correct the units row under the header to {unit} (a flag or column map that contradicts it is "
+                f"refused: a unit stated twice must agree)")
     if src.startswith("'#"):
         return f"correct the line '# {q}_unit:' to {unit}, or map the column with its unit: {mapped}"
     if src == "column map":
