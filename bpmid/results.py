@@ -421,11 +421,20 @@ class Result:
         """The relative standard error of each constant (house style; stamped as the inputs' headers say)."""
         from bpmid.plots.common import OKABE_ITO, finish, new_figure
 
-        ps = [p for p in self.params.values() if p.value]
+        ps = [p for p in self.params.values() if p.value or p.stderr is None]
         fig, ax = new_figure(1, 1, width=6.4, height=0.3 * max(len(ps), 3) + 1.6, left=2.2)
         if ps:
-            rel = [100.0 * (p.rel_stderr or 0.0) for p in ps]
-            ax.barh([f"{p.name} ({p.unit})" for p in ps], rel, color=OKABE_ITO["blue"])
+            # a constant with no standard error (held, not determined, fixed) gets no bar but its reason: a bar of
+            # length 0 read as perfectly determined
+            rel = [100.0 * p.rel_stderr if p.stderr is not None and p.rel_stderr is not None else 0.0 for p in ps]
+            ax.barh([f"{p.name} ({p.unit})" if p.unit else p.name for p in ps], rel, color=OKABE_ITO["blue"])
+            for k, p in enumerate(ps):
+                if p.stderr is None or p.rel_stderr is None:
+                    why = ("not determined (held)" if p.identifiability.startswith("not identifiable") else
+                           "held or fixed" if p.identifiability.startswith("fixed") or p.stderr is None else
+                           "a value of 0")
+                    ax.text(0.01, k, f"no standard error: {why}", transform=ax.get_yaxis_transform(), va="center",
+                            fontsize=7, color="0.35")
             ax.invert_yaxis()
         else:
             ax.text(0.5, 0.5, "no constants in this file", transform=ax.transAxes, ha="center", color="0.4")

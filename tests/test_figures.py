@@ -209,3 +209,24 @@ def test_figures_of_loaded_files_are_in_the_house_style(timed_small_study):
         if name == "vbmm_fit.yaml":
             assert fig.axes[0].get_xlabel() == PRESSURE_LABEL and fig.axes[0].get_ylabel().endswith("(°)")
         plt.close(fig)
+
+
+def test_a_constant_without_a_standard_error_gets_its_reason_not_a_bar_of_zero(timed_small_study, tmp_path):
+    """A loaded discovery drew its held (not determined) constants as bars of length 0 on 'relative standard error',
+    which reads as perfectly determined: each such constant gets no bar and says why."""
+    import yaml
+
+    import bpmid
+    from bpmid.plots.check import text_problems
+
+    d = yaml.safe_load((timed_small_study / "vbmm_fit.yaml").read_text())
+    held = [k for k, v in d["material"].items() if isinstance(v, dict) and v.get("stderr") is None]
+    assert held   # G_inf: held at its prior (the angle hardly depends on it)
+    # the figure a loaded result draws from its file's constants (a discovery's .plot(); every result's fallback)
+    fig = bpmid.load(timed_small_study / "vbmm_fit.yaml")._params_figure()
+    ax = fig.axes[0]
+    labels = [t.get_text().split(" (")[0] for t in ax.get_yticklabels()]
+    said = [t.get_text() for t in ax.texts]
+    assert set(held) <= set(labels) and len(said) >= len(held)
+    assert all(s.startswith("no standard error: ") for s in said) and not text_problems(fig)
+    plt.close(fig)
