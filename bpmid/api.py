@@ -649,6 +649,13 @@ def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequ
     spec = reference if isinstance(reference, str) else ",".join(str(r) for r in reference)
     refs = load_references(spec, cfg.rate_hz, io=cfg_all.section("io"))
     res = run_control(model, plant, refs, cfg, controllers=controllers)
+    from bpmid.models.vbmm.rig import fit_body, loop_step_warning
+
+    for fit, m, what in ((params, model, "the controller's model"),
+                         (plant_params, plant_base, "the plant's model")):
+        if fit is not None and not isinstance(fit, VBMM):
+            res.warnings[:0] = loop_step_warning(cfg.rate_hz, fit_body(fit), m.material.tauG + (m.material.tauK or ()),
+                                                 what=what)
     # given as BpmidWarning; not refused under io.strict: they say how the loop ran, not that an input is wrong
     # (bpmid control and bpmid run print them and write the result alike)
     warn_caller(list(res.warnings))

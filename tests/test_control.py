@@ -324,3 +324,35 @@ def test_a_reference_in_radians_under_degrees_is_said(tmp_path):
     pd.DataFrame({"time_s": np.arange(50) * 0.1, "angle_deg": 40 + 20 * np.sin(np.arange(50) * 0.2)}).to_csv(
         deg, index=False)
     assert read_reference(deg, 10.0).resampled is None
+
+
+def test_a_fit_made_at_another_sampling_step_than_the_loop_is_said(tmp_path):
+    """The loop runs the controller's model at its own rate (10 Hz); a fit made on 100 Hz logs moved the VBMM-PI's
+    feedforward by some 23 % of its fast branch's moduli without a word, while predict and the C export say the
+    step. Said now (and written with the result); a fit at the loop's rate says nothing."""
+    import warnings as W
+
+    import yaml
+
+    import bpmid
+    from bpmid.io.results import provenance, write_result
+
+    body = vbmm_yaml_body(MODEL)
+    ref = builtin_reference("steps")
+    pd.DataFrame({"time_s": ref.time_s[:150], "angle_deg": ref.angle_deg[:150]}).to_csv(tmp_path / "r.csv",
+                                                                                      index=False)
+    said = {}
+    for name, step in (("fast", 0.01), ("same", 0.1)):
+        p = tmp_path / f"{name}.yaml"
+        write_result(p, "bpmid.vbmm/1", {**body, "fit": {"logs": [{"name": "a", "samples": 100, "step_s": step}]}},
+                     provenance(timestamp=False))
+        with W.catch_warnings(record=True):
+            W.simplefilter("always")
+            res = bpmid.control(p, reference=str(tmp_path / "r.csv"), controllers="pi")
+        said[name] = [w for w in res.warnings if "the loop runs the controller's model" in w]
+        res.save(tmp_path / f"out_{name}")
+        kept = yaml.safe_load((tmp_path / f"out_{name}" / "control.yaml").read_text())["warnings"]
+        assert [w for w in kept if "the loop runs" in w] == said[name]
+    assert len(said["fast"]) == 1 and "fitted on logs sampled every 0.01 s" in said["fast"][0]
+    assert "every 0.1 s (10 Hz)" in said["fast"][0] and "control.rate_hz" in said["fast"][0]
+    assert said["same"] == []
