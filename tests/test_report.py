@@ -614,3 +614,13 @@ def test_report_on_a_discovery_folder_states_what_its_files_record(study, tmp_pa
     assert runner.invoke(app, ["report", str(d2)]).exit_code == 0
     md = " ".join((d2 / "report.md").read_text().split())
     assert "this study's logs follow the paper's protocols (bpmid's shipped fitting_set" in md
+    # discovery's cautions reach the summary, not only the Discovery section (a log of another muscle mixed in)
+    disc = yaml.safe_load((d2 / "discovery.yaml").read_text())
+    disc["cautions"] = ["fitting log x.csv bends 31% more than the model predicts at its pressures, against the other "
+                        "logs (the least-squares scale ...): runs of one muscle differ by a few per cent"]
+    (d2 / "discovery.yaml").write_text(yaml.safe_dump(disc, sort_keys=False))
+    assert runner.invoke(app, ["report", str(d2)]).exit_code == 0
+    md = " ".join((d2 / "report.md").read_text().split())
+    summary = md[md.index("## Summary"):md.index("## Summary") + 3000]
+    assert ("Read its 1 caution(s) before the verdict (Discovery, below): fitting log x.csv bends 31% more than the "
+            "model predicts at its pressures, against the other logs.") in summary

@@ -258,6 +258,8 @@ class DiscoveryInfo:
     scoring: str = ""
     #: where the starting VBMM came from (discovery.yaml base_from), None when the file does not say
     base_from: str | None = None
+    #: what a careful user should know before trusting the verdict (discovery.yaml cautions)
+    cautions: list = dataclasses.field(default_factory=list)
 
 
 def fmt_value(v) -> str:
@@ -727,7 +729,8 @@ def load_discovery(rd: _Reader) -> DiscoveryInfo | None:
                          any(_dict(_dict(r).get("rival_outside_catalogue")).get("withheld_the_round")
                              for r in _list(d.get("rounds"))),
                          _num(gap.get("raw_before_rmse_deg")), _num(gap.get("raw_after_rmse_deg")),
-                         _text(gap.get("scoring")) or "", _text(d.get("base_from")))
+                         _text(gap.get("scoring")) or "", _text(d.get("base_from")),
+                         [str(c) for c in _list(d.get("cautions")) if isinstance(c, str)])
 
 
 def load_control(rd: _Reader) -> ControlInfo | None:

@@ -2,6 +2,7 @@
 comparison ranking, the discovery verdict, the control result, and whether the data are synthetic."""
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from bpmid.report.doc import fmt, pm
@@ -125,7 +126,10 @@ def build(doc, st, figs) -> None:
                 if d.withheld else "no missing effect found")
         items.append(f"Discovery{_stale(st, 'discover')}: {what}; held-out RMSE {fmt(d.before_deg)}° before, "
                      f"{fmt(d.after_deg)}° after, sensor-noise floor {fmt(d.floor_deg)}°"
-                     + ("; an unexplained remainder is left." if d.unexplained else "."))
+                     + ("; an unexplained remainder is left." if d.unexplained else ".")
+                     + (f" Read its {len(d.cautions)} caution(s) before the verdict (Discovery, below): "
+                        + "; ".join(re.split(r"[(:]", c)[0].strip().rstrip(",;") for c in d.cautions[:2])
+                        + ("; ..." if len(d.cautions) > 2 else "") + "." if d.cautions else ""))
     if st.control is not None:
         k = st.control
         pi, vb, ms = k.pooled("pi"), k.pooled("vbmm-pi"), k.pooled("ms-pi")
