@@ -630,8 +630,12 @@ def ringing_words(eps: Sequence, rate_hz: float) -> str:
     nyq = abs(longest.period_s - 2.0 / rate_hz) < 0.5 / rate_hz
     many = (f" in {len(eps)} episodes, {sum(ep.duration_s for ep in eps):.2g} s in all; the longest"
             if len(eps) > 1 else "")
+    largest = max(ep.largest_swing_deg for ep in eps)
     return (f"the error swings back and forth{many} " + longest.words()
-            + (f" (the {rate_hz / 2:g} Hz Nyquist frequency of the {rate_hz:g} Hz loop)" if nyq else ""))
+            + (f" (the {rate_hz / 2:g} Hz Nyquist frequency of the {rate_hz:g} Hz loop)" if nyq else "")
+            # summary.csv's ringing_swing_deg is the largest of any episode: said when it is not the longest's
+            + (f"; the largest swing back in any episode {largest:.3g} deg peak to peak"
+               if largest > longest.largest_swing_deg * 1.005 else ""))
 
 
 def ringing_comparison(table: pd.DataFrame) -> str | None:

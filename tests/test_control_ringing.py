@@ -248,3 +248,16 @@ def test_fig18_labels_each_panels_marks_beside_it_and_draws_every_sample(steps_r
     np.testing.assert_array_equal(zl.get_ydata(), run.angle_deg[k])
     assert zl.get_marker() not in (None, "None", "", " ")
     assert "rings" in d.get_title(loc="left")
+
+
+def test_the_warning_gives_the_largest_swing_summary_csv_gives_when_it_is_not_the_longest_episodes():
+    """The warning described the longest episode (10.2 deg) while summary.csv's ringing_swing_deg is the largest
+    of any (18.85 deg): the warning now gives that one too when they differ."""
+    from bpmid.control import ringing_words
+
+    long_small = R.Episode(10.0, 12.0, 20, 8.0, 8.0, 1.0, 0.2)
+    short_big = R.Episode(30.0, 31.0, 8, 18.0, 18.0, 2.0, 0.2)
+    said = ringing_words([long_small, short_big], 10.0)
+    assert "the longest from 10 s for 2 s" in said and "the largest swing back in any episode 18 deg" in said
+    assert R.summary([long_small, short_big])["ringing_swing_deg"] == 18.0
+    assert "largest swing back in any" not in ringing_words([long_small], 10.0)
