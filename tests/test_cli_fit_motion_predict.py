@@ -256,8 +256,10 @@ def test_a_clipped_angle_is_named_and_strict_refuses_it(tmp_path, data):
     res = runner.invoke(app, ["fit", "motion", str(clipped), "--out", str(tmp_path / "s.yaml"), "--no-plot",
                               "--strict"])
     assert res.exit_code == 2 and "clips it" in res.output and not (tmp_path / "s.yaml").exists()
-    res = runner.invoke(app, ["fit", "motion", str(data["fit"]), "--out", str(tmp_path / "u.yaml"), "--no-plot"])
+    # --no-figure, as fit relax and control spell it, is the same option
+    res = runner.invoke(app, ["fit", "motion", str(data["fit"]), "--out", str(tmp_path / "u.yaml"), "--no-figure"])
     assert not any("clips it" in w for w in yaml.safe_load((tmp_path / "u.yaml").read_text())["warnings"])
+    assert res.exit_code == 0 and not (tmp_path / "u.png").exists()
 
 
 

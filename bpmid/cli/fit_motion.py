@@ -26,7 +26,7 @@ def fit_motion_command(
                                                              "default: motion.relax_fit or the paper's constants."),
     config: Optional[Path] = typer.Option(None, "--config", help="Config file (sections io, model, motion)."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Figure path (default: --out with .png)."),
-    no_plot: bool = typer.Option(False, "--no-plot", help="Write no figure."),
+    no_plot: bool = typer.Option(False, "--no-plot", "--no-figure", help="Write no figure (--no-figure, as fit relax and control say it, is the same)."),
     logopts=None,
     figures: Optional[str] = figures_option(),
 ):
