@@ -453,8 +453,7 @@ def predict(logs, params, *, config=None):
     warnings += plaus.beyond_fit_warnings(motion, fit_body)
     from bpmid.models.vbmm.rig import step_warnings
 
-    mat = (model.base if hasattr(model, "base") else model).material
-    warnings += step_warnings(motion, fit_body, tuple(mat.tauG) + tuple(mat.tauK or ()))
+    warnings += step_warnings(motion, fit_body, (model.base if hasattr(model, "base") else model).material)
     _give(warnings, cfg, "the prediction")
     body = {**predict_yaml_body(preds, params=ppath, model=model), "warnings": warnings}
     prov = plaus.attach(provenance(list(paths) + ([ppath] if ppath else []), config=cfg), motion, warnings)
@@ -649,13 +648,11 @@ def control(params, *, reference: str | Sequence[str] = "all", controllers: Sequ
     spec = reference if isinstance(reference, str) else ",".join(str(r) for r in reference)
     refs = load_references(spec, cfg.rate_hz, io=cfg_all.section("io"))
     res = run_control(model, plant, refs, cfg, controllers=controllers)
-    from bpmid.models.vbmm.rig import fit_body, loop_step_warning
+    from bpmid.models.vbmm.rig import loop_step_warning
 
-    for fit, m, what in ((params, model, "the controller's model"),
-                         (plant_params, plant_base, "the plant's model")):
+    for fit, m, what in ((params, model, "the controller's model"), (plant_params, plant_base, "the plant's model")):
         if fit is not None and not isinstance(fit, VBMM):
-            res.warnings[:0] = loop_step_warning(cfg.rate_hz, fit_body(fit), m.material.tauG + (m.material.tauK or ()),
-                                                 what=what)
+            res.warnings[:0] = loop_step_warning(cfg.rate_hz, fit, m, what=what)
     # given as BpmidWarning; not refused under io.strict: they say how the loop ran, not that an input is wrong
     # (bpmid control and bpmid run print them and write the result alike)
     warn_caller(list(res.warnings))

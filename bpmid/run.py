@@ -521,11 +521,9 @@ def stage_control(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     refs = load_references("all", cfg.rate_hz)
     result = run_control(model, plant, refs, cfg)
     if ctx.get("vbmm_fit") is not None:
-        from bpmid.models.vbmm.rig import fit_body, loop_step_warning
+        from bpmid.models.vbmm.rig import loop_step_warning
 
-        result.warnings[:0] = loop_step_warning(cfg.rate_hz, fit_body(ctx["vbmm_fit"]),
-                                                model.material.tauG + (model.material.tauK or ()),
-                                                what="the controller's model")
+        result.warnings[:0] = loop_step_warning(cfg.rate_hz, ctx["vbmm_fit"], model, what="the controller's model")
     from bpmid.io import plausibility as plaus
 
     plaus.emit([f"control: {w}" for w in result.warnings])   # said on stderr as bpmid control says them

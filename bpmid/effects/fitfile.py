@@ -108,7 +108,7 @@ def settings_words(effect_id: str, settings) -> str:
     return ", ".join(word(k, v) for k, v in settings.items())
 
 
-def _fit_body(fit) -> tuple[dict, str | Path | None]:
+def fit_body(fit) -> tuple[dict, str | Path | None]:
     """The mapping of a fit and its file: read from a ``bpmid.vbmm/1`` path, or a loaded result's (``to_dict``,
     ``source``) or a mapping."""
     if isinstance(fit, (str, Path)):
@@ -125,7 +125,7 @@ def augmented_from_file(base, fit):
     :class:`~bpmid.effects.base.AugmentedVBMM`, or ``base`` itself when the fit lists none."""
     from bpmid.effects.base import AugmentedVBMM
 
-    data, where = _fit_body(fit)
+    data, where = fit_body(fit)
     effects, params = effects_from_yaml(data.get("effects"), where)
     return AugmentedVBMM(base, effects, params) if effects else base
 
@@ -136,7 +136,7 @@ def refuse_effects_list(fit, command: str, instead: str) -> None:
     the key, with ``instead``: where that command takes effects), never run silently without them."""
     if fit is None:
         return
-    data, path = _fit_body(fit)
+    data, path = fit_body(fit)
     if data.get("effects"):
         ids = ", ".join(str(e.get("id")) if isinstance(e, dict) else "?" for e in data["effects"])
         raise InputError(f"{command} uses only the VBMM constants of this file, and it lists effects ({ids}) that "

@@ -152,6 +152,11 @@ class Material:
     def tau_K(self) -> tuple[float, ...]:
         return self.tauG if self.tauK is None else self.tauK
 
+    @property
+    def time_constants(self) -> tuple[float, ...]:
+        """Every positive time constant (s), of G and of K when split: what the sampling step is judged against."""
+        return tuple(t for t in self.tauG + (self.tauK or ()) if t > 0)
+
     @functools.cached_property
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(G, tauG, K, tau_K) as float arrays, made once (the instance is frozen; a fit runs the forward model
@@ -848,7 +853,7 @@ def sampling_note(material: Material, logs) -> str | None:
     import numpy as np
 
     steps = [float(np.median(np.diff(np.asarray(lg.time_s, float)))) for lg in logs if np.size(lg.time_s) > 1]
-    taus = [t for t in material.tauG + (material.tauK or ()) if t > 0]
+    taus = material.time_constants
     if not steps or not taus:
         return None
     dt, tau = float(np.median(steps)), min(taus)

@@ -57,23 +57,23 @@ def fit_rig(data: dict) -> tuple[list[float], list[float], bool]:
 STEP_SPREAD = 0.01
 
 
-def step_off(dt: float, fit_body: Mapping | None, taus: Iterable[float]) -> tuple[float, str, float] | None:
-    """How far a model run at step ``dt`` (s) acts from the fit's: (the share of the shortest branch's moduli it is
-    off, the fit's step in words, that branch's time constant), or None when the fit file records no step (written
-    before it did) or the model has no time constant. The hereditary sum's error against the smooth history grows
-    as about step / (2 tau) of the shortest branch's moduli, so the share is the step's difference from the nearest
-    fitting log's over 2 tau (:data:`~bpmid.models.vbmm.model.SAMPLING_NOTE_SHARE` is where it is said)."""
+def step_off(dt: float, fit_body: Mapping | None, material) -> tuple[float, str, float] | None:
+    """How far a model of ``material`` run at step ``dt`` (s) acts from the fit's: (the share of the shortest branch's
+    moduli it is off, the fit's step in words, that branch's time constant), or None when the fit file records no
+    step (written before it did) or the model has no time constant. The hereditary sum's error against the smooth
+    history grows as about step / (2 tau) of the shortest branch's moduli, so the share is the step's difference
+    from the nearest fitting log's over 2 tau (:data:`~bpmid.models.vbmm.model.SAMPLING_NOTE_SHARE` is where it is
+    said)."""
     steps, _atm, _gauge = fit_rig(dict(fit_body or {}))
-    taus = [float(t) for t in taus if t is not None and float(t) > 0]
-    if not steps or not taus:
+    if not steps or not material.time_constants:
         return None
-    tau = min(taus)
+    tau = min(material.time_constants)
     lo, hi = min(steps), max(steps)
     fitted = f"{lo:.4g} s" if hi <= lo * (1.0 + STEP_SPREAD) else f"{lo:.4g}-{hi:.4g} s"
     return min(abs(dt - s) for s in steps) / (2.0 * tau), fitted, tau
 
 
-def step_warnings(logs: Iterable, fit_body: Mapping | None, taus: Iterable[float]) -> list[str]:
+def step_warnings(logs: Iterable, fit_body: Mapping | None, material) -> list[str]:
     """A warning for each log sampled at a step other than the fit's, by enough to move the prediction
     (:func:`step_off` over :data:`~bpmid.models.vbmm.model.SAMPLING_NOTE_SHARE`, the share at which a fit notes its
     step). A rate slip, such as milliseconds read as seconds, gets the log's own check instead
@@ -81,7 +81,6 @@ def step_warnings(logs: Iterable, fit_body: Mapping | None, taus: Iterable[float
     from bpmid.io.plausibility import MAX_MOTION_STEP_S
     from bpmid.models.vbmm.model import SAMPLING_NOTE_SHARE
 
-    taus = list(taus)
     out = []
     for lg in logs:
         t = np.asarray(lg.time_s, float)
@@ -90,25 +89,27 @@ def step_warnings(logs: Iterable, fit_body: Mapping | None, taus: Iterable[float
         dt = float(np.median(np.diff(t)))
         if dt >= MAX_MOTION_STEP_S:   # a rate no rig logs at: the log's own check says it, with the unit fix
             continue
-        off = step_off(dt, fit_body, taus)
+        off = step_off(dt, fit_body, material)
         if off is not None and off[0] > SAMPLING_NOTE_SHARE:
             share, fitted, tau = off
             name = str(lg.path) if getattr(lg, "path", None) is not None else str(lg.name)
             out.append(f"{name}: samples are {dt:.4g} s apart ({1.0 / dt:.3g} Hz), the constants were fitted on logs "
                        f"sampled every {fitted}; the model's hereditary sum takes each pressure step as a jump at its "
                        f"sample, so at this step the moduli of its shortest branch ({tau:.3g} s) act some "
-                       f"{100.0 * share:.0f} % off the fitted ones and the prediction is not the fitted model's (check the time "
-                       f"unit; resample the log to the fit's step, or fit on logs taken at this rate)")
+                       f"{100.0 * share:.0f} % off the fitted ones and the prediction is not the fitted model's (check "
+                       f"the time unit; resample the log to the fit's step, or fit on logs taken at this rate)")
     return out
 
 
-def loop_step_warning(rate_hz: float, fit_body: Mapping | None, taus: Iterable[float], *, what: str) -> list[str]:
-    """A warning when a loop runs the fitted model (``what``: the controller's model, the plant) at a rate whose
-    step differs from the fit's by enough to move it (:func:`step_off`)."""
+def loop_step_warning(rate_hz: float, fit, model, *, what: str) -> list[str]:
+    """A warning when a loop runs ``model`` (a VBMM; ``what``: the controller's model, the plant's), fitted as the
+    ``bpmid.vbmm/1`` file or result ``fit`` records, at a rate whose step differs from the fit's by enough to move
+    it (:func:`step_off`)."""
+    from bpmid.effects.fitfile import fit_body
     from bpmid.models.vbmm.model import SAMPLING_NOTE_SHARE
 
     dt = 1.0 / float(rate_hz)
-    off = step_off(dt, fit_body, taus)
+    off = step_off(dt, fit_body(fit)[0], model.material)
     if off is None or off[0] <= SAMPLING_NOTE_SHARE:
         return []
     share, fitted, tau = off
@@ -117,22 +118,3 @@ def loop_step_warning(rate_hz: float, fit_body: Mapping | None, taus: Iterable[f
             f"the moduli of its shortest branch ({tau:.3g} s) act some {100.0 * share:.0f} % off the fitted ones; run "
             f"the loop at the fit's rate (config control.rate_hz) or fit on logs taken at the loop's rate"]
 
-
-def fit_body(params) -> dict | None:
-    """The body of a motion fit given as a ``bpmid.vbmm/1`` path or a result holding one (``to_dict``); None for
-    anything else (a relaxation fit, a model built in memory), which records no fitting step."""
-    if hasattr(params, "to_dict"):
-        body = params.to_dict()
-        return body if str(body.get("schema", "")).startswith("bpmid.vbmm/") else None
-    try:
-        from pathlib import Path
-
-        path = Path(params)
-    except TypeError:
-        return None
-    if path.suffix.lower() not in (".yaml", ".yml") or not path.is_file():
-        return None
-    from bpmid.io.yamlsafe import load_file
-
-    data = load_file(path, "fit file")[0]
-    return data if isinstance(data, dict) and str(data.get("schema", "")).startswith("bpmid.vbmm/") else None
