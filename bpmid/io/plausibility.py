@@ -414,11 +414,10 @@ def _relax_time_warnings(r, ramp_s: float | None) -> list[str]:
     unit = col.get("unit", "s")
     span = float(t[-1] - t[0])
     if span < MIN_DURATION_S:
-        fix = (unit_fix(r, "time", "s") if unit != "s" else "check that the time column holds seconds")
+        fix = (f"if the times are seconds, not {unit}, {unit_fix(r, 'time', 's')}" if unit != "s" else
+               "check that the time column holds seconds")
         return [f"{_name(r)}: the test lasts only {span:.3g} s ({t.size} samples), too short for a relaxation test "
-                f"(a ramp of seconds and a hold of minutes): if the times are seconds, not {unit}, {fix}"
-                if unit != "s" else f"{_name(r)}: the test lasts only {span:.3g} s ({t.size} samples), too short for "
-                f"a relaxation test (a ramp of seconds and a hold of minutes): {fix}"]
+                f"(a ramp of seconds and a hold of minutes): {fix}"]
     if unit == "s" and ramp_s is not None and ramp_s > RELAX_RAMP_MAX_S:
         return [f"{_name(r)}: the loading ramp lasts {ramp_s:.4g} s and the test {span:.4g} s: a relaxation test "
                 f"ramps in seconds to approximate a step, so these look like milliseconds read as seconds. If so, "

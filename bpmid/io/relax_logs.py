@@ -149,10 +149,11 @@ def _instrument_specimen(name: str, meta: dict, meta_lines: dict, path: Path) ->
 
 
 def _specimen_value(name: str, cfg_value: float | None, meta: dict, path: Path, *, meta_lines: dict | None = None,
-                    source: dict | None = None) -> float:
+                    source: dict | None = None, required: bool = True) -> float | None:
     """The specimen's ``name``: from the config, a ``# name:`` line, or an instrument's line above the table
     (:func:`_instrument_specimen`, its lines in ``meta_lines``); the file's and the config's must agree. Where it came
-    from goes into ``source[name]`` when given."""
+    from goes into ``source[name]`` when given. Not ``required`` (a file whose strain and stress are read): None when
+    nothing states it, an instrument's line it cannot read included."""
     file_value = meta.get(name)
     said = "file header"
     if file_value is not None:
@@ -164,9 +165,9 @@ def _specimen_value(name: str, cfg_value: float | None, meta: dict, path: Path, 
         try:
             got = _instrument_specimen(name, meta, meta_lines or {}, path)
         except InputError:
-            if cfg_value is None:
+            if cfg_value is None and required:
                 raise
-            got = None   # the config states it: a line above the table it cannot read is no reason to refuse
+            got = None   # the config states it, or it is not needed: a line it cannot read is no reason to refuse
         if got is not None:
             file_value, said = got
     if file_value is not None and not (np.isfinite(file_value) and file_value > 0):
@@ -175,6 +176,8 @@ def _specimen_value(name: str, cfg_value: float | None, meta: dict, path: Path, 
         raise InputError(f"the file says {name} = {file_value:g}, the config relax.specimen.{name} says "
                          f"{cfg_value:g}", path=path, key=name)
     value = cfg_value if cfg_value is not None else file_value
+    if value is None and not required:
+        return None
     if value is None:
         raise InputError(f"a load/extension log needs the specimen's {name}: set relax.specimen.{name} in the "
                          f"config or add a line '# {name}: <value>' to the file", path=path,
@@ -205,16 +208,12 @@ def _check_both_pairs(table, path: Path, gauge_length_mm, cross_section_mm2) -> 
     ext, load = table.columns["extension"], table.columns["load"]
     L_implied = _implied(ext, strain)          # mm: the gauge length the machine's strain was computed with
     A_implied = _implied(load, stress)         # mm^2: N / MPa
-    given = {}
+    given, came = {}, {}
     for name, cfg_value in (("gauge_length_mm", gauge_length_mm), ("cross_section_mm2", cross_section_mm2)):
-        stated = cfg_value is not None or table.meta.get(name) is not None
-        if not stated:   # an instrument's line above the table ('Gauge Length (mm),50'); one it cannot read is
-            try:         # no reason to refuse a file whose strain and stress are read
-                stated = _instrument_specimen(name, table.meta, table.meta_lines, path) is not None
-            except InputError:
-                stated = False
-        if stated:
-            given[name] = _specimen_value(name, cfg_value, table.meta, path, meta_lines=table.meta_lines)
+        value = _specimen_value(name, cfg_value, table.meta, path, meta_lines=table.meta_lines, source=came,
+                                required=False)
+        if value is not None:
+            given[name] = value
     heads = {q: table.headers.get(q, q) for q in ("strain", "stress", "extension", "load")}
     record = {"columns": [heads["extension"], heads["load"]], "used": False,
               "implied_specimen": {"gauge_length_mm": round(L_implied, 6), "cross_section_mm2": round(A_implied, 6)}}
@@ -228,8 +227,7 @@ def _check_both_pairs(table, path: Path, gauge_length_mm, cross_section_mm2) -> 
         if name in given and np.isfinite(implied) and abs(implied / given[name] - 1.0) > PAIRS_AGREE_SHARE:
             bad.append(f"{what} gives {name} = {implied:.4g}, the specimen says {given[name]:g}")
     if bad:
-        where = ("config relax.specimen" if gauge_length_mm is not None or cross_section_mm2 is not None
-                 else "the file's '# gauge_length_mm:' / '# cross_section_mm2:' lines")
+        where = "; ".join(dict.fromkeys(came.values()))   # where the specimen came from: the config, the file's lines
         raise InputError("the file has both strain/stress and extension/load columns, and they disagree: "
                          + "; ".join(bad) + f" ({where}). One pair rests on a wrongly entered specimen: correct the "
                          "specimen to the one tested, or delete the wrong pair's columns from the file",
