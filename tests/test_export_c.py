@@ -463,6 +463,31 @@ def test_a_refused_input_leaves_the_state_and_says_so(plain):
     assert lib.status == 0
 
 
+def test_the_sample_counter_of_a_long_running_controller_never_overflows(plain, tmp_path_factory):
+    """The state's sample counter (a long: 32 bits on most controllers) stops at BPMID_K_MAX instead of overflowing
+    after 2^31 samples (24.9 days at 1 kHz), and the steps after it are those of any later sample."""
+    import ctypes
+
+    ms = MaxwellSlipModel(4, 3, orientation="lag")
+    params = ms.default_params().with_values({"loop_sign": -1.0, "s0": 3.0, "s1": 60.0, "s2": 8.0, "s3": -2.0})
+    d = tmp_path_factory.mktemp("ms_counter")
+    _dd, _exe, ms_lib = exported(tmp_path_factory, "ms_counter_c", _compare_file(d / "compare.yaml", ms, params),
+                                 model="maxwell-slip")
+    k_max = 2147483647
+    t = np.arange(0.0, 2.0, 0.1)
+    p = 40000.0 + 20000.0 * np.sin(t)
+    for lib in (plain[3], ms_lib):
+        k = ctypes.c_long.from_buffer(lib._buf)   # the state's first field
+        clean = lib.run_forward(t, p)
+        lib.reset()
+        out = [lib.forward(float(t[0]), float(p[0])), lib.forward(float(t[1]), float(p[1]))]
+        k.value = k_max - 1
+        out += [lib.forward(float(a), float(b)) for a, b in zip(t[2:], p[2:])]
+        assert k.value == k_max
+        assert lib.status == 0
+        assert np.array_equal(np.array(out), clean)
+
+
 def test_cli_export_and_refusals(plain, tmp_path):
     fit = plain[0]
     out = tmp_path / "c"
