@@ -226,3 +226,42 @@ def test_a_prediction_given_to_export_points_to_the_fit_it_ran(vbmm_fit, tmp_pat
     r = runner.invoke(app, ["export", str(tmp_path / "pred" / "predict.yaml"), "--to", "c", "--out", str(tmp_path / "c")])
     assert r.exit_code == 2 and "a prediction (bpmid predict)" in r.output and f"instead: {vbmm_fit}" in r.output, r.output
     assert not (tmp_path / "c").exists()
+
+
+def test_a_log_an_empty_file_a_picture_or_an_exported_file_given_as_the_fit_says_what_to_give(vbmm_fit, tmp_path):
+    """A log given where a fit file belongs (bpmid export, control --params) was refused with 'expected a YAML
+    mapping', an image with 'not a UTF-8 text file', a card bpmid export wrote with a YAML parse error: now each
+    says what the file is and what to give instead; exit 2, nothing written."""
+    from tests.test_cli_fit_motion_predict import write_log
+
+    log = write_log(tmp_path / "run.csv", 1.6, 20.0, seed=5)
+    (tmp_path / "empty.yaml").write_text("")
+    (tmp_path / "fig.png").write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\xff\xfe")
+    for fit, args, words in (
+            (log, ["--to", "c"], ["reads as plain text, as a log or a table does",
+                                  "give a motion fit (bpmid fit motion LOG... --out VBMM.yaml"]),
+            (tmp_path / "empty.yaml", ["--to", "abaqus"], ["the file is empty",
+                                                           "give a relaxation fit (bpmid fit relax LOG..."]),
+            (tmp_path / "fig.png", ["--to", "c"], ["not a UTF-8 text file", "give a motion fit"])):
+        r = runner.invoke(app, ["export", str(fit), *args, "--out", str(tmp_path / "out")])
+        text = " ".join(r.output.split())
+        assert r.exit_code == 2 and str(fit) in text and all(w in text for w in words), r.output
+        assert "Traceback" not in r.output and not (tmp_path / "out").exists()
+    r = runner.invoke(app, ["control", "--params", str(log), "--reference", "steps_45_75", "--out",
+                            str(tmp_path / "ctl")])
+    assert r.exit_code == 2 and "give a motion fit" in " ".join(r.output.split()), r.output
+    assert not (tmp_path / "ctl").exists()
+    # what bpmid export wrote (C, every FEA card) is not read back: the fit it was made from is named
+    r = runner.invoke(app, ["export", str(vbmm_fit), "--to", "c", "--out", str(tmp_path / "c")])
+    assert r.exit_code == 0, r.output
+    relax = fit_file(tmp_path)
+    for to in ("abaqus", "ansys", "comsol"):
+        r = runner.invoke(app, ["export", str(relax), "--to", to, "--out", str(tmp_path / "fea")])
+        assert r.exit_code == 0, r.output
+    made = [(tmp_path / "c" / n, vbmm_fit.name) for n in ("main.c", "bpmid_model.h", "bpmid_model.c")]
+    made += [(f, relax.name) for f in sorted((tmp_path / "fea").iterdir()) if not f.name.endswith("_branches.txt")]
+    assert len(made) == 6
+    for f, src in made:
+        with pytest.raises(InputError, match="a file bpmid export wrote") as exc:
+            bpmid.load(f)
+        assert f"the fit file it was made from, {src}," in str(exc.value) and exc.value.path == str(f)
