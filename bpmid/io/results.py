@@ -151,7 +151,7 @@ _WRITTEN_BY = {
 _EXPORT_MARK = r"(?:[Gg]enerated by bpmid \S+ from|bpmid \S+ export of)\s+([^\s,()]+)"
 
 
-def _what_to_give(prefixes: tuple[str, ...]) -> str:
+def what_to_give(prefixes: tuple[str, ...]) -> str:
     """What to give instead of a file that is not the result asked for: the kinds asked, with what writes each."""
     words = [_WRITTEN_BY[p] for p in prefixes if p in _WRITTEN_BY]
     if not words:
@@ -188,7 +188,7 @@ def _not_a_result(path: Path, data, expected: str, prefixes: tuple[str, ...]) ->
     else:
         found = f"it reads as a YAML {'list' if isinstance(data, list) else type(data).__name__}"
     return InputError(f"not a bpmid result file: expected a YAML mapping with the key schema ({expected}), but {found}; "
-                      f"{_what_to_give(prefixes)}", path=path)
+                      f"{what_to_give(prefixes)}", path=path)
 
 
 def _unreadable_result(path: Path, exc: InputError, prefixes: tuple[str, ...]) -> InputError:
@@ -199,7 +199,7 @@ def _unreadable_result(path: Path, exc: InputError, prefixes: tuple[str, ...]) -
         return made
     edited = ("if it is a result file edited by hand, mend that line or write it again with the command that made "
               "it; otherwise " if exc.message.startswith("not valid YAML") else "")
-    return InputError(f"{exc.message}; {edited}{_what_to_give(prefixes)}", path=exc.path, line=exc.line, key=exc.key)
+    return InputError(f"{exc.message}; {edited}{what_to_give(prefixes)}", path=exc.path, line=exc.line, key=exc.key)
 
 
 def read_result(path: str | Path, schema_prefix: str | tuple[str, ...]) -> dict:
@@ -227,7 +227,8 @@ def read_result(path: str | Path, schema_prefix: str | tuple[str, ...]) -> dict:
     if schema is None:
         raise InputError(f"missing key (expected schema {expected})", path=path, key="schema")
     if not isinstance(schema, str) or not schema.startswith(prefixes):
-        raise InputError(f"wrong kind of file: schema {schema!r}, expected {expected}", path=path, key="schema")
+        raise InputError(f"wrong kind of file: schema {schema!r}, expected {expected}; {what_to_give(prefixes)}",
+                         path=path, key="schema")
     kind, sep, version = schema.rpartition("/")
     if not sep or not kind.startswith("bpmid.") or "/" in kind or len(kind) <= len("bpmid."):
         raise InputError(f"malformed schema {schema!r}, expected {expected}", path=path, key="schema")
