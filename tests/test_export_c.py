@@ -575,3 +575,15 @@ def test_a_fit_made_with_a_short_history_window_is_refused_by_export_and_flagged
     res = CliRunner().invoke(app, ["predict", str(log), "--params", str(long), "--out", str(tmp_path / "p20")])
     body = yaml.safe_load((tmp_path / "p20" / "predict.yaml").read_text())
     assert not any("history window" in w for w in body["warnings"])
+
+
+def test_header_says_what_a_real_time_and_threaded_caller_must_know(plain):
+    """The header said 'no heap allocation, no global state' only: it now says that every step is bounded, that the
+    code is reentrant with one state per muscle stepped from one thread at a time, and what a flagged step returns."""
+    _fit, d, _exe, _lib = plain
+    h = " ".join((d / "src" / "bpmid_model.h").read_text().replace("*", " ").split())
+    assert "every step's work is bounded" in h and "flags status 2" in h
+    assert "Threads: reentrant" in h and "one state from one thread at a time" in h
+    assert "A step flagged 1 or 2 still returns the model's answer" in h
+    c = (d / "src" / "bpmid_model.c").read_text()
+    assert "while (" not in c.replace("while (j > 0", "")   # every loop has a fixed bound (the only while: a sort)
