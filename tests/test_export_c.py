@@ -150,6 +150,27 @@ EFFECTS = [
 ]
 
 
+def test_a_float_build_compiles_under_double_promotion_and_conversion_warnings(tmp_path_factory):
+    """-Wdouble-promotion, which projects on a single-precision FPU use, said 5 warnings in the float build (the
+    input bounds as float literals against the double arguments, a float step against its cached double); with
+    every effect of the catalogue (two lags, general friction, asymmetric relaxation) the model builds warning-free
+    in both precisions under -Wdouble-promotion -Wconversion -Wshadow."""
+    from bpmid.export.c import STRICT_FLAGS
+
+    fx = [{"id": "pressure_lag", "parameters": {"tau": 0.2, "share": 0.3}},
+          {"id": "braid_friction", "settings": {"elements": 3}, "parameters": {"r": 1500.0, "mu": 0.02, "slip": 8000.0}},
+          {"id": "asymmetric_relaxation", "parameters": {"fall_ratio": 1.5}}] + EFFECTS[2:]
+    d = tmp_path_factory.mktemp("warn_fit")
+    mat = Material(9000.0, 6.0e6, (15000.0, 4000.0), (1.2e7, 3.0e6), (0.3, 6.0), (0.25, 9.0))
+    for name, fit in (("plain", write_fit(d / "VBMM.yaml", VBMM(FITTED))),
+                      ("effects", write_fit(d / "VBMM_fx.yaml", VBMM(mat, Geometry(), closure="consistent"), fx))):
+        src = d / f"src_{name}"
+        export_c(fit, src)
+        for single in (False, True):
+            build_c(src, d / f"{name}_{single}", single=single,
+                    flags=STRICT_FLAGS + ("-Wdouble-promotion", "-Wconversion", "-Wshadow"))
+
+
 def test_effects_forward_equals_the_augmented_model_and_inverse_is_a_right_inverse(tmp_path_factory, logs):
     d = tmp_path_factory.mktemp("fx_fit")
     fit = write_fit(d / "VBMM.yaml", VBMM(FITTED), EFFECTS)
