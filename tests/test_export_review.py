@@ -265,3 +265,19 @@ def test_a_log_an_empty_file_a_picture_or_an_exported_file_given_as_the_fit_says
         with pytest.raises(InputError, match="a file bpmid export wrote") as exc:
             bpmid.load(f)
         assert f"the fit file it was made from, {src}," in str(exc.value) and exc.value.path == str(f)
+
+
+def test_a_control_run_without_ms_pi_says_so_when_its_feedforward_is_exported(vbmm_fit, tmp_path):
+    """bpmid control --controller pi,vbmm-pi writes no ms_feedforward; exporting it with --model maxwell-slip said
+    'the file was edited or cut short (a file bpmid writes has it)'. Now: the run had no ms-pi, and what to do."""
+    ref = tmp_path / "ref.csv"
+    ref.write_text("time_s,angle_deg\n" + "".join(f"{0.1 * i:.1f},{40.0 + 0.2 * i:.1f}\n" for i in range(40)))
+    r = runner.invoke(app, ["control", "--params", str(vbmm_fit), "--reference", str(ref), "--controller",
+                            "pi,vbmm-pi", "--no-figure", "--out", str(tmp_path / "ctl")])
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(app, ["export", str(tmp_path / "ctl" / "control.yaml"), "--to", "c", "--model", "maxwell-slip",
+                            "--out", str(tmp_path / "c")])
+    text = " ".join(r.output.split())
+    assert r.exit_code == 2 and "key 'ms_feedforward'" in text, r.output
+    assert "had no ms-pi controller (pi, vbmm-pi ran)" in text and "ms-pi in --controller" in text, r.output
+    assert "edited or cut short" not in text and not (tmp_path / "c").exists()

@@ -659,6 +659,13 @@ def load_maxwell_slip(path: str | Path) -> MaxwellSlipMap:
         sign = val("loop_sign") if "loop_sign" in prm else 1.0
         out = MaxwellSlipMap(poly, k, D, float(sign), "forward", "compare: models.maxwell-slip")
     else:
+        if "ms_feedforward" not in data:   # a run without the ms-pi controller writes none: not a cut-short file
+            ran = sorted({str(r.get("controller")) for r in data.get("summary") or () if isinstance(r, dict)
+                          and r.get("controller") is not None})
+            raise InputError(f"this control run had no ms-pi controller ({', '.join(ran) or 'none'} ran), so it holds "
+                             "no MS-PI feedforward to export: run bpmid control with ms-pi in --controller, or export "
+                             "the Maxwell-slip model of a comparison (bpmid compare --models ...,maxwell-slip)",
+                             path=path, key="ms_feedforward")
         ff = require(data, "ms_feedforward", path)
         if not isinstance(ff, dict):
             raise InputError("expected a mapping", path=path, key="ms_feedforward")
