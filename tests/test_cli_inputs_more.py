@@ -139,6 +139,30 @@ def test_read_result_refuses_other_versions_of_every_kind(tmp_path):
     assert exc.value.key == "schema"
 
 
+def test_a_fit_of_the_wrong_kind_says_which_command_writes_the_kind_asked(tmp_path):
+    """A relaxation fit given to control/predict --params, a motion fit to fit motion --init: the error named the
+    schema only; it now also says which command writes the file asked for. Exit 2, nothing written."""
+    from tests.test_cli_fit_motion_predict import write_log
+
+    relax = tmp_path / "relax_fit.yaml"
+    relax.write_text("schema: bpmid.relax/1\nmode: ramp\n")
+    motion = tmp_path / "VBMM.yaml"
+    motion.write_text("schema: bpmid.vbmm/1\n")
+    log = write_log(tmp_path / "run.csv", 1.6, 20.0, seed=6)
+    for args, out, words in (
+            (["control", "--params", str(relax), "--reference", "steps_45_75"], tmp_path / "ctl",
+             "give a motion fit (bpmid fit motion LOG... --out VBMM.yaml"),
+            (["predict", str(log), "--params", str(relax)], tmp_path / "pred", "give a motion fit (bpmid fit motion"),
+            (["fit", "motion", str(log), "--init", str(motion)], tmp_path / "fit.yaml",
+             "takes a relaxation fit, the file bpmid fit relax writes")):
+        r = runner.invoke(app, [*args, "--out", str(out)])
+        assert r.exit_code == 2, r.output
+        line = _one_line(r)
+        assert "wrong kind of file" in line and "key 'schema'" in line and words in line, line
+        assert line.count("relaxation fit") <= 1 and line.count("give a ") <= 1, line   # said once
+        assert not out.exists()
+
+
 def test_fit_motion_init_with_relax_schema_2_exits_2(tmp_path):
     """17: the relaxation-fit reader (--init of fit motion) refuses bpmid.relax/2 too."""
     init = tmp_path / "relax_fit.yaml"

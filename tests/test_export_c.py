@@ -150,6 +150,27 @@ EFFECTS = [
 ]
 
 
+def test_a_float_build_compiles_under_double_promotion_and_conversion_warnings(tmp_path_factory):
+    """-Wdouble-promotion, which projects on a single-precision FPU use, said 5 warnings in the float build (the
+    input bounds as float literals against the double arguments, a float step against its cached double); with
+    every effect of the catalogue (two lags, general friction, asymmetric relaxation) the model builds warning-free
+    in both precisions under -Wdouble-promotion -Wconversion -Wshadow."""
+    from bpmid.export.c import STRICT_FLAGS
+
+    fx = [{"id": "pressure_lag", "parameters": {"tau": 0.2, "share": 0.3}},
+          {"id": "braid_friction", "settings": {"elements": 3}, "parameters": {"r": 1500.0, "mu": 0.02, "slip": 8000.0}},
+          {"id": "asymmetric_relaxation", "parameters": {"fall_ratio": 1.5}}] + EFFECTS[2:]
+    d = tmp_path_factory.mktemp("warn_fit")
+    mat = Material(9000.0, 6.0e6, (15000.0, 4000.0), (1.2e7, 3.0e6), (0.3, 6.0), (0.25, 9.0))
+    for name, fit in (("plain", write_fit(d / "VBMM.yaml", VBMM(FITTED))),
+                      ("effects", write_fit(d / "VBMM_fx.yaml", VBMM(mat, Geometry(), closure="consistent"), fx))):
+        src = d / f"src_{name}"
+        export_c(fit, src)
+        for single in (False, True):
+            build_c(src, d / f"{name}_{single}", single=single,
+                    flags=STRICT_FLAGS + ("-Wdouble-promotion", "-Wconversion", "-Wshadow"))
+
+
 def test_effects_forward_equals_the_augmented_model_and_inverse_is_a_right_inverse(tmp_path_factory, logs):
     d = tmp_path_factory.mktemp("fx_fit")
     fit = write_fit(d / "VBMM.yaml", VBMM(FITTED), EFFECTS)
@@ -463,6 +484,31 @@ def test_a_refused_input_leaves_the_state_and_says_so(plain):
     assert lib.status == 0
 
 
+def test_the_sample_counter_of_a_long_running_controller_never_overflows(plain, tmp_path_factory):
+    """The state's sample counter (a long: 32 bits on most controllers) stops at BPMID_K_MAX instead of overflowing
+    after 2^31 samples (24.9 days at 1 kHz), and the steps after it are those of any later sample."""
+    import ctypes
+
+    ms = MaxwellSlipModel(4, 3, orientation="lag")
+    params = ms.default_params().with_values({"loop_sign": -1.0, "s0": 3.0, "s1": 60.0, "s2": 8.0, "s3": -2.0})
+    d = tmp_path_factory.mktemp("ms_counter")
+    _dd, _exe, ms_lib = exported(tmp_path_factory, "ms_counter_c", _compare_file(d / "compare.yaml", ms, params),
+                                 model="maxwell-slip")
+    k_max = 2147483647
+    t = np.arange(0.0, 2.0, 0.1)
+    p = 40000.0 + 20000.0 * np.sin(t)
+    for lib in (plain[3], ms_lib):
+        k = ctypes.c_long.from_buffer(lib._buf)   # the state's first field
+        clean = lib.run_forward(t, p)
+        lib.reset()
+        out = [lib.forward(float(t[0]), float(p[0])), lib.forward(float(t[1]), float(p[1]))]
+        k.value = k_max - 1
+        out += [lib.forward(float(a), float(b)) for a, b in zip(t[2:], p[2:])]
+        assert k.value == k_max
+        assert lib.status == 0
+        assert np.array_equal(np.array(out), clean)
+
+
 def test_cli_export_and_refusals(plain, tmp_path):
     fit = plain[0]
     out = tmp_path / "c"
@@ -550,3 +596,15 @@ def test_a_fit_made_with_a_short_history_window_is_refused_by_export_and_flagged
     res = CliRunner().invoke(app, ["predict", str(log), "--params", str(long), "--out", str(tmp_path / "p20")])
     body = yaml.safe_load((tmp_path / "p20" / "predict.yaml").read_text())
     assert not any("history window" in w for w in body["warnings"])
+
+
+def test_header_says_what_a_real_time_and_threaded_caller_must_know(plain):
+    """The header said 'no heap allocation, no global state' only: it now says that every step is bounded, that the
+    code is reentrant with one state per muscle stepped from one thread at a time, and what a flagged step returns."""
+    _fit, d, _exe, _lib = plain
+    h = " ".join((d / "src" / "bpmid_model.h").read_text().replace("*", " ").split())
+    assert "every step's work is bounded" in h and "flags status 2" in h
+    assert "Threads: reentrant" in h and "one state from one thread at a time" in h
+    assert "A step flagged 1 or 2 still returns the model's answer" in h
+    c = (d / "src" / "bpmid_model.c").read_text()
+    assert "while (" not in c.replace("while (j > 0", "")   # every loop has a fixed bound (the only while: a sort)

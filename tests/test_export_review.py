@@ -226,3 +226,58 @@ def test_a_prediction_given_to_export_points_to_the_fit_it_ran(vbmm_fit, tmp_pat
     r = runner.invoke(app, ["export", str(tmp_path / "pred" / "predict.yaml"), "--to", "c", "--out", str(tmp_path / "c")])
     assert r.exit_code == 2 and "a prediction (bpmid predict)" in r.output and f"instead: {vbmm_fit}" in r.output, r.output
     assert not (tmp_path / "c").exists()
+
+
+def test_a_log_an_empty_file_a_picture_or_an_exported_file_given_as_the_fit_says_what_to_give(vbmm_fit, tmp_path):
+    """A log given where a fit file belongs (bpmid export, control --params) was refused with 'expected a YAML
+    mapping', an image with 'not a UTF-8 text file', a card bpmid export wrote with a YAML parse error: now each
+    says what the file is and what to give instead; exit 2, nothing written."""
+    from tests.test_cli_fit_motion_predict import write_log
+
+    log = write_log(tmp_path / "run.csv", 1.6, 20.0, seed=5)
+    (tmp_path / "empty.yaml").write_text("")
+    (tmp_path / "fig.png").write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR\xff\xfe")
+    for fit, args, words in (
+            (log, ["--to", "c"], ["reads as plain text, as a log or a table does",
+                                  "give a motion fit (bpmid fit motion LOG... --out VBMM.yaml"]),
+            (tmp_path / "empty.yaml", ["--to", "abaqus"], ["the file is empty",
+                                                           "give a relaxation fit (bpmid fit relax LOG..."]),
+            (tmp_path / "fig.png", ["--to", "c"], ["not a UTF-8 text file", "give a motion fit"])):
+        r = runner.invoke(app, ["export", str(fit), *args, "--out", str(tmp_path / "out")])
+        text = " ".join(r.output.split())
+        assert r.exit_code == 2 and str(fit) in text and all(w in text for w in words), r.output
+        assert "Traceback" not in r.output and not (tmp_path / "out").exists()
+    r = runner.invoke(app, ["control", "--params", str(log), "--reference", "steps_45_75", "--out",
+                            str(tmp_path / "ctl")])
+    assert r.exit_code == 2 and "give a motion fit" in " ".join(r.output.split()), r.output
+    assert not (tmp_path / "ctl").exists()
+    # what bpmid export wrote (C, every FEA card) is not read back: the fit it was made from is named
+    r = runner.invoke(app, ["export", str(vbmm_fit), "--to", "c", "--out", str(tmp_path / "c")])
+    assert r.exit_code == 0, r.output
+    relax = fit_file(tmp_path)
+    for to in ("abaqus", "ansys", "comsol"):
+        r = runner.invoke(app, ["export", str(relax), "--to", to, "--out", str(tmp_path / "fea")])
+        assert r.exit_code == 0, r.output
+    made = [(tmp_path / "c" / n, vbmm_fit.name) for n in ("main.c", "bpmid_model.h", "bpmid_model.c")]
+    made += [(f, relax.name) for f in sorted((tmp_path / "fea").iterdir()) if not f.name.endswith("_branches.txt")]
+    assert len(made) == 6
+    for f, src in made:
+        with pytest.raises(InputError, match="a file bpmid export wrote") as exc:
+            bpmid.load(f)
+        assert f"the fit file it was made from, {src}," in str(exc.value) and exc.value.path == str(f)
+
+
+def test_a_control_run_without_ms_pi_says_so_when_its_feedforward_is_exported(vbmm_fit, tmp_path):
+    """bpmid control --controller pi,vbmm-pi writes no ms_feedforward; exporting it with --model maxwell-slip said
+    'the file was edited or cut short (a file bpmid writes has it)'. Now: the run had no ms-pi, and what to do."""
+    ref = tmp_path / "ref.csv"
+    ref.write_text("time_s,angle_deg\n" + "".join(f"{0.1 * i:.1f},{40.0 + 0.2 * i:.1f}\n" for i in range(40)))
+    r = runner.invoke(app, ["control", "--params", str(vbmm_fit), "--reference", str(ref), "--controller",
+                            "pi,vbmm-pi", "--no-figure", "--out", str(tmp_path / "ctl")])
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(app, ["export", str(tmp_path / "ctl" / "control.yaml"), "--to", "c", "--model", "maxwell-slip",
+                            "--out", str(tmp_path / "c")])
+    text = " ".join(r.output.split())
+    assert r.exit_code == 2 and "key 'ms_feedforward'" in text, r.output
+    assert "had no ms-pi controller (pi, vbmm-pi ran)" in text and "ms-pi in --controller" in text, r.output
+    assert "edited or cut short" not in text and not (tmp_path / "c").exists()

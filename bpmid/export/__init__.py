@@ -123,7 +123,10 @@ def _say_what_fits(fit_path: Path, to: str, model: str | None, schemas: tuple[st
     silent for a file it takes (read_result then checks it whole)."""
     from bpmid.config import read_yaml
 
-    data, _sha = read_yaml(fit_path)
+    try:
+        data, _sha = read_yaml(fit_path)
+    except InputError:   # not text, not YAML: read_result says what the file is and what to give
+        return
     schema = str(data.get("schema", "")) if isinstance(data, dict) else ""
     if not schema or schema.startswith(schemas):
         return

@@ -190,8 +190,6 @@ def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
         "L0CA": l0 * math.cos(alpha0), "CA0": math.cos(alpha0), "BETA_MAX": 4.0 * math.pi,
         # the gauge pressure (Pa) that holds the largest angle relaxed: a feedforward above it is out of range
         "P_TOP": float(m.equilibrium_pressure(np.array([4.0 * math.pi]))[0]),
-        # inputs beyond these are refused (status 3): no rig logs them, and they overflow a float build
-        "P_INPUT_MAX": 1e9, "ANGLE_INPUT_MAX": 1e6,
         "GINF": mat.G_inf, "KINF": mat.K_inf,
     }
     g0 = mat.G_inf
@@ -207,6 +205,10 @@ def _vbmm_sources(cv: CausalVBMM, meta: dict) -> dict[str, str]:
     if m.stiffening != 0.0:
         consts["STIFF"] = m.stiffening
     const_lines = [f"#define {k} {_lit(v)}" for k, v in consts.items()]
+    # inputs beyond these are refused (status 3): no rig logs them, and they overflow a float build. Double literals:
+    # they bound the double arguments (in R() a float build compared them in double all the same, and
+    # -Wdouble-promotion, which single-FPU projects use, said so)
+    const_lines += ["#define P_INPUT_MAX 1e9", "#define ANGLE_INPUT_MAX 1e6"]
     const_lines.append(f"#define ANGLE_OFFSET_DEG {float(cv.offset_deg)!r}")
     nb = mat.n_branches
     shared = (not mat.split) or all(a == b for a, b in zip(mat.tauG, mat.tau_K))
@@ -356,7 +358,7 @@ def _chain_sources(chain) -> tuple[str, list[str], list[str]]:
             fwd.append(
                 f"    /* first-order lag, tau = {val!r} s, exact for an input linear between samples */\n"
                 f"    if (s->k == 0) {{\n        y = x;\n    }} else {{\n"
-                f"        if (dt != s->lag{i}_dt) {{\n            s->lag{i}_a = B_EXP(-dt / {tau});\n"
+                f"        if ((double)dt != s->lag{i}_dt) {{\n            s->lag{i}_a = B_EXP(-dt / {tau});\n"
                 f"            s->lag{i}_dt = dt;\n        }}\n"
                 f"        y = s->lag{i}_a * s->lag{i}_y + (R(1.0) - s->lag{i}_a) * s->lag{i}_x\n"
                 f"            + (x - s->lag{i}_x) * (R(1.0) - {tau} * (R(1.0) - s->lag{i}_a) / dt);\n    }}\n"
@@ -367,7 +369,7 @@ def _chain_sources(chain) -> tuple[str, list[str], list[str]]:
                 f"     * swings sign every sample. Held (bpmid_step_feedforward): y_k = a y_(k-1) + (1 - a) x solved for\n"
                 f"     * a command x held over the step, as a controller's output is: never rings. */\n"
                 f"    if (s->k == 0) {{\n        x = y;\n    }} else {{\n"
-                f"        if (dt != s->lag{i}_dt) {{\n            s->lag{i}_a = B_EXP(-dt / {tau});\n"
+                f"        if ((double)dt != s->lag{i}_dt) {{\n            s->lag{i}_a = B_EXP(-dt / {tau});\n"
                 f"            s->lag{i}_dt = dt;\n        }}\n"
                 f"        if (held) {{\n"
                 f"            x = (y - s->lag{i}_a * s->lag{i}_y) / (R(1.0) - s->lag{i}_a);\n        }} else {{\n"
@@ -657,6 +659,13 @@ def load_maxwell_slip(path: str | Path) -> MaxwellSlipMap:
         sign = val("loop_sign") if "loop_sign" in prm else 1.0
         out = MaxwellSlipMap(poly, k, D, float(sign), "forward", "compare: models.maxwell-slip")
     else:
+        if "ms_feedforward" not in data:   # a run without the ms-pi controller writes none: not a cut-short file
+            ran = sorted({str(r.get("controller")) for r in data.get("summary") or () if isinstance(r, dict)
+                          and r.get("controller") is not None})
+            raise InputError(f"this control run had no ms-pi controller ({', '.join(ran) or 'none'} ran), so it holds "
+                             "no MS-PI feedforward to export: run bpmid control with ms-pi in --controller, or export "
+                             "the Maxwell-slip model of a comparison (bpmid compare --models ...,maxwell-slip)",
+                             path=path, key="ms_feedforward")
         ff = require(data, "ms_feedforward", path)
         if not isinstance(ff, dict):
             raise InputError("expected a mapping", path=path, key="ms_feedforward")

@@ -143,8 +143,11 @@ def material_from_relax(source, path=None) -> Material:
         except InputError as exc:
             if exc.key != "schema":
                 raise
-            raise InputError(exc.message + _not_a_relax_fit(Path(source)), path=exc.path, line=exc.line,
-                             key=exc.key) from None
+            from bpmid.io.results import what_to_give
+
+            # _not_a_relax_fit says what --init takes in its own words (and what to do with a motion fit)
+            raise InputError(exc.message.removesuffix("; " + what_to_give(("bpmid.relax/",)))
+                             + _not_a_relax_fit(Path(source)), path=exc.path, line=exc.line, key=exc.key) from None
         path = Path(source)
     elif isinstance(source, Mapping):
         rf = relax_fit_from_mapping(dict(source), None if path is None else Path(path))
