@@ -769,14 +769,14 @@ class VBMMFitResult(Result):
         import numpy as np
 
         from bpmid.models.vbmm import vbmm_from_mapping
+        from bpmid.models.vbmm.rig import fitted_pressure_span
         from bpmid.plots.common import PRESSURE_LABEL, finish, new_figure
         from bpmid.units import PA_PER_BAR
 
         model = vbmm_from_mapping(self.to_dict(), self.source)   # the constants (no warning of its effects)
         # over the gauge pressures the constants were fitted on (fit.logs), else the paper's working range
-        spans = [e.get("pressure_gauge_pa") for e in ((self.body.get("fit") or {}).get("logs") or [])
-                 if isinstance(e, Mapping) and isinstance(e.get("pressure_gauge_pa"), list)]
-        p_hi = max((float(x[1]) for x in spans), default=0.8 * PA_PER_BAR)
+        span = fitted_pressure_span(self.body)
+        p_hi = 0.8 * PA_PER_BAR if span is None else span[1]
         p = np.linspace(0.0, max(p_hi, 1e3), 60)
         beta = model.equilibrium_angle(p)
         fig, ax = new_figure(1, 1, width=6.4, height=4.0)
@@ -784,7 +784,7 @@ class VBMMFitResult(Result):
         ax.set_xlabel(PRESSURE_LABEL)
         ax.set_ylabel("long-term equilibrium angle (°)")
         ax.set_title(f"{self.title}: equilibrium of the file's G_inf, K_inf"
-                     + (" over the fitted pressures" if spans else ""))
+                     + (" over the fitted pressures" if span is not None else ""))
         return finish(fig, self._stamp())
 
     def save(self, path: str | Path, *, figure: str | Path | bool | None = None, synthetic: "bool | str | None" = False) -> Path:

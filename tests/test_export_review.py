@@ -95,6 +95,19 @@ def test_a_motion_fit_records_each_logs_median_step(tmp_path):
     r = runner.invoke(app, ["export", str(tmp_path / "VBMM.yaml"), "--to", "c", "--out", str(tmp_path / "c")])
     h = (tmp_path / "c" / "bpmid_model.h").read_text()
     assert "#define BPMID_FIT_STEP_S 0.1\n" in h and "#define BPMID_FIT_ATMOSPHERE_PA 101325.0\n" in h
+    # the gauge pressures it was fitted on, for a controller to check against (the model answers beyond them)
+    lo, hi = d["fit"]["logs"][0]["pressure_gauge_pa"]
+    assert f"#define BPMID_FIT_PRESSURE_MIN_PA {float(f'{lo:.9g}')!r}\n" in h
+    assert f"#define BPMID_FIT_PRESSURE_MAX_PA {float(f'{hi:.9g}')!r}\n" in h and hi > 1e4
+
+
+def test_the_c_header_gives_the_fitted_pressures_over_every_log_and_never_a_made_up_one():
+    two = {"fit": {"logs": [{"pressure_gauge_pa": [1000.0, 40000.0]}, {"pressure_gauge_pa": [-50.0, 61000.5]}]}}
+    h = rig_defines(two)
+    assert "#define BPMID_FIT_PRESSURE_MIN_PA -50.0\n" in h and "#define BPMID_FIT_PRESSURE_MAX_PA 61000.5\n" in h
+    for bad in ({}, {"fit": {"logs": [{"pressure_gauge_pa": ["x", 3.0]}, {"pressure_gauge_pa": [1.0]}]}},
+                {"fit": {"logs": [{"pressure_gauge_pa": [float("nan"), 3.0]}]}}):
+        assert "BPMID_FIT_PRESSURE" not in rig_defines(bad), bad
 
 
 def test_the_library_call_takes_a_path_or_a_loaded_result_and_names_its_arguments(vbmm_fit, tmp_path):

@@ -37,7 +37,7 @@ from string import Template
 from typing import Sequence
 
 from bpmid.errors import InputError
-from bpmid.models.vbmm.rig import STEP_SPREAD, fit_rig
+from bpmid.models.vbmm.rig import STEP_SPREAD, fit_rig, fitted_pressure_span
 
 FILES = ("bpmid_model.h", "bpmid_model.c", "main.c")
 MODELS = ("vbmm", "vbmm-fit", "vbmm-mat", "maxwell-slip")
@@ -773,6 +773,14 @@ def rig_defines(data: dict, *, rate_dependent: bool = True) -> str:
         out += ["/* The fit's logs gave gauge pressure already: feed the model gauge pressure as the rig measured it. */"]
     else:
         out += ["/* The fit file records no ambient pressure: feed the model pressure above the ambient of the rig. */"]
+    span = fitted_pressure_span(data)
+    if span is not None:
+        out += ["/* The gauge pressures (Pa) the constants were fitted on. Beyond them the model extrapolates: the step",
+                " * functions still answer with status 0 (they flag only what no rig gives), so a controller that must",
+                " * stay where the model was measured checks its pressure against these (bpmid predict warns of a log",
+                " * that goes more than three of these spans beyond them). */",
+                f"#define BPMID_FIT_PRESSURE_MIN_PA {float(f'{span[0]:.9g}')!r}",
+                f"#define BPMID_FIT_PRESSURE_MAX_PA {float(f'{span[1]:.9g}')!r}"]
     return "\n".join(out) + "\n"
 
 

@@ -531,12 +531,12 @@ def beyond_fit_warnings(logs: Iterable, fit_body: Mapping | None) -> list[str]:
     """Logs predicted at gauge pressures well outside those the constants were fitted on (``fit.logs[*].
     pressure_gauge_pa`` of a ``bpmid.vbmm/1`` file; files written before it existed say nothing): the model
     extrapolates there, and a unit slip (kPa values under a psi header) shows first as such a range."""
-    spans = [e.get("pressure_gauge_pa") for e in (((fit_body or {}).get("fit") or {}).get("logs") or [])
-             if isinstance(e, Mapping)]
-    spans = [x for x in spans if isinstance(x, (list, tuple)) and len(x) == 2]
-    if not spans:
+    from bpmid.models.vbmm.rig import fitted_pressure_span
+
+    span = fitted_pressure_span(fit_body)
+    if span is None:
         return []
-    lo, hi = min(float(x[0]) for x in spans), max(float(x[1]) for x in spans)
+    lo, hi = span
     pad = BEYOND_FIT_SHARE * max(hi - lo, 1.0)
     out = []
     for lg in logs:

@@ -53,6 +53,23 @@ def fit_rig(data: dict) -> tuple[list[float], list[float], bool]:
     return steps, sorted(atm), gauge
 
 
+def fitted_pressure_span(data: Mapping | None) -> tuple[float, float] | None:
+    """The gauge pressures (Pa) a fit file's constants were fitted on, lowest to highest over its fitting logs
+    (``fit.logs[*].pressure_gauge_pa``), or None when it records none (written before it did, or not a motion fit).
+    Entries that are not two numbers (a hand-edited file) are left out."""
+    fit = (data or {}).get("fit")
+    spans = []
+    for lg in (fit.get("logs") or ()) if isinstance(fit, Mapping) else ():
+        pair = lg.get("pressure_gauge_pa") if isinstance(lg, Mapping) else None
+        if isinstance(pair, (list, tuple)) and len(pair) == 2:
+            lo, hi = _finite(pair[0]), _finite(pair[1])
+            if lo is not None and hi is not None:
+                spans.append((lo, hi))
+    if not spans:
+        return None
+    return min(lo for lo, _ in spans), max(hi for _, hi in spans)
+
+
 #: logs whose steps differ by less than this share have one step (rounding of the logged times)
 STEP_SPREAD = 0.01
 
