@@ -696,6 +696,8 @@ def _ms_sources(ms: MaxwellSlipMap, meta: dict) -> dict[str, str]:
              if fwd else
              "Direct map: angle (deg) -> gauge pressure (bar), the MS-PI feedforward; step_inverse evaluates it, "
              "step_forward solves it."),
+            "The map and its constants below are in bar, as fitted; the step functions take and return Pa (they "
+            "divide by 1e5 going in and multiply by 1e5 coming out).",
             "  out = s(in) + sign sum_i k_i d_i,  d_i = clamp(d_i + in - in_prev, -D_i, D_i),  d_i = 0 at the start",
             f"  s coefficients: {', '.join(repr(v) for v in ms.poly)}",
             f"  k: {', '.join(repr(v) for v in ms.k)};  D: {', '.join(repr(v) for v in ms.D)};  sign {ms.sign!r}",
