@@ -422,3 +422,14 @@ def test_an_unknown_column_with_a_known_unit_is_named_with_the_map_to_give(tmp_p
         read_motion_log(f, require_angle=True)
     msg = str(e.value)
     assert e.value.key == "foo_deg" and "has an angle unit" in msg and "--columns angle=foo_deg" in msg
+
+
+def test_a_log_without_a_header_row_says_how_to_give_one(tmp_path):
+    # the shipped friction logs are tab-separated numbers without a header (datasets/reference/friction)
+    f = tmp_path / "noheader.csv"
+    f.write_text("0.000\t1.014\t53.464\n40.000\t1.017\t53.464\n50.000\t1.018\t53.448\n")
+    with pytest.raises(InputError) as e:
+        read_motion_log(f, require_angle=True)
+    msg = e.value.format()
+    assert "noheader.csv:1" in msg and "no header row" in msg
+    assert "add a first line naming the columns" in msg and "--columns" in msg

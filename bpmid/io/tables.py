@@ -734,7 +734,9 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
         raise InputError("the header row is empty", path=where, line=header_line)
     if all(_is_number(h) for h in header if h):
         raise InputError("the log has no header row (expected column names such as time_s, pressure_kpa, "
-                         "angle_deg)", path=where, line=header_line)
+                         "angle_deg): add a first line naming the columns with their units, in the file's own "
+                         "separator (time_s,pressure_kpa,angle_deg); --columns maps names, not positions",
+                         path=where, line=header_line)
     rows: list[list[str]] = []
     row_lines: list[int] = []
     for ln_no, ln in body:
