@@ -433,3 +433,15 @@ def test_a_log_without_a_header_row_says_how_to_give_one(tmp_path):
     msg = e.value.format()
     assert "noheader.csv:1" in msg and "no header row" in msg
     assert "add a first line naming the columns" in msg and "--columns" in msg
+
+
+@pytest.mark.parametrize("name", ["log.csv.gz", "log.csv"])
+def test_a_gzipped_log_is_named_as_gzip_with_what_to_do(tmp_path, name):
+    import gzip
+
+    f = tmp_path / name
+    f.write_bytes(gzip.compress(b"# pressure_reference: gauge\ntime_s,pressure_kpa,angle_deg\n0,10,14\n0.1,11,15\n"))
+    with pytest.raises(InputError) as e:
+        read_motion_log(f, require_angle=True)
+    msg = e.value.format()
+    assert name in msg and "gzip" in msg and "decompress" in msg

@@ -155,6 +155,7 @@ _META_KEY = re.compile(r"^[A-Za-z][\w \-./()\[\]^]*$")
 _MAGIC_XLSX = b"PK\x03\x04"
 _MAGIC_OLE = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"
 _MAGIC_HDF5 = b"\x89HDF\r\n\x1a\n"
+_MAGIC_GZIP = b"\x1f\x8b"
 _MAX_BYTES = 1 << 30
 
 
@@ -1583,6 +1584,9 @@ def read_table(path: str | Path, *, column_map: Mapping[str, str] | None = None,
         raise InputError(f"cannot read the file ({exc.strerror or exc})", path=path) from None
     if not data.strip():
         raise InputError(f"empty {kind}: the file has no content", path=path)
+    if data.startswith(_MAGIC_GZIP):
+        raise InputError("a gzip-compressed file, not a table: decompress it first (gunzip, or 7-Zip on Windows) "
+                         "and give bpmid the file inside", path=path)
     fkind = _file_kind(path, data)
     units = {str(k): str(v) for k, v in (units or {}).items()}
     unit_sources = dict(unit_sources or {})
