@@ -1622,8 +1622,30 @@ def read_table(path: str | Path, *, column_map: Mapping[str, str] | None = None,
                              f"choose one with --sheet NAME (config io.sheet)", path=path, key="--sheet")
         return candidates[0]
     # a sheet name means nothing for a text or MATLAB file: not an error (one --sheet serves a batch of files)
-    grid = _mat_grid(path, data, kind) if fkind == "mat" else _text_grid(data, str(path), set(cmap))
-    return _build(path, grid, cmap, units, unit_sources, required, optional, kind)
+    if fkind == "mat":
+        return _build(path, _mat_grid(path, data, kind), cmap, units, unit_sources, required, optional, kind)
+    try:
+        grid = _text_grid(data, str(path), set(cmap))
+        return _build(path, grid, cmap, units, unit_sources, required, optional, kind)
+    except InputError as exc:
+        if exc.line is not None and exc.line == _unended_last_line(data):
+            # a file copied while the logger was still writing it: say so, not only what the last row lacks
+            exc.message += ("; this is the file's last line and it has no line end: the file looks cut off "
+                            "(copied or read while it was still being written); take a complete copy, or delete "
+                            "that line")
+            exc.args = (exc.format(),)
+        raise
+
+
+def _unended_last_line(data: bytes) -> int | None:
+    """The (1-based) number of a text file's last line when no line end follows it, else None."""
+    try:
+        text, _ = _decode(data.rstrip(b"\x00"), "")
+    except InputError:
+        return None
+    if not text.strip() or text.endswith(("\n", "\r")):
+        return None
+    return len(re.split(r"\r\n|\r|\n", text))
 
 
 def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional, kind) -> Table:
