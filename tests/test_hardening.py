@@ -153,6 +153,19 @@ def test_sigterm_inside_a_staged_write_rolls_back(tmp_path):
     assert _hidden(tmp_path) == []
 
 
+def test_a_staged_file_written_through_write_text_stays_locked_against_recovery(tmp_path):
+    # a result's YAML is staged (staged_file) and written with write_text while its figure is drawn: another
+    # command's recover() on the folder meanwhile (a second `bpmid run`, `bpmid report DIR`) must leave it alone
+    out = tmp_path / "out"
+    out.mkdir()
+    with atomic.staged_file(out / "relax_fit.yaml") as tmp:
+        write_text(tmp, "a: 1\n")
+        assert atomic._is_live(tmp)
+        recover(out)
+        assert tmp.read_text() == "a: 1\n"
+    assert (out / "relax_fit.yaml").read_text() == "a: 1\n" and _hidden(tmp_path) == []
+
+
 def test_a_second_writer_into_a_held_folder_is_refused_not_mixed_in(tmp_path, monkeypatch):
     import subprocess
     import sys

@@ -344,6 +344,41 @@ def test_bpmid_run_killed_inside_its_stage_leaves_old_or_new(repo_root, tmp_path
     assert set(after) - set(recovered) == {"sim.csv", "manifest.yaml"}
 
 
+@pytest.mark.parametrize("turned_into", ["KeyboardInterrupt", "SystemError"])
+def test_a_sigterm_turned_into_an_interrupt_still_ends_as_terminated(turned_into):
+    """A SIGTERM inside a compiled kernel surfaces as nested SystemErrors, and `bpmid run` turns those into a plain
+    KeyboardInterrupt before its rollback: the command said "interrupted" (exit 130, Ctrl-C's) for a SIGTERM
+    (`timeout -s TERM 40 bpmid run`), where the documented end is "terminated" (exit 143)."""
+    import typer
+    from typer.testing import CliRunner
+
+    from bpmid.cli._app import command
+    from bpmid.io.atomic import Terminated
+
+    app = typer.Typer()
+
+    @command(app, "work")
+    def work(real_ctrl_c: bool = False):
+        if real_ctrl_c:
+            raise KeyboardInterrupt()
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(2)
+        except Terminated as exc:
+            if turned_into == "KeyboardInterrupt":
+                raise KeyboardInterrupt() from exc   # what bpmid.run._run_study raises for an interrupted kernel
+            raise SystemError("<built-in function> returned a result with an exception set") from exc
+
+    @command(app, "other")
+    def other():
+        raise KeyboardInterrupt()
+
+    r = CliRunner().invoke(app, ["work"])
+    assert r.exit_code == 143 and "terminated (SIGTERM)" in r.output and "interrupted" not in r.output, r.output
+    r = CliRunner().invoke(app, ["other"])   # a real Ctrl-C is still Ctrl-C
+    assert r.exit_code == 130 and "interrupted" in r.output, r.output
+
+
 def test_a_sigterm_that_compiled_code_turns_into_its_own_error_still_ends_as_terminated():
     """matplotlib's renderer turned the SIGTERM raised in its callback into "ValueError: Invalid bounding box", and
     `bpmid run` ended as an internal error (exit 1) instead of terminated (143); a later command starts clean."""

@@ -422,3 +422,42 @@ def test_an_unknown_column_with_a_known_unit_is_named_with_the_map_to_give(tmp_p
         read_motion_log(f, require_angle=True)
     msg = str(e.value)
     assert e.value.key == "foo_deg" and "has an angle unit" in msg and "--columns angle=foo_deg" in msg
+
+
+def test_a_log_without_a_header_row_says_how_to_give_one(tmp_path):
+    # the shipped friction logs are tab-separated numbers without a header (datasets/reference/friction)
+    f = tmp_path / "noheader.csv"
+    f.write_text("0.000\t1.014\t53.464\n40.000\t1.017\t53.464\n50.000\t1.018\t53.448\n")
+    with pytest.raises(InputError) as e:
+        read_motion_log(f, require_angle=True)
+    msg = e.value.format()
+    assert "noheader.csv:1" in msg and "no header row" in msg
+    assert "add a first line naming the columns" in msg and "--columns" in msg
+
+
+@pytest.mark.parametrize("name", ["log.csv.gz", "log.csv"])
+def test_a_gzipped_log_is_named_as_gzip_with_what_to_do(tmp_path, name):
+    import gzip
+
+    f = tmp_path / name
+    f.write_bytes(gzip.compress(b"# pressure_reference: gauge\ntime_s,pressure_kpa,angle_deg\n0,10,14\n0.1,11,15\n"))
+    with pytest.raises(InputError) as e:
+        read_motion_log(f, require_angle=True)
+    msg = e.value.format()
+    assert name in msg and "gzip" in msg and "decompress" in msg
+
+
+@pytest.mark.parametrize("cut, words", [("22.65,1.7673", "row has 2 fields"), ("22.65,1.767391,", "an empty cell")])
+def test_a_log_cut_off_in_its_last_line_says_it_looks_truncated(tmp_path, cut, words):
+    body = "# pressure_reference: absolute\ntime_s,pressure_bar,angle_deg\n" + "".join(
+        f"{0.05 * k:.2f},{1.1 + 0.001 * k:.6f},{20 + 0.1 * k:.2f}\n" for k in range(40))
+    f = tmp_path / "cut.csv"
+    f.write_text(body + cut)   # copied while the logger was still writing: no line end after the last line
+    with pytest.raises(InputError) as e:
+        read_motion_log(f, require_angle=True)
+    msg = e.value.format()
+    assert "cut.csv:43" in msg and words in msg and "no line end" in msg and "cut off" in msg
+    f.write_text(body + cut + "\n")   # the same row with its line end: refused, but not called truncated
+    with pytest.raises(InputError) as e:
+        read_motion_log(f, require_angle=True)
+    assert words in e.value.format() and "cut off" not in e.value.format()

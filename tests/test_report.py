@@ -624,3 +624,34 @@ def test_report_on_a_discovery_folder_states_what_its_files_record(study, tmp_pa
     summary = md[md.index("## Summary"):md.index("## Summary") + 3000]
     assert ("Read its 1 caution(s) before the verdict (Discovery, below): fitting log x.csv bends 31% more than the "
             "model predicts at its pressures, against the other logs.") in summary
+
+
+def test_report_into_a_folder_another_command_is_writing_waits_then_is_refused(tmp_path, monkeypatch):
+    """`bpmid report DIR` while `bpmid run --out DIR` was writing DIR built a report from the half-written folder,
+    wrote it beside the run's files and said nothing; the folder has one writer at a time (docs/robustness.md)."""
+    import subprocess
+    import sys
+
+    from bpmid.io import atomic
+    from test_simulate_predict_review import TRUTH
+
+    params = tmp_path / "vbmm.yaml"
+    params.write_text(TRUTH % (6.434e6, 3.2e6))
+    ctl = tmp_path / "ctl"
+    r = runner.invoke(app, ["control", "--params", str(params), "--reference", "steps", "--controller", "pi",
+                            "--out", str(ctl), "--no-figure"])
+    assert r.exit_code == 0, r.output
+    holder = subprocess.Popen([sys.executable, "-c", "import fcntl, os, sys, time; fd = os.open(sys.argv[1], "
+                               "os.O_RDONLY); fcntl.flock(fd, fcntl.LOCK_EX); print('held', flush=True); "
+                               "time.sleep(60)", str(ctl)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        monkeypatch.setattr(atomic, "COMMIT_WAIT_S", 0.2)
+        r = runner.invoke(app, ["report", str(ctl)])
+        assert r.exit_code == 2 and "another bpmid command is writing into this folder" in r.output, r.output
+        assert not (ctl / "report.html").exists() and not (ctl / "report.md").exists()
+    finally:
+        holder.kill()
+        holder.wait()
+    r = runner.invoke(app, ["report", str(ctl)])   # free again
+    assert r.exit_code == 0 and (ctl / "report.html").is_file(), r.output

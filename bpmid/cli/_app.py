@@ -100,10 +100,16 @@ def command(typer_app: typer.Typer, name: str, **kw):
                 os.dup2(devnull, 1)
                 raise typer.Exit(0)
             except KeyboardInterrupt:
+                from bpmid.io.atomic import termination_received
+                if termination_received():   # a SIGTERM turned into a plain interrupt on its way (bpmid run)
+                    fail(terminated_message(termination_received()), 143)
                 fail("interrupted", 130)
             except SystemError as exc:
                 # Ctrl-C inside a compiled kernel surfaces as (nested) "returned a result with an exception set"
                 if interrupted(exc):
+                    from bpmid.io.atomic import termination_received
+                    if termination_received():   # SIGTERM inside a compiled kernel: terminated, not Ctrl-C
+                        fail(terminated_message(termination_received()), 143)
                     fail("interrupted", 130)
                 raise
             except OSError as exc:

@@ -442,6 +442,17 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
     path = Path(path)
     _check_file_target(path)
     _ensure_parent(path)
+    if path.name.startswith(TMP_PREFIX) and path.is_file() and not path.is_symlink():
+        # a temporary of staged_file (the caller renames it into place): written in place, so the file its maker
+        # holds locked stays the one on disk; a new file renamed over it would be unlocked, and another
+        # command's recover() would remove it as a leftover of a killed command
+        try:
+            with open(path, "r+b") as fh:
+                fh.truncate()
+                fh.write(data)
+        except OSError as exc:
+            raise os_error(exc, path) from exc
+        return path
     try:
         fd, tmp = tempfile.mkstemp(prefix=f"{TMP_PREFIX}{path.name}.", suffix=".tmp", dir=path.parent)
     except OSError as exc:

@@ -155,6 +155,7 @@ _META_KEY = re.compile(r"^[A-Za-z][\w \-./()\[\]^]*$")
 _MAGIC_XLSX = b"PK\x03\x04"
 _MAGIC_OLE = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"
 _MAGIC_HDF5 = b"\x89HDF\r\n\x1a\n"
+_MAGIC_GZIP = b"\x1f\x8b"
 _MAX_BYTES = 1 << 30
 
 
@@ -734,7 +735,9 @@ def _text_grid(data: bytes, where: str, map_keys: frozenset | set = frozenset())
         raise InputError("the header row is empty", path=where, line=header_line)
     if all(_is_number(h) for h in header if h):
         raise InputError("the log has no header row (expected column names such as time_s, pressure_kpa, "
-                         "angle_deg)", path=where, line=header_line)
+                         "angle_deg): add a first line naming the columns with their units, in the file's own "
+                         "separator (time_s,pressure_kpa,angle_deg); --columns maps names, not positions",
+                         path=where, line=header_line)
     rows: list[list[str]] = []
     row_lines: list[int] = []
     for ln_no, ln in body:
@@ -1581,6 +1584,9 @@ def read_table(path: str | Path, *, column_map: Mapping[str, str] | None = None,
         raise InputError(f"cannot read the file ({exc.strerror or exc})", path=path) from None
     if not data.strip():
         raise InputError(f"empty {kind}: the file has no content", path=path)
+    if data.startswith(_MAGIC_GZIP):
+        raise InputError("a gzip-compressed file, not a table: decompress it first (gunzip, or 7-Zip on Windows) "
+                         "and give bpmid the file inside", path=path)
     fkind = _file_kind(path, data)
     units = {str(k): str(v) for k, v in (units or {}).items()}
     unit_sources = dict(unit_sources or {})
@@ -1616,8 +1622,30 @@ def read_table(path: str | Path, *, column_map: Mapping[str, str] | None = None,
                              f"choose one with --sheet NAME (config io.sheet)", path=path, key="--sheet")
         return candidates[0]
     # a sheet name means nothing for a text or MATLAB file: not an error (one --sheet serves a batch of files)
-    grid = _mat_grid(path, data, kind) if fkind == "mat" else _text_grid(data, str(path), set(cmap))
-    return _build(path, grid, cmap, units, unit_sources, required, optional, kind)
+    if fkind == "mat":
+        return _build(path, _mat_grid(path, data, kind), cmap, units, unit_sources, required, optional, kind)
+    try:
+        grid = _text_grid(data, str(path), set(cmap))
+        return _build(path, grid, cmap, units, unit_sources, required, optional, kind)
+    except InputError as exc:
+        if exc.line is not None and exc.line == _unended_last_line(data):
+            # a file copied while the logger was still writing it: say so, not only what the last row lacks
+            exc.message += ("; this is the file's last line and it has no line end: the file looks cut off "
+                            "(copied or read while it was still being written); take a complete copy, or delete "
+                            "that line")
+            exc.args = (exc.format(),)
+        raise
+
+
+def _unended_last_line(data: bytes) -> int | None:
+    """The (1-based) number of a text file's last line when no line end follows it, else None."""
+    try:
+        text, _ = _decode(data.rstrip(b"\x00"), "")
+    except InputError:
+        return None
+    if not text.strip() or text.endswith(("\n", "\r")):
+        return None
+    return len(re.split(r"\r\n|\r|\n", text))
 
 
 def _build(path: Path, grid: Grid, cmap, units, unit_sources, required, optional, kind) -> Table:

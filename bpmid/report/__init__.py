@@ -74,6 +74,18 @@ def report_study(out_dir: str | Path, *, title: str = "bpmid study report", figu
 
     InputError when the folder holds no readable stage output at all (the message names the unusable files).
     """
+    from bpmid.io import atomic
+
+    # one writer per folder: a command still writing DIR (bpmid run holds it for the whole run) is waited for,
+    # then refused, so the report is never built from a half-written folder nor written beside its files (the
+    # run's own report stage already holds the folder)
+    held = atomic.folder_lock(out_dir, wait_s=atomic.COMMIT_WAIT_S) if Path(out_dir).is_dir() \
+        else contextlib.nullcontext()
+    with held:
+        return _report_study(out_dir, title, figures, drawn)
+
+
+def _report_study(out_dir, title: str, figures: str | None, drawn: dict[str, str] | None) -> ReportResult:
     from bpmid.io.atomic import write_text
     from bpmid.plots.common import figure_format_as
 
