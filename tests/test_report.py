@@ -649,6 +649,7 @@ def test_report_into_a_folder_another_command_is_writing_waits_then_is_refused(t
         monkeypatch.setattr(atomic, "COMMIT_WAIT_S", 0.2)
         r = runner.invoke(app, ["report", str(ctl)])
         assert r.exit_code == 2 and "another bpmid command is writing into this folder" in r.output, r.output
+        assert "then report again" in r.output and "--out" not in r.output   # report has no --out to choose
         assert not (ctl / "report.html").exists() and not (ctl / "report.md").exists()
     finally:
         holder.kill()

@@ -350,10 +350,11 @@ _HELD_FOLDERS: dict[str, list] = {}  # resolved folder -> [fd, depth] of the fol
 
 
 @contextlib.contextmanager
-def folder_lock(folder: str | Path, wait_s: float = 10.0) -> Iterator[None]:
+def folder_lock(folder: str | Path, wait_s: float = 10.0,
+                advice: str = "wait for it to finish or choose another output folder (--out)") -> Iterator[None]:
     """Hold the folder ``folder`` for one writer: a second bpmid command that switches files into it waits up to
-    ``wait_s`` seconds, then is refused (InputError) instead of mixing its files with ours. Re-entrant within
-    one process (a run's stages may write into the folder the run holds)."""
+    ``wait_s`` seconds, then is refused (InputError, ending with ``advice``: what to do) instead of mixing its
+    files with ours. Re-entrant within one process (a run's stages may write into the folder the run holds)."""
     key = _resolved(folder)
     held = _HELD_FOLDERS.get(key)
     if held is not None:
@@ -376,8 +377,8 @@ def folder_lock(folder: str | Path, wait_s: float = 10.0) -> Iterator[None]:
                     break
                 except BlockingIOError:
                     if _now() >= deadline:
-                        raise InputError("another bpmid command is writing into this folder; wait for it to "
-                                         "finish or choose another output folder (--out)", path=folder) from None
+                        raise InputError(f"another bpmid command is writing into this folder; {advice}",
+                                         path=folder) from None
                     import time
 
                     time.sleep(0.05)

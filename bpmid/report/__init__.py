@@ -79,8 +79,8 @@ def report_study(out_dir: str | Path, *, title: str = "bpmid study report", figu
     # one writer per folder: a command still writing DIR (bpmid run holds it for the whole run) is waited for,
     # then refused, so the report is never built from a half-written folder nor written beside its files (the
     # run's own report stage already holds the folder)
-    held = atomic.folder_lock(out_dir, wait_s=atomic.COMMIT_WAIT_S) if Path(out_dir).is_dir() \
-        else contextlib.nullcontext()
+    held = (atomic.folder_lock(out_dir, wait_s=atomic.COMMIT_WAIT_S, advice="wait for it to finish, then report again")
+            if Path(out_dir).is_dir() else contextlib.nullcontext())
     with held:
         return _report_study(out_dir, title, figures, drawn)
 
