@@ -461,3 +461,18 @@ def test_a_log_cut_off_in_its_last_line_says_it_looks_truncated(tmp_path, cut, w
     with pytest.raises(InputError) as e:
         read_motion_log(f, require_angle=True)
     assert words in e.value.format() and "cut off" not in e.value.format()
+
+
+def test_a_column_map_that_takes_another_quantitys_column_says_whose_unit_its_name_states(tmp_path):
+    # a friction log's force column mapped as the angle: the name states N, so "stated nowhere, --angle-unit deg"
+    # misled; the error says N is a unit of load, not of angle, and keeps the way to state it if it is the angle
+    log = tmp_path / "fric.csv"
+    log.write_text("time_s,pressure_kpa,force_N\n0,10,1\n0.1,12,2\n0.2,14,3\n0.3,15,3\n", encoding="utf-8")
+    r = runner.invoke(app, ["fit", "motion", str(log), "--columns", "angle=force_N", "--out", str(tmp_path / "v.yaml")])
+    assert r.exit_code == 2 and "fric.csv:1" in r.output, r.output
+    assert "name says N, a unit of load, not of angle" in r.output and "--angle-unit deg" in r.output, r.output
+    assert not (tmp_path / "v.yaml").exists()
+    # a column whose name states no unit keeps the plain message
+    log.write_text("time_s,pressure_kpa,deflection\n0,10,1\n0.1,12,2\n0.2,14,3\n0.3,15,3\n", encoding="utf-8")
+    r = runner.invoke(app, ["fit", "motion", str(log), "--columns", "angle=deflection", "--out", str(tmp_path / "v.yaml")])
+    assert r.exit_code == 2 and "is stated nowhere" in r.output and "a unit of" not in r.output, r.output

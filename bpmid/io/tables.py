@@ -1942,6 +1942,15 @@ def _one_quantity(grid: Grid, q: str, ents: list, units, unit_sources, meta, lin
         if unit is None and is_time_text:
             unit, unit_from = "iso8601", "timestamps"
         if unit is None:
+            own_q, own_u = _parse(h)[:2]
+            if own_q is not None and own_q != q and own_u is not None and split_unit(own_q, own_u)[0] is not None:
+                # a column map that takes another quantity's column ('angle=force_N'): its name states a unit, of
+                # that quantity; never advise stating an angle unit for a force
+                written = str(h)[-len(own_u):] if str(h).lower().endswith(own_u) else own_u
+                raise InputError(f"column {h!r} is taken as {q} by the column map, but its name says {written}, a "
+                                 f"unit of {own_q}, not of {q}: map {q} to the file's {q} column; if {h!r} really "
+                                 f"holds the {q}, state its unit: {unit_hint(q, h)}"
+                                 f"{grid.info.get('map_note', '')}", path=where, line=hline, key=h)
             what = "" if _norm(h) == q else f" ({q})"
             raise InputError(f"the unit of column {h!r}{what} is stated nowhere and bpmid never guesses one; "
                              f"state it: {unit_hint(q, h)}{grid.info.get('map_note', '')}", path=where,
