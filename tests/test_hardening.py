@@ -658,3 +658,33 @@ def test_a_refit_that_does_not_check_identifiability_never_reports_an_undetermin
     checked = fit_least_squares(lambda p: p.value("a") + p.value("b") * x + p.value("c") * x ** 2
                                 - (y - 0.5 * x ** 2), ps, check_identifiability=True)
     assert "c" in checked.held and checked.params["c"].identifiable is False
+
+
+def test_an_output_folder_that_may_not_be_written_is_refused_before_any_input_is_read(tmp_path, monkeypatch):
+    # a trial (a user without write permission on --out) waited 10-14 s of reading and checking logs for the
+    # refusal at the first write; the folder is checked with the other output checks, before any work
+    import bpmid.io.motion_logs as motion_logs
+
+    ro = tmp_path / "shared"
+    ro.mkdir()
+    real_access = os.access
+
+    def access(path, mode, *a, **k):
+        if Path(path) in (ro, ro / "new") and mode & os.W_OK:
+            return False
+        return real_access(path, mode, *a, **k)
+
+    def never(*a, **k):
+        raise AssertionError("a log was read before the output folder was checked")
+
+    monkeypatch.setattr(atomic.os, "access", access)
+    monkeypatch.setattr(motion_logs, "read_motion_logs", never)
+    logs = sorted(str(p) for p in (Path(__file__).parents[1] / "datasets" / "motion" / "fitting_set").glob("*.csv"))
+    for args in (["compare", "--train", logs[0], "--test", logs[1], "--out", ro],
+                 ["compare", "--train", logs[0], "--test", logs[1], "--out", ro / "new" / "deeper"],
+                 ["fit", "motion", logs[0], "--out", ro / "VBMM.yaml"],
+                 ["discover", *logs[:2], "--out", ro]):
+        res = _run(args)
+        assert res.exit_code == 2 and "cannot write into the folder" in res.output, (args, res.output)
+        assert str(ro) in res.output and "nothing was read or written" in res.output, res.output
+    assert sorted(p.name for p in ro.iterdir()) == []

@@ -163,11 +163,14 @@ def _recover_outputs(kwargs) -> None:
 
 
 def check_outputs(outputs, inputs, *, suffix: str | None = None, key: str = "--out") -> None:
-    """Refuse an output that would overwrite an input, that is a folder where a file is meant, or (with
-    ``suffix``) that has another extension. ``outputs`` and ``inputs`` are paths (missing inputs are ignored)."""
+    """Refuse an output that would overwrite an input, that is a folder where a file is meant, that lies in a
+    folder this user may not write into, or (with ``suffix``) that has another extension. ``outputs`` and ``inputs`` are paths (missing inputs are ignored)."""
+    from bpmid.io.atomic import check_writable
+
     ins = {Path(p).resolve(): Path(p) for p in inputs if p is not None and Path(p).exists()}
     for out in outputs:
         out = Path(out)
+        check_writable(out, key)
         allowed = {suffix, ".yml"} if suffix == ".yaml" else {suffix}
         if suffix is not None and out.suffix.lower() not in allowed:
             raise InputError(f"the output must be a {suffix} file, found {out.name!r}", path=out, key=key)

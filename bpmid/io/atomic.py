@@ -183,10 +183,27 @@ def check_not_input(target: str | Path, shown: str | Path | None = None) -> None
                          "output folder or name (--out)", path=shown if shown is not None else target)
 
 
+def check_writable(target: str | Path, key: str = "--out") -> None:
+    """Before any work: refuse an output whose folder this user may not write into (the folder itself when
+    ``target`` is one, else the folder it would go in, or the nearest existing folder above where the missing
+    ones would be made), instead of reading and checking every input first and failing at the first write."""
+    p = Path(os.path.abspath(target))
+    d = p if p.is_dir() else p.parent
+    while not d.exists() and d.parent != d:
+        d = d.parent
+    if d.is_dir() and not os.access(d, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write into the folder {d} (no write permission, or a read-only file system); "
+                         "nothing was read or written -- choose another output folder (or get write permission "
+                         "there)", path=target, key=key)
+
+
 def check_outputs_not_inputs(targets: Iterable[str | Path], inputs: Iterable[str | Path | None],
                              key: str = "--out") -> None:
     """Before any work: refuse when one of ``targets`` is (by resolved path or by file identity) one of
-    ``inputs``. For commands whose output names are known up front."""
+    ``inputs``, or lies in a folder this user may not write into. For commands whose output names are known up
+    front."""
+    for t in targets:
+        check_writable(t, key)
     ins: dict[str, str] = {}
     ids: dict[tuple, str] = {}
     for p in inputs:
