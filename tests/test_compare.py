@@ -420,3 +420,17 @@ def test_a_mix_of_measured_and_synthetic_logs_is_labelled_as_a_mix(tmp_path, mon
     assert stamps and all(s for s in stamps)
     assert any(s.startswith("partly synthetic: 3 of 4 logs") for s in stamps)   # the summary: every log
     assert "synthetic data (bpmid digital twin)" in stamps                         # the test logs' own figures
+
+
+def test_a_rerun_with_fewer_test_logs_says_the_earlier_runs_predictions_are_still_there(log_files, tmp_path):
+    train, test = log_files
+    out = tmp_path / "cmp"
+    r = runner.invoke(app, ["compare", "--train", str(train[0]), "--test", str(test[1]), str(test[0]),
+                            "--models", "two-branch", "--out", str(out)])
+    assert r.exit_code == 0 and "this run did not write" not in r.output, r.output
+    r = runner.invoke(app, ["compare", "--train", str(train[0]), "--test", str(test[0]),
+                            "--models", "two-branch", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    assert f"also holds 1 file(s) this run did not write (an earlier run's, left as they were: {test[1].stem}.csv)" \
+        in " ".join(r.output.split()), r.output
+    assert (out / "predictions" / f"{test[1].stem}.csv").is_file()   # left alone, as the docs say

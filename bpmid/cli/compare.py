@@ -74,3 +74,10 @@ def compare(
                    "--relax, compare.relax or motion.relax_fit): give your material's relaxation fit (bpmid fit "
                    "relax) to compare your own muscle's")
     typer.echo(f"wrote {Path(out) / 'metrics.csv'}, {Path(out) / 'summary.csv'} and figures")
+    # files a command does not write are left alone: an earlier run's predictions stay beside this run's, said
+    ours = {f"{lg.name}.csv" for lg in result.test}
+    earlier = sorted(p.name for p in (Path(out) / "predictions").glob("*.csv") if p.name not in ours)
+    if earlier:
+        shown = ", ".join(earlier[:5]) + (f" and {len(earlier) - 5} more" if len(earlier) > 5 else "")
+        typer.echo(f"note: {Path(out) / 'predictions'} also holds {len(earlier)} file(s) this run did not write "
+                   f"(an earlier run's, left as they were: {shown}); compare.yaml lists this run's")
