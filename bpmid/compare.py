@@ -100,6 +100,21 @@ class CompareConfig:
 # --------------------------------------------------------------------------------------------------
 # inputs
 # --------------------------------------------------------------------------------------------------
+def _base_hint(pat, base: Path | None) -> str:
+    """What to add to 'not found' for a config's relative path: it is read from the config's folder, and when the
+    path as written matches from the working directory instead, the path to write (relative to the config's
+    folder)."""
+    if base is None or Path(pat).is_absolute() or Path(base).resolve() == Path.cwd().resolve():
+        return ""
+    hint = f" (a path in a config is read relative to the config's folder, {base}"
+    here = [h for h in glob.glob(str(pat)) if Path(h).is_file()]
+    if here:
+        fix = os.path.relpath(os.path.abspath(str(pat)), Path(base).resolve())
+        hint += (f"; {pat} {'matches files' if len(here) > 1 else 'is a file'} from the working directory: write "
+                 f"{fix}, or an absolute path")
+    return hint + ")"
+
+
 def expand_paths(patterns: Sequence[str | Path], *, base: Path | None = None, key: str | None = None,
                  config_path: Path | None = None) -> list[Path]:
     """Paths and glob patterns (relative to ``base``) -> sorted existing files; a pattern that matches
@@ -116,11 +131,11 @@ def expand_paths(patterns: Sequence[str | Path], *, base: Path | None = None, ke
             hits = sorted(Path(h) for h in glob.glob(str(p)))
             hits = [h for h in hits if h.is_file()]
             if not hits:
-                raise InputError(f"no file matches {p}", path=config_path, key=k)
+                raise InputError(f"no file matches {p}" + _base_hint(pat, base), path=config_path, key=k)
             out.extend(hits)
         else:
             if not p.is_file():
-                raise InputError(f"file not found: {p}", path=config_path, key=k)
+                raise InputError(f"file not found: {p}" + _base_hint(pat, base), path=config_path, key=k)
             out.append(p)
     seen, uniq = set(), []
     for p in out:

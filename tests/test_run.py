@@ -279,6 +279,26 @@ def test_bad_config_keys_and_stage_names_exit_2(tmp_path):
     assert r.exit_code == 2 and "absent.yaml" in r.output
 
 
+def test_a_path_written_from_the_working_directory_is_named_with_the_config_s_folder(tmp_path, monkeypatch):
+    """A config in a subfolder whose paths were written from the working directory (a trial's first study config):
+    the error names the config's folder paths are read from and the path to write, for a file and a pattern."""
+    (tmp_path / "lab").mkdir()
+    (tmp_path / "lab" / "long.csv").write_text("time_s,pressure_kpa,angle_deg\n0,1,1\n")
+    (tmp_path / "lab" / "fit_1.csv").write_text("time_s,pressure_kpa,angle_deg\n0,1,1\n")
+    (tmp_path / "cfgs").mkdir()
+    monkeypatch.chdir(tmp_path)
+    cfg = Path("cfgs") / "study.yaml"
+    cfg.write_text("run:\n  long_term: lab/long.csv\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", "o"])
+    assert r.exit_code == 2, r.output
+    assert "run.long_term" in r.output and "file not found: cfgs/lab/long.csv" in r.output
+    assert "relative to the config's folder, cfgs" in r.output and "write ../lab/long.csv" in r.output
+    cfg.write_text("run:\n  fitting_set: [lab/fit_*.csv]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", "o"])
+    assert r.exit_code == 2 and "run.fitting_set[0]" in r.output and "write ../lab/fit_*.csv" in r.output
+    assert not Path("o").exists() and "Traceback" not in r.output
+
+
 def test_stage_without_inputs_is_skipped_and_said_so(tmp_path):
     cfg = make_study(tmp_path)
     cfg.write_text("run:\n  long_term: logs/long.csv\n  history_durations_s: [20]\n  history_repeats: 1\n")
