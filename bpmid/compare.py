@@ -119,14 +119,15 @@ def expand_paths(patterns: Sequence[str | Path], *, base: Path | None = None, ke
                  config_path: Path | None = None) -> list[Path]:
     """Paths and glob patterns (relative to ``base``) -> sorted existing files; a pattern that matches
     nothing is an InputError naming ``key`` and the pattern."""
-    if isinstance(patterns, (str, Path)):
+    single = isinstance(patterns, (str, Path))   # a key that holds one path is named without an index
+    if single:
         patterns = [patterns]
     out: list[Path] = []
     for i, pat in enumerate(patterns):
         p = Path(pat)
         if base is not None and not p.is_absolute():
             p = Path(os.path.normpath(base / p))  # "configs/../datasets" -> "datasets" in messages and provenance
-        k = f"{key}[{i}]" if key else None
+        k = (key if single else f"{key}[{i}]") if key else None
         if any(ch in str(pat) for ch in "*?["):
             hits = sorted(Path(h) for h in glob.glob(str(p)))
             hits = [h for h in hits if h.is_file()]

@@ -177,7 +177,7 @@ def resolve_run_inputs(config) -> RunInputs:
 
     long_term = None
     if rc.long_term:
-        long_term = expand_paths([rc.long_term], base=base, key="run.long_term", config_path=cpath)[0]
+        long_term = expand_paths(rc.long_term, base=base, key="run.long_term", config_path=cpath)[0]
     return RunInputs(
         relax_logs=many("relax_logs", rc.relax_logs), fitting_set=many("fitting_set", rc.fitting_set),
         test_sets={s: many(f"test_sets.{s}", v) for s, v in rc.test_sets.items()}, long_term=long_term,

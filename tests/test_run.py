@@ -291,7 +291,7 @@ def test_a_path_written_from_the_working_directory_is_named_with_the_config_s_fo
     cfg.write_text("run:\n  long_term: lab/long.csv\n")
     r = runner.invoke(app, ["run", str(cfg), "--out", "o"])
     assert r.exit_code == 2, r.output
-    assert "run.long_term" in r.output and "file not found: cfgs/lab/long.csv" in r.output
+    assert "key 'run.long_term':" in r.output and "file not found: cfgs/lab/long.csv" in r.output
     assert "relative to the config's folder, cfgs" in r.output and "write ../lab/long.csv" in r.output
     cfg.write_text("run:\n  fitting_set: [lab/fit_*.csv]\n")
     r = runner.invoke(app, ["run", str(cfg), "--out", "o"])
