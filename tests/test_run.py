@@ -299,6 +299,34 @@ def test_a_path_written_from_the_working_directory_is_named_with_the_config_s_fo
     assert not Path("o").exists() and "Traceback" not in r.output
 
 
+def test_the_control_stage_tracks_the_config_s_own_references(tmp_path):
+    """run.control_references: a study of another muscle tracks its own reference files (a trial's control stage
+    could only run the paper's shipped references, 45-90 deg, beyond its muscle's 56 deg, all saturated); they are
+    read before any stage runs, recorded with their sha256, and a missing one is refused naming the key."""
+    refs = tmp_path / "refs"
+    refs.mkdir()
+    t = np.arange(0.0, 12.0 + 1e-9, 0.1)
+    ref = pd.DataFrame({"time_s": np.round(t, 3), "angle_deg": np.where(t < 6.0, 30.0, 36.0)})
+    ref.to_csv(refs / "my_steps.csv", index=False)
+    cfg = tmp_path / "study.yaml"
+    cfg.write_text("run:\n  stages: [control]\n  control_references: [refs/my_*.csv]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    summary = pd.read_csv(tmp_path / "o" / "control" / "summary.csv")
+    assert set(summary["reference"]) == {"my_steps", "ALL"}
+    run = yaml.safe_load((tmp_path / "o" / "run.yaml").read_text())
+    assert any(k.endswith("refs/my_steps.csv") for k in run["provenance"]["inputs"])
+    # a reference file that is not there, or one the reader refuses: exit 2, the key or file named, nothing written
+    cfg.write_text("run:\n  stages: [control]\n  control_references: [refs/my_steps.csv, refs/nothing.csv]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
+    assert r.exit_code == 2 and "run.control_references[1]" in r.output and "nothing.csv" in r.output, r.output
+    (refs / "bad.csv").write_text("time_s,angle\n0,30\n0.1,31\n")
+    cfg.write_text("run:\n  stages: [control]\n  control_references: [refs/bad.csv]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
+    assert r.exit_code == 2 and "bad.csv" in r.output and "Traceback" not in r.output, r.output
+    assert not (tmp_path / "o2").exists()
+
+
 def test_stage_without_inputs_is_skipped_and_said_so(tmp_path):
     cfg = make_study(tmp_path)
     cfg.write_text("run:\n  long_term: logs/long.csv\n  history_durations_s: [20]\n  history_repeats: 1\n")
