@@ -327,6 +327,22 @@ def test_the_control_stage_tracks_the_config_s_own_references(tmp_path):
     assert not (tmp_path / "o2").exists()
 
 
+def test_the_readme_s_own_study_config_is_a_valid_config(tmp_path):
+    """The README's example of a study config of one's own (a trial found the keys of run documented nowhere but
+    in the shipped config and the error messages): every key it shows is one bpmid run reads."""
+    from bpmid.config import load_config
+
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    block = text[text.index("**Your own study.**"):]
+    block = block[block.index("```yaml\n") + 8:block.index("```\n", block.index("```yaml\n") + 8)]
+    cfg = tmp_path / "my_study.yaml"
+    cfg.write_text(block)
+    config = load_config(cfg)
+    rc = config.section("run")
+    assert rc.control_references == ("refs/*.csv",) and set(rc.test_sets) == {"amplitude", "rate"}
+    assert config.section("control").rate_hz == 20 and abs(config.section("model").geometry.R0 - 0.012) < 1e-12
+
+
 def test_stage_without_inputs_is_skipped_and_said_so(tmp_path):
     cfg = make_study(tmp_path)
     cfg.write_text("run:\n  long_term: logs/long.csv\n  history_durations_s: [20]\n  history_repeats: 1\n")
