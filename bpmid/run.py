@@ -244,6 +244,12 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
         angled.append(inp.long_term)
     if "discover" in stages:
         angled += list(inp.discover_logs) + list(inp.discover_holdout)
+        fitted = {Path(p).resolve() for p in inp.discover_logs}
+        for i, p in enumerate(inp.discover_holdout):   # said in the config's keys, not the command's LOG/--holdout
+            if Path(p).resolve() in fitted:
+                raise InputError(f"{p} is also in run.discover_logs: discovery would score its fit on its own data; "
+                                 "give each log in one of the two lists", path=config.path,
+                                 key=f"run.discover_holdout[{i}]")
     seen: dict = {}
     for p in angled:
         if str(p) not in seen:

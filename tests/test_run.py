@@ -343,6 +343,18 @@ def test_the_readme_s_own_study_config_is_a_valid_config(tmp_path):
     assert config.section("control").rate_hz == 20 and abs(config.section("model").geometry.R0 - 0.012) < 1e-12
 
 
+def test_a_held_out_log_that_is_also_a_discovery_log_is_named_by_the_config_s_keys(tmp_path):
+    """A trial's run.discover_holdout repeated a log of run.discover_logs: the refusal spoke of the discover command's
+    'LOG or --holdout', which a study config does not have; it names the run keys, before anything is written."""
+    cfg = make_study(tmp_path)
+    cfg.write_text("run:\n  discover_logs: [logs/fit_*.csv]\n  discover_holdout: [logs/rate_0p114.csv, logs/fit_b.csv]\n"
+                   "  stages: [discover]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2, r.output
+    assert "run.discover_holdout[1]" in r.output and "also in run.discover_logs" in r.output
+    assert "--holdout" not in r.output and not (tmp_path / "o").exists()
+
+
 def test_stage_without_inputs_is_skipped_and_said_so(tmp_path):
     cfg = make_study(tmp_path)
     cfg.write_text("run:\n  long_term: logs/long.csv\n  history_durations_s: [20]\n  history_repeats: 1\n")
