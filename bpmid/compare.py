@@ -100,27 +100,43 @@ class CompareConfig:
 # --------------------------------------------------------------------------------------------------
 # inputs
 # --------------------------------------------------------------------------------------------------
+def _base_hint(pat, base: Path | None) -> str:
+    """What to add to 'not found' for a config's relative path: it is read from the config's folder, and when the
+    path as written matches from the working directory instead, the path to write (relative to the config's
+    folder)."""
+    if base is None or Path(pat).is_absolute() or Path(base).resolve() == Path.cwd().resolve():
+        return ""
+    hint = f" (a path in a config is read relative to the config's folder, {base}"
+    here = [h for h in glob.glob(str(pat)) if Path(h).is_file()]
+    if here:
+        fix = os.path.relpath(os.path.abspath(str(pat)), Path(base).resolve())
+        hint += (f"; {pat} {'matches files' if len(here) > 1 else 'is a file'} from the working directory: write "
+                 f"{fix}, or an absolute path")
+    return hint + ")"
+
+
 def expand_paths(patterns: Sequence[str | Path], *, base: Path | None = None, key: str | None = None,
                  config_path: Path | None = None) -> list[Path]:
     """Paths and glob patterns (relative to ``base``) -> sorted existing files; a pattern that matches
     nothing is an InputError naming ``key`` and the pattern."""
-    if isinstance(patterns, (str, Path)):
+    single = isinstance(patterns, (str, Path))   # a key that holds one path is named without an index
+    if single:
         patterns = [patterns]
     out: list[Path] = []
     for i, pat in enumerate(patterns):
         p = Path(pat)
         if base is not None and not p.is_absolute():
             p = Path(os.path.normpath(base / p))  # "configs/../datasets" -> "datasets" in messages and provenance
-        k = f"{key}[{i}]" if key else None
+        k = (key if single else f"{key}[{i}]") if key else None
         if any(ch in str(pat) for ch in "*?["):
             hits = sorted(Path(h) for h in glob.glob(str(p)))
             hits = [h for h in hits if h.is_file()]
             if not hits:
-                raise InputError(f"no file matches {p}", path=config_path, key=k)
+                raise InputError(f"no file matches {p}" + _base_hint(pat, base), path=config_path, key=k)
             out.extend(hits)
         else:
             if not p.is_file():
-                raise InputError(f"file not found: {p}", path=config_path, key=k)
+                raise InputError(f"file not found: {p}" + _base_hint(pat, base), path=config_path, key=k)
             out.append(p)
     seen, uniq = set(), []
     for p in out:

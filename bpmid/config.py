@@ -149,7 +149,10 @@ def _convert(tp, value, where: str, path):
         return build_dataclass(tp, value, where, path)
     if origin in _SEQUENCES or tp in (list, tuple):
         if not isinstance(value, (list, tuple)):
-            raise InputError(f"expected a list, found {_shown(value)}", path=path, key=where)
+            one = f'["{value}"]' if isinstance(value, str) else f"[{value}]"
+            raise InputError(f"expected a list, found {_shown(value)}"
+                             + ("" if isinstance(value, dict) else f": write it as a list, {_shown(one)}"),
+                             path=path, key=where)
         if origin is tuple and args and args[-1] is not Ellipsis:  # a fixed-length tuple
             if len(value) != len(args):
                 raise InputError(f"expected a list of {len(args)} values, found {len(value)}", path=path, key=where)
@@ -158,7 +161,10 @@ def _convert(tp, value, where: str, path):
         return tuple(_convert(inner, v, f"{where}[{i}]", path) for i, v in enumerate(value))
     if origin in _MAPPINGS or tp in (dict, Mapping):
         if not isinstance(value, dict):
-            raise InputError(f"expected a mapping, found {_shown(value)}", path=path, key=where)
+            raise InputError(f"expected a mapping, found {_shown(value)}"
+                             + (": give each entry a name, " + ("{set_name: [paths], ...}" if where.endswith("test_sets")
+                                                                  else "{name: value, ...}")
+                                if isinstance(value, (list, tuple)) else ""), path=path, key=where)
         kt = args[0] if len(args) == 2 else Any
         vt = args[1] if len(args) == 2 else Any
         out = {}

@@ -69,6 +69,8 @@ class RunConfig:
     long_term : the long-term log for the history-mode comparison (stage history)
     discover_logs : logs the discovery workflow fits on (stage discover)
     discover_holdout : its held-out logs (default: the workflow's own split of ``discover_logs``)
+    control_references : reference angle files (``time_s, angle_deg``) the control stage tracks (default: the
+        shipped references of the paper's experiment 3, ``datasets/control/``)
     stages : stages to run, in the fixed order of :data:`STAGES`
     history_durations_s : prefix durations of the long-term log for the cost-per-step curve (s)
     history_repeats : timed runs per point in the recursive and window modes (the fastest counts)
@@ -87,6 +89,7 @@ class RunConfig:
     long_term: Optional[str] = None
     discover_logs: tuple[str, ...] = ()
     discover_holdout: tuple[str, ...] = ()
+    control_references: tuple[str, ...] = ()
     stages: tuple[str, ...] = STAGES
     history_durations_s: tuple[float, ...] = (100.0, 200.0, 450.0, 900.0, 1800.0)
     history_repeats: int = 3
@@ -152,6 +155,7 @@ class RunInputs:
     long_term: Optional[Path]
     discover_logs: list
     discover_holdout: list
+    control_references: list = dataclasses.field(default_factory=list)   # not data logs: never in all()
 
     def all(self) -> list[Path]:
         out = list(self.relax_logs) + list(self.fitting_set) + [p for v in self.test_sets.values() for p in v]
@@ -177,12 +181,30 @@ def resolve_run_inputs(config) -> RunInputs:
 
     long_term = None
     if rc.long_term:
-        long_term = expand_paths([rc.long_term], base=base, key="run.long_term", config_path=cpath)[0]
+        long_term = expand_paths(rc.long_term, base=base, key="run.long_term", config_path=cpath)[0]
     return RunInputs(
         relax_logs=many("relax_logs", rc.relax_logs), fitting_set=many("fitting_set", rc.fitting_set),
         test_sets={s: many(f"test_sets.{s}", v) for s, v in rc.test_sets.items()}, long_term=long_term,
         discover_logs=many("discover_logs", rc.discover_logs),
-        discover_holdout=many("discover_holdout", rc.discover_holdout))
+        discover_holdout=many("discover_holdout", rc.discover_holdout),
+        control_references=many("control_references", rc.control_references))
+
+
+def control_references(config, inp: RunInputs) -> list:
+    """The references the control stage tracks: the config's ``run.control_references`` read with its ``io``
+    section, else every shipped one (InputError naming the file, or the key of a name given twice)."""
+    from bpmid.control import load_references, read_reference
+
+    rate = config.section("control").rate_hz
+    if not inp.control_references:
+        return load_references("all", rate)
+    refs = [read_reference(p, rate, io=config.section("io")) for p in inp.control_references]
+    names = [r.name for r in refs]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InputError(f"two references are named {dup[0]} (references are told apart by their file name): "
+                         "rename one", path=config.path, key="run.control_references")
+    return refs
 
 
 def stages_to_run(rc: "RunConfig", inp: RunInputs) -> list[str]:
@@ -222,6 +244,12 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
         angled.append(inp.long_term)
     if "discover" in stages:
         angled += list(inp.discover_logs) + list(inp.discover_holdout)
+        fitted = {Path(p).resolve() for p in inp.discover_logs}
+        for i, p in enumerate(inp.discover_holdout):   # said in the config's keys, not the command's LOG/--holdout
+            if Path(p).resolve() in fitted:
+                raise InputError(f"{p} is also in run.discover_logs: discovery would score its fit on its own data; "
+                                 "give each log in one of the two lists", path=config.path,
+                                 key=f"run.discover_holdout[{i}]")
     seen: dict = {}
     for p in angled:
         if str(p) not in seen:
@@ -235,6 +263,8 @@ def check_stage_inputs(config, inp: RunInputs, stages) -> list:
         ccfg = config.section("compare")
         if "compare" in stages and ccfg.relax is not None:
             material_from_relax(_param_file(config, "compare", "relax", ccfg.relax))
+    if "control" in stages and inp.control_references:
+        control_references(config, inp)
     motion_paths = inp.fitting_set + [p for v in inp.test_sets.values() for p in v]
     if not motion_paths:
         return []
@@ -506,9 +536,10 @@ def stage_discover(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
 
 
 def stage_control(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
-    """The paper's experiment 3 in kind: PI, VBMM-PI and MS-PI on the shipped references, the controller's
+    """The paper's experiment 3 in kind: PI, VBMM-PI and MS-PI on the shipped references (or the config's
+    ``run.control_references``), the controller's
     model being this run's VBMM-fit (else the paper's constants), the plant the same model with sensor noise."""
-    from bpmid.control import build_plant, load_references, references_reading, run_control, write_control
+    from bpmid.control import build_plant, references_reading, run_control, write_control
     from bpmid.models.vbmm import VBMM, Material, load_vbmm
 
     cfg = config.section("control")
@@ -518,7 +549,7 @@ def stage_control(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     else:
         model = VBMM.from_config(Material.paper_fit(), mcfg)
     plant = build_plant(model, [], cfg)
-    refs = load_references("all", cfg.rate_hz)
+    refs = control_references(config, inp)
     result = run_control(model, plant, refs, cfg)
     if ctx.get("vbmm_fit") is not None:
         from bpmid.models.vbmm.rig import loop_step_warning
@@ -640,7 +671,7 @@ def _run_study(config, out_dir: str | Path, command: str | None) -> list[StageRe
     check_stages_can_run(rc, inp, config.path)
     # every input of every stage read and checked before the first stage runs (and before DIR is touched)
     check_stage_inputs(config, inp, stages_to_run(rc, inp))
-    check_run_outputs(out, [config.path] + inp.all() + _param_inputs(config, rc, inp))
+    check_run_outputs(out, [config.path] + inp.all() + inp.control_references + _param_inputs(config, rc, inp))
     # synthetic only when every log the study reads is (a measured relaxation curve is not; the report says so); a
     # study mixing them with measured logs is not called measured (the report names the synthetic ones)
     data_logs = inp.all()
@@ -909,4 +940,4 @@ def _write_run_yaml(out, records, inp, config, ctx, write_result) -> None:
             "data_logs": ctx["data_logs"],
             "test_sets": {s: [str(p) for p in v] for s, v in inp.test_sets.items()},
             "note": "seconds are wall-clock times on this machine; every other number is reproducible from the inputs"}
-    write_result(out / "run.yaml", SCHEMA, body, _prov(inp.all(), config, ctx["seed"], ctx["command"]))
+    write_result(out / "run.yaml", SCHEMA, body, _prov(inp.all() + inp.control_references, config, ctx["seed"], ctx["command"]))

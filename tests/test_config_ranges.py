@@ -124,7 +124,12 @@ def test_a_relaxation_log_cut_to_its_hold_is_pointed_to_step_mode(tmp_path):
     ("motion:\n  bounds:\n    K_inf: [-1.0e6, 1.0e9]\n", "motion.bounds.K_inf", ">= 0"),
     # metres under the mm keys fitted at exit 0 with a 10 um radius
     ("model:\n  geometry: {th_mm: 0.0015, alpha0_deg: 25, R0_mm: 0.01, l0_mm: 0.12, n: 5}\n", "model.geometry",
-     "too small for a muscle")])
+     "too small for a muscle"),
+    # a trial's datasheet geometry under the SI keys was refused for alpha0 alone, with nothing on what to write
+    ("model:\n  geometry: {th: 2.5, alpha0: 25, R0: 12, l0: 150, n: 6}\n", "model.geometry",
+     "look like millimetres: give them as th_mm, R0_mm, l0_mm (and alpha0_deg)"),
+    ("model:\n  geometry: {th_mm: 2.5, alpha0: 25, R0_mm: 12, l0_mm: 150, n: 6}\n", "model.geometry.alpha0",
+     "degrees given under alpha0? alpha0 takes radians (0.4363), alpha0_deg degrees (alpha0_deg: 25)")])
 def test_a_motion_fit_setting_out_of_its_meaning_is_refused(tmp_path, text, key, words):
     cfg = tmp_path / "c.yaml"
     cfg.write_text(text)

@@ -222,6 +222,11 @@ def test_yaml_reads_exponent_numbers_as_floats_and_refuses_python_tags():
     ("motion: {bounds: {tau_1: [0.01, high]}}", "motion.bounds.tau_1[1]", "expected a number"),
     ("compare: {test_sets: {a: [1.5]}}", "compare.test_sets.a[0]", "expected text"),
     ("compare: {options: {gpi: 3}}", "compare.options.gpi", "expected a mapping"),
+    # a trial's study config: one pattern where a list is asked, a list where named test sets are asked
+    ("run: {relax_logs: lab/relax/*.csv}", "run.relax_logs", 'write it as a list, \'["lab/relax/*.csv"]\''),
+    ("run: {history_durations_s: 100}", "run.history_durations_s", "write it as a list, '[100]'"),
+    ("run: {test_sets: [a.csv, b.csv]}", "run.test_sets", "give each entry a name, {set_name: [paths], ...}"),
+    ("io: {columns: [Zeit]}", "io.columns", "give each entry a name, {name: value, ...}"),
     ("run: {history_durations_s: [100, .nan]}", "run.history_durations_s[1]", "not a number"),
     ("run: {history_repeats: 2.5}", "run.history_repeats", "whole number"),
     ("run: {history_repeats: 1e1}", None, None),

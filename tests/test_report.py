@@ -656,3 +656,36 @@ def test_report_into_a_folder_another_command_is_writing_waits_then_is_refused(t
         holder.wait()
     r = runner.invoke(app, ["report", str(ctl)])   # free again
     assert r.exit_code == 0 and (ctl / "report.html").is_file(), r.output
+
+
+def _measured_panel_title(*, synthetic, twin, protocols):
+    """The title the paper section gives its MEASURED HERE panel for a study whose files say what is stubbed."""
+    import types
+
+    from bpmid.report.doc import Doc
+    from bpmid.report.sections import paper as paper_section
+
+    st = types.SimpleNamespace(synthetic=synthetic, made_by_twin=lambda: twin, protocols=lambda: protocols,
+                               motion=None, relax=None, compare=None, history=None, stale=())
+    doc = Doc()
+    paper_section.build(doc, st, figs=None)
+    panels = [b.text for b in doc.sections[-1].blocks if b.kind == "panel"]
+    assert len(panels) == 2, panels
+    return panels[1]
+
+
+def test_the_measured_panel_calls_data_shipped_only_when_they_follow_the_shipped_protocols():
+    """A user's own muscle simulated with bpmid simulate (their own protocols, or files without a manifest beside
+    them) is this run's synthetic data; a trial's report on such a study titled it 'synthetic shipped data'."""
+    mine = _measured_panel_title(synthetic=True, twin=True, protocols=([], ["my_fitting", "my_rate"], 0))
+    assert "shipped" not in mine and mine == "Measured here (bpmid, this run's synthetic data, made by bpmid's digital twin)"
+    no_manifest = _measured_panel_title(synthetic=True, twin=True, protocols=([], [], 12))
+    assert "shipped" not in no_manifest
+    mixed = _measured_panel_title(synthetic=True, twin=True, protocols=(["fitting_set"], [], 3))
+    assert "shipped" not in mixed
+    assert _measured_panel_title(synthetic=True, twin=True, protocols=(["fitting_set", "relaxation"], [], 0)) == \
+        "Measured here (bpmid, synthetic shipped data)"
+    assert _measured_panel_title(synthetic=True, twin=False, protocols=([], [], 5)) == \
+        "Measured here (bpmid, this run's synthetic data)"
+    assert _measured_panel_title(synthetic=False, twin=False, protocols=([], [], 5)) == \
+        "Measured here (bpmid, this run's data)"

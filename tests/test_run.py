@@ -279,6 +279,82 @@ def test_bad_config_keys_and_stage_names_exit_2(tmp_path):
     assert r.exit_code == 2 and "absent.yaml" in r.output
 
 
+def test_a_path_written_from_the_working_directory_is_named_with_the_config_s_folder(tmp_path, monkeypatch):
+    """A config in a subfolder whose paths were written from the working directory (a trial's first study config):
+    the error names the config's folder paths are read from and the path to write, for a file and a pattern."""
+    (tmp_path / "lab").mkdir()
+    (tmp_path / "lab" / "long.csv").write_text("time_s,pressure_kpa,angle_deg\n0,1,1\n")
+    (tmp_path / "lab" / "fit_1.csv").write_text("time_s,pressure_kpa,angle_deg\n0,1,1\n")
+    (tmp_path / "cfgs").mkdir()
+    monkeypatch.chdir(tmp_path)
+    cfg = Path("cfgs") / "study.yaml"
+    cfg.write_text("run:\n  long_term: lab/long.csv\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", "o"])
+    assert r.exit_code == 2, r.output
+    assert "key 'run.long_term':" in r.output and "file not found: cfgs/lab/long.csv" in r.output
+    assert "relative to the config's folder, cfgs" in r.output and "write ../lab/long.csv" in r.output
+    cfg.write_text("run:\n  fitting_set: [lab/fit_*.csv]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", "o"])
+    assert r.exit_code == 2 and "run.fitting_set[0]" in r.output and "write ../lab/fit_*.csv" in r.output
+    assert not Path("o").exists() and "Traceback" not in r.output
+
+
+def test_the_control_stage_tracks_the_config_s_own_references(tmp_path):
+    """run.control_references: a study of another muscle tracks its own reference files (a trial's control stage
+    could only run the paper's shipped references, 45-90 deg, beyond its muscle's 56 deg, all saturated); they are
+    read before any stage runs, recorded with their sha256, and a missing one is refused naming the key."""
+    refs = tmp_path / "refs"
+    refs.mkdir()
+    t = np.arange(0.0, 12.0 + 1e-9, 0.1)
+    ref = pd.DataFrame({"time_s": np.round(t, 3), "angle_deg": np.where(t < 6.0, 30.0, 36.0)})
+    ref.to_csv(refs / "my_steps.csv", index=False)
+    cfg = tmp_path / "study.yaml"
+    cfg.write_text("run:\n  stages: [control]\n  control_references: [refs/my_*.csv]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    summary = pd.read_csv(tmp_path / "o" / "control" / "summary.csv")
+    assert set(summary["reference"]) == {"my_steps", "ALL"}
+    run = yaml.safe_load((tmp_path / "o" / "run.yaml").read_text())
+    assert any(k.endswith("refs/my_steps.csv") for k in run["provenance"]["inputs"])
+    # a reference file that is not there, or one the reader refuses: exit 2, the key or file named, nothing written
+    cfg.write_text("run:\n  stages: [control]\n  control_references: [refs/my_steps.csv, refs/nothing.csv]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
+    assert r.exit_code == 2 and "run.control_references[1]" in r.output and "nothing.csv" in r.output, r.output
+    (refs / "bad.csv").write_text("time_s,angle\n0,30\n0.1,31\n")
+    cfg.write_text("run:\n  stages: [control]\n  control_references: [refs/bad.csv]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
+    assert r.exit_code == 2 and "bad.csv" in r.output and "Traceback" not in r.output, r.output
+    assert not (tmp_path / "o2").exists()
+
+
+def test_the_readme_s_own_study_config_is_a_valid_config(tmp_path):
+    """The README's example of a study config of one's own (a trial found the keys of run documented nowhere but
+    in the shipped config and the error messages): every key it shows is one bpmid run reads."""
+    from bpmid.config import load_config
+
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    block = text[text.index("**Your own study.**"):]
+    block = block[block.index("```yaml\n") + 8:block.index("```\n", block.index("```yaml\n") + 8)]
+    cfg = tmp_path / "my_study.yaml"
+    cfg.write_text(block)
+    config = load_config(cfg)
+    rc = config.section("run")
+    assert rc.control_references == ("refs/*.csv",) and set(rc.test_sets) == {"amplitude", "rate"}
+    assert config.section("control").rate_hz == 20 and abs(config.section("model").geometry.R0 - 0.012) < 1e-12
+
+
+def test_a_held_out_log_that_is_also_a_discovery_log_is_named_by_the_config_s_keys(tmp_path):
+    """A trial's run.discover_holdout repeated a log of run.discover_logs: the refusal spoke of the discover command's
+    'LOG or --holdout', which a study config does not have; it names the run keys, before anything is written."""
+    cfg = make_study(tmp_path)
+    cfg.write_text("run:\n  discover_logs: [logs/fit_*.csv]\n  discover_holdout: [logs/rate_0p114.csv, logs/fit_b.csv]\n"
+                   "  stages: [discover]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2, r.output
+    assert "run.discover_holdout[1]" in r.output and "also in run.discover_logs" in r.output
+    assert "--holdout" not in r.output and not (tmp_path / "o").exists()
+
+
 def test_stage_without_inputs_is_skipped_and_said_so(tmp_path):
     cfg = make_study(tmp_path)
     cfg.write_text("run:\n  long_term: logs/long.csv\n  history_durations_s: [20]\n  history_repeats: 1\n")

@@ -85,16 +85,18 @@ class Geometry:
             v = getattr(self, f.name)
             if not (np.isfinite(v) and v > 0):
                 raise InputError(f"geometry must be positive and finite, found {v!r}", path=path, key=f"{where}.{f.name}")
+        if any(getattr(self, k) > GEOMETRY_MAX_M[k] for k in GEOMETRY_MAX_M):
+            raise InputError("geometry is in metres (th, R0, l0); the values look like millimetres: give them as "
+                             "th_mm, R0_mm, l0_mm (and alpha0_deg) to state mm and deg", path=path, key=where)
         if not self.alpha0 < math.pi / 2:
-            raise InputError(f"alpha0 is in rad and must be below pi/2, found {self.alpha0:g}", path=path,
+            deg = (f": degrees given under alpha0? alpha0 takes radians ({math.radians(self.alpha0):.4g}), "
+                   f"alpha0_deg degrees (alpha0_deg: {self.alpha0:g})" if self.alpha0 < 90 else "")
+            raise InputError(f"alpha0 is in rad and must be below pi/2, found {self.alpha0:g}{deg}", path=path,
                              key=f"{where}.alpha0")
         if math.degrees(self.alpha0) < ALPHA0_MIN_DEG:
             raise InputError(f"a braid angle of {math.degrees(self.alpha0):.4g} deg is too small for a muscle (at least "
                              f"{ALPHA0_MIN_DEG:g} deg): radians given under alpha0_deg? alpha0 takes radians, "
                              f"alpha0_deg degrees", path=path, key=f"{where}.alpha0")
-        if any(getattr(self, k) > GEOMETRY_MAX_M[k] for k in GEOMETRY_MAX_M):
-            raise InputError("geometry is in metres (th, R0, l0); the values look like millimetres: give them as "
-                             "th_mm, R0_mm, l0_mm (and alpha0_deg) to state mm and deg", path=path, key=where)
         if any(getattr(self, k) < GEOMETRY_MIN_M[k] for k in GEOMETRY_MIN_M):
             raise InputError(f"geometry too small for a muscle (th {self.th * 1e3:.4g} mm, R0 {self.R0 * 1e3:.4g} mm, "
                              f"l0 {self.l0 * 1e3:.4g} mm): metres given under the _mm keys? th_mm, R0_mm and l0_mm "

@@ -61,7 +61,10 @@ def build(doc, st, figs) -> None:
     with doc.panel("Paper's numbers (quoted, the paper's data)", "quoted"):
         doc.p(PAPER_SOURCE)
         doc.table(["experiment", "quantity", "value", "unit"], [[e, q, fmt(v), u] for e, q, v, u in PAPER_ROWS])
-    label = ("Measured here (bpmid, synthetic shipped data)" if st.synthetic and st.made_by_twin() else
+    paper, other, unknown = st.protocols()   # "shipped" only for logs the manifests tie to the shipped protocols
+    twin = st.synthetic and st.made_by_twin()
+    label = ("Measured here (bpmid, synthetic shipped data)" if twin and paper and not other and not unknown else
+             "Measured here (bpmid, this run's synthetic data, made by bpmid's digital twin)" if twin else
              "Measured here (bpmid, this run's synthetic data)" if st.synthetic else "Measured here (bpmid, this run's data)")
     with doc.panel(label, "measured"):
         doc.p(f"Computed by bpmid {__version__}; test sets as in the comparison.")
