@@ -24,6 +24,9 @@ _FLAG_KEYS = {"--columns": "io.columns ({'<header in the file>': '<bpmid name>'}
               "--angle-unit": "io.units.angle", "--pressure-reference": "io.pressure_reference",
               "--sheet": "io.sheet", "--max-gap": "io.max_gap_s", "--strict": "io.strict"}
 _FLAG_NOTE = "from Python, pass these in config={'io': {...}}"
+#: set while a command without the reading flags runs (bpmid run): its errors name the config keys instead
+_NO_READING_FLAGS = contextvars.ContextVar("bpmid_no_reading_flags", default=False)
+_RUN_NOTE = "bpmid run takes no reading flags: set them in the study config's io section"
 
 
 #: command-line options that are arguments of the library's calls under another name (bpmid.compare(models=...))
@@ -32,13 +35,25 @@ _ARG_KEYS = {"--models": "models", "--reference": "reference", "--controllers": 
              "--to": "to", "--model": "model"}
 
 
-def _library_words(message: str) -> str:
-    """``message`` with the config key of each reading flag it names, for a caller outside the command line."""
+def _library_words(message: str, note: str = _FLAG_NOTE) -> str:
+    """``message`` with the config key of each reading flag it names, for a caller outside the command line (or
+    inside a command that has no such flags: ``note`` says where they go)."""
     named = [f"{flag} is {key}" for flag, key in _FLAG_KEYS.items()
              if re.search(re.escape(flag) + r"(?![\w-])", message)]
-    if not named or _FLAG_NOTE in message:
+    if not named or note in message:
         return message
-    return f"{message} ({_FLAG_NOTE}: {'; '.join(named)})"
+    return f"{message} ({note}: {'; '.join(named)})"
+
+
+@contextlib.contextmanager
+def reading_flags_absent():
+    """A command that takes no reading flags (``bpmid run``, whose study config's ``io`` section reads every
+    log) runs inside this: the errors of what it reads name the config keys beside the flags they mention."""
+    token = _NO_READING_FLAGS.set(True)
+    try:
+        yield
+    finally:
+        _NO_READING_FLAGS.reset(token)
 
 
 class InputError(Exception):
@@ -58,10 +73,15 @@ class InputError(Exception):
 
     def __init__(self, message: str, *, path: str | Path | None = None,
                  line: int | None = None, key: str | None = None):
-        self.message = message if _IN_COMMAND.get() else _library_words(message)
+        no_flags = _IN_COMMAND.get() and _NO_READING_FLAGS.get()
+        self.message = (_library_words(message, _RUN_NOTE) if no_flags else message if _IN_COMMAND.get()
+                        else _library_words(message))
         self.path = None if path is None else str(path)
         self.line = line
-        # outside a command, an option that is an argument of the library's call is named as that argument
+        # outside a command, an option that is an argument of the library's call is named as that argument; in a
+        # command without the reading flags, a reading flag is named as its config key
+        if no_flags and key in _FLAG_KEYS:
+            key = _FLAG_KEYS[key].split(" ")[0]
         self.key = key if _IN_COMMAND.get() or key not in _ARG_KEYS else _ARG_KEYS[key]
         super().__init__(self.format())
 

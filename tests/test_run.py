@@ -488,3 +488,23 @@ def test_a_stage_asked_for_without_its_inputs_or_a_config_with_no_data_is_refuse
     cfg.write_text("run:\n  stages: [control]\ncontrol:\n  controllers: [pi]\n")
     r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "ok")])
     assert r.exit_code == 0 and (tmp_path / "ok" / "control" / "summary.csv").is_file(), r.output
+
+
+def test_a_log_s_reading_error_names_the_study_config_s_io_keys_not_flags_run_does_not_take(tmp_path):
+    # bpmid run has no --pressure-unit, --columns ...: a log without a pressure unit said "the flag
+    # --pressure-unit kPa" only; it names io.units.pressure, where a study config states it
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    t = np.arange(0.0, 20.0, 0.1)
+    rows = "".join(f"{a:.1f},{30 + 20 * np.sin(a):.4f},{40 + 10 * np.sin(a):.4f}\n" for a in t)
+    (logs / "fit.csv").write_text("time_s,pressure,angle_deg\n" + rows, encoding="utf-8")
+    cfg = tmp_path / "study.yaml"
+    cfg.write_text("run:\n  fitting_set: [logs/fit.csv]\n  stages: [motion]\n", encoding="utf-8")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    out = " ".join(r.output.split())
+    assert r.exit_code == 2 and "fit.csv" in out, r.output
+    assert "bpmid run takes no reading flags: set them in the study config's io section" in out, r.output
+    assert "--pressure-unit is io.units.pressure" in out and not (tmp_path / "o").exists(), r.output
+    # the command that has the flag still names it alone
+    r = runner.invoke(app, ["fit", "motion", str(logs / "fit.csv"), "--out", str(tmp_path / "v.yaml")])
+    assert r.exit_code == 2 and "--pressure-unit" in r.output and "reading flags" not in r.output, r.output

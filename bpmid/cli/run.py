@@ -44,7 +44,10 @@ def run(
         cfg = Config({**cfg.sections, "run": dataclasses.replace(rc0, workers=workers)}, cfg.path, cfg.sha256)
     rc = cfg.section("run")
     out_dir = out if out is not None else Path(rc.out) if rc.out else Path("out") / path.stem
-    records = run_study(cfg, out_dir)
+    from bpmid.errors import reading_flags_absent
+
+    with reading_flags_absent():   # its logs are read by the config's io section: errors name those keys
+        records = run_study(cfg, out_dir)
     for r in records:
         extra = f" ({r.note})" if r.note else ""
         typer.echo(f"{r.name:<9} {r.status:<8} {r.seconds:7.1f} s{extra}")
