@@ -167,28 +167,20 @@ def test_a_staged_file_written_through_write_text_stays_locked_against_recovery(
 
 
 def test_a_second_writer_into_a_held_folder_is_refused_not_mixed_in(tmp_path, monkeypatch):
-    import subprocess
-    import sys
+    from _holders import held_by_another_process
 
     from bpmid.run import OutputJournal
 
     out = tmp_path / "out"
     out.mkdir()
     (out / "a.csv").write_text("old\n")
-    holder = subprocess.Popen([sys.executable, "-c", "import fcntl, os, sys, time; fd = os.open(sys.argv[1], "
-                               "os.O_RDONLY); fcntl.flock(fd, fcntl.LOCK_EX); print('held', flush=True); "
-                               "time.sleep(60)", str(out)], stdout=subprocess.PIPE, text=True)
-    try:
-        assert holder.stdout.readline().strip() == "held"
+    with held_by_another_process(out):
         monkeypatch.setattr(atomic, "COMMIT_WAIT_S", 0.2)
         with pytest.raises(InputError, match="another bpmid command"):
             with staged_dir(out) as d:
                 write_text(d / "a.csv", "new\n")
         with pytest.raises(InputError, match="another bpmid command"):
             OutputJournal(out)
-    finally:
-        holder.kill()
-        holder.wait()
     assert (out / "a.csv").read_text() == "old\n" and _hidden(tmp_path) == []
     journal = OutputJournal(out)  # free again; and re-entrant within one process
     with staged_dir(out) as d:

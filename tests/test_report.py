@@ -629,8 +629,7 @@ def test_report_on_a_discovery_folder_states_what_its_files_record(study, tmp_pa
 def test_report_into_a_folder_another_command_is_writing_waits_then_is_refused(tmp_path, monkeypatch):
     """`bpmid report DIR` while `bpmid run --out DIR` was writing DIR built a report from the half-written folder,
     wrote it beside the run's files and said nothing; the folder has one writer at a time (docs/robustness.md)."""
-    import subprocess
-    import sys
+    from _holders import held_by_another_process
 
     from bpmid.io import atomic
     from test_simulate_predict_review import TRUTH
@@ -641,19 +640,12 @@ def test_report_into_a_folder_another_command_is_writing_waits_then_is_refused(t
     r = runner.invoke(app, ["control", "--params", str(params), "--reference", "steps", "--controller", "pi",
                             "--out", str(ctl), "--no-figure"])
     assert r.exit_code == 0, r.output
-    holder = subprocess.Popen([sys.executable, "-c", "import fcntl, os, sys, time; fd = os.open(sys.argv[1], "
-                               "os.O_RDONLY); fcntl.flock(fd, fcntl.LOCK_EX); print('held', flush=True); "
-                               "time.sleep(60)", str(ctl)], stdout=subprocess.PIPE, text=True)
-    try:
-        assert holder.stdout.readline().strip() == "held"
+    with held_by_another_process(ctl):
         monkeypatch.setattr(atomic, "COMMIT_WAIT_S", 0.2)
         r = runner.invoke(app, ["report", str(ctl)])
         assert r.exit_code == 2 and "another bpmid command is writing into this folder" in r.output, r.output
         assert "then report again" in r.output and "--out" not in r.output   # report has no --out to choose
         assert not (ctl / "report.html").exists() and not (ctl / "report.md").exists()
-    finally:
-        holder.kill()
-        holder.wait()
     r = runner.invoke(app, ["report", str(ctl)])   # free again
     assert r.exit_code == 0 and (ctl / "report.html").is_file(), r.output
 
