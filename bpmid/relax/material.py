@@ -51,7 +51,7 @@ class MaterialFit:
     units_in_file : file name -> {column role: the unit the file states ('' where none)}
     set_temperature : for one set with a temperature column: {"T": set temperature (C, rounded as raw sets are
         labelled), "mean_measured": the mean measured temperature (C)}; else None
-    checks : warnings ``--strict`` refuses (shift factors the data do not determine)
+    checks : warnings ``--strict`` refuses (shift factors the data do not determine, a WLF that does not describe them)
     """
 
     domain: str
@@ -257,5 +257,6 @@ def fit_material(datas: Sequence[MaterialData], *, terms="auto", max_error_pct: 
     one = None
     if len(datas) == 1 and not datas[0].is_raw and datas[0].temperature_c is not None:
         one = {"T": datas[0].sets()[0][0], "mean_measured": round(float(np.mean(datas[0].temperature_c)), 4)}
-    checks = (tts.shift_warnings(shift) + drift_warnings(datas, shift)) if shift is not None else []
+    checks = (tts.shift_warnings(shift) + tts.wlf_warnings(shift) + drift_warnings(datas, shift)) \
+        if shift is not None else []
     return MaterialFit(domain, fit, shift, sets, datas[0].modulus, [d.path for d in datas], units, one, checks)
