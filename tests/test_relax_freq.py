@@ -203,3 +203,33 @@ def test_reads_an_xlsx_export_with_sets_from_the_frequency_restart(tmp_path):
     d = read_material_file(p)
     assert d.sheet == "Exported Data" and [t for t, _ in d.sets()] == [10.0, 30.0]
     assert np.allclose(d.storage[:6], complex_modulus(f, **TRUTH)[0]) and d.lines[0] == 3
+
+
+def test_loss_column_that_is_tan_delta_is_warned(tmp_path):
+    """A sweep whose E'' column holds tan(delta) (E''/E', dimensionless) was fitted with exit 0 and no word: the Prony
+    series missed E'' by 820 % RMS. A modulus missed by more than 100 % RMS is now warned about, naming the file and
+    what to check (tan delta, units); --strict refuses it. The same sweep with E'' itself gives no such warning."""
+    rng = np.random.default_rng(7)
+    tau = np.array([1e-3, 1e-1, 1e1])
+    e = np.array([2.0, 3.0, 5.0])
+    f = np.logspace(-1, 2, 13)
+    s, l = complex_modulus(f, 6.7, e, tau)
+    s, l = s * (1 + 0.01 * rng.standard_normal(s.size)), l * (1 + 0.01 * rng.standard_normal(l.size))
+
+    def write(name, loss):
+        p = tmp_path / name
+        p.write_text("Frequency (Hz);E' (MPa);E'' (MPa);Temperature (°C)\n" + "".join(
+            ";".join(f"{v:.6g}".replace(".", ",") for v in row) + "\n" for row in zip(f, s, loss, np.full(f.size, 20.0))))
+        return str(p)
+
+    good = runner.invoke(app, ["fit", "relax", write("good.csv", l), "--out", str(tmp_path / "g.yaml"), "--no-figure"])
+    assert good.exit_code == 0 and "RMS" in good.output and "tan(delta)" not in good.output, good.output
+    bad = write("tand.csv", l / s)
+    res = runner.invoke(app, ["fit", "relax", bad, "--out", str(tmp_path / "b.yaml"), "--no-figure"])
+    assert res.exit_code == 0, res.output
+    warned = [ln for ln in res.output.splitlines() if ln.startswith("warning:") and "tan(delta)" in ln]
+    assert len(warned) == 1 and "tand.csv" in warned[0] and "E''" in warned[0], res.output
+    body = yaml.safe_load((tmp_path / "b.yaml").read_text())
+    assert body["metrics"]["rms_rel_loss_pct"] > 100 and any("tan(delta)" in w for w in body["warnings"])
+    res = runner.invoke(app, ["fit", "relax", bad, "--out", str(tmp_path / "s.yaml"), "--no-figure", "--strict"])
+    assert res.exit_code == 2 and "tan(delta)" in res.output and not (tmp_path / "s.yaml").exists()
