@@ -234,3 +234,20 @@ def test_wlf_that_does_not_describe_the_shift_factors_is_warned(tmp_path):
     res = runner.invoke(app, ["fit", "relax", *bad, "--ref-temp", "20", "--out", str(strict), "--no-figure",
                               "--strict"])
     assert res.exit_code == 2 and "WLF shift function does not describe" in res.output and not strict.exists()
+
+
+def test_shift_warning_does_not_call_an_undetermined_set_determined():
+    """The -10 C set's link to 0 C is not determined, its link to -20 C is: the shift function is fitted to the steps
+    across the determined links, which touch all six temperatures. The warning said the function was 'fitted to the 6
+    temperatures whose shifts the data determine', -10 C among them, in the sentence that says -10 C's shift is not
+    determined; and with two undetermined sets it gave one set's reason as 'its' for both."""
+    T = np.array([-20.0, -10.0, 0.0, 10.0, 20.0, 30.0])
+    ff = np.array([False, True, False, False, False, True])
+    sh = tts.ShiftResult(20.0, T, -tts.wlf(T, 20.0, 10.0, 120.0), "data", None, None, None, ff,
+                         np.array([True, False, False, False, False, False]), {"kind": "wlf", "C1": 10.0, "C2": 120.0},
+                         T.copy(), {-10.0: "its standard error is 0.31 decades", 30.0: "the 30 C set is flat"})
+    (w,) = tts.shift_warnings(sh)
+    assert "the data do not determine the shift factors at -10, 30 C" in w
+    assert "temperatures whose shifts the data determine" not in w
+    assert "steps of log a_T across the links between neighbouring sets that the data determine" in w
+    assert "-10 C: its standard error is 0.31 decades" in w and "30 C: the 30 C set is flat" in w

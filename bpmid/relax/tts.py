@@ -538,10 +538,11 @@ def shift_warnings(sh: "ShiftResult") -> list[str]:
     ch = [format(t + 0.0, "g") for t in sh.T[o][sh.chained[o]]] if sh.chained is not None else []
     fit_on = sh.fitted_on if sh.fitted_on is not None else np.zeros(0)
     kind = "WLF" if (sh.function or {}).get("kind") == "wlf" else "polynomial"
-    reason = next((w for w in (sh.why or {}).values() if w), "")
+    why = [(t, w) for t, w in sorted((sh.why or {}).items()) if w]
+    reason = why[0][1] if len(why) == 1 else "; ".join(f"{t + 0.0:g} C: {w}" for t, w in why)
     return [f"the data do not determine the shift factors at {', '.join(ff)} C ({reason}): they are the {kind} shift "
-            f"function's values, fitted to the {fit_on.size} temperatures whose shifts the data determine "
-            f"({fit_on.min():g} ... {fit_on.max():g} C)"
+            f"function's values, fitted to the steps of log a_T across the links between neighbouring sets that the "
+            f"data determine (sets at {fit_on.min():g} ... {fit_on.max():g} C)"
             + (f"; the sets at {', '.join(ch)} C are chained to them" if ch else "")
             + ". Wider sweeps (overlapping modulus ranges) or --shift FILE give them from data"]
 
