@@ -233,3 +233,17 @@ def test_loss_column_that_is_tan_delta_is_warned(tmp_path):
     assert body["metrics"]["rms_rel_loss_pct"] > 100 and any("tan(delta)" in w for w in body["warnings"])
     res = runner.invoke(app, ["fit", "relax", bad, "--out", str(tmp_path / "s.yaml"), "--no-figure", "--strict"])
     assert res.exit_code == 2 and "tan(delta)" in res.output and not (tmp_path / "s.yaml").exists()
+
+
+@pytest.mark.parametrize("name", ["tan delta", "tan_delta", "Tan(δ)", "tanδ", "Loss factor"])
+def test_tan_delta_column_instead_of_loss_modulus_says_how_to_get_it(tmp_path, name):
+    """A DMA export with E' and tan delta but no E'' was refused ('need storage and loss moduli; found columns ...')
+    without saying that the tan delta column is the loss factor and how to get E'' from it."""
+    f = np.logspace(-1, 1, 5)
+    s, l = complex_modulus(f, **TRUTH)
+    p = tmp_path / "tand.csv"
+    p.write_text(f"f (Hz),E' (MPa),{name}\n" + "".join(f"{a:.6g},{b:.6g},{c / b:.6g}\n" for a, b, c in zip(f, s, l)))
+    res = runner.invoke(app, ["fit", "relax", str(p), "--out", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2 and "tand.csv:1" in res.output, res.output
+    assert f"'{name}'" in res.output and "E'' = E' tan(delta)" in res.output, res.output
+    assert not (tmp_path / "o.yaml").exists()
