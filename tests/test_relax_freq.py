@@ -247,3 +247,24 @@ def test_tan_delta_column_instead_of_loss_modulus_says_how_to_get_it(tmp_path, n
     assert res.exit_code == 2 and "tand.csv:1" in res.output, res.output
     assert f"'{name}'" in res.output and "E'' = E' tan(delta)" in res.output, res.output
     assert not (tmp_path / "o.yaml").exists()
+
+
+def test_copied_row_in_a_sweep_with_temperatures_is_named_as_a_copy(tmp_path):
+    """A sweep with a temperature column and one row copied whole was refused as 'the set at 20 C repeats the
+    frequency 1' with advice to add a Set column (for sweeps logged up then down), not as the copied row it is (a
+    master curve without temperatures says 'line 9 repeats line 8 ...: a copied row; drop it')."""
+    f = np.logspace(-1, 1, 5)
+    s, l = complex_modulus(f, **TRUTH)
+    rows = [f"{a:.6g};{b:.6g};{c:.6g};20\n" for a, b, c in zip(f, s, l)]
+    rows.insert(3, rows[2])
+    p = tmp_path / "copied.csv"
+    p.write_text("Frequency (Hz);E' (MPa);E'' (MPa);Temperature (°C)\n" + "".join(rows))
+    res = runner.invoke(app, ["fit", "relax", str(p), "--out", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2, res.output
+    assert "copied.csv:5" in res.output and "line 5 repeats line 4" in res.output and "drop it" in res.output
+    assert "Set column" not in res.output and not (tmp_path / "o.yaml").exists()
+    other = rows[:3] + [rows[2].replace(f"{s[2]:.6g}", f"{s[2] * 1.05:.6g}", 1)] + rows[4:]   # two measurements
+    q = tmp_path / "twice.csv"
+    q.write_text("Frequency (Hz);E' (MPa);E'' (MPa);Temperature (°C)\n" + "".join(other))
+    res = runner.invoke(app, ["fit", "relax", str(q), "--out", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2 and "twice.csv:5" in res.output and "repeats the frequency 1 Hz" in res.output

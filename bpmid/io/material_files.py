@@ -701,8 +701,14 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
             xs = x[idx]
             if np.unique(xs).size < xs.size:
                 o = np.argsort(xs, kind="stable")
-                k = idx[o[int(np.flatnonzero(np.diff(xs[o]) == 0)[0]) + 1]]
+                first = int(np.flatnonzero(np.diff(xs[o]) == 0)[0])
+                j, k = idx[o[first]], idx[o[first + 1]]
+                unit_word = "Hz" if freq else "s"
+                if all(np.isclose(m[j], m[k], rtol=REPEAT_RTOL, atol=0.0) for m in (stor, loss) if m is not None):
+                    raise InputError(f"line {int(lines[k])} repeats line {int(lines[j])} (the set at {Tset:g} C, {what} "
+                                     f"{x[k]:g} {unit_word}, the same moduli): a copied row; drop it", path=path,
+                                     line=int(lines[k]))
                 hint = "" if has("set") else _SET_HINT
-                raise InputError(f"the set at {Tset:g} C repeats the {what} {x[k]:g}{hint}", path=path,
+                raise InputError(f"the set at {Tset:g} C repeats the {what} {x[k]:g} {unit_word}{hint}", path=path,
                                  line=int(lines[k]))
     return out
