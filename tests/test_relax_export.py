@@ -227,3 +227,34 @@ def test_export_of_a_real_frequency_fit(repo_root, tmp_path):
     t = np.logspace(-12, 12, 49)
     assert np.allclose(E0 * (1 - g.sum() + np.exp(-t[:, None] / tau[None, :]) @ g), E_t(params, t), rtol=1e-9)
     assert wlf[0] == -5.0 and wlf[1] == pytest.approx(mf.shift.wlf["C1"], rel=1e-9)
+
+
+def test_export_carries_what_the_fit_said_its_data_do_not_determine(tmp_path):
+    """A fit whose data do not separate its slowest term from E_inf, or whose shift factors the data do not
+    determine, or whose WLF does not describe them, says so in its warnings; the cards carry exactly those constants
+    to the FEA model, yet the export repeated only the Poisson warning. Now those warnings are said again with the
+    card (stderr) and written into its header; a warning about something else (a gap in a log) is not."""
+    from bpmid.errors import BpmidWarning
+
+    p = fit_file(tmp_path)
+    body = yaml.safe_load(p.read_text())
+    said = ["tau_3 = 50 s is longer than 1/(2 pi f_min) = 7.1 s: E_3 and E_inf are not separated by these data "
+            "(their sum is)",
+            "the data do not determine the shift factors at -10 C (its standard error is 0.31 decades): they are the "
+            "WLF shift function's values",
+            "the WLF shift function does not describe these shift factors: C1 = 8065 +- 9.6e+06",
+            "tau_1 = 0.0007353 s is shorter than 1/(2 pi f_max) = 0.001592 s: outside the data's frequency window, "
+            "E_1 is an extrapolation"]
+    body["warnings"] = said + ["x.csv:301: gap of 4.9 s between samples"]
+    p.write_text(yaml.safe_dump(body))
+    for tool, comment in (("abaqus", "**"), ("ansys", "!"), ("comsol", "#")):
+        with pytest.warns(BpmidWarning) as rec:
+            out = export_fea(p, tool, tmp_path / tool)[0]
+        msgs = [str(w.message) for w in rec]
+        for w in said:
+            assert any(w[:40] in m and f"{out.name}: from fit.yaml" in m for m in msgs), (w, msgs)
+        assert not any("gap of" in m for m in msgs)
+        header = " ".join(ln[len(comment):].strip() for ln in out.read_text().splitlines() if ln.startswith(comment))
+        assert "E_3 and E_inf are not separated" in header and "do not determine the shift factors" in header
+        assert "does not describe these shift factors" in header and "E_1 is an extrapolation" in header
+        assert "gap of" not in header

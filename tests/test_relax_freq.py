@@ -203,3 +203,68 @@ def test_reads_an_xlsx_export_with_sets_from_the_frequency_restart(tmp_path):
     d = read_material_file(p)
     assert d.sheet == "Exported Data" and [t for t, _ in d.sets()] == [10.0, 30.0]
     assert np.allclose(d.storage[:6], complex_modulus(f, **TRUTH)[0]) and d.lines[0] == 3
+
+
+def test_loss_column_that_is_tan_delta_is_warned(tmp_path):
+    """A sweep whose E'' column holds tan(delta) (E''/E', dimensionless) was fitted with exit 0 and no word: the Prony
+    series missed E'' by 820 % RMS. A modulus missed by more than 100 % RMS is now warned about, naming the file and
+    what to check (tan delta, units); --strict refuses it. The same sweep with E'' itself gives no such warning."""
+    rng = np.random.default_rng(7)
+    tau = np.array([1e-3, 1e-1, 1e1])
+    e = np.array([2.0, 3.0, 5.0])
+    f = np.logspace(-1, 2, 13)
+    s, l = complex_modulus(f, 6.7, e, tau)
+    s, l = s * (1 + 0.01 * rng.standard_normal(s.size)), l * (1 + 0.01 * rng.standard_normal(l.size))
+
+    def write(name, loss):
+        p = tmp_path / name
+        p.write_text("Frequency (Hz);E' (MPa);E'' (MPa);Temperature (°C)\n" + "".join(
+            ";".join(f"{v:.6g}".replace(".", ",") for v in row) + "\n" for row in zip(f, s, loss, np.full(f.size, 20.0))))
+        return str(p)
+
+    good = runner.invoke(app, ["fit", "relax", write("good.csv", l), "--out", str(tmp_path / "g.yaml"), "--no-figure"])
+    assert good.exit_code == 0 and "RMS" in good.output and "tan(delta)" not in good.output, good.output
+    bad = write("tand.csv", l / s)
+    res = runner.invoke(app, ["fit", "relax", bad, "--out", str(tmp_path / "b.yaml"), "--no-figure"])
+    assert res.exit_code == 0, res.output
+    warned = [ln for ln in res.output.splitlines() if ln.startswith("warning:") and "tan(delta)" in ln]
+    assert len(warned) == 1 and "tand.csv" in warned[0] and "E''" in warned[0], res.output
+    body = yaml.safe_load((tmp_path / "b.yaml").read_text())
+    assert body["metrics"]["rms_rel_loss_pct"] > 100 and any("tan(delta)" in w for w in body["warnings"])
+    res = runner.invoke(app, ["fit", "relax", bad, "--out", str(tmp_path / "s.yaml"), "--no-figure", "--strict"])
+    assert res.exit_code == 2 and "tan(delta)" in res.output and not (tmp_path / "s.yaml").exists()
+
+
+@pytest.mark.parametrize("name", ["tan delta", "tan_delta", "Tan(δ)", "tanδ", "Loss factor"])
+def test_tan_delta_column_instead_of_loss_modulus_says_how_to_get_it(tmp_path, name):
+    """A DMA export with E' and tan delta but no E'' was refused ('need storage and loss moduli; found columns ...')
+    without saying that the tan delta column is the loss factor and how to get E'' from it."""
+    f = np.logspace(-1, 1, 5)
+    s, l = complex_modulus(f, **TRUTH)
+    p = tmp_path / "tand.csv"
+    p.write_text(f"f (Hz),E' (MPa),{name}\n" + "".join(f"{a:.6g},{b:.6g},{c / b:.6g}\n" for a, b, c in zip(f, s, l)))
+    res = runner.invoke(app, ["fit", "relax", str(p), "--out", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2 and "tand.csv:1" in res.output, res.output
+    assert f"'{name}'" in res.output and "E'' = E' tan(delta)" in res.output, res.output
+    assert not (tmp_path / "o.yaml").exists()
+
+
+def test_copied_row_in_a_sweep_with_temperatures_is_named_as_a_copy(tmp_path):
+    """A sweep with a temperature column and one row copied whole was refused as 'the set at 20 C repeats the
+    frequency 1' with advice to add a Set column (for sweeps logged up then down), not as the copied row it is (a
+    master curve without temperatures says 'line 9 repeats line 8 ...: a copied row; drop it')."""
+    f = np.logspace(-1, 1, 5)
+    s, l = complex_modulus(f, **TRUTH)
+    rows = [f"{a:.6g};{b:.6g};{c:.6g};20\n" for a, b, c in zip(f, s, l)]
+    rows.insert(3, rows[2])
+    p = tmp_path / "copied.csv"
+    p.write_text("Frequency (Hz);E' (MPa);E'' (MPa);Temperature (°C)\n" + "".join(rows))
+    res = runner.invoke(app, ["fit", "relax", str(p), "--out", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2, res.output
+    assert "copied.csv:5" in res.output and "line 5 repeats line 4" in res.output and "drop it" in res.output
+    assert "Set column" not in res.output and not (tmp_path / "o.yaml").exists()
+    other = rows[:3] + [rows[2].replace(f"{s[2]:.6g}", f"{s[2] * 1.05:.6g}", 1)] + rows[4:]   # two measurements
+    q = tmp_path / "twice.csv"
+    q.write_text("Frequency (Hz);E' (MPa);E'' (MPa);Temperature (°C)\n" + "".join(other))
+    res = runner.invoke(app, ["fit", "relax", str(q), "--out", str(tmp_path / "o.yaml")])
+    assert res.exit_code == 2 and "twice.csv:5" in res.output and "repeats the frequency 1 Hz" in res.output

@@ -191,3 +191,63 @@ def test_bad_raw_input_exits_2(tmp_path):
     res = runner.invoke(app, ["fit", "relax", str(dup), "--out", str(tmp_path / "o.yaml")])
     assert res.exit_code == 2 and "two sets at -10 C" in res.output and "dup.csv:" in res.output
     assert not (tmp_path / "o.yaml").exists()
+
+
+def _sweep_files(tmp_path, mislabel_T=None):
+    """Known-truth sweeps at six temperatures, one semicolon file per temperature as a DMA writes them (Hz, MPa, C,
+    decimal commas, 1 % noise, seeded); the set at ``mislabel_T`` keeps its Hz values under a 'rad/s' header."""
+    rng = np.random.default_rng(20261128)
+    tau = np.array([1e-7, 1e-5, 1e-3, 1e-1, 1e1, 1e3])
+    e = np.array([0.8, 1.2, 2.0, 3.0, 5.0, 8.0])
+    f = np.logspace(-1, 2, 13)
+    paths = []
+    for T in (-20.0, -10.0, 0.0, 10.0, 20.0, 30.0):
+        s, l = complex_modulus(f * 10.0 ** tts.wlf(T, 20.0, 10.0, 120.0), 1.5, e, tau)
+        s, l = s * (1 + 0.01 * rng.standard_normal(s.size)), l * (1 + 0.01 * rng.standard_normal(l.size))
+        unit = "rad/s" if T == mislabel_T else "Hz"
+        p = tmp_path / f"sweep_{T:+03.0f}.csv"
+        p.write_text(f"Sample;rubber\nFrequency ({unit});E' (MPa);E'' (MPa);Temperature (°C)\n" + "".join(
+            ";".join(f"{v:.6g}".replace(".", ",") for v in row) + "\n" for row in zip(f, s, l, np.full(f.size, T))))
+        paths.append(p)
+    return paths
+
+
+def test_wlf_that_does_not_describe_the_shift_factors_is_warned(tmp_path):
+    """One file of six states rad/s over values in Hz: its set sits 0.8 decades off, the shift factors no longer
+    follow a WLF curve, and the WLF fit ran to C1 = 8e3 +- 1e7, C2 = 1e5 +- 1e8 C with exit 0 and no word (the FEA
+    cards take these constants). Now a warning says the WLF does not describe the shift factors and what to check;
+    --strict refuses it. The same sweeps with the right unit give no such warning."""
+    (tmp_path / "ok").mkdir()
+    (tmp_path / "bad").mkdir()
+    ok = runner.invoke(app, ["fit", "relax", *map(str, _sweep_files(tmp_path / "ok")), "--ref-temp", "20",
+                             "--out", str(tmp_path / "ok.yaml"), "--no-figure"])
+    assert ok.exit_code == 0, ok.output
+    assert "WLF shift function does not describe" not in ok.output
+    bad = [str(p) for p in _sweep_files(tmp_path / "bad", mislabel_T=20.0)]
+    out = tmp_path / "bad.yaml"
+    res = runner.invoke(app, ["fit", "relax", *bad, "--ref-temp", "20", "--out", str(out), "--no-figure"])
+    assert res.exit_code == 0, res.output
+    assert "WLF shift function does not describe" in res.output and "units_in_file" in res.output, res.output
+    body = yaml.safe_load(out.read_text())
+    assert any("WLF shift function does not describe" in w for w in body["warnings"])
+    strict = tmp_path / "strict.yaml"
+    res = runner.invoke(app, ["fit", "relax", *bad, "--ref-temp", "20", "--out", str(strict), "--no-figure",
+                              "--strict"])
+    assert res.exit_code == 2 and "WLF shift function does not describe" in res.output and not strict.exists()
+
+
+def test_shift_warning_does_not_call_an_undetermined_set_determined():
+    """The -10 C set's link to 0 C is not determined, its link to -20 C is: the shift function is fitted to the steps
+    across the determined links, which touch all six temperatures. The warning said the function was 'fitted to the 6
+    temperatures whose shifts the data determine', -10 C among them, in the sentence that says -10 C's shift is not
+    determined; and with two undetermined sets it gave one set's reason as 'its' for both."""
+    T = np.array([-20.0, -10.0, 0.0, 10.0, 20.0, 30.0])
+    ff = np.array([False, True, False, False, False, True])
+    sh = tts.ShiftResult(20.0, T, -tts.wlf(T, 20.0, 10.0, 120.0), "data", None, None, None, ff,
+                         np.array([True, False, False, False, False, False]), {"kind": "wlf", "C1": 10.0, "C2": 120.0},
+                         T.copy(), {-10.0: "its standard error is 0.31 decades", 30.0: "the 30 C set is flat"})
+    (w,) = tts.shift_warnings(sh)
+    assert "the data do not determine the shift factors at -10, 30 C" in w
+    assert "temperatures whose shifts the data determine" not in w
+    assert "steps of log a_T across the links between neighbouring sets that the data determine" in w
+    assert "-10 C: its standard error is 0.31 decades" in w and "30 C: the 30 C set is flat" in w

@@ -64,6 +64,17 @@ def _wlf(data: dict, path: Path) -> dict | None:
     return out
 
 
+#: the fit's warnings that concern constants a card carries (its Poisson's ratio, a slowest term its data do not
+#: separate from E_inf, a fastest term outside the data, shift factors the data do not determine, a WLF that does not
+#: describe them): said again with the card and written into its header
+CARRIED_WARNINGS = ("Poisson", "are not separated by these data", "is an extrapolation",
+                    "do not determine the shift factors", "WLF shift function does not describe")
+
+
+def _carried(data: dict) -> list[str]:
+    return [w for w in (data.get("warnings") or []) if isinstance(w, str) and any(k in w for k in CARRIED_WARNINGS)]
+
+
 def _provenance_lines(fit_path: Path, data: dict, params, wlf: dict | None) -> list[str]:
     from bpmid import __version__
     from bpmid.io.results import sha256_file
@@ -88,6 +99,7 @@ def _provenance_lines(fit_path: Path, data: dict, params, wlf: dict | None) -> l
     else:
         lines.append("no temperature shift in this card: the constants hold at the temperature of the tests they were "
                      "fitted on (not recorded in the fit file)")
+    lines += [f"from the fit: {w}" for w in _carried(data) if "Poisson" not in w]   # nu is stated above
     # one comment line stays short (input readers limit line length) and free of commas
     out = []
     for ln in lines:
@@ -243,8 +255,9 @@ def export_fea(fit_path: Path, tool: str, out_dir: Path) -> list[Path]:
         raise InputError("--out must be a folder, found a file", path=out_dir, key="--out")
     out = out_dir / f"{stem}{SUFFIX[tool]}"
     write_text(out, text)
-    # what the fit said of its Poisson's ratio applies to every card (the bulk modulus follows it): said again here
-    carried = [w for w in (data.get("warnings") or []) if isinstance(w, str) and "Poisson" in w]
+    # what the fit said of its Poisson's ratio (the bulk modulus follows it) and of the constants its data do not
+    # determine applies to every card: said again here
+    carried = _carried(data)
     if carried:
         from bpmid.io.plausibility import emit
 

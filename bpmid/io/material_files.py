@@ -543,9 +543,14 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
         domain = "freq"
         for r in ("storage", "loss"):
             if not has(r + sfx):
+                # a loss factor is not a modulus: say which column it is and how to get the loss modulus from it
+                tand = [h for h in header if r == "loss" and re.search(r"tan\s*[_(\s]*(delta|d\b|δ)|loss\s*factor",
+                                                                        str(h), re.IGNORECASE)]
+                hint = (f"; {tand[0]!r} is the loss factor tan(delta) = {modulus}''/{modulus}', not a modulus: add a "
+                        f"column {modulus}'' = {modulus}' tan(delta), in the unit of {modulus}'") if tand else ""
                 raise InputError(f"frequency-domain data need storage and loss moduli ({modulus}_stor and "
-                                 f"{modulus}_loss, or {modulus}' and {modulus}''); found columns {found}", path=path,
-                                 line=header_line, key=f"{modulus}_{r[:4]}")
+                                 f"{modulus}_loss, or {modulus}' and {modulus}''); found columns {found}{hint}",
+                                 path=path, line=header_line, key=f"{modulus}_{r[:4]}")
     elif has("t"):
         domain = "time"
         if not has("relax" + sfx):
@@ -696,8 +701,14 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
             xs = x[idx]
             if np.unique(xs).size < xs.size:
                 o = np.argsort(xs, kind="stable")
-                k = idx[o[int(np.flatnonzero(np.diff(xs[o]) == 0)[0]) + 1]]
+                first = int(np.flatnonzero(np.diff(xs[o]) == 0)[0])
+                j, k = idx[o[first]], idx[o[first + 1]]
+                unit_word = "Hz" if freq else "s"
+                if all(np.isclose(m[j], m[k], rtol=REPEAT_RTOL, atol=0.0) for m in (stor, loss) if m is not None):
+                    raise InputError(f"line {int(lines[k])} repeats line {int(lines[j])} (the set at {Tset:g} C, {what} "
+                                     f"{x[k]:g} {unit_word}, the same moduli): a copied row; drop it", path=path,
+                                     line=int(lines[k]))
                 hint = "" if has("set") else _SET_HINT
-                raise InputError(f"the set at {Tset:g} C repeats the {what} {x[k]:g}{hint}", path=path,
+                raise InputError(f"the set at {Tset:g} C repeats the {what} {x[k]:g} {unit_word}{hint}", path=path,
                                  line=int(lines[k]))
     return out

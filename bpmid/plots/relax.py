@@ -52,7 +52,9 @@ def relax_figure(fit, *, synthetic: bool = False, max_logs: int = 12):
         t_end = max(float(lg.t[lg.hold.start]) for lg in fit.logs if lg.hold.t.size) + 10.0 \
             if any(lg.hold.t.size for lg in fit.logs) else np.inf
         if t_end < max(float(lg.t[-1]) for lg in fit.logs):
-            ax_a.set_xlim(float(min(lg.t[0] for lg in fit.logs)), t_end)
+            # a log time axis starts at the first positive time (a log's first sample is usually t = 0)
+            t0 = min(float(lg.t[lg.t > 0][0]) if log_time and np.any(lg.t > 0) else float(lg.t[0]) for lg in fit.logs)
+            ax_a.set_xlim(t0, t_end)
             ax_a.set_title(f"(a) {what}: data (dots), fit (first {t_end:.0f} s)")
     # (b) data as markers, fit as a line on top: both visible even when the data are one dense master curve. A ramp
     # relaxes while it loads, so a hold's sigma/eps starts below the step modulus E(0): in ramp mode each log gets

@@ -51,7 +51,8 @@ class MaterialFit:
     units_in_file : file name -> {column role: the unit the file states ('' where none)}
     set_temperature : for one set with a temperature column: {"T": set temperature (C, rounded as raw sets are
         labelled), "mean_measured": the mean measured temperature (C)}; else None
-    checks : warnings ``--strict`` refuses (shift factors the data do not determine)
+    checks : warnings ``--strict`` refuses (shift factors the data do not determine, a WLF that does not describe
+        them, a modulus the fit misses by more than 100 % RMS)
     """
 
     domain: str
@@ -232,6 +233,30 @@ def drift_warnings(datas: Sequence[MaterialData], shift) -> list[str]:
     return out
 
 
+#: a frequency-domain fit that misses E' or E'' by more than this RMS relative error (%) is warned about: the two
+#: columns are then not the storage and loss moduli of one material as read (the measured DMTA master curve, whose
+#: E'' is not Kramers-Kronig consistent with E', is missed by about 50 %)
+MODULUS_MISFIT_PCT = 100.0
+
+
+def misfit_warnings(datas: Sequence[MaterialData], fit) -> list[str]:
+    """A storage or loss modulus the Prony series misses by more than :data:`MODULUS_MISFIT_PCT` RMS: said with
+    what usually causes it (a tan delta column under a loss-modulus header, the two columns in different units)."""
+    errs = {"storage": getattr(fit, "rms_rel_storage_pct", None), "loss": getattr(fit, "rms_rel_loss_pct", None)}
+    bad = {k: v for k, v in errs.items() if v is not None and np.isfinite(v) and v > MODULUS_MISFIT_PCT}
+    if not bad:
+        return []
+    m = datas[0].modulus if datas else "E"
+    names = {"storage": f"{m}'", "loss": f"{m}''"}
+    where = ", ".join(_label(d) for d in datas)
+    missed = " and ".join(f"{names[k]} by {v:.3g} %" for k, v in bad.items())
+    return [f"{where}: the Prony series misses {missed} RMS ({names['storage']} {errs['storage']:.3g} %, "
+            f"{names['loss']} {errs['loss']:.3g} %): the two columns are not the storage and loss moduli of one "
+            f"linear viscoelastic material as read. If the loss column holds tan(delta) (= {names['loss']}/"
+            f"{names['storage']}, dimensionless), write {names['loss']} = {names['storage']} tan(delta) in its place; "
+            "check that both columns are in the units their headers state"]
+
+
 def fit_material(datas: Sequence[MaterialData], *, terms="auto", max_error_pct: float | None = None,
                  ref_temp: float | None = None, shift_file=None, config=None) -> MaterialFit:
     """Shift (if raw) and fit (see the module docstring)."""
@@ -257,5 +282,8 @@ def fit_material(datas: Sequence[MaterialData], *, terms="auto", max_error_pct: 
     one = None
     if len(datas) == 1 and not datas[0].is_raw and datas[0].temperature_c is not None:
         one = {"T": datas[0].sets()[0][0], "mean_measured": round(float(np.mean(datas[0].temperature_c)), 4)}
-    checks = (tts.shift_warnings(shift) + drift_warnings(datas, shift)) if shift is not None else []
+    checks = (tts.shift_warnings(shift) + tts.wlf_warnings(shift) + drift_warnings(datas, shift)) \
+        if shift is not None else []
+    if domain == "freq":
+        checks += misfit_warnings(datas, fit)
     return MaterialFit(domain, fit, shift, sets, datas[0].modulus, [d.path for d in datas], units, one, checks)

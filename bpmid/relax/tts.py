@@ -46,6 +46,10 @@ MAX_SHIFT_SE = 0.2
 FLAT_SCATTER = 3.0
 #: half-width (decades) of the central difference for the overlap cost's curvature
 CURVATURE_STEP = 0.05
+#: the WLF fit does not describe the shift factors when a constant's standard error exceeds the constant and the fit
+#: misses them by more than this RMSE (decades); a WLF that runs to C2 at its bound along a straight line of shift
+#: factors (Arrhenius-like over a short range) still describes them and is not warned about
+WLF_MISFIT_RMSE = 0.1
 #: fewest temperatures with shifts determined by the data (the WLF has 2 constants)
 MIN_DETERMINED = 3
 #: degree of the polynomial shift function (lowered to the number of temperatures - 2)
@@ -534,12 +538,33 @@ def shift_warnings(sh: "ShiftResult") -> list[str]:
     ch = [format(t + 0.0, "g") for t in sh.T[o][sh.chained[o]]] if sh.chained is not None else []
     fit_on = sh.fitted_on if sh.fitted_on is not None else np.zeros(0)
     kind = "WLF" if (sh.function or {}).get("kind") == "wlf" else "polynomial"
-    reason = next((w for w in (sh.why or {}).values() if w), "")
+    why = [(t, w) for t, w in sorted((sh.why or {}).items()) if w]
+    reason = why[0][1] if len(why) == 1 else "; ".join(f"{t + 0.0:g} C: {w}" for t, w in why)
     return [f"the data do not determine the shift factors at {', '.join(ff)} C ({reason}): they are the {kind} shift "
-            f"function's values, fitted to the {fit_on.size} temperatures whose shifts the data determine "
-            f"({fit_on.min():g} ... {fit_on.max():g} C)"
+            f"function's values, fitted to the steps of log a_T across the links between neighbouring sets that the "
+            f"data determine (sets at {fit_on.min():g} ... {fit_on.max():g} C)"
             + (f"; the sets at {', '.join(ch)} C are chained to them" if ch else "")
             + ". Wider sweeps (overlapping modulus ranges) or --shift FILE give them from data"]
+
+
+def wlf_warnings(sh: "ShiftResult") -> list[str]:
+    """The warning ``fit relax`` gives (and ``--strict`` refuses) when the WLF fit does not describe the shift
+    factors: its constants are not determined (a standard error above the constant) and it misses the factors by
+    more than :data:`WLF_MISFIT_RMSE`. Seen when one file's frequency or temperature unit is not what it states (a
+    set 2 pi or 273 off), which the FEA cards would carry as C1, C2."""
+    w = sh.wlf
+    if w is None:
+        return []
+    c1, c2, se1, se2, rmse = (w.get(k) for k in ("C1", "C2", "se_C1", "se_C2", "rmse"))
+    undetermined = not (np.isfinite(se1) and np.isfinite(se2)) or se1 > abs(c1) or se2 > abs(c2)
+    if not undetermined or not rmse > WLF_MISFIT_RMSE:
+        return []
+    return [f"the WLF shift function does not describe these shift factors: C1 = {c1:.4g} +- {se1:.2g}, "
+            f"C2 = {c2:.4g} +- {se2:.2g} C (standard errors larger than the constants), RMSE {rmse:.2g} decades. "
+            "One set off by a constant shift breaks the curve: check that every file's frequency (Hz or rad/s) and "
+            "temperature (C or K) are what its header states (the result's data.units_in_file lists them) and look "
+            "at the shift factors against temperature in the figure; the FEA cards `bpmid export` writes take "
+            "these C1, C2"]
 
 
 def fit_wlf(T: np.ndarray, log_aT: np.ndarray, T_ref: float) -> dict | None:
