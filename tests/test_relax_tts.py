@@ -251,3 +251,16 @@ def test_shift_warning_does_not_call_an_undetermined_set_determined():
     assert "temperatures whose shifts the data determine" not in w
     assert "steps of log a_T across the links between neighbouring sets that the data determine" in w
     assert "-10 C: its standard error is 0.31 decades" in w and "30 C: the 30 C set is flat" in w
+
+
+def test_the_wlf_warning_judges_only_a_fitted_wlf_with_its_errors_and_misfit():
+    from types import SimpleNamespace
+
+    from bpmid.relax.tts import wlf_warnings
+
+    bad = {"C1": 8058.0, "C2": 1e5, "se_C1": 9.6e6, "se_C2": 1.2e8, "rmse": 0.5}
+    assert len(wlf_warnings(SimpleNamespace(wlf=bad))) == 1
+    assert wlf_warnings(SimpleNamespace(wlf={**bad, "rmse": 0.05})) == []            # describes the shifts
+    assert wlf_warnings(SimpleNamespace(wlf={**bad, "se_C1": 1.0, "se_C2": 2.0})) == []   # determined constants
+    assert wlf_warnings(SimpleNamespace(wlf={"C1": 5.0, "C2": 100.0})) == []         # given, not fitted: no misfit
+    assert wlf_warnings(SimpleNamespace(wlf=None)) == []

@@ -555,7 +555,13 @@ def wlf_warnings(sh: "ShiftResult") -> list[str]:
     w = sh.wlf
     if w is None:
         return []
-    c1, c2, se1, se2, rmse = (w.get(k) for k in ("C1", "C2", "se_C1", "se_C2", "rmse"))
+    def num(k):   # a shift given in a file may carry no standard errors: nothing to judge then
+        v = w.get(k)
+        return float(v) if isinstance(v, (int, float)) else float("nan")
+
+    c1, c2, se1, se2, rmse = (num(k) for k in ("C1", "C2", "se_C1", "se_C2", "rmse"))
+    if not all(np.isfinite(v) for v in (c1, c2, rmse)):
+        return []
     undetermined = not (np.isfinite(se1) and np.isfinite(se2)) or se1 > abs(c1) or se2 > abs(c2)
     if not undetermined or not rmse > WLF_MISFIT_RMSE:
         return []
