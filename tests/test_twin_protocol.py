@@ -171,11 +171,22 @@ def test_blind_protocols_keep_the_effect_out_of_the_manifest(tmp_path):
     (("braid_friction: {r: 1000", "braid_friction: {rr: 1000"), "plant.effects.braid_friction.rr"),
     (("angle_noise_deg: 0.2", "angle_noise_deg: -0.2"), "sensors.angle_noise_deg"),
     (("{duration_s: 1}", "{duration_s: -1}"), "logs[0].program[0].hold.duration_s"),
+    (("replicates: 2", "replicates: 0"), "replicates"),
+    (("seed: 5", "seed: 5\nsampling_hz: 0"), "sampling_hz"),
 ])
 def test_bad_protocols_are_refused_naming_the_key(tmp_path, edit, key):
     with pytest.raises(InputError) as exc:
         simulate(write(tmp_path, MOTION.replace(*edit)), timestamp=False)
     assert exc.value.key == key, exc.value.format()
+
+
+def test_a_top_level_rate_is_named_as_written_and_infinity_is_not_called_non_positive(tmp_path):
+    """sampling_hz: 0 was named '.sampling_hz' (a leading dot: no such key in the file), and sampling_hz: .inf
+    was told it 'must be positive'."""
+    with pytest.raises(InputError) as exc:
+        load_protocol(write(tmp_path, MOTION.replace("seed: 5", "seed: 5\nsampling_hz: .inf")))
+    assert exc.value.key == "sampling_hz"
+    assert "finite" in str(exc.value) and "must be positive," not in str(exc.value)
 
 
 def test_bad_effect_arguments_name_the_key(tmp_path):

@@ -57,16 +57,23 @@ from bpmid.units import PA_PER_BAR, PA_PER_KPA
 SCHEMA = "bpmid.protocol/1"
 
 
+def _key(where, k):
+    """``where.k``, or ``k`` alone for a top-level key (``where`` empty: not ``.sampling_hz``)."""
+    return f"{where}.{k}" if where else k
+
+
 def _positive(where, path, **values):
     for k, v in values.items():
         if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(f"must be positive, found {v!r}", path=path, key=f"{where}.{k}")
+            what = "must be positive" if math.isfinite(v) else "must be a finite positive number"
+            raise InputError(f"{what}, found {v!r}", path=path, key=_key(where, k))
 
 
 def _non_negative(where, path, **values):
     for k, v in values.items():
         if v is not None and not (math.isfinite(v) and v >= 0):
-            raise InputError(f"must not be negative, found {v!r}", path=path, key=f"{where}.{k}")
+            what = "must not be negative" if math.isfinite(v) else "must be a finite number, not negative"
+            raise InputError(f"{what}, found {v!r}", path=path, key=_key(where, k))
 
 
 def _check_band(seg, where, path):
