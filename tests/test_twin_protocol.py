@@ -252,3 +252,29 @@ def test_a_reference_protocol_beyond_0_to_180_deg_is_refused_naming_the_key(tmp_
     with _pytest.raises(InputError, match="angle 900 deg is outside 0..180 deg") as e:
         load_protocol(p)
     assert e.value.key == "logs[0].program[0].ramp.to"
+
+
+@pytest.mark.parametrize("freq,fs,ok", [(8.0, 10.0, False), (5.0, 10.0, False), (4.9, 10.0, True), (0.3, 10.0, True)])
+def test_a_sine_at_or_above_half_the_sampling_rate_is_refused_not_aliased(tmp_path, freq, fs, ok):
+    """An 8 Hz sine in a 10 Hz protocol was logged (and run through the plant) as a 2 Hz sine, exit 0."""
+    text = MOTION.replace("seed: 5", f"seed: 5\nsampling_hz: {fs}").replace(
+        "      - hold: {duration_s: 1}\n",
+        "      - hold: {duration_s: 1}\n"
+        f"      - repeat: {{times: 2, program: [{{sine: {{mean: 1.4, amplitude: 0.1, frequency_hz: {freq}, "
+        "cycles: 3}}]}\n")
+    path = write(tmp_path, text)
+    if ok:
+        assert load_protocol(path).sampling_hz == fs
+        return
+    with pytest.raises(InputError) as exc:
+        simulate(path, timestamp=False)
+    assert exc.value.key == "logs[0].program[1].repeat.program[0].sine.frequency_hz"
+    assert "aliasing" in str(exc.value) and "sampling_hz" in str(exc.value)
+    from typer.testing import CliRunner
+
+    from bpmid.cli import app
+
+    out = tmp_path / "out"
+    r = CliRunner().invoke(app, ["simulate", str(path), "--out", str(out)])
+    assert r.exit_code == 2 and "frequency_hz" in r.output and "Traceback" not in r.output
+    assert not out.exists()

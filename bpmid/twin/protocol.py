@@ -534,6 +534,7 @@ def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Pro
     _check_size(proto, path)  # before anything is rendered (bpmid.limits)
     if proto.kind in ("motion", "reference") and not proto.logs:
         raise InputError("a motion or reference protocol needs at least one log", path=path, key="logs")
+    _check_nyquist(proto, path)
     names = [n for n, _s, _k in proto.runs()]
     from collections import Counter
 
@@ -558,6 +559,20 @@ def _levels_of(i: int, spec) -> list[tuple[str, float]]:
         else:
             out += [(f"{key}.{k}", v) for k, v in seg.levels().items()]
     return out
+
+
+def _check_nyquist(proto: Protocol, path) -> None:
+    """A sine at or above half the sampling rate would be logged (and, for a motion log, run through the plant) as
+    another, slower sine: refused naming the segment's key, not aliased without a word."""
+    nyquist = proto.sampling_hz / 2.0
+    for spec in proto.logs:
+        for key, seg in _walk(spec.program):
+            if isinstance(seg, Sine) and seg.frequency_hz >= nyquist:
+                raise InputError(f"{seg.frequency_hz:g} Hz is at or above half the sampling rate ({nyquist:g} Hz at "
+                                 f"sampling_hz {proto.sampling_hz:g}): the log would hold another, slower sine "
+                                 f"(aliasing); raise sampling_hz above {2 * seg.frequency_hz:g} Hz (some 10 samples "
+                                 f"a cycle, {10 * seg.frequency_hz:g} Hz, to draw it) or lower frequency_hz",
+                                 path=path, key=f"{key}.frequency_hz")
 
 
 def _check_angles(proto: Protocol, path) -> None:
