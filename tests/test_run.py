@@ -508,3 +508,23 @@ def test_a_log_s_reading_error_names_the_study_config_s_io_keys_not_flags_run_do
     # the command that has the flag still names it alone
     r = runner.invoke(app, ["fit", "motion", str(logs / "fit.csv"), "--out", str(tmp_path / "v.yaml")])
     assert r.exit_code == 2 and "--pressure-unit" in r.output and "reading flags" not in r.output, r.output
+
+
+def test_history_durations_beyond_the_long_log_and_a_window_as_long_as_it_are_said(tmp_path):
+    """run.history_durations_s: [20, 400] on a 46 s log wrote one row of 46 s for the 400 asked, and a 100 s window
+    on it compared the full sum with itself (window - full 0.0), both without a word."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    _log(logs, "long", 0.2, 6, cycles=8, hold=2.0)
+    cfg = tmp_path / "study.yaml"
+    cfg.write_text("run:\n  long_term: logs/long.csv\n  stages: [history]\n  history_durations_s: [20, 400]\n"
+                   "  history_repeats: 1\nmodel:\n  window_s: 100\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert "run.history_durations_s: 400 s is beyond the long log" in r.output
+    assert "model.window_s (100 s) is not shorter than the long log" in r.output
+    cfg.write_text("run:\n  long_term: logs/long.csv\n  stages: [history]\n  history_durations_s: [20]\n"
+                   "  history_repeats: 1\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
+    assert r.exit_code == 0, r.output
+    assert "history_durations_s" not in r.output and "window_s" not in r.output
