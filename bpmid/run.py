@@ -505,6 +505,15 @@ def stage_history(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
     rc: RunConfig = config.section("run")
     _history_length_notes(log, rc, mcfg)
     study = history_mode_study(model, log, durations_s=rc.history_durations_s, repeats=rc.history_repeats)
+    r2 = float(study.accuracy["full"]["r2"])
+    if not r2 >= plaus.R2_MIN:   # as bpmid predict warns: the modes are then compared on a model of another muscle
+        poor = [f"{log.name}: the constants used ({source}) explain little of the long log's angle (R^2 {r2:.3g} < "
+                f"{plaus.R2_MIN:g}): the history modes' accuracy is that of a model not of this muscle; give "
+                f"run.fitting_set (the motion stage fits this muscle's constants), and check the log's units and "
+                f"pressure reference (io)"]
+        plaus.emit(poor, strict=config.section("io").strict, what=str(out / "history_modes.yaml"),
+                   key=plaus.strict_key(config.section("io")))
+        warnings = list(warnings) + poor
     inputs = [inp.long_term] + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
     written = write_history_study(study, out, plaus.attach(_prov(inputs, config, ctx["seed"], ctx["command"]), [log],
                                                             warnings),

@@ -528,3 +528,29 @@ def test_history_durations_beyond_the_long_log_and_a_window_as_long_as_it_are_sa
     r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
     assert r.exit_code == 0, r.output
     assert "history_durations_s" not in r.output and "window_s" not in r.output
+
+
+def test_the_history_stage_warns_when_its_constants_do_not_fit_the_long_log(tmp_path):
+    """stages: [history] without a fitting set runs the paper's constants; on another muscle's long log they
+    explained R^2 0.04 of the angle and history_modes.yaml reported the three modes' errors without a word (bpmid
+    predict warns below R^2 0.5)."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    t, p_bar = triangle_with_holds(0.2, 1.2, 1.7, 8, 2.0)
+    pg = p_bar * 1e5 - ATM
+    other = 0.2 * VBMM(material=Material.paper_fit()).forward_deg(t, pg) + 10.0   # a much stiffer muscle
+    other = other + np.random.default_rng(11).normal(0.0, 0.2, t.size)
+    write_motion_log(logs / "long.csv", from_arrays("long", t, pg, other, pressure_reference="absolute",
+                                                    pressure_unit="bar"),
+                     reference="absolute", comments={"synthetic": "true (test twin)"})
+    cfg = tmp_path / "study.yaml"
+    cfg.write_text("run:\n  long_term: logs/long.csv\n  stages: [history]\n  history_durations_s: [20]\n"
+                   "  history_repeats: 1\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert "explain little of the long log's angle" in r.output and "run.fitting_set" in r.output
+    body = yaml.safe_load((tmp_path / "o" / "history_modes.yaml").read_text())
+    assert any("explain little" in w for w in body["provenance"]["warnings"])
+    cfg.write_text(cfg.read_text() + "io:\n  strict: true\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
+    assert r.exit_code == 2 and not (tmp_path / "o2").exists()
