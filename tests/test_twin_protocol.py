@@ -201,6 +201,13 @@ def test_bad_effect_arguments_name_the_key(tmp_path):
     # it says where the id already is and how to change it instead
     assert exc.value.key == "plant.effects.braid_friction"
     assert "plant.effects and --effect" in str(exc.value) and "edit plant.effects.braid_friction" in str(exc.value)
+    # twice on the command line: nothing in the protocol to edit (it said "edit --effect.pressure_lag ... (a copy
+    # of the protocol for its own keys)", naming the protocol file)
+    with pytest.raises(InputError, match="given twice") as exc:
+        simulate(path, effects=["pressure_lag:tau=0.2", "pressure_lag:dead_time=0.1"])
+    assert exc.value.key == "--effect.pressure_lag" and exc.value.path is None
+    assert "--effect pressure_lag:key=value,key=value" in str(exc.value)
+    assert "copy of the protocol" not in str(exc.value)
 
 
 def test_the_pressure_limit_is_the_protocol_preset_s(tmp_path):
