@@ -285,3 +285,16 @@ def test_a_sine_at_or_above_half_the_sampling_rate_is_refused_not_aliased(tmp_pa
     r = CliRunner().invoke(app, ["simulate", str(path), "--out", str(out)])
     assert r.exit_code == 2 and "frequency_hz" in r.output and "Traceback" not in r.output
     assert not out.exists()
+
+
+def test_an_unknown_key_lists_only_keys_a_protocol_file_may_hold(tmp_path):
+    """A typo listed 'path' and 'sha256' among the known keys, yet a file giving either was refused: they are
+    filled in by bpmid."""
+    with pytest.raises(InputError) as exc:
+        load_protocol(write(tmp_path, MOTION.replace("seed: 5", "sampling_hzz: 10")))
+    assert exc.value.key == "sampling_hzz" and "sampling_hz," in str(exc.value)
+    assert "path" not in str(exc.value).split("known here:")[1] and "sha256" not in str(exc.value)
+    with pytest.raises(InputError) as exc:
+        load_protocol(write(tmp_path, MOTION + "sha256: abc\n"))
+    assert exc.value.key == "sha256" and "known here:" in str(exc.value)
+    assert load_protocol(write(tmp_path, MOTION)).sha256   # still filled in from the file

@@ -463,6 +463,8 @@ class Protocol:
     sha256: Optional[str] = None
 
     UNKNOWN_KEY_HINTS: ClassVar[dict] = {k: _GEOMETRY_HINT for k in ("geometry", "model", "params")}
+    #: filled in by load_protocol (the file's own path and hash), not keys of a protocol file
+    INTERNAL_FIELDS: ClassVar[tuple] = ("path", "sha256")
 
     def validate(self, where, path):
         if self.schema != SCHEMA:
@@ -516,9 +518,6 @@ def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Pro
     data, sha = read_yaml(path, "protocol file")
     if not isinstance(data, dict):
         raise InputError("a protocol file is a YAML mapping", path=path)
-    for k in ("path", "sha256"):
-        if k in data:
-            raise InputError("unknown key", path=path, key=k)
     if "kind" not in data:
         schema = str(data.get("schema") or "")
         if schema.startswith("bpmid.") and not schema.startswith("bpmid.protocol/"):
