@@ -298,3 +298,20 @@ def test_an_unknown_key_lists_only_keys_a_protocol_file_may_hold(tmp_path):
         load_protocol(write(tmp_path, MOTION + "sha256: abc\n"))
     assert exc.value.key == "sha256" and "known here:" in str(exc.value)
     assert load_protocol(write(tmp_path, MOTION)).sha256   # still filled in from the file
+
+
+@pytest.mark.parametrize("segment,key,ok", [
+    ("sawtooth: {low: 1.2, high: 1.6, period_s: 0.15, cycles: 20}", "sawtooth.period_s", False),
+    ("sawtooth: {low: 1.2, high: 1.6, period_s: 0.5, cycles: 4}", None, True),
+    ("triangle: {low: 1.2, high: 1.6, rate: 8.0, cycles: 20}", "triangle.rate", False),
+    ("triangle: {low: 1.2, high: 1.6, rate: 2.0, cycles: 4}", None, True),
+])
+def test_a_sawtooth_or_triangle_of_two_samples_or_fewer_a_cycle_is_refused_not_aliased(tmp_path, segment, key, ok):
+    """A 0.15 s sawtooth at 10 Hz was logged as 1.2, 1.6, 1.4, 1.2, 1.6, ... (a slower sawtooth), exit 0."""
+    path = write(tmp_path, MOTION.replace("      - hold: {duration_s: 1}\n", f"      - {segment}\n"))
+    if ok:
+        assert load_protocol(path).logs[0].program
+        return
+    with pytest.raises(InputError, match="aliasing") as exc:
+        load_protocol(path)
+    assert exc.value.key == f"logs[0].program[0].{key}"

@@ -565,7 +565,19 @@ def _check_nyquist(proto: Protocol, path) -> None:
     another, slower sine: refused naming the segment's key, not aliased without a word."""
     nyquist = proto.sampling_hz / 2.0
     for spec in proto.logs:
+        start = spec.start if spec.start is not None else _first_level(spec.program)
+        if _extent(spec.program, start)[0] * proto.sampling_hz < 1.0:   # under two samples: refused as too short
+            continue
         for key, seg in _walk(spec.program):
+            cycle = {Sawtooth: lambda g: g.period_s + g.fall_s,
+                     Triangle: lambda g: 2.0 * (g.high - g.low) / g.rate}.get(type(seg))
+            if cycle is not None and cycle(seg) * nyquist <= 1.0 + 1e-9:   # fewer than two samples a cycle
+                kind = type(seg).__name__.lower()
+                raise InputError(f"a {kind} cycle of {cycle(seg):.3g} s spans at most two samples at sampling_hz "
+                                 f"{proto.sampling_hz:g}: the log would hold another, slower signal (aliasing); "
+                                 f"raise sampling_hz above {2.0 / cycle(seg):.3g} Hz (some 10 samples a cycle, "
+                                 f"{10.0 / cycle(seg):.3g} Hz, to draw it) or slow the {kind}", path=path,
+                                 key=f"{key}.{'period_s' if kind == 'sawtooth' else 'rate'}")
             if isinstance(seg, Sine) and seg.frequency_hz >= nyquist:
                 raise InputError(f"{seg.frequency_hz:g} Hz is at or above half the sampling rate ({nyquist:g} Hz at "
                                  f"sampling_hz {proto.sampling_hz:g}): the log would hold another, slower sine "
