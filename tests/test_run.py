@@ -551,6 +551,13 @@ def test_the_history_stage_warns_when_its_constants_do_not_fit_the_long_log(tmp_
     assert "explain little of the long log's angle" in r.output and "run.fitting_set" in r.output
     body = yaml.safe_load((tmp_path / "o" / "history_modes.yaml").read_text())
     assert any("explain little" in w for w in body["provenance"]["warnings"])
+    # the report's history section says it too, and does not call the paper's constants "fitted"
+    r = runner.invoke(app, ["report", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    md = (tmp_path / "o" / "report.md").read_text()
+    section = md.split("## History modes on the long-term run")[1].split("\n## ")[0]
+    assert "Warning: long: the constants used (the paper's VBMM-fit constants) explain little" in section
+    assert "The fitted VBMM" not in section
     cfg.write_text(cfg.read_text() + "io:\n  strict: true\n")
     r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
     assert r.exit_code == 2 and not (tmp_path / "o2").exists()
