@@ -256,12 +256,19 @@ def from_arrays(time_s, pressure, angle_deg=None, *, pressure_unit: str | None =
     if t.ndim != 1 or given.shape != t.shape or (a is not None and a.shape != t.shape):
         raise InputError(f"time_s, pressure and angle_deg must be 1-D arrays of one length, found shapes "
                          f"{t.shape}, {given.shape}, {None if a is None else a.shape}", key=name)
-    if not np.all(np.isfinite(t)):
-        raise InputError("time_s must be finite numbers (NaN or infinite found)", key=name)
-    if t.size < 2 or not np.all(np.diff(t) > 0):
-        raise InputError("time_s must hold at least two strictly increasing times", key=name)
-    if not (np.all(np.isfinite(given)) and (a is None or np.all(np.isfinite(a)))):
-        raise InputError("pressure and angle must be finite numbers", key=name)
+    # each refusal names the array and the first index, as the file readers name the line
+    for label, arr in (("time_s", t), ("pressure", given), ("angle_deg", a)):
+        if arr is not None and not np.all(np.isfinite(arr)):
+            k = int(np.flatnonzero(~np.isfinite(arr))[0])
+            raise InputError(f"{label} must be finite numbers: {label}[{k}] is {float(np.asarray(arr)[k])!r} (NaN or "
+                             f"infinite values are not allowed; drop or fill that sample)", key=name)
+    if t.size < 2:
+        raise InputError(f"time_s must hold at least two samples, found {t.size}", key=name)
+    if not np.all(np.diff(t) > 0):
+        k = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 1
+        how = "repeats" if t[k] == t[k - 1] else "goes backwards"
+        raise InputError(f"time_s must increase: it {how} at time_s[{k}] ({t[k - 1]:.6g} s then {t[k]:.6g} s); "
+                         f"sort the samples, or drop one of two written at the same time", key=name)
     gauge = to_gauge_pa(given, unit, reference, atmosphere_pa=atmosphere_pa)
     span = float(np.max(gauge))
     if span < 1e3:

@@ -211,12 +211,14 @@ def build_dataclass(cls: type, data: Any, where: str = "", path=None):
     aliases = getattr(cls, "UNIT_KEYS", None) or {}
     if aliases:
         data = _unit_keys(data, aliases, where, path)
-    unknown = [k for k in data if k not in fields]
+    internal = set(getattr(cls, "INTERNAL_FIELDS", None) or ())   # set by bpmid, never read from a file
+    unknown = [k for k in data if k not in fields or k in internal]
     if unknown:
         k = unknown[0]
         full = f"{where}.{k}" if where else str(k)
         hint = (getattr(cls, "UNKNOWN_KEY_HINTS", None) or {}).get(str(k))
-        raise InputError(f"unknown config key (known here: {', '.join(sorted([*fields, *aliases]))})"
+        known = sorted([*(f for f in fields if f not in internal), *aliases])
+        raise InputError(f"unknown config key (known here: {', '.join(known)})"
                          + (f"; {hint}" if hint else ""), path=path, key=full)
     kwargs = {}
     for k, v in data.items():

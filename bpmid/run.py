@@ -503,12 +503,44 @@ def stage_history(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:
 
     warnings = _log_warnings([log], config, out / "history_modes.yaml", ctx)
     rc: RunConfig = config.section("run")
+    _history_length_notes(log, rc, mcfg)
     study = history_mode_study(model, log, durations_s=rc.history_durations_s, repeats=rc.history_repeats)
+    r2 = float(study.accuracy["full"]["r2"])
+    if not r2 >= plaus.R2_MIN:   # as bpmid predict warns: the modes are then compared on a model of another muscle
+        poor = [f"{log.name}: the constants used ({source}) explain little of the long log's angle (R^2 {r2:.3g} < "
+                f"{plaus.R2_MIN:g}): the history modes' accuracy is that of a model not of this muscle; give "
+                f"run.fitting_set (the motion stage fits this muscle's constants), and check the log's units and "
+                f"pressure reference (io)"]
+        plaus.emit(poor, strict=config.section("io").strict, what=str(out / "history_modes.yaml"),
+                   key=plaus.strict_key(config.section("io")))
+        warnings = list(warnings) + poor
     inputs = [inp.long_term] + ([ctx["vbmm_fit"]] if ctx.get("vbmm_fit") else [])
     written = write_history_study(study, out, plaus.attach(_prov(inputs, config, ctx["seed"], ctx["command"]), [log],
                                                             warnings),
                                   params_source=source, synthetic=synthetic_note([log]))
     return [Path(p).name for p in written]
+
+
+def _history_length_notes(log, rc: "RunConfig", mcfg) -> None:
+    """Say what the history stage cannot do on a long log shorter than asked: a prefix duration beyond the log is
+    the whole log (its row says the log's length, not the one asked for), and a window as long as the log drops
+    nothing (window and full history are then the same sum)."""
+    import numpy as np
+
+    length = float(log.duration_s)
+    step = float(np.median(np.diff(log.time_s))) if log.time_s.size > 1 else 0.0
+    beyond = [d for d in rc.history_durations_s if d > length + step + 1e-9]   # within a sample: the whole log
+    if beyond:
+        print(f"note: run.history_durations_s: {', '.join(f'{d:g}' for d in beyond)} s "
+              f"{'is' if len(beyond) == 1 else 'are'} beyond the long log "
+              f"({log.name}, {length:g} s): the cost-per-step curve ends at the whole log, and history_modes.csv "
+              f"has no row of that length; give durations up to {length:g} s or a longer run.long_term",
+              file=sys.stderr, flush=True)
+    window = getattr(mcfg, "window_s", None)
+    if window is not None and float(window) >= length:
+        print(f"note: model.window_s ({float(window):g} s) is not shorter than the long log ({log.name}, {length:g} s):"
+              f" the window drops nothing, so window and full history are the same sum here; use a log longer than "
+              f"the window to compare them", file=sys.stderr, flush=True)
 
 
 def stage_discover(inp: RunInputs, out: Path, config, ctx: dict) -> list[str]:

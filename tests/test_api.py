@@ -680,3 +680,26 @@ def test_a_simulation_manifest_with_malformed_effects_still_loads_and_gives_its_
     back = load(tmp_path / "out")
     assert back == res and back.params.valuesdict() == res.params.valuesdict()
     assert list(res.params.valuesdict()) == (["a.w"] if effects == [{"id": "a", "params": {"w": 1.0}}] else [])
+
+
+def test_from_arrays_names_the_array_and_the_index_of_a_bad_sample():
+    """A NaN pressure said only 'pressure and angle must be finite numbers', and one time going backwards among
+    100 said 'time_s must hold at least two strictly increasing times': neither which array nor where."""
+    t = np.arange(0.0, 10.0, 0.1)
+    p = 1.2 + 0.3 * np.abs(np.sin(0.3 * t))
+    bad = p.copy()
+    bad[20] = np.nan
+    with pytest.raises(InputError, match=r"pressure must be finite numbers: pressure\[20\] is nan"):
+        bpmid.from_arrays(t, bad, None, pressure_unit="bar", reference="absolute")
+    with pytest.raises(InputError, match=r"angle_deg\[51\] is inf"):
+        bpmid.from_arrays(t, p, np.where(t > 5.05, np.inf, 1.0), pressure_unit="bar", reference="absolute")
+    back = t.copy()
+    back[30] = back[29] - 0.05
+    with pytest.raises(InputError, match=r"goes backwards at time_s\[30\] \(2\.9 s then 2\.85 s\)"):
+        bpmid.from_arrays(back, p, None, pressure_unit="bar", reference="absolute")
+    rep = t.copy()
+    rep[30] = rep[29]
+    with pytest.raises(InputError, match=r"repeats at time_s\[30\]"):
+        bpmid.from_arrays(rep, p, None, pressure_unit="bar", reference="absolute")
+    with pytest.raises(InputError, match="at least two samples, found 1"):
+        bpmid.from_arrays(t[:1], p[:1], None, pressure_unit="bar", reference="absolute")

@@ -152,3 +152,12 @@ def test_a_protocol_whose_logs_would_be_too_short_to_read_is_refused(tmp_path):
     r = runner.invoke(app, ["simulate", str(proto), "--out", str(tmp_path / "o")])
     assert r.exit_code == 2 and "key 'sampling_hz'" in r.output and "fewer than the 2" in r.output, r.output
     assert not (tmp_path / "o").exists()
+
+
+def test_a_negative_seed_names_the_flag(tmp_path):
+    """--seed -5 was refused as key 'seed' (the library's argument), a key the command line does not have."""
+    p = tmp_path / "p.yaml"
+    p.write_text(PROTO)
+    r = runner.invoke(app, ["simulate", str(p), "--seed", "-5", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and "key '--seed'" in r.output and "-5" in r.output, r.output
+    assert not (tmp_path / "o").exists()

@@ -215,6 +215,21 @@ def test_a_sampling_step_not_small_against_the_shortest_time_constant_is_noted_w
     assert "0.05 s" in sampling_note(split, [log(50)])
 
 
+def test_logs_at_several_rates_are_noted_as_such_not_as_their_median_step():
+    """A fit on one 10 Hz and one 200 Hz log noted 'the logs step 0.0525 s (19 Hz)', a step neither log has."""
+    import types
+
+    from bpmid.models.vbmm import Material, sampling_note
+
+    mat = Material(9050.0, 6.1e6, (18300.0,), (1.35e7,), (0.4,))
+    log = lambda hz: types.SimpleNamespace(time_s=np.arange(0.0, 20.0, 1.0 / hz))   # noqa: E731
+    note = sampling_note(mat, [log(10), log(200)])
+    assert note is not None and "0.0525" not in note and "19 Hz" not in note
+    assert "0.005 to 0.1 s (10 to 200 Hz), not one step" in note and "some 12 % apart" in note
+    assert sampling_note(mat, [log(200), log(400)]) is None            # both fine against tau: nothing to say
+    assert "0.1 s (10 Hz)" in sampling_note(mat, [log(10), log(10)])   # one rate: as before
+
+
 def test_holds_the_logs_reject_are_estimated_instead_of_refusing_the_fit():
     """Holding the not-identifiable constants at the relaxation values left a new user's two-term fit at 17 deg
     from a 1.3 deg start (R^2 below 0, refused as explaining nothing): when the held fit explains less than half

@@ -508,3 +508,56 @@ def test_a_log_s_reading_error_names_the_study_config_s_io_keys_not_flags_run_do
     # the command that has the flag still names it alone
     r = runner.invoke(app, ["fit", "motion", str(logs / "fit.csv"), "--out", str(tmp_path / "v.yaml")])
     assert r.exit_code == 2 and "--pressure-unit" in r.output and "reading flags" not in r.output, r.output
+
+
+def test_history_durations_beyond_the_long_log_and_a_window_as_long_as_it_are_said(tmp_path):
+    """run.history_durations_s: [20, 400] on a 46 s log wrote one row of 46 s for the 400 asked, and a 100 s window
+    on it compared the full sum with itself (window - full 0.0), both without a word."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    _log(logs, "long", 0.2, 6, cycles=8, hold=2.0)
+    cfg = tmp_path / "study.yaml"
+    cfg.write_text("run:\n  long_term: logs/long.csv\n  stages: [history]\n  history_durations_s: [20, 400]\n"
+                   "  history_repeats: 1\nmodel:\n  window_s: 100\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert "run.history_durations_s: 400 s is beyond the long log" in r.output
+    assert "model.window_s (100 s) is not shorter than the long log" in r.output
+    cfg.write_text("run:\n  long_term: logs/long.csv\n  stages: [history]\n  history_durations_s: [20]\n"
+                   "  history_repeats: 1\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
+    assert r.exit_code == 0, r.output
+    assert "history_durations_s" not in r.output and "window_s" not in r.output
+
+
+def test_the_history_stage_warns_when_its_constants_do_not_fit_the_long_log(tmp_path):
+    """stages: [history] without a fitting set runs the paper's constants; on another muscle's long log they
+    explained R^2 0.04 of the angle and history_modes.yaml reported the three modes' errors without a word (bpmid
+    predict warns below R^2 0.5)."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    t, p_bar = triangle_with_holds(0.2, 1.2, 1.7, 8, 2.0)
+    pg = p_bar * 1e5 - ATM
+    other = 0.2 * VBMM(material=Material.paper_fit()).forward_deg(t, pg) + 10.0   # a much stiffer muscle
+    other = other + np.random.default_rng(11).normal(0.0, 0.2, t.size)
+    write_motion_log(logs / "long.csv", from_arrays("long", t, pg, other, pressure_reference="absolute",
+                                                    pressure_unit="bar"),
+                     reference="absolute", comments={"synthetic": "true (test twin)"})
+    cfg = tmp_path / "study.yaml"
+    cfg.write_text("run:\n  long_term: logs/long.csv\n  stages: [history]\n  history_durations_s: [20]\n"
+                   "  history_repeats: 1\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert "explain little of the long log's angle" in r.output and "run.fitting_set" in r.output
+    body = yaml.safe_load((tmp_path / "o" / "history_modes.yaml").read_text())
+    assert any("explain little" in w for w in body["provenance"]["warnings"])
+    # the report's history section says it too, and does not call the paper's constants "fitted"
+    r = runner.invoke(app, ["report", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    md = (tmp_path / "o" / "report.md").read_text()
+    section = md.split("## History modes on the long-term run")[1].split("\n## ")[0]
+    assert "Warning: long: the constants used (the paper's VBMM-fit constants) explain little" in section
+    assert "The fitted VBMM" not in section
+    cfg.write_text(cfg.read_text() + "io:\n  strict: true\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
+    assert r.exit_code == 2 and not (tmp_path / "o2").exists()

@@ -171,11 +171,22 @@ def test_blind_protocols_keep_the_effect_out_of_the_manifest(tmp_path):
     (("braid_friction: {r: 1000", "braid_friction: {rr: 1000"), "plant.effects.braid_friction.rr"),
     (("angle_noise_deg: 0.2", "angle_noise_deg: -0.2"), "sensors.angle_noise_deg"),
     (("{duration_s: 1}", "{duration_s: -1}"), "logs[0].program[0].hold.duration_s"),
+    (("replicates: 2", "replicates: 0"), "replicates"),
+    (("seed: 5", "seed: 5\nsampling_hz: 0"), "sampling_hz"),
 ])
 def test_bad_protocols_are_refused_naming_the_key(tmp_path, edit, key):
     with pytest.raises(InputError) as exc:
         simulate(write(tmp_path, MOTION.replace(*edit)), timestamp=False)
     assert exc.value.key == key, exc.value.format()
+
+
+def test_a_top_level_rate_is_named_as_written_and_infinity_is_not_called_non_positive(tmp_path):
+    """sampling_hz: 0 was named '.sampling_hz' (a leading dot: no such key in the file), and sampling_hz: .inf
+    was told it 'must be positive'."""
+    with pytest.raises(InputError) as exc:
+        load_protocol(write(tmp_path, MOTION.replace("seed: 5", "seed: 5\nsampling_hz: .inf")))
+    assert exc.value.key == "sampling_hz"
+    assert "finite" in str(exc.value) and "must be positive," not in str(exc.value)
 
 
 def test_bad_effect_arguments_name_the_key(tmp_path):
@@ -190,6 +201,13 @@ def test_bad_effect_arguments_name_the_key(tmp_path):
     # it says where the id already is and how to change it instead
     assert exc.value.key == "plant.effects.braid_friction"
     assert "plant.effects and --effect" in str(exc.value) and "edit plant.effects.braid_friction" in str(exc.value)
+    # twice on the command line: nothing in the protocol to edit (it said "edit --effect.pressure_lag ... (a copy
+    # of the protocol for its own keys)", naming the protocol file)
+    with pytest.raises(InputError, match="given twice") as exc:
+        simulate(path, effects=["pressure_lag:tau=0.2", "pressure_lag:dead_time=0.1"])
+    assert exc.value.key == "--effect.pressure_lag" and exc.value.path is None
+    assert "--effect pressure_lag:key=value,key=value" in str(exc.value)
+    assert "copy of the protocol" not in str(exc.value)
 
 
 def test_the_pressure_limit_is_the_protocol_preset_s(tmp_path):
@@ -241,3 +259,59 @@ def test_a_reference_protocol_beyond_0_to_180_deg_is_refused_naming_the_key(tmp_
     with _pytest.raises(InputError, match="angle 900 deg is outside 0..180 deg") as e:
         load_protocol(p)
     assert e.value.key == "logs[0].program[0].ramp.to"
+
+
+@pytest.mark.parametrize("freq,fs,ok", [(8.0, 10.0, False), (5.0, 10.0, False), (4.9, 10.0, True), (0.3, 10.0, True)])
+def test_a_sine_at_or_above_half_the_sampling_rate_is_refused_not_aliased(tmp_path, freq, fs, ok):
+    """An 8 Hz sine in a 10 Hz protocol was logged (and run through the plant) as a 2 Hz sine, exit 0."""
+    text = MOTION.replace("seed: 5", f"seed: 5\nsampling_hz: {fs}").replace(
+        "      - hold: {duration_s: 1}\n",
+        "      - hold: {duration_s: 1}\n"
+        f"      - repeat: {{times: 2, program: [{{sine: {{mean: 1.4, amplitude: 0.1, frequency_hz: {freq}, "
+        "cycles: 3}}]}\n")
+    path = write(tmp_path, text)
+    if ok:
+        assert load_protocol(path).sampling_hz == fs
+        return
+    with pytest.raises(InputError) as exc:
+        simulate(path, timestamp=False)
+    assert exc.value.key == "logs[0].program[1].repeat.program[0].sine.frequency_hz"
+    assert "aliasing" in str(exc.value) and "sampling_hz" in str(exc.value)
+    from typer.testing import CliRunner
+
+    from bpmid.cli import app
+
+    out = tmp_path / "out"
+    r = CliRunner().invoke(app, ["simulate", str(path), "--out", str(out)])
+    assert r.exit_code == 2 and "frequency_hz" in r.output and "Traceback" not in r.output
+    assert not out.exists()
+
+
+def test_an_unknown_key_lists_only_keys_a_protocol_file_may_hold(tmp_path):
+    """A typo listed 'path' and 'sha256' among the known keys, yet a file giving either was refused: they are
+    filled in by bpmid."""
+    with pytest.raises(InputError) as exc:
+        load_protocol(write(tmp_path, MOTION.replace("seed: 5", "sampling_hzz: 10")))
+    assert exc.value.key == "sampling_hzz" and "sampling_hz," in str(exc.value)
+    assert "path" not in str(exc.value).split("known here:")[1] and "sha256" not in str(exc.value)
+    with pytest.raises(InputError) as exc:
+        load_protocol(write(tmp_path, MOTION + "sha256: abc\n"))
+    assert exc.value.key == "sha256" and "known here:" in str(exc.value)
+    assert load_protocol(write(tmp_path, MOTION)).sha256   # still filled in from the file
+
+
+@pytest.mark.parametrize("segment,key,ok", [
+    ("sawtooth: {low: 1.2, high: 1.6, period_s: 0.15, cycles: 20}", "sawtooth.period_s", False),
+    ("sawtooth: {low: 1.2, high: 1.6, period_s: 0.5, cycles: 4}", None, True),
+    ("triangle: {low: 1.2, high: 1.6, rate: 8.0, cycles: 20}", "triangle.rate", False),
+    ("triangle: {low: 1.2, high: 1.6, rate: 2.0, cycles: 4}", None, True),
+])
+def test_a_sawtooth_or_triangle_of_two_samples_or_fewer_a_cycle_is_refused_not_aliased(tmp_path, segment, key, ok):
+    """A 0.15 s sawtooth at 10 Hz was logged as 1.2, 1.6, 1.4, 1.2, 1.6, ... (a slower sawtooth), exit 0."""
+    path = write(tmp_path, MOTION.replace("      - hold: {duration_s: 1}\n", f"      - {segment}\n"))
+    if ok:
+        assert load_protocol(path).logs[0].program
+        return
+    with pytest.raises(InputError, match="aliasing") as exc:
+        load_protocol(path)
+    assert exc.value.key == f"logs[0].program[0].{key}"

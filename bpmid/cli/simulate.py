@@ -28,7 +28,10 @@ def simulate_cmd(
     """Simulate the test rig running PROTOCOL: synthetic logs plus a manifest naming protocol, parameters,
     seed and any injected effect (never in the CSV)."""
     from bpmid.api import simulate
+    from bpmid.errors import InputError
 
+    if seed is not None and seed < 0:   # the library names its argument (seed); here it is the flag
+        raise InputError(f"a seed is a non-negative whole number, found {seed}", key="--seed")
     result = simulate(protocol, params=params, effects=tuple(effect or ()), seed=seed, timestamp=not no_timestamp)
     before = {q.name for q in Path(out).glob("*.csv")} if Path(out).is_dir() else set()
     result.save(out)

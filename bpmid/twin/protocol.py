@@ -57,16 +57,23 @@ from bpmid.units import PA_PER_BAR, PA_PER_KPA
 SCHEMA = "bpmid.protocol/1"
 
 
+def _key(where, k):
+    """``where.k``, or ``k`` alone for a top-level key (``where`` empty: not ``.sampling_hz``)."""
+    return f"{where}.{k}" if where else k
+
+
 def _positive(where, path, **values):
     for k, v in values.items():
         if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(f"must be positive, found {v!r}", path=path, key=f"{where}.{k}")
+            what = "must be positive" if math.isfinite(v) else "must be a finite positive number"
+            raise InputError(f"{what}, found {v!r}", path=path, key=_key(where, k))
 
 
 def _non_negative(where, path, **values):
     for k, v in values.items():
         if v is not None and not (math.isfinite(v) and v >= 0):
-            raise InputError(f"must not be negative, found {v!r}", path=path, key=f"{where}.{k}")
+            what = "must not be negative" if math.isfinite(v) else "must be a finite number, not negative"
+            raise InputError(f"{what}, found {v!r}", path=path, key=_key(where, k))
 
 
 def _check_band(seg, where, path):
@@ -456,6 +463,8 @@ class Protocol:
     sha256: Optional[str] = None
 
     UNKNOWN_KEY_HINTS: ClassVar[dict] = {k: _GEOMETRY_HINT for k in ("geometry", "model", "params")}
+    #: filled in by load_protocol (the file's own path and hash), not keys of a protocol file
+    INTERNAL_FIELDS: ClassVar[tuple] = ("path", "sha256")
 
     def validate(self, where, path):
         if self.schema != SCHEMA:
@@ -509,9 +518,6 @@ def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Pro
     data, sha = read_yaml(path, "protocol file")
     if not isinstance(data, dict):
         raise InputError("a protocol file is a YAML mapping", path=path)
-    for k in ("path", "sha256"):
-        if k in data:
-            raise InputError("unknown key", path=path, key=k)
     if "kind" not in data:
         schema = str(data.get("schema") or "")
         if schema.startswith("bpmid.") and not schema.startswith("bpmid.protocol/"):
@@ -527,6 +533,7 @@ def load_protocol(path: str | Path, *, max_gauge_pa: float | None = None) -> Pro
     _check_size(proto, path)  # before anything is rendered (bpmid.limits)
     if proto.kind in ("motion", "reference") and not proto.logs:
         raise InputError("a motion or reference protocol needs at least one log", path=path, key="logs")
+    _check_nyquist(proto, path)
     names = [n for n, _s, _k in proto.runs()]
     from collections import Counter
 
@@ -551,6 +558,32 @@ def _levels_of(i: int, spec) -> list[tuple[str, float]]:
         else:
             out += [(f"{key}.{k}", v) for k, v in seg.levels().items()]
     return out
+
+
+def _check_nyquist(proto: Protocol, path) -> None:
+    """A sine at or above half the sampling rate would be logged (and, for a motion log, run through the plant) as
+    another, slower sine: refused naming the segment's key, not aliased without a word."""
+    nyquist = proto.sampling_hz / 2.0
+    for spec in proto.logs:
+        start = spec.start if spec.start is not None else _first_level(spec.program)
+        if _extent(spec.program, start)[0] * proto.sampling_hz < 1.0:   # under two samples: refused as too short
+            continue
+        for key, seg in _walk(spec.program):
+            cycle = {Sawtooth: lambda g: g.period_s + g.fall_s,
+                     Triangle: lambda g: 2.0 * (g.high - g.low) / g.rate}.get(type(seg))
+            if cycle is not None and cycle(seg) * nyquist <= 1.0 + 1e-9:   # fewer than two samples a cycle
+                kind = type(seg).__name__.lower()
+                raise InputError(f"a {kind} cycle of {cycle(seg):.3g} s spans at most two samples at sampling_hz "
+                                 f"{proto.sampling_hz:g}: the log would hold another, slower signal (aliasing); "
+                                 f"raise sampling_hz above {2.0 / cycle(seg):.3g} Hz (some 10 samples a cycle, "
+                                 f"{10.0 / cycle(seg):.3g} Hz, to draw it) or slow the {kind}", path=path,
+                                 key=f"{key}.{'period_s' if kind == 'sawtooth' else 'rate'}")
+            if isinstance(seg, Sine) and seg.frequency_hz >= nyquist:
+                raise InputError(f"{seg.frequency_hz:g} Hz is at or above half the sampling rate ({nyquist:g} Hz at "
+                                 f"sampling_hz {proto.sampling_hz:g}): the log would hold another, slower sine "
+                                 f"(aliasing); raise sampling_hz above {2 * seg.frequency_hz:g} Hz (some 10 samples "
+                                 f"a cycle, {10 * seg.frequency_hz:g} Hz, to draw it) or lower frequency_hz",
+                                 path=path, key=f"{key}.frequency_hz")
 
 
 def _check_angles(proto: Protocol, path) -> None:

@@ -259,6 +259,9 @@ def _collect_effects(proto: Protocol, effect_args: Sequence[str]):
     if dup:
         where = [w for i, w in zip(ids, given) if i == dup[0]]
         key = f"{where[0]}.{dup[0]}"
+        if where[0] == "--effect":   # every one on the command line: nothing in the protocol to edit
+            raise InputError(f"effect {dup[0]} is given twice (--effect and --effect): give it once, with all its "
+                             f"keys in one argument (--effect {dup[0]}:key=value,key=value)", key=key)
         raise InputError(f"effect {dup[0]} is given twice ({' and '.join(where)}; the rig's plant.effects, the "
                          f"protocol's effects and --effect must not repeat an id). To change it, edit {key} "
                          f"instead of adding it again (a copy of the protocol for its own keys)", path=proto.path,

@@ -859,6 +859,15 @@ def sampling_note(material: Material, logs) -> str | None:
     if not steps or not taus:
         return None
     dt, tau = float(np.median(steps)), min(taus)
+    lo, hi = min(steps), max(steps)
+    if hi > 1.5 * lo and hi / (2.0 * tau) > SAMPLING_NOTE_SHARE:
+        # logs at several rates: their median step (0.1 and 0.005 s gave "0.0525 s (19 Hz)") is no log's step
+        return (f"sampling: the logs step {lo:.3g} to {hi:.3g} s ({1.0 / hi:.3g} to {1.0 / lo:.3g} Hz), not one step, "
+                f"against a shortest time constant of {tau:.3g} s; the model's hereditary sum takes each pressure step "
+                f"as a jump at its sample, so constants hold for one step, and these were fitted on several: at "
+                f"{1.0 / hi:.3g} Hz that branch's moduli act some {100.0 * (hi - lo) / (2.0 * tau):.0f} % apart from at "
+                f"{1.0 / lo:.3g} Hz. Fit on logs taken at the rate the model will run at (bpmid predict, the C export, "
+                f"a controller)")
     share = dt / (2.0 * tau)
     if share <= SAMPLING_NOTE_SHARE:
         return None

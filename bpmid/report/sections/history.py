@@ -18,10 +18,13 @@ def build(doc, st, figs) -> None:
         return
     stale_note(doc, st, "history")
     raw = h.raw
-    doc.p(f"The fitted VBMM ({raw.get('params') or 'constants'}) run forward on {h.log} ({raw.get('samples')} "
+    # the stage's constants are this run's fit or, without a motion stage, the paper's: not always "fitted"
+    doc.p(f"The VBMM ({raw.get('params') or 'constants'}) run forward on {h.log} ({raw.get('samples')} "
           f"samples, {fmt(raw.get('duration_s'))} s) in the three history modes: recursive (exact, O(1) per step), "
           f"window (eq. 19, T_win = {fmt(h.window_s)} s) and full (eq. 5, O(k) at step k). Timings are wall-clock "
           "on this machine.")
+    for w in h.provenance.get("warnings") or []:   # as the stage printed them (a poor fit to this log, ...)
+        doc.p("Warning: " + str(w), css="verdict")
     doc.table(["mode", "RMSE vs measured (°)", "MAPE (%)", "R²", "µs per step (whole log)"],
               [[m, fmt(a.get("rmse_deg")), fmt(a.get("mape_pct")), fmt(a.get("r2")), fmt(h.us_per_step.get(m))]
                for m, a in h.accuracy.items()])
