@@ -123,7 +123,8 @@ def bench_forward(quick: bool):
     assert np.max(np.abs(beta_py - m.forward(t[:nb], p[:nb]))) < 1e-9, "baseline disagrees with the kernel"
     sec_py = best_of(lambda: python_forward_recursive(t[:nb], p[:nb], Material.paper_fit()), 1 if quick else 2)
     us_py = sec_py / nb * 1e6
-    print("\n1. forward model beta(P), recursive history, one branch (1800 s log, 18000 steps)")
+    print("\n1. forward model beta(P), recursive history, one branch (1800 s log, 18000 steps; wall-clock time, best of "
+          "several passes: on a loaded machine above the CPU times of sections 0 and 2)")
     print(f"   {'implementation':<36}{'us/step':>10}{'ratio':>10}")
     print(f"   {'bpmid (numba kernel)':<36}{us:>10.3f}{1.0:>10.1f}")
     print(f"   {'pure Python baseline (same solve)':<36}{us_py:>10.3f}{us_py / us:>10.1f}")
@@ -191,7 +192,8 @@ def bench_kernel_vs_c(quick: bool):
 
 def bench_modes(quick: bool):
     lengths = [60, 120, 300, 600, 1200, 1800] if not quick else [60, 300, 600]
-    print("\n2. cost per step (us) against log length, 10 Hz, paper's experiment 2 pressure (cf. Fig. 17(b))")
+    print("\n2. cost per step (us, CPU time of this process) against log length, 10 Hz, paper's experiment 2 pressure "
+          "(cf. Fig. 17(b))")
     print(f"   {'length (s)':>10}{'steps':>8}{'recursive':>12}{'window 20 s':>13}{'full':>12}{'full/rec':>10}")
     models = {h: VBMM(material=Material.paper_fit(), history=h, window_s=20.0) for h in ("recursive", "window", "full")}
     for mdl in models.values():
