@@ -52,7 +52,7 @@ class MaterialFit:
     set_temperature : for one set with a temperature column: {"T": set temperature (C, rounded as raw sets are
         labelled), "mean_measured": the mean measured temperature (C)}; else None
     checks : warnings ``--strict`` refuses (shift factors the data do not determine, a WLF that does not describe
-        them, a modulus the fit misses by more than 100 % RMS)
+        them, a modulus the fit misses by more than 300 % RMS)
     """
 
     domain: str
@@ -234,9 +234,10 @@ def drift_warnings(datas: Sequence[MaterialData], shift) -> list[str]:
 
 
 #: a frequency-domain fit that misses E' or E'' by more than this RMS relative error (%) is warned about: the two
-#: columns are then not the storage and loss moduli of one material as read (the measured DMTA master curve, whose
-#: E'' is not Kramers-Kronig consistent with E', is missed by about 50 %)
-MODULUS_MISFIT_PCT = 100.0
+#: columns are then not the storage and loss moduli of one material as read (tan delta under an E'' header: 820 %).
+#: Measured sweeps fitted with few terms miss E'' by up to about 125 % (the reference DMA sweeps with 2-6 terms:
+#: 91-124 %; with the terms BIC picks, 29-52 %), so the line sits well above what the measured data we hold give
+MODULUS_MISFIT_PCT = 300.0
 
 
 def misfit_warnings(datas: Sequence[MaterialData], fit) -> list[str]:
