@@ -277,11 +277,18 @@ def load_references(spec: str, rate_hz: float = 10.0, io=None) -> list[Reference
                              key="--reference")
     if not out:
         raise InputError("no reference given", key="--reference")
-    names = [r.name for r in out]
+    return check_reference_names(out, key="--reference")
+
+
+def check_reference_names(refs: list, *, key: str, path=None) -> list:
+    """``refs`` when no two share a name (references are told apart by name: a file's stem), else InputError
+    naming the first name given twice and ``key``."""
+    names = [r.name for r in refs]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
-        raise InputError(f"reference {dup[0]} is given twice (references are told apart by name)", key="--reference")
-    return out
+        raise InputError(f"reference {dup[0]} is given twice (references are told apart by name, a file's by its "
+                         "file name): give it once, or rename one of two files", path=path, key=key)
+    return refs
 
 
 # ---------------------------------------------------------------------------------------------

@@ -193,18 +193,13 @@ def resolve_run_inputs(config) -> RunInputs:
 def control_references(config, inp: RunInputs) -> list:
     """The references the control stage tracks: the config's ``run.control_references`` read with its ``io``
     section, else every shipped one (InputError naming the file, or the key of a name given twice)."""
-    from bpmid.control import load_references, read_reference
+    from bpmid.control import check_reference_names, load_references, read_reference
 
     rate = config.section("control").rate_hz
     if not inp.control_references:
         return load_references("all", rate)
-    refs = [read_reference(p, rate, io=config.section("io")) for p in inp.control_references]
-    names = [r.name for r in refs]
-    dup = sorted({n for n in names if names.count(n) > 1})
-    if dup:
-        raise InputError(f"two references are named {dup[0]} (references are told apart by their file name): "
-                         "rename one", path=config.path, key="run.control_references")
-    return refs
+    return check_reference_names([read_reference(p, rate, io=config.section("io")) for p in inp.control_references],
+                                 key="run.control_references", path=config.path)
 
 
 def stages_to_run(rc: "RunConfig", inp: RunInputs) -> list[str]:

@@ -325,6 +325,13 @@ def test_the_control_stage_tracks_the_config_s_own_references(tmp_path):
     r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
     assert r.exit_code == 2 and "bad.csv" in r.output and "Traceback" not in r.output, r.output
     assert not (tmp_path / "o2").exists()
+    # two files of one name in two folders: references are told apart by name, so refused before any stage
+    (tmp_path / "more").mkdir()
+    ref.to_csv(tmp_path / "more" / "my_steps.csv", index=False)
+    cfg.write_text("run:\n  stages: [control]\n  control_references: [refs/my_steps.csv, more/my_steps.csv]\n")
+    r = runner.invoke(app, ["run", str(cfg), "--out", str(tmp_path / "o2")])
+    assert r.exit_code == 2 and "run.control_references" in r.output and "my_steps is given twice" in r.output, r.output
+    assert not (tmp_path / "o2").exists()
 
 
 def test_the_readme_s_own_study_config_is_a_valid_config(tmp_path):
