@@ -73,16 +73,20 @@ class InputError(Exception):
 
     def __init__(self, message: str, *, path: str | Path | None = None,
                  line: int | None = None, key: str | None = None):
-        no_flags = _IN_COMMAND.get() and _NO_READING_FLAGS.get()
-        self.message = (_library_words(message, _RUN_NOTE) if no_flags else message if _IN_COMMAND.get()
-                        else _library_words(message))
+        in_command = _IN_COMMAND.get()
+        no_flags = in_command and _NO_READING_FLAGS.get()
+        if no_flags:
+            message = _library_words(message, _RUN_NOTE)
+        elif not in_command:
+            message = _library_words(message)
+        self.message = message
         self.path = None if path is None else str(path)
         self.line = line
         # outside a command, an option that is an argument of the library's call is named as that argument; in a
         # command without the reading flags, a reading flag is named as its config key
         if no_flags and key in _FLAG_KEYS:
             key = _FLAG_KEYS[key].split(" ")[0]
-        self.key = key if _IN_COMMAND.get() or key not in _ARG_KEYS else _ARG_KEYS[key]
+        self.key = key if in_command or key not in _ARG_KEYS else _ARG_KEYS[key]
         super().__init__(self.format())
 
     def format(self) -> str:

@@ -42,6 +42,16 @@ def fail(message: str, code: int = 2):
     raise typer.Exit(code)
 
 
+def interrupted_exit(signal_name: str | None):
+    """End an interrupted command: terminated (143) when a SIGTERM was received, even if it reached the command as
+    a plain interrupt (bpmid run's stages) or inside a compiled kernel; else Ctrl-C (130)."""
+    from bpmid.io.atomic import terminated_message
+
+    if signal_name:
+        fail(terminated_message(signal_name), 143)
+    fail("interrupted", 130)
+
+
 class PlainUsageCommand(TyperCommand):
     """A command whose usage line names the arguments as click does (``LOG...``, ``DIR``, ``[CONFIG]``);
     typer writes required ones in braces (``{LOG}...``)."""
@@ -77,7 +87,8 @@ def command(typer_app: typer.Typer, name: str, **kw):
         @functools.wraps(fn)
         def wrapper(*args, **kwargs):
             from bpmid.errors import command_prints_warnings
-            from bpmid.io.atomic import Terminated, guard_inputs, sigterm_as_interrupt, terminated_message
+            from bpmid.io.atomic import (Terminated, guard_inputs, sigterm_as_interrupt, terminated_message,
+                                         termination_received)
             from bpmid.plots.options import figure_format_kept
 
             try:
@@ -100,17 +111,11 @@ def command(typer_app: typer.Typer, name: str, **kw):
                 os.dup2(devnull, 1)
                 raise typer.Exit(0)
             except KeyboardInterrupt:
-                from bpmid.io.atomic import termination_received
-                if termination_received():   # a SIGTERM turned into a plain interrupt on its way (bpmid run)
-                    fail(terminated_message(termination_received()), 143)
-                fail("interrupted", 130)
+                interrupted_exit(termination_received())
             except SystemError as exc:
                 # Ctrl-C inside a compiled kernel surfaces as (nested) "returned a result with an exception set"
                 if interrupted(exc):
-                    from bpmid.io.atomic import termination_received
-                    if termination_received():   # SIGTERM inside a compiled kernel: terminated, not Ctrl-C
-                        fail(terminated_message(termination_received()), 143)
-                    fail("interrupted", 130)
+                    interrupted_exit(termination_received())
                 raise
             except OSError as exc:
                 # the file system said no (a folder that cannot be made, no permission, disk full, read-only):
