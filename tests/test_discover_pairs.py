@@ -204,15 +204,15 @@ def _named_together(d: dict) -> tuple[dict, dict]:
 def test_cli_names_two_effects_together_and_says_why(tmp_path):
     """On the shipped blind case 1 (a pressure lag behind a dead time), with the lag held to one first-order lag
     (``hold``), a gate that asks 95 % of the gap of one effect and no path to the floor, the lag alone is refused
-    (it removes 91 %); refitted with braid friction it removes 93 %, the friction adding a little beside it. With
-    the pair path opened at 92 % the two are named together, the output says why, and the joint refit's second
+    (it removes 89 %); refitted with braid friction it removes 90 %, the friction adding a little beside it. With
+    the pair path opened at 90 % the two are named together, the output says why, and the joint refit's second
     step records it was named with the first."""
     d = discover_case_01(tmp_path, "discover:\n  gap_share_min: 0.95\n  to_floor_drop_min_sigma: .inf\n"
-                                   "  pair_share_min: 0.92\n  pair_gain_min_sigma: 0.03\n  family_alpha: 1.0e-3\n"
+                                   "  pair_share_min: 0.9\n  pair_gain_min_sigma: 0.03\n  family_alpha: 1.0e-3\n"
                                    "  max_effects: 2\n  hold: {pressure_lag.share: 0}\n")
     first, second = _named_together(d)
     assert first["evidence"]["refused_by_the_gate_because"][0].startswith("alone: ")
-    assert "share of the held-out gap removed 91% < 95%" in first["evidence"]["refused_by_the_gate_because"][0]
+    assert "share of the held-out gap removed 89% < 95%" in first["evidence"]["refused_by_the_gate_because"][0]
     assert "Named as one of two effects that share the residual" in first["explanation"]
     assert "Beside pressure_lag it cut the held-out error" in second["explanation"]
     assert "Bonferroni-corrected" in second["explanation"] and "nan" not in second["explanation"]
@@ -235,11 +235,11 @@ def test_cli_names_two_effects_together_and_says_why(tmp_path):
 
 
 def test_cli_names_two_effects_over_the_single_one_that_passed_and_says_why(tmp_path):
-    """The same case (the lag held to one first-order lag) with the lag passing alone (90 % of the gap asked) and
-    only the path over a single effect open: refitted with braid friction the lag's held-out gain grows from 2.29 to
-    2.33 noise floors, more than the margin of 0.01, so the two are named in its place; the output says the lag
+    """The same case (the lag held to one first-order lag) with the lag passing alone (85 % of the gap asked) and
+    only the path over a single effect open: refitted with braid friction the lag's held-out gain grows from 2.26 to
+    2.29 noise floors, more than the margin of 0.01, so the two are named in its place; the output says the lag
     passed alone and why the pair won."""
-    d = discover_case_01(tmp_path, "discover:\n  gap_share_min: 0.9\n  to_floor_drop_min_sigma: .inf\n"
+    d = discover_case_01(tmp_path, "discover:\n  gap_share_min: 0.85\n  to_floor_drop_min_sigma: .inf\n"
                                    "  pair_share_min: .inf\n  pair_over_single_min_sigma: 0.01\n"
                                    "  pair_over_gain_min_sigma: 0.0\n  family_alpha: 1.0e-3\n  max_effects: 2\n"
                                    "  hold: {pressure_lag.share: 0}\n")
@@ -247,12 +247,12 @@ def test_cli_names_two_effects_over_the_single_one_that_passed_and_says_why(tmp_
     assert first["evidence"]["refused_by_the_gate_because"] == []
     assert "it passed the gate alone, but the two refitted together explain" in first["explanation"]
     assert second["evidence"]["refused_by_the_gate_because"][0].startswith("alone: ")
-    assert first["competition"].startswith("pressure_lag passed alone (held-out gain 2.29 noise floors), but two "
+    assert first["competition"].startswith("pressure_lag passed alone (held-out gain 2.26 noise floors), but two "
                                            "effects refitted together explained more; pressure_lag and braid_friction")
     assert first["competition"].endswith("both are named instead of pressure_lag alone")
     tried = {frozenset(p["effects"]): p for p in d["rounds"][0]["pairs_refitted_together"]}
     assert tried[frozenset(("pressure_lag", "braid_friction"))]["accepted"]
-    assert "(pressure_lag alone 2.29, plus the margin 0.01)" in tried[frozenset(("angle_offset", "braid_friction"))][
+    assert "(pressure_lag alone 2.26, plus the margin 0.01)" in tried[frozenset(("angle_offset", "braid_friction"))][
         "reasons_rejected"][-1]
     assert "instead when their joint held-out gain exceeds the passing candidate's by at least 0.01" in d["gate"]
     assert "refitted two at a time; two that both meet" not in d["gate"]   # the other pair path is shut

@@ -33,7 +33,11 @@ Top level
   - ``repeat: {times, program}``: a sub-program run ``times`` times
 - ``plant`` (motion): ``material`` (``paper_fit`` or ``paper_mat``; ``--params`` overrides), ``closure``,
   ``effects`` (the rig's own physics: ``{id: {parameter or setting: value}}``), ``variation``
-  (``modulus_cv``, ``tau_cv``: replicate-to-replicate log-normal spread of the constants)
+  (``modulus_cv``, ``tau_cv``: replicate-to-replicate log-normal spread of the constants), ``integration``
+  (``continuous``, default: the muscle runs on internal steps of at most ``max_step_s``, default 0.001 s, and is
+  logged at ``sampling_hz``, so what is logged does not depend on the logging rate, as for a real muscle;
+  ``log_rate``: the muscle runs at the logging rate, the discrete model a fit at that rate uses, as bpmid's twin
+  did before 2026-11-28)
 - ``sensors`` (motion): see :class:`bpmid.twin.sensors.Sensors`
 - ``effects`` (motion): catalogue effects to inject, ``{id: {parameter or setting: value}}`` (``--effect`` adds)
 - ``blind`` (default false): the injected effects go to a separate answer, not the manifest (discovery demo):
@@ -284,12 +288,19 @@ def _strip(program):
 
 def render(program: tuple, start: float, fs: float) -> tuple[np.ndarray, np.ndarray]:
     """Sample a program at ``fs`` Hz from t = 0: times (s) and levels (the protocol's unit), shape (N,)."""
-    pieces, t_end, _x = Repeat(1, program).pieces(0.0, float(start))
-    n = int(math.floor(t_end * fs + 1e-9)) + 1
-    t = np.arange(n) / fs
-    x = np.full(n, float(start))
+    _pieces, t_end, _x = Repeat(1, program).pieces(0.0, float(start))
+    t = np.arange(int(math.floor(t_end * fs + 1e-9)) + 1) / fs
+    return t, render_at(program, start, t)
+
+
+def render_at(program: tuple, start: float, t: np.ndarray) -> np.ndarray:
+    """A program's levels (the protocol's unit) at the times ``t`` (s from the program's start; past its end, the
+    last piece's end level)."""
+    pieces, _t_end, _x = Repeat(1, program).pieces(0.0, float(start))
+    t = np.asarray(t, float)
+    x = np.full(t.size, float(start))
     if not pieces:
-        return t, x
+        return x
     # one row per piece: kind (0 linear, 1 sine), t0, t1, a, b, f (linear: from a to b; sine: mean a, amplitude b)
     kind = np.array([0 if p[0] == "lin" else 1 for p in pieces])
     t0s = np.array([p[1] for p in pieces], float)
@@ -304,7 +315,7 @@ def render(program: tuple, start: float, fs: float) -> tuple[np.ndarray, np.ndar
         lin = np.where(span > 0, a[idx] + (b[idx] - a[idx]) * tl / np.where(span > 0, span, 1.0), a[idx])
     sine = a[idx] + b[idx] * np.sin(2 * math.pi * f[idx] * tl)
     x[:] = np.where(kind[idx] == 0, lin, sine)
-    return t, x
+    return x
 
 
 def _extent(program, x0: float) -> tuple[float, float, float]:
@@ -436,9 +447,26 @@ class PlantSpec:
     closure: Literal["paper", "consistent"] = "paper"
     effects: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     variation: Variation = dataclasses.field(default_factory=Variation)
+    #: ``continuous``: the muscle runs on internal steps of at most ``max_step_s`` between log samples and is
+    #: logged at ``sampling_hz``, as a real muscle is (what it logs does not depend on the logging rate);
+    #: ``log_rate``: the muscle runs at the logging rate itself (the model a fit at that rate uses; bpmid < 0.49)
+    integration: Literal["continuous", "log_rate"] = "continuous"
+    max_step_s: float = 0.001
 
     #: what to do instead of an unknown key a user is likely to try (named in the error)
     UNKNOWN_KEY_HINTS: ClassVar[dict] = {k: _GEOMETRY_HINT for k in ("geometry", "model", "params")}
+
+    def validate(self, where, path):
+        if not 1e-4 <= self.max_step_s <= 0.1:
+            raise InputError(f"the largest internal step is 1e-4 to 0.1 s, found {self.max_step_s} (the muscle's "
+                             "integration error falls with it: 0.001 s stays under 0.01 deg on the paper's muscle)",
+                             path=path, key=f"{where}.max_step_s")
+
+    def substeps(self, sampling_hz: float) -> int:
+        """Internal steps per log sample (1 for ``log_rate``)."""
+        if self.integration == "log_rate":
+            return 1
+        return max(1, int(math.ceil(1.0 / (sampling_hz * self.max_step_s) - 1e-9)))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -36,7 +36,7 @@ from bpmid.models.vbmm import VBMM, Material, load_vbmm, vbmm_yaml_body
 from bpmid.params import ParamSet
 from bpmid.progress import Progress
 from bpmid.twin import sensors as S
-from bpmid.twin.protocol import Protocol, load_protocol
+from bpmid.twin.protocol import Protocol, _first_level, load_protocol, render_at
 from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR
 
 SCHEMA = "bpmid.simulation/1"
@@ -273,6 +273,25 @@ def _collect_effects(proto: Protocol, effect_args: Sequence[str]):
 MIN_LOG_SAMPLES = 2
 
 
+def _plant_grid(proto: Protocol, spec, t: np.ndarray, p_cmd: np.ndarray):
+    """The times and commanded levels the muscle runs on, and every how many of them a log sample falls: the log's own
+    (``plant.integration: log_rate``), or ``plant.substeps`` internal steps per log step (``continuous``: the program
+    sampled on a finer grid that holds every log time; the log keeps the muscle at those times)."""
+    every = proto.plant.substeps(proto.sampling_hz)
+    if every == 1:
+        return t, p_cmd, 1
+    start = spec.start if spec.start is not None else _first_level(spec.program)
+    t_run = np.arange((t.size - 1) * every + 1) / (proto.sampling_hz * every)   # index k * every: log sample k
+    return t_run, render_at(spec.program, start, t_run), every
+
+
+def _integration_block(proto: Protocol) -> dict:
+    """How the muscle was integrated, for the manifest (``internal_step_s``: the step it ran on)."""
+    every = proto.plant.substeps(proto.sampling_hz)
+    return {"integration": proto.plant.integration, "internal_step_s": float(f"{1.0 / (proto.sampling_hz * every):.6g}"),
+            "substeps_per_sample": every}
+
+
 def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov: dict) -> Simulation:
     base, base_info = _base_model(proto, params_path)
     rig, injected = _collect_effects(proto, effect_args)
@@ -295,6 +314,7 @@ def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov:
     with Progress(len(runs), f"simulate {proto.name}") as bar:
         for i, (name, spec, rep) in enumerate(runs):
             t, p_cmd = proto.render(spec)
+            t_run, p_run, every = _plant_grid(proto, spec, t, p_cmd)
             rv = _rng(seed, i, 0)
             fm = float(np.exp(var.modulus_cv * rv.standard_normal()))
             ft = float(np.exp(var.tau_cv * rv.standard_normal()))
@@ -302,7 +322,7 @@ def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov:
             m = dataclasses.replace(m, tauG=tuple(x * ft for x in m.tauG),
                                     tauK=None if m.tauK is None else tuple(x * ft for x in m.tauK))
             plant = AugmentedVBMM(base.replace(material=m), effects, params)
-            angle = plant.simulate_deg(t, proto.to_gauge_pa(p_cmd), name=name, path=proto.path)
+            angle = plant.simulate_deg(t_run, proto.to_gauge_pa(p_run), name=name, path=proto.path)[::every][:t.size]
             rs = _rng(seed, i, 1)
             unit_bar = proto.unit_pa / PA_PER_BAR
             p_log = S.read_pressure(p_cmd * unit_bar, sens, rs) / unit_bar
@@ -323,7 +343,7 @@ def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov:
                          "duration_s": float(t[-1]), "modulus_factor": round(fm, 6), "tau_factor": round(ft, 6),
                          "sha256": hashlib.sha256(files[f"{name}.csv"]).hexdigest()})
             bar.advance()
-    plant_block = {"family": "VBMM", **base_info, **vbmm_yaml_body(base),
+    plant_block = {"family": "VBMM", **base_info, **vbmm_yaml_body(base), **_integration_block(proto),
                    "rig_effects": _effects_block(sorted(rig, key=signal_path_key)),
                    "effect_order": [e.id for e in effects if not proto.blind or any(e is r for r, _p in rig)],
                    "variation": dataclasses.asdict(var)}

@@ -875,7 +875,19 @@ def sampling_note(material: Material, logs) -> str | None:
             f"the model's hereditary sum takes each pressure step as a jump at its sample, so these constants hold for "
             f"this step: run the model at it (bpmid predict, the C export, a controller), and expect a fit to logs of "
             f"the same muscle taken much faster to read that branch's moduli some {100.0 * share:.0f} % apart "
-            f"(below {100.0 * SAMPLING_NOTE_SHARE:g} % from {1.0 / (2.0 * tau * SAMPLING_NOTE_SHARE):.3g} Hz)")
+            f"(below {100.0 * SAMPLING_NOTE_SHARE:g} % from {1.0 / (2.0 * tau * SAMPLING_NOTE_SHARE):.3g} Hz). A "
+            f"material in continuous time that acts the same (what a relaxation test measures) has that branch's "
+            f"moduli {continuous_factor(dt, tau):.3g} times these ((dt/tau) / (1 - exp(-dt/tau)), exact for strains "
+            f"linear between samples)")
+
+
+def continuous_factor(dt: float, tau: float) -> float:
+    """By how much a Prony branch's modulus in continuous time exceeds the one the sampled hereditary sum (VBMM.md
+    section 3, step ``dt``) needs for the same response: (dt/tau) / (1 - exp(-dt/tau)). With the strain linear between
+    samples the branch's exact state is h (1 - e) tau / dt, h the sum's state and e = exp(-dt/tau), so a fit of the
+    sum reads the branch's modulus smaller by that factor (1.26 at dt/tau = 0.47); 1 as dt/tau -> 0."""
+    x = dt / tau
+    return x / -math.expm1(-x) if x > 0 else 1.0
 
 
 def paper_geometry_note(geometry: Geometry) -> str | None:
