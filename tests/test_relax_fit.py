@@ -59,6 +59,17 @@ def test_step_mode_on_the_same_logs_is_biased(case):
     assert abs(step.E_inf / truth.E_inf_mpa - 1) < 0.05
 
 
+def test_a_criterion_stopped_by_max_terms_says_the_cap_set_the_count():
+    """Two true branches, the BIC allowed one: it takes the one and the fit says the cap, not the data, set the
+    count (it said nothing before); allowed more, it finds two and says nothing."""
+    logs = synthetic_logs(TWO, 3)[::3]
+    capped = fit_relaxation(logs, config=RelaxConfig(max_terms=1))
+    assert capped.m == 1 and any("BIC chose 1 term(s), the most relax.max_terms = 1 lets it try" in w
+                                 for w in capped.warnings), capped.warnings
+    free = fit_relaxation(logs)
+    assert free.m == 2 and not [w for w in free.warnings if "BIC chose" in w]
+
+
 def test_fixed_number_of_terms():
     logs = synthetic_logs(TWO, 3)[::3]
     fit = fit_relaxation(logs, terms=2)

@@ -86,6 +86,14 @@ def test_auto_and_max_error_choose_terms():
     auto = fit_frequency(f, s, l)
     assert auto.m == 3 and auto.criterion == "BIC"
     assert all(c["criterion"] is not None for c in auto.selection)
+    assert not [w for w in auto.warnings if "BIC chose" in w]
+    # capped at 2 terms the BIC takes the most it may try, and the fit says the cap set the count, not the data
+    capped = fit_frequency(f, s, l, config=RelaxConfig(max_terms=2))
+    assert capped.m == 2 and any("BIC chose 2 term(s), the most relax.max_terms = 2 lets it try" in w
+                                 for w in capped.warnings), capped.warnings
+    # on 3 frequencies (6 values) the data allow 1 term at most: said as the data's limit
+    few = fit_frequency(f[[5, 30, 55]], s[[5, 30, 55]], l[[5, 30, 55]])
+    assert few.m == 1 and any("the most the 6 values (3 frequencies, storage and loss) allow" in w for w in few.warnings)
     # the fewest terms meeting a stated error: 2 terms miss 1 %, 3 terms meet it
     me = fit_frequency(f, s, l, max_error_pct=1.0)
     errs = {c["terms"]: c["error_pct"] for c in me.selection}

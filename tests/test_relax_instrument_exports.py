@@ -365,3 +365,30 @@ def test_a_brief_temperature_excursion_that_comes_back_is_warned_not_refused(tmp
     lg = read_relax_logs([p])[0]
     assert lg.temperature[0] == pytest.approx(23.0)
     assert any("leaves 23 C for 40 of" in w and "comes back" in w for w in lg.warnings)
+
+
+def test_kelvin_under_a_celsius_header_and_the_reverse_are_warned_and_below_absolute_zero_refused(tmp_path):
+    """A sweep at 293-333 K under 'T (C)' read as 293-333 C with no word (a trial's file); 20-60 C under 'T (K)' read
+    as -253 to -213 C. Each is warned about with the column and the fix; the right headers read without a warning;
+    a temperature below absolute zero is refused naming its line."""
+    header = ["f (Hz)", "E' (MPa)", "E'' (MPa)", "T ({})"]
+    rows = [(f, s, l, T) for f, s, l, T, _ in sweeps(TS, F)]
+    kelvin = [r[:3] + (r[3] + 273.15,) for r in rows]
+    p = tmp_path / "k.csv"
+    p.write_text(_table(kelvin, [*header[:3], header[3].format("C")], delim=","))
+    d = read_material_file(p)
+    assert any("kelvin under a degrees C header?" in w and "column 'T (C)' is 293" in w and "'T (K)'" in w
+               for w in d.warnings), d.warnings
+    p.write_text(_table(kelvin, [*header[:3], header[3].format("K")], delim=","))
+    d = read_material_file(p)
+    assert not [w for w in d.warnings if "header?" in w] and [T for T, _ in d.sets()] == list(TS)
+    p.write_text(_table(rows, [*header[:3], header[3].format("K")], delim=","))
+    assert any("degrees C under a kelvin header?" in w and "name the column 'T (C)'" in w
+               for w in read_material_file(p).warnings)
+    p.write_text(_table(rows, [*header[:3], header[3].format("C")], delim=","))
+    assert not [w for w in read_material_file(p).warnings if "header?" in w]
+    below = [r[:3] + (-300.0 if k == 4 else r[3],) for k, r in enumerate(rows)]
+    p.write_text(_table(below, [*header[:3], header[3].format("C")], delim=","))
+    with pytest.raises(InputError, match="below absolute zero") as e:
+        read_material_file(p)
+    assert e.value.line == 6

@@ -57,6 +57,10 @@ MAX_PLAUSIBLE_MPA = 1e5
 #: fewest samples of one set of raw data (bpmid.relax.tts.MIN_OVERLAP: a shift is judged on at least 3 overlapping
 #: samples, and a set's smooth curve needs 3 points to be more than a line through 2)
 MIN_SET_SAMPLES = 3
+#: every test temperature above this (C) under a degrees C header, or below COLD_C under a kelvin one, is warned
+#: about as the other unit (300 K read as 300 C; 20 C read as 20 K = -253 C): a DMA of an elastomer runs from about
+#: -150 C to 200 C; a temperature below absolute zero is refused
+WARM_C, COLD_C = 200.0, -150.0
 #: without a Set column, a temperature step larger than this (C) from one sample to the next starts a new set
 SET_T_JUMP_C = 2.0
 #: without a Set column, sets are told apart by the sweep restarting and the temperature jumping (messages say so)
@@ -605,7 +609,23 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                                  line=ln)
             vals[r] = v
         if fam == "T":
-            return vals + _MAT_UNITS["T"][unit]  # K -> C: T - 273.15; C unchanged
+            c = vals + _MAT_UNITS["T"][unit]  # K -> C: T - 273.15; C unchanged
+            where = lambda i: f"{path.name}:{int(rows[i][0])}" if path is not None else f"line {int(rows[i][0])}"  # noqa: E731
+            if c.size and float(c.min()) < -273.15:
+                i = int(np.argmin(c))
+                raise InputError(f"column {header[j]!r}: {vals[i]:g} {unit or 'C'} is below absolute zero: check the "
+                                 "unit (degrees C under a kelvin header?)", path=path, line=int(rows[i][0]))
+            if c.size and unit != "k" and float(c.min()) > WARM_C:
+                i = int(np.argmin(c))
+                warnings.append(f"{where(i)}: column {header[j]!r} is {c.min():.4g} to {c.max():.4g} C, every sample above "
+                                f"{WARM_C:g} C, hotter than an elastomer's test range: kelvin under a degrees C header? "
+                                f"(0 C is 273.15 K; if these are kelvin, name the column '{_split_unit(header[j])[0].strip()} (K)')")
+            elif c.size and unit == "k" and float(c.max()) < COLD_C:
+                i = int(np.argmax(c))
+                warnings.append(f"{where(i)}: column {header[j]!r} is {vals.min():g} to {vals.max():g} K "
+                                f"({c.min():.4g} to {c.max():.4g} C), every sample below {COLD_C:g} C: degrees C under "
+                                f"a kelvin header? (if so, name the column '{_split_unit(header[j])[0].strip()} (C)')")
+            return c
         out = vals * _MAT_UNITS[fam][unit]
         if fam == "modulus" and out.size and float(out.max()) > MAX_PLAUSIBLE_MPA:
             i = int(np.argmax(out))

@@ -376,6 +376,7 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
                                   f"{chosen} term(s) ({unmet_advice(path, m_max)})")
         elif score:
             chosen = min(path, key=lambda m: score(path[m]))
+            extra_warn += at_the_cap(chosen, m_max, cfg.max_terms, crit, f"{n} samples")
         else:
             chosen = terms if terms in path else max(path)
         sol = path[chosen]
@@ -419,6 +420,20 @@ def fit_relaxation(logs: Sequence[RelaxLog], *, terms: int | str = "auto", mode:
         logs=per_log, seconds=time.perf_counter() - t0, warnings=warn,
         weighting="relative" if relative else "absolute",
         uncertainty_method=BETWEEN_TESTS_METHOD if between else UNCERTAINTY_METHOD)
+
+
+def at_the_cap(chosen: int, m_max: int, max_terms: int, crit: str, data: str) -> list[str]:
+    """A warning when the information criterion chose the most terms it was allowed to try: it may have wanted more,
+    and the cap, not the data, set the count (``data``: what limits the terms, in words)."""
+    if chosen < m_max:
+        return []
+    name = {"bic": "BIC", "aicc": "AICc"}.get(crit, str(crit))
+    if m_max >= max_terms:
+        return [f"{name} chose {chosen} term(s), the most relax.max_terms = {max_terms} lets it try: more terms may fit "
+                f"better, so the cap, not the data, set the count; raise relax.max_terms in a --config to let it look "
+                f"further"]
+    return [f"{name} chose {chosen} term(s), the most the {data} allow (a series of m terms needs 2 m + 3 values): "
+            f"more data (a wider or denser range) would let it look further"]
 
 
 def fewest_near_best(errors: dict) -> int:

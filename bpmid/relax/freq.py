@@ -264,7 +264,10 @@ def fit_frequency(f, storage, loss, *, modulus: str = "E", terms: int | str = "a
                             f"{max_error_pct:g} %: the smallest error, {total[chosen]:.3g} %, is reached with "
                             f"{chosen} term(s) ({unmet_advice(path_sols, m_max)})")
         elif score is not None:
+            from bpmid.relax.fit import at_the_cap
+
             chosen = min(path_sols, key=lambda m: score(path_sols[m]))
+            warn += at_the_cap(chosen, m_max, cfg.max_terms, crit, f"{N} values ({n} frequencies, storage and loss)")
         else:
             chosen = terms if terms in path_sols else max(path_sols)
         sol = path_sols[chosen]
