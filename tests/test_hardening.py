@@ -686,3 +686,21 @@ def test_an_output_folder_that_may_not_be_written_is_refused_before_any_input_is
         assert res.exit_code == 2 and "cannot write into the folder" in res.output, (args, res.output)
         assert str(ro) in res.output and "nothing was read or written" in res.output, res.output
     assert sorted(p.name for p in ro.iterdir()) == []
+
+
+def test_a_rerun_into_a_folder_says_what_it_replaced(tmp_path, capsys):
+    """A second run into the same --out replaced the first's files without a word: it says how many and which,
+    and that the folder's other files stay; a first run into a new folder says nothing of the kind."""
+    out = tmp_path / "o"
+    with staged_dir(out) as d:
+        (d / "a.yaml").write_text("1")
+        (d / "b.csv").write_text("1")
+    assert "replaced" not in capsys.readouterr().err
+    (out / "mine.txt").write_text("kept")
+    with staged_dir(out) as d:
+        (d / "a.yaml").write_text("2")
+        (d / "c.png").write_text("2")
+    err = capsys.readouterr().err
+    assert f"replaced 1 file(s) already in {out} with this run's (a.yaml); the folder's other files are left" in err
+    assert (out / "a.yaml").read_text() == "2" and (out / "b.csv").read_text() == "1"
+    assert (out / "mine.txt").read_text() == "kept"

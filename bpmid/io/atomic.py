@@ -248,6 +248,11 @@ def refuse_foreign_files(out_dir: Path, names: Iterable[str], ours, *, after: st
                              f"give another output folder, or move the file{after}", path=f, key=key)
 
 
+def _is_bookkeeping(rel) -> bool:
+    """Whether a staged file is bpmid's own bookkeeping rather than a result a user would call replaced."""
+    return Path(rel).name.startswith(".bpmid")
+
+
 def _note_written(path: str | Path) -> None:
     g = _guard()
     if g is not None:
@@ -945,6 +950,7 @@ def staged_dir(out_dir: str | Path) -> Iterator[Path]:
             if target.is_dir() and not target.is_symlink():
                 raise InputError("the output would replace a folder of the same name; choose another --out",
                                  path=given / rel)
+        replaced = [rel for rel in files if (out / rel).is_file() and not _is_bookkeeping(rel)]
         lock = contextlib.ExitStack()
         if out.exists():  # one writer at a time (waits for another command's commit, not for its work)
             lock.enter_context(folder_lock(out, COMMIT_WAIT_S))
@@ -975,6 +981,13 @@ def staged_dir(out_dir: str | Path) -> Iterator[Path]:
             journal.commit()
             for rel in files:
                 _note_written(out / rel)
+        if replaced:
+            from bpmid.progress import line
+
+            names = ", ".join(str(r) for r in replaced[:3]) + (f" and {len(replaced) - 3} more" if len(replaced) > 3
+                                                                else "")
+            line(f"replaced {len(replaced)} file(s) already in {given} with this run's ({names}); the folder's other "
+                 "files are left as they were")
     except BaseException:
         for c in created:
             shutil.rmtree(c, ignore_errors=True)
