@@ -19,6 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
+from bpmid.errors import InputError
 from bpmid.fitting import FitResult, fit_least_squares
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models.base import ModelFamily, check_fit_logs
@@ -83,9 +84,47 @@ class VBMMMatModel(_VBMMBase):
     name = "vbmm-mat"
     label = "VBMM-mat."
 
+    def __init__(self, relax_fit=None, config=None, at_log_step: bool = False):
+        super().__init__(relax_fit, config)
+        if not isinstance(at_log_step, bool):
+            raise InputError(f"must be true or false, found {at_log_step!r}", key="at_log_step")
+        self.at_log_step = at_log_step
+
     def default_params(self) -> ParamSet:
         mat, _source = self.initial_material()
         return params_from_material(mat, self.motion_cfg, all_fixed=True)
+
+    def simulate(self, params: ParamSet, log: MotionLog) -> np.ndarray:
+        """Forward model angle (deg), shape (log.n,). With ``at_log_step`` the relaxation test's constants, a
+        material in continuous time, run as that material in the sum sampled at the log's (median) step: each
+        branch modulus divided by :func:`~bpmid.models.vbmm.model.continuous_factor` of the step and its time
+        constant (exact for a strain linear between samples; docs/model.md)."""
+        model = self.vbmm(params)
+        if self.at_log_step and log.n > 1:
+            model = model.replace(material=at_step(model.material, float(np.median(np.diff(log.time_s)))))
+        return model.forward_deg(log.time_s, log.pressure_pa, name=log.name, path=log.path)
+
+    def describe(self, params: ParamSet) -> dict:
+        out = super().describe(params)
+        out["at_log_step"] = self.at_log_step
+        if self.at_log_step:
+            out["at_log_step_note"] = ("the relaxation constants hold in continuous time; each log runs them in the "
+                                       "sum sampled at its own step, each branch modulus divided by (dt/tau) / "
+                                       "(1 - exp(-dt/tau))")
+        return out
+
+
+def at_step(material, dt: float):
+    """``material`` (constants of a material in continuous time) as the sum sampled every ``dt`` s needs them to act
+    the same: each branch modulus divided by :func:`~bpmid.models.vbmm.model.continuous_factor` (dt, its tau)."""
+    import dataclasses
+
+    from bpmid.models.vbmm.model import continuous_factor
+
+    tau_k = material.tauG if material.tauK is None else material.tauK
+    return dataclasses.replace(
+        material, G=tuple(g / continuous_factor(dt, t) for g, t in zip(material.G, material.tauG)),
+        K=tuple(k / continuous_factor(dt, t) for k, t in zip(material.K, tau_k)))
 
     def fit(self, logs: Sequence[MotionLog], params: ParamSet | None = None, **fit_kw) -> FitResult:
         """No refit: the residual of the relaxation constants on ``logs`` (every parameter fixed)."""
