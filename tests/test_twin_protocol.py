@@ -362,3 +362,17 @@ def test_an_internal_step_outside_its_range_is_refused_naming_the_key(tmp_path, 
     with pytest.raises(InputError, match="largest internal step") as err:
         load_protocol(write(tmp_path, _quiet_motion(10, step=step)))
     assert err.value.key == "plant.max_step_s"
+
+
+def test_a_log_whose_internal_steps_exceed_the_limit_is_refused_naming_the_step_and_the_ways_out(tmp_path):
+    """A 2.2 h log at 10 Hz has 80 000 samples, but the muscle's 1 ms steps would be 8e6: refused before any work,
+    naming plant.max_step_s, its value and the ways out; at log_rate, or with a coarser step, it is accepted."""
+    long = yaml.safe_load(_quiet_motion(10))
+    long["logs"] = [{"name": "a", "start": 1.2, "program": [{"hold": {"duration_s": 8000}}]}]
+    with pytest.raises(InputError, match=r"internal steps.*plant.max_step_s 0.001 s.*log_rate") as err:
+        load_protocol(write(tmp_path, yaml.safe_dump(long), "long.yaml"))
+    assert err.value.key == "plant.max_step_s"
+    long["plant"]["integration"] = "log_rate"
+    load_protocol(write(tmp_path, yaml.safe_dump(long), "long2.yaml"))
+    long["plant"].update(integration="continuous", max_step_s=0.01)
+    load_protocol(write(tmp_path, yaml.safe_dump(long), "long3.yaml"))

@@ -396,6 +396,13 @@ def _check_size(proto: "Protocol", path) -> None:
         check_samples({spec.name: n}, path=path, key=f"logs[{i}]",
                       hint=f"lower sampling_hz ({proto.sampling_hz:g} Hz) or this log's duration "
                            f"({dur:.4g} s: cycles, repeat times, hold durations)")
+        every = proto.plant.substeps(proto.sampling_hz)
+        if every > 1:   # the muscle's own grid, finer than the log's
+            check_samples({f"{spec.name} (the muscle's internal steps)": (n - 1) * every + 1}, path=path,
+                          key="plant.max_step_s",
+                          hint=f"the muscle runs {every} internal steps per log sample (plant.max_step_s "
+                               f"{proto.plant.max_step_s:g} s); raise plant.max_step_s, set plant.integration: "
+                               f"log_rate, or shorten the log ({dur:.4g} s)")
     check_samples(counts, path=path, key="logs", hint="lower sampling_hz, durations, cycles or replicates",
                   total_only=True)
 
