@@ -376,3 +376,41 @@ def test_a_log_whose_internal_steps_exceed_the_limit_is_refused_naming_the_step_
     load_protocol(write(tmp_path, yaml.safe_dump(long), "long2.yaml"))
     long["plant"].update(integration="continuous", max_step_s=0.01)
     load_protocol(write(tmp_path, yaml.safe_dump(long), "long3.yaml"))
+
+
+def test_a_motion_fit_given_as_params_is_the_muscle_in_continuous_time_that_acts_as_the_fit_did(tmp_path):
+    """A fit's constants hold for the sum sampled at its logs' step. Taken straight as a muscle in continuous time
+    the twin's log would be 0.9 deg RMS off what the fit predicts at that step; the twin scales each branch modulus
+    by the continuous factor of the fit's step, says so in the manifest, and the fit then predicts the twin's 10 Hz
+    log within 0.05 deg. Run at the logging rate, the constants are taken as they are."""
+    from typer.testing import CliRunner
+
+    from bpmid.cli import app
+    from bpmid.models.vbmm.model import continuous_factor
+
+    run = CliRunner()
+    bare = yaml.safe_load(_quiet_motion(10))
+    bare["plant"]["effects"] = {}      # the muscle alone: what a plain VBMM fit describes
+    proto = write(tmp_path, yaml.safe_dump(bare), "p.yaml")
+    assert run.invoke(app, ["simulate", str(proto), "--out", str(tmp_path / "s1")]).exit_code == 0
+    r = run.invoke(app, ["fit", "motion", str(tmp_path / "s1" / "a.csv"), "--out", str(tmp_path / "fit.yaml")])
+    assert r.exit_code == 0, r.output
+    assert run.invoke(app, ["simulate", str(proto), "--params", str(tmp_path / "fit.yaml"), "--out",
+                            str(tmp_path / "s2")]).exit_code == 0
+    m = yaml.safe_load((tmp_path / "s2" / "manifest.yaml").read_text())
+    fit = yaml.safe_load((tmp_path / "fit.yaml").read_text())
+    k_fit = fit["material"]["branches"][0]["K"]["value"]
+    tau = fit["material"]["branches"][0]["tau"]["value"]
+    assert "hold for its logs' step, 0.1 s" in m["plant"]["params_as_continuous_time"]
+    assert m["plant"]["material"]["branches"][0]["K"]["value"] == pytest.approx(k_fit * continuous_factor(0.1, tau))
+    r = run.invoke(app, ["predict", str(tmp_path / "s2" / "a.csv"), "--params", str(tmp_path / "fit.yaml"),
+                         "--out", str(tmp_path / "p")])
+    assert r.exit_code == 0, r.output
+    assert yaml.safe_load((tmp_path / "p" / "predict.yaml").read_text())["logs"]["a"]["metrics"]["rmse_deg"] < 0.05
+    bare["plant"]["integration"] = "log_rate"
+    lr = write(tmp_path, yaml.safe_dump(bare), "lr.yaml")
+    assert run.invoke(app, ["simulate", str(lr), "--params", str(tmp_path / "fit.yaml"), "--out",
+                            str(tmp_path / "s3")]).exit_code == 0
+    m3 = yaml.safe_load((tmp_path / "s3" / "manifest.yaml").read_text())
+    assert "params_as_continuous_time" not in m3["plant"]
+    assert m3["plant"]["material"]["branches"][0]["K"]["value"] == pytest.approx(k_fit)

@@ -37,7 +37,8 @@ Top level
   (``continuous``, default: the muscle runs on internal steps of at most ``max_step_s``, default 0.001 s, and is
   logged at ``sampling_hz``, so what is logged does not depend on the logging rate, as for a real muscle;
   ``log_rate``: the muscle runs at the logging rate, the discrete model a fit at that rate uses, as bpmid's twin
-  did before 2026-11-28)
+  did before 2026-11-28). A motion fit given with ``--params`` is run, in continuous time, as the muscle that acts as
+  the fit did at its logs' step (each branch modulus times the continuous factor; the manifest says so)
 - ``sensors`` (motion): see :class:`bpmid.twin.sensors.Sensors`
 - ``effects`` (motion): catalogue effects to inject, ``{id: {parameter or setting: value}}`` (``--effect`` adds)
 - ``blind`` (default false): the injected effects go to a separate answer, not the manifest (discovery demo):

@@ -161,9 +161,29 @@ def _base_model(proto: Protocol, params_path) -> tuple[VBMM, dict]:
                              f"{params_path}'s ({model.closure}); the closure is part of the fitted model: remove "
                              f"plant.closure from the protocol, or simulate with a fit made with that closure",
                              path=proto.path, key="plant.closure")
-        return model, {"params_file": str(params_path)}
+        return _as_continuous(model, params_path, proto)
     material = Material.paper_fit() if proto.plant.material == "paper_fit" else Material.paper_mat()
     return VBMM(material=material, closure=proto.plant.closure), {"material_preset": proto.plant.material}
+
+
+def _as_continuous(model: VBMM, params_path, proto: Protocol) -> tuple[VBMM, dict]:
+    """The fit's model as the twin's muscle. A motion fit's constants are those of the sum sampled at its logs' step;
+    a muscle run in continuous time (``plant.integration: continuous``) that acts as the fitted model did has each
+    branch modulus times :func:`~bpmid.models.vbmm.model.continuous_factor` (step, its tau), so logged at the fit's
+    rate it is what the fit predicts. A fit that records no step (or ``log_rate``) is taken as it is."""
+    from bpmid.effects.fitfile import fit_body
+    from bpmid.models.vbmm.model import material_from_step
+    from bpmid.models.vbmm.rig import fit_rig
+
+    info = {"params_file": str(params_path)}
+    steps = fit_rig(fit_body(Path(params_path))[0])[0] if proto.plant.integration == "continuous" else []
+    if not steps or not model.material.time_constants:
+        return model, info
+    dt = float(np.median(steps))
+    info["params_as_continuous_time"] = (
+        f"the fit's constants hold for its logs' step, {dt:.4g} s; the muscle in continuous time that acts as they "
+        f"did has each branch modulus times (dt/tau) / (1 - exp(-dt/tau)) (the constants below)")
+    return model.replace(material=material_from_step(model.material, dt)), info
 
 
 def _rng(seed: int, i: int, stream: int) -> np.random.Generator:

@@ -24,6 +24,7 @@ from bpmid.fitting import FitResult, fit_least_squares
 from bpmid.io.motion_logs import MotionLog
 from bpmid.models.base import ModelFamily, check_fit_logs
 from bpmid.models.vbmm import VBMM, VBMMConfig
+from bpmid.models.vbmm.model import material_at_step
 from bpmid.models.vbmm.fit import (MotionFit, MotionFitConfig, check_angle_range, check_pressure_range, fit_motion,
                               initial_material, linear_start, material_from_params, params_from_material)
 from bpmid.params import ParamSet
@@ -101,7 +102,7 @@ class VBMMMatModel(_VBMMBase):
         constant (exact for a strain linear between samples; docs/model.md)."""
         model = self.vbmm(params)
         if self.at_log_step and log.n > 1:
-            model = model.replace(material=at_step(model.material, float(np.median(np.diff(log.time_s)))))
+            model = model.replace(material=material_at_step(model.material, float(np.median(np.diff(log.time_s)))))
         return model.forward_deg(log.time_s, log.pressure_pa, name=log.name, path=log.path)
 
     def describe(self, params: ParamSet) -> dict:
@@ -113,29 +114,6 @@ class VBMMMatModel(_VBMMBase):
                                        "(1 - exp(-dt/tau))")
         return out
 
-
-def at_step(material, dt: float):
-    """``material`` (constants of a material in continuous time) as the sum sampled every ``dt`` s needs them to act
-    the same: each branch modulus divided by :func:`~bpmid.models.vbmm.model.continuous_factor` (dt, its tau)."""
-    import dataclasses
-
-    from bpmid.models.vbmm.model import continuous_factor
-
-    tau_k = material.tauG if material.tauK is None else material.tauK
-    return dataclasses.replace(
-        material, G=tuple(g / continuous_factor(dt, t) for g, t in zip(material.G, material.tauG)),
-        K=tuple(k / continuous_factor(dt, t) for k, t in zip(material.K, tau_k)))
-
-    def fit(self, logs: Sequence[MotionLog], params: ParamSet | None = None, **fit_kw) -> FitResult:
-        """No refit: the residual of the relaxation constants on ``logs`` (every parameter fixed)."""
-        check_fit_logs(self, logs)
-        for lg in logs:
-            check_angle_range(lg, self.motion_cfg.angle_tolerance_deg)
-            check_pressure_range(lg)
-        params = self.default_params() if params is None else params
-        for name in params.names():
-            params = params.replace(name, fixed=True)
-        return fit_least_squares(lambda p: self.residual(p, logs), params, segments=[lg.n for lg in logs])
 
 
 class VBMMFitModel(_VBMMBase):

@@ -881,6 +881,25 @@ def sampling_note(material: Material, logs) -> str | None:
             f"linear between samples)")
 
 
+def _branches_scaled(material: "Material", dt: float, power: int) -> "Material":
+    tau_k = material.tauG if material.tauK is None else material.tauK
+    return dataclasses.replace(
+        material, G=tuple(g * continuous_factor(dt, t) ** power for g, t in zip(material.G, material.tauG)),
+        K=tuple(k * continuous_factor(dt, t) ** power for k, t in zip(material.K, tau_k)))
+
+
+def material_at_step(material: "Material", dt: float) -> "Material":
+    """``material`` (a material in continuous time: a relaxation test's constants) as the sum sampled every ``dt`` s
+    needs it to act the same: each branch modulus divided by :func:`continuous_factor` (dt, its tau)."""
+    return _branches_scaled(material, dt, -1)
+
+
+def material_from_step(material: "Material", dt: float) -> "Material":
+    """The material in continuous time that acts as ``material`` does in the sum sampled every ``dt`` s (a motion
+    fit's constants at its logs' step): each branch modulus times :func:`continuous_factor` (dt, its tau)."""
+    return _branches_scaled(material, dt, 1)
+
+
 def continuous_factor(dt: float, tau: float) -> float:
     """By how much a Prony branch's modulus in continuous time exceeds the one the sampled hereditary sum (VBMM.md
     section 3, step ``dt``) needs for the same response: (dt/tau) / (1 - exp(-dt/tau)). With the strain linear between
