@@ -468,3 +468,22 @@ def test_vbmm_mat_at_the_log_step_runs_relaxation_constants_as_the_material_they
     with pytest.raises(InputError) as e:
         build_model("vbmm-mat", {"at_log_step": "yes", "relax_fit": Material.paper_fit()})
     assert e.value.key == "compare.options.vbmm-mat.at_log_step"
+
+
+def test_vbmm_mat_fit_never_refits_and_checks_its_training_logs():
+    """VBMM-mat. is the relaxation constants, never refitted: its own ``fit`` holds every constant (even parameters
+    handed in free) and refuses a training angle the model cannot produce, as before ``at_step`` was added (which
+    swallowed the method into itself, leaving the generic least-squares fit that refitted free constants)."""
+    from bpmid.models.vbmm.family import VBMMMatModel
+
+    log = plant_log("tr", 0.2, 1)
+    m = VBMMMatModel(relax_fit=Material.paper_fit())
+    free = m.default_params()
+    for name in free.names():
+        free = free.replace(name, fixed=False)
+    res = m.fit([log], params=free)
+    assert all(p.fixed for p in res.params)
+    assert res.params.value("K_1") == pytest.approx(Material.paper_fit().K[0])
+    bad = dataclasses.replace(log, angle_deg=log.angle_deg - 50.0)
+    with pytest.raises(InputError, match="outside the model's range"):
+        m.fit([bad])

@@ -114,6 +114,17 @@ class VBMMMatModel(_VBMMBase):
                                        "(1 - exp(-dt/tau))")
         return out
 
+    def fit(self, logs: Sequence[MotionLog], params: ParamSet | None = None, **fit_kw) -> FitResult:
+        """No refit: the residual of the relaxation constants on ``logs`` (every parameter fixed)."""
+        check_fit_logs(self, logs)
+        for lg in logs:
+            check_angle_range(lg, self.motion_cfg.angle_tolerance_deg)
+            check_pressure_range(lg)
+        params = self.default_params() if params is None else params
+        for name in params.names():
+            params = params.replace(name, fixed=True)
+        return fit_least_squares(lambda p: self.residual(p, logs), params, segments=[lg.n for lg in logs])
+
 
 
 class VBMMFitModel(_VBMMBase):
