@@ -392,3 +392,20 @@ def test_kelvin_under_a_celsius_header_and_the_reverse_are_warned_and_below_abso
     with pytest.raises(InputError, match="below absolute zero") as e:
         read_material_file(p)
     assert e.value.line == 6
+
+
+def test_the_unit_warning_names_the_units_row_and_reaches_an_error_the_fit_then_raises(tmp_path):
+    """Kelvin under a units row's 'C': the fix is the units row (renaming the column 'T (K)' is refused as two units
+    for one column), and when the fit then fails on what that slip causes (--ref-temp 20 C outside 293-333 'C') the
+    error repeats the reading's warning instead of dropping it (it was printed only after a fit that succeeded)."""
+    from bpmid.relax.result import fit_relax_files
+
+    rows = [(f, s, l, T + 273.15) for f, s, l, T, _ in sweeps(TS, F)]
+    p = tmp_path / "ku.csv"
+    p.write_text(_table(rows, ["f", "E_stor", "E_loss", "T"], units=["Hz", "MPa", "MPa", "C"], delim=","))
+    assert any("kelvin under a degrees C header?" in w and "write K in the units row under the header for column "
+               "'T'" in w for w in read_material_file(p).warnings), read_material_file(p).warnings
+    with pytest.raises(InputError, match="outside the set temperatures") as e:
+        fit_relax_files([p], ref_temp=20.0)
+    assert "reading the data warned" in e.value.message and "kelvin under a degrees C header?" in e.value.message
+    assert e.value.key == "--ref-temp"

@@ -611,6 +611,11 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
         if fam == "T":
             c = vals + _MAT_UNITS["T"][unit]  # K -> C: T - 273.15; C unchanged
             where = lambda i: f"{path.name}:{int(rows[i][0])}" if path is not None else f"line {int(rows[i][0])}"  # noqa: E731
+            in_row = units is not None and j < len(units) and bool(units[j].strip())
+
+            def fix(u):   # where the file states the unit: the units row under the header, or the column's name
+                return (f"write {u} in the units row under the header for column {header[j]!r}" if in_row else
+                        f"name the column '{_split_unit(header[j])[0].strip()} ({u})'")
             if c.size and float(c.min()) < -273.15:
                 i = int(np.argmin(c))
                 raise InputError(f"column {header[j]!r}: {vals[i]:g} {unit or 'C'} is below absolute zero: check the "
@@ -619,12 +624,12 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                 i = int(np.argmin(c))
                 warnings.append(f"{where(i)}: column {header[j]!r} is {c.min():.4g} to {c.max():.4g} C, every sample above "
                                 f"{WARM_C:g} C, hotter than an elastomer's test range: kelvin under a degrees C header? "
-                                f"(0 C is 273.15 K; if these are kelvin, name the column '{_split_unit(header[j])[0].strip()} (K)')")
+                                f"(0 C is 273.15 K; if these are kelvin, {fix('K')})")
             elif c.size and unit == "k" and float(c.max()) < COLD_C:
                 i = int(np.argmax(c))
                 warnings.append(f"{where(i)}: column {header[j]!r} is {vals.min():g} to {vals.max():g} K "
                                 f"({c.min():.4g} to {c.max():.4g} C), every sample below {COLD_C:g} C: degrees C under "
-                                f"a kelvin header? (if so, name the column '{_split_unit(header[j])[0].strip()} (C)')")
+                                f"a kelvin header? (if so, {fix('C')})")
             return c
         out = vals * _MAT_UNITS[fam][unit]
         if fam == "modulus" and out.size and float(out.max()) > MAX_PLAUSIBLE_MPA:

@@ -348,8 +348,15 @@ def _fit_material(paths, material, config, *, terms, mode, poisson, max_error_pc
         raise InputError(f"{_opt('mode', flags)} {mode} does not apply to {what}", key=_opt("mode", flags))
     if max_error_pct is None:
         max_error_pct = cfg.max_error_pct
-    mf = fit_material(datas, terms=_terms_option(terms, cfg, flags), max_error_pct=max_error_pct,
-                      ref_temp=ref_temp, shift_file=shift, config=cfg)
+    try:
+        mf = fit_material(datas, terms=_terms_option(terms, cfg, flags), max_error_pct=max_error_pct,
+                          ref_temp=ref_temp, shift_file=shift, config=cfg)
+    except InputError as exc:   # what reading warned about (kelvin under a degrees C header...) may be the cause
+        read = [w for d in datas for w in d.warnings]
+        if not read:
+            raise
+        raise type(exc)(f"{exc.message} (reading the data warned: {'; '.join(read)})", path=exc.path,
+                        line=exc.line, key=exc.key) from None
     from bpmid.io import plausibility as plaus
     from bpmid.relax import PAPER_POISSON
 
