@@ -456,6 +456,12 @@ def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models
                                  if timing else float("nan"))
                 pr.advance(detail=lg.name)
         outcomes.append(ModelOutcome(name, getattr(model, "label", "") or name, model, fit, fit_s, preds, cost))
+        for w in _step_warnings(name, model, fit, train, test):   # as bpmid predict says it for a fit file
+            warn.append(w)
+            if _IN_COMMAND.get():
+                print(f"warning: {w}", file=sys.stderr, flush=True)
+            else:
+                warnings.warn(w, CompareWarning, stacklevel=2)
     rows = [_metric_row(o.name, lg.name, lg.angle_deg, o.predictions[lg.name], o.us_per_step[lg.name], o.n_params)
             for o in outcomes for lg in test]
     metrics = pd.DataFrame(rows, columns=list(COLUMNS))
@@ -472,6 +478,18 @@ def compare_models(train: Sequence[MotionLog], test: Sequence[MotionLog], models
             by_set.append(r)
     by_set = pd.DataFrame(by_set, columns=list(COLUMNS) + ["set"])
     return CompareResult(outcomes, list(train), list(test), sets, metrics, summary, by_set, warn)
+
+
+def _step_warnings(name: str, model, fit: FitResult, train: Sequence[MotionLog], test: Sequence[MotionLog]) -> list:
+    """For a VBMM refitted on the training logs: each test log sampled at another step than they were, by enough to
+    move the model (:func:`bpmid.models.vbmm.rig.step_warnings`, the check ``bpmid predict`` makes on a fit file)."""
+    from bpmid.models.vbmm.family import VBMMFitModel
+    from bpmid.models.vbmm.rig import step_warnings
+
+    if not isinstance(model, VBMMFitModel):
+        return []
+    steps = [{"step_s": float(np.median(np.diff(lg.time_s)))} for lg in train if lg.n > 1]
+    return [f"{name}: {w}" for w in step_warnings(test, {"fit": {"logs": steps}}, model.vbmm(fit.params).material)]
 
 
 # --------------------------------------------------------------------------------------------------
