@@ -904,7 +904,7 @@ def continuous_factor(dt: float, tau: float) -> float:
     """By how much a Prony branch's modulus in continuous time exceeds the one the sampled hereditary sum (VBMM.md
     section 3, step ``dt``) needs for the same response: (dt/tau) / (1 - exp(-dt/tau)). With the strain linear between
     samples the branch's exact state is h (1 - e) tau / dt, h the sum's state and e = exp(-dt/tau), so a fit of the
-    sum reads the branch's modulus smaller by that factor (1.26 at dt/tau = 0.47); 1 as dt/tau -> 0."""
+    sum reads the branch's modulus smaller by that factor (1.25 at dt/tau = 0.47); 1 as dt/tau -> 0."""
     x = dt / tau
     return x / -math.expm1(-x) if x > 0 else 1.0
 
