@@ -696,6 +696,11 @@ def test_a_rerun_into_a_folder_says_what_it_replaced(tmp_path, capsys):
         (d / "a.yaml").write_text("1")
         (d / "b.csv").write_text("1")
     assert "replaced" not in capsys.readouterr().err
+    with staged_dir(out) as d:          # the same files again: nothing else in the folder to speak of
+        (d / "a.yaml").write_text("1")
+        (d / "b.csv").write_text("1")
+    err = capsys.readouterr().err
+    assert f"replaced 2 file(s) already in {out} with this run's (a.yaml, b.csv)" in err and "other files" not in err
     (out / "mine.txt").write_text("kept")
     with staged_dir(out) as d:
         (d / "a.yaml").write_text("2")

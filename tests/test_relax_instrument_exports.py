@@ -387,11 +387,11 @@ def test_kelvin_under_a_celsius_header_and_the_reverse_are_warned_and_below_abso
                for w in read_material_file(p).warnings)
     p.write_text(_table(rows, [*header[:3], header[3].format("C")], delim=","))
     assert not [w for w in read_material_file(p).warnings if "header?" in w]
-    below = [r[:3] + (-300.0 if k == 4 else r[3],) for k, r in enumerate(rows)]
+    below = [r[:3] + ({4: -280.0, 9: -300.0}.get(k, r[3]),) for k, r in enumerate(rows)]
     p.write_text(_table(below, [*header[:3], header[3].format("C")], delim=","))
     with pytest.raises(InputError, match="below absolute zero") as e:
         read_material_file(p)
-    assert e.value.line == 6
+    assert e.value.line == 6   # the first such line, not the lowest value's
 
 
 def test_the_unit_warning_names_the_units_row_and_reaches_an_error_the_fit_then_raises(tmp_path):

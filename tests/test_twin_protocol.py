@@ -414,3 +414,11 @@ def test_a_motion_fit_given_as_params_is_the_muscle_in_continuous_time_that_acts
     m3 = yaml.safe_load((tmp_path / "s3" / "manifest.yaml").read_text())
     assert "params_as_continuous_time" not in m3["plant"]
     assert m3["plant"]["material"]["branches"][0]["K"]["value"] == pytest.approx(k_fit)
+
+
+def test_an_internal_step_given_with_log_rate_integration_is_refused_not_ignored(tmp_path):
+    """max_step_s set beside integration: log_rate did nothing, without a word (a trial's finding)."""
+    with pytest.raises(InputError, match="integration is log_rate") as err:
+        load_protocol(write(tmp_path, _quiet_motion(10, "log_rate", step=0.002)))
+    assert err.value.key == "plant.max_step_s"
+    load_protocol(write(tmp_path, _quiet_motion(10, "continuous", step=0.002), "ok.yaml"))

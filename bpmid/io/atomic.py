@@ -986,8 +986,11 @@ def staged_dir(out_dir: str | Path) -> Iterator[Path]:
 
             names = ", ".join(str(r) for r in replaced[:3]) + (f" and {len(replaced) - 3} more" if len(replaced) > 3
                                                                 else "")
-            line(f"replaced {len(replaced)} file(s) already in {given} with this run's ({names}); the folder's other "
-                 "files are left as they were")
+            written = set(files)
+            others = any(p.is_file() and not _is_bookkeeping(p.name) and str(p.relative_to(out)) not in written
+                         for p in out.rglob("*"))
+            line(f"replaced {len(replaced)} file(s) already in {given} with this run's ({names})"
+                 + ("; the folder's other files are left as they were" if others else ""))
     except BaseException:
         for c in created:
             shutil.rmtree(c, ignore_errors=True)

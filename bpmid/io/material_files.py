@@ -617,7 +617,7 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                 return (f"write {u} in the units row under the header for column {header[j]!r}" if in_row else
                         f"name the column '{_split_unit(header[j])[0].strip()} ({u})'")
             if c.size and float(c.min()) < -273.15:
-                i = int(np.argmin(c))
+                i = int(np.flatnonzero(c < -273.15)[0])   # the first such line
                 raise InputError(f"column {header[j]!r}: {vals[i]:g} {unit or 'C'} is below absolute zero: check the "
                                  "unit (degrees C under a kelvin header?)", path=path, line=int(rows[i][0]))
             if c.size and unit != "k" and float(c.min()) > WARM_C:

@@ -465,6 +465,12 @@ class PlantSpec:
     UNKNOWN_KEY_HINTS: ClassVar[dict] = {k: _GEOMETRY_HINT for k in ("geometry", "model", "params")}
 
     def validate(self, where, path):
+        from bpmid.config import stated_keys
+
+        if self.integration == "log_rate" and "max_step_s" in stated_keys(self):
+            raise InputError("max_step_s sets the internal step of integration: continuous, and integration is "
+                             "log_rate (the muscle runs at the logging rate): remove max_step_s, or set "
+                             "integration: continuous", path=path, key=f"{where}.max_step_s")
         if not 1e-4 <= self.max_step_s <= 0.1:
             raise InputError(f"the largest internal step is 1e-4 to 0.1 s, found {self.max_step_s} (the muscle's "
                              "integration error falls with it: 0.001 s stays under 0.01 deg on the paper's muscle)",
