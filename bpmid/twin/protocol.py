@@ -457,7 +457,8 @@ class PlantSpec:
     variation: Variation = dataclasses.field(default_factory=Variation)
     #: ``continuous``: the muscle runs on internal steps of at most ``max_step_s`` between log samples and is
     #: logged at ``sampling_hz``, as a real muscle is (what it logs does not depend on the logging rate);
-    #: ``log_rate``: the muscle runs at the logging rate itself (the model a fit at that rate uses; bpmid < 0.49)
+    #: ``log_rate``: the muscle runs at the logging rate itself (the model a fit at that rate uses; the twin's way
+    #: until 2026-11-28)
     integration: Literal["continuous", "log_rate"] = "continuous"
     max_step_s: float = 0.001
 

@@ -126,7 +126,6 @@ class VBMMMatModel(_VBMMBase):
         return fit_least_squares(lambda p: self.residual(p, logs), params, segments=[lg.n for lg in logs])
 
 
-
 class VBMMFitModel(_VBMMBase):
     """VBMM refitted on motion data (the paper's VBMM-fit), by :func:`bpmid.models.vbmm.fit.fit_motion`.
 
