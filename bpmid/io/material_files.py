@@ -583,6 +583,9 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
                         "(shear): read as tensile E (a DMA in tension or bending); a rheometer's or a shear DMA's "
                         "storage modulus is G: if so, name the columns G' and G'' (or G_stor, G_loss)")
 
+    def where(i: int) -> str:   # the file and line of data row i, for a warning
+        return f"{path.name}:{int(rows[i][0])}" if path is not None else f"line {int(rows[i][0])}"
+
     def column(role: str) -> np.ndarray:
         j, unit = index[role]
         fam = _ROLE_UNIT[role]
@@ -610,7 +613,6 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
             vals[r] = v
         if fam == "T":
             c = vals + _MAT_UNITS["T"][unit]  # K -> C: T - 273.15; C unchanged
-            where = lambda i: f"{path.name}:{int(rows[i][0])}" if path is not None else f"line {int(rows[i][0])}"  # noqa: E731
             in_row = units is not None and j < len(units) and bool(units[j].strip())
 
             def fix(u):   # where the file states the unit: the units row under the header, or the column's name
@@ -634,8 +636,7 @@ def read_material_file(path: str | Path, *, column_map: Mapping[str, str] | None
         out = vals * _MAT_UNITS[fam][unit]
         if fam == "modulus" and out.size and float(out.max()) > MAX_PLAUSIBLE_MPA:
             i = int(np.argmax(out))
-            where = f"{path.name}:{int(rows[i][0])}" if path is not None else f"line {int(rows[i][0])}"
-            warnings.append(f"{where}: column {header[j]!r} reaches {out[i]:.4g} MPa ({vals[i]:g} {unit}), above "
+            warnings.append(f"{where(i)}: column {header[j]!r} reaches {out[i]:.4g} MPa ({vals[i]:g} {unit}), above "
                             f"{MAX_PLAUSIBLE_MPA:g} MPa (100 GPa), stiffer than any polymer: check the unit "
                             f"({unit!r} stated)")
         return out

@@ -36,7 +36,7 @@ from bpmid.models.vbmm import VBMM, Material, load_vbmm, vbmm_yaml_body
 from bpmid.params import ParamSet
 from bpmid.progress import Progress
 from bpmid.twin import sensors as S
-from bpmid.twin.protocol import Protocol, _first_level, load_protocol, render_at
+from bpmid.twin.protocol import Protocol, _extent, _first_level, load_protocol, render_at
 from bpmid.units import ATMOSPHERE_PA, PA_PER_BAR
 
 SCHEMA = "bpmid.simulation/1"
@@ -322,8 +322,6 @@ def _simulate_motion(proto: Protocol, params_path, effect_args, seed: int, prov:
     col = f"pressure_{proto.unit}"
     files, logs = {}, []
     runs = list(proto.runs())
-    from bpmid.twin.protocol import _extent, _first_level
-
     for spec in proto.logs:   # before any work: a log bpmid's own readers would refuse is not written
         n = math.floor(_extent(spec.program, spec.start if spec.start is not None else _first_level(spec.program))[0]
                        * proto.sampling_hz + 1e-9) + 1   # as render counts them

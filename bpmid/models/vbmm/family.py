@@ -56,7 +56,11 @@ class _VBMMBase(ModelFamily):
 
     def simulate(self, params: ParamSet, log: MotionLog) -> np.ndarray:
         """Forward model angle (deg), shape (log.n,); InputError if a pressure is beyond the model's range."""
-        return self.vbmm(params).forward_deg(log.time_s, log.pressure_pa, name=log.name, path=log.path)
+        return self.vbmm_for(params, log).forward_deg(log.time_s, log.pressure_pa, name=log.name, path=log.path)
+
+    def vbmm_for(self, params: ParamSet, log: MotionLog) -> VBMM:
+        """The :class:`VBMM` that runs on ``log`` (the parameter set's, whatever the log)."""
+        return self.vbmm(params)
 
     def describe(self, params: ParamSet) -> dict:
         out = super().describe(params)
@@ -95,15 +99,15 @@ class VBMMMatModel(_VBMMBase):
         mat, _source = self.initial_material()
         return params_from_material(mat, self.motion_cfg, all_fixed=True)
 
-    def simulate(self, params: ParamSet, log: MotionLog) -> np.ndarray:
-        """Forward model angle (deg), shape (log.n,). With ``at_log_step`` the relaxation test's constants, a
-        material in continuous time, run as that material in the sum sampled at the log's (median) step: each
-        branch modulus divided by :func:`~bpmid.models.vbmm.model.continuous_factor` of the step and its time
-        constant (exact for a strain linear between samples; docs/model.md)."""
+    def vbmm_for(self, params: ParamSet, log: MotionLog) -> VBMM:
+        """With ``at_log_step`` the relaxation test's constants, a material in continuous time, run as that material
+        in the sum sampled at the log's (median) step: each branch modulus divided by
+        :func:`~bpmid.models.vbmm.model.continuous_factor` of the step and its time constant (exact for a strain
+        linear between samples; docs/model.md)."""
         model = self.vbmm(params)
         if self.at_log_step and log.n > 1:
             model = model.replace(material=material_at_step(model.material, float(np.median(np.diff(log.time_s)))))
-        return model.forward_deg(log.time_s, log.pressure_pa, name=log.name, path=log.path)
+        return model
 
     def describe(self, params: ParamSet) -> dict:
         out = super().describe(params)
