@@ -111,10 +111,20 @@ def test_calibration_opens_the_pair_over_a_single_effect_only_where_it_is_right(
                          pair_over_gain=thr["pair_over_gain_min_sigma"]) == (1, 0)
 
 
-def test_the_leaders_are_the_largest_tested_identifiable_gains():
+def test_the_leaders_are_the_largest_tested_identifiable_gains_and_the_strongest_on_the_fitting_logs():
+    # equal evidence on the fitting logs: the leaders are the three largest positive held-out gains
     confs = [_conf("a", 0.5), _conf("b", 0.9, identifiable=False), _conf("c", 0.3), _conf("d", 0.1),
              _conf("e", 0.2), _conf("f", -0.1), _conf("g", 0.8, tested=False)]
     assert [c.effect_id for c in pair_leaders(confs)] == ["a", "c", "e"]
+    # two effects that mask each other: "m" leaves the held-out logs worse alone but is the plainest on the fitting
+    # logs, so it joins the leaders (ordered by gain, last); untested or unidentifiable ones never do
+    confs = [_conf("a", 0.5, p=1e-12), _conf("c", 0.3, p=1e-12), _conf("e", 0.2, p=1e-12), _conf("d", 0.1, p=1e-30),
+             _conf("m", -0.05, p=1e-40), _conf("u", -0.2, p=1e-90, tested=False),
+             _conf("i", -0.2, p=1e-90, identifiable=False)]
+    assert [c.effect_id for c in pair_leaders(confs)] == ["a", "c", "e", "d", "m"]
+    # one candidate both large and plain is listed once
+    confs = [_conf("a", 0.5, p=1e-40), _conf("c", 0.3), _conf("e", 0.2), _conf("m", -0.05, p=1e-30)]
+    assert [c.effect_id for c in pair_leaders(confs)] == ["a", "c", "e", "m"]
 
 
 def _rec(case, kind, truth, cand, gain, share, p=1e-30):

@@ -324,14 +324,16 @@ def _pair_paths_words(thr: dict) -> str:
     words = ""
     if math.isfinite(sh):
         words += (f". When no candidate passes alone in the first round, the {PAIR_LEADERS} largest held-out gains "
-                  f"among those tested and identifiable are refitted two at a time; two that both meet (1), (3) and "
+                  f"among those tested and identifiable, and the {PAIR_LEADERS} with the smallest Holm-corrected "
+                  f"likelihood-ratio p on the fitting logs (two effects can mask each other alone), are refitted two "
+                  f"at a time; two that both meet (1), (3) and "
                   f"(4) alone are named together when their joint refit removes at least {_pct(sh)} of the held-out gap "
                   f"with a gain of at least {_thr(thr['heldout_gain_min_sigma'])} noise floors, each adds at least "
                   f"{_thr(thr.get('pair_gain_min_sigma', math.inf))} noise floors of held-out gain beside the "
                   f"other, and each passes the likelihood-ratio test beside the other at the same level (Bonferroni "
                   f"over the pairs tried): two effects sharing a residual each remove too small a share of it alone")
     if math.isfinite(m):
-        words += (f". When a first-round candidate passes, the {PAIR_LEADERS} leading candidates are also refitted two "
+        words += (f". When a first-round candidate passes, the same leading candidates are also refitted two "
                   f"at a time; two that both pass (3) alone, each beside the other (Bonferroni over the pairs tried), "
                   f"and are tested and identifiable are named together instead when their joint held-out gain exceeds "
                   f"the passing candidate's by at least {_thr(m)} noise floors and each adds at least "
@@ -1209,16 +1211,24 @@ def _apart(x: float, limit: float, digits: int = 3) -> tuple[str, str]:
     return repr(x), repr(limit)
 
 
-#: leading candidates of a first round refitted two at a time on the path for two effects at once
+#: leading candidates of a first round refitted two at a time on the paths for two effects at once: this many by
+#: held-out gain, joined by this many by the evidence on the fitting logs (:func:`pair_leaders`)
 PAIR_LEADERS = 3
 
 
 def pair_leaders(confs: Sequence[Confirmation]) -> list[Confirmation]:
-    """The candidates the path for two effects at once pairs up: the :data:`PAIR_LEADERS` largest held-out gains
-    among those tested, identifiable and with a positive gain (their significance is judged with the pair)."""
-    ok = [c for c in confs if c.tested and c.identifiable and math.isfinite(c.heldout_gain_sigma)
-          and c.heldout_gain_sigma > 0]
-    return sorted(ok, key=lambda c: -c.heldout_gain_sigma)[:PAIR_LEADERS]
+    """The candidates the paths for two effects at once pair up, among those tested and identifiable: the
+    :data:`PAIR_LEADERS` largest positive held-out gains, joined by the :data:`PAIR_LEADERS` with the strongest
+    likelihood-ratio evidence on the fitting logs (smallest Holm-corrected p, equal p by the larger gain); ordered by
+    held-out gain. Two effects that mask each other (faster deflation beside strain stiffening) can each leave the
+    held-out logs no better alone, because each refit alone bends the other's residual, while both are plain on the
+    fitting logs; the held-out gain of the pair, not of its members, then decides."""
+    ok = [c for c in confs if c.tested and c.identifiable and math.isfinite(c.heldout_gain_sigma)]
+    by_gain = [c for c in sorted(ok, key=lambda c: -c.heldout_gain_sigma) if c.heldout_gain_sigma > 0]
+    by_fit = sorted(ok, key=lambda c: (c.family_p, -c.heldout_gain_sigma))
+    lead = by_gain[:PAIR_LEADERS]
+    lead += [c for c in by_fit[:PAIR_LEADERS] if not any(c is x for x in lead)]
+    return sorted(lead, key=lambda c: -c.heldout_gain_sigma)
 
 
 def try_pairs(confs: Sequence[Confirmation], effects: Sequence[Effect], fit_logs, ho_logs, *, floor: float,
