@@ -1,0 +1,135 @@
+"""Rescore spent held-out draws after stop 50's change to the pairs refitted together (``pair_leaders``): rerun
+only the cases the change can reach, with this checkout's discovery, and compare with what each draw scored.
+
+    python benchmarks/rescore_pair_leaders.py out/ho-draw52 ... out/ho-draw57 \\
+        --configs configs/sweeps/draw52.yaml ... configs/sweeps/draw57.yaml --out out/rescore-leaders [--workers 2]
+
+Development data, not a score: these draws were already scored once and their misses read. A fresh draw scores.
+
+Which cases: the paths for two effects at once refit, two at a time, the pairs of a first round's leaders whose two
+members both pass the round's Holm-corrected test alone. Before stop 50 the leaders were the three largest positive
+held-out gains; now the three with the smallest Holm-corrected p on the fitting logs join them. A case whose
+recorded first round gives no new such pair runs exactly as before (discovery is deterministic), so only the others
+are rerun: each is regenerated from its sweep config and seed and judged with the shipped thresholds. Synthetic data: :mod:`bpmid.validation`.
+"""
+from __future__ import annotations
+
+import argparse
+import collections
+import concurrent.futures as cf
+import json
+import math
+import time
+from pathlib import Path
+
+ALPHA_KEY = "family_alpha"
+
+
+class _Cand:
+    """A recorded first-round candidate, as :func:`bpmid.discover.workflow.pair_leaders` reads a confirmation."""
+
+    def __init__(self, rec: dict):
+        self.effect_id = rec["effect"]
+        self.tested = bool(rec.get("tested"))
+        self.identifiable = bool(rec.get("identifiable"))
+        g = rec.get("heldout_gain_in_noise_floors")
+        self.heldout_gain_sigma = float("nan") if g is None else float(g)
+        p = rec.get("likelihood_ratio_p_holm")
+        self.family_p = 1.0 if p is None else float(p)
+
+
+def _parse(value):
+    """A record field as written by a sweep (plain JSON, or the repr of a list of dicts in older records)."""
+    if not isinstance(value, str):
+        return value
+    return eval(value, {"__builtins__": {}}, {"nan": math.nan, "inf": math.inf})  # noqa: S307 (our own records)
+
+
+def _pairs(lead, alpha):
+    return {frozenset((a.effect_id, b.effect_id)) for i, a in enumerate(lead) for b in lead[i + 1:]
+            if a.family_p < alpha and b.family_p < alpha}
+
+
+def reached(rec: dict, alpha: float) -> bool:
+    """Whether stop 50's leaders give this recorded case a pair to refit that the previous leaders did not."""
+    from bpmid.discover.workflow import PAIR_LEADERS, pair_leaders
+
+    r1 = [_Cand(c) for c in _parse(rec.get("candidates") or []) if c.get("round") == 1]
+    ok = [c for c in r1 if c.tested and c.identifiable and math.isfinite(c.heldout_gain_sigma)]
+    before = [c for c in sorted(ok, key=lambda c: -c.heldout_gain_sigma) if c.heldout_gain_sigma > 0][:PAIR_LEADERS]
+    return bool(_pairs(pair_leaders(r1), alpha) - _pairs(before, alpha))
+
+
+def right(rec: dict) -> bool:
+    from bpmid.validation.sweep import case_right
+    return bool(case_right(rec))
+
+
+def _run(args):
+    config, thresholds, cid = args
+    from bpmid.discover.calibrate import load_thresholds
+    from bpmid.progress import set_quiet
+    from bpmid.validation.sweep import cases_by_id, run_case
+    set_quiet(True)
+    cfg, case = cases_by_id([config])[cid]
+    return run_case(case, "heldout", cfg.discover_config("heldout", load_thresholds(thresholds)))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("draws", nargs="+", type=Path, help="folders written by `bpmid calibrate ... --split heldout`")
+    ap.add_argument("--configs", nargs="+", required=True, help="the sweep configs the draws were made with")
+    ap.add_argument("--out", type=Path, required=True, help="folder for the rerun cases' records.jsonl")
+    ap.add_argument("--thresholds", default="bpmid/discover/thresholds.yaml", help="the gate to judge with")
+    ap.add_argument("--workers", type=int, default=2)
+    a = ap.parse_args(argv)
+
+    from bpmid.discover.calibrate import load_thresholds
+    from bpmid.validation.sweep import cases_by_id, read_records
+
+    config_of = {i: c for c in a.configs for i in cases_by_id([c])}
+    alpha = float(load_thresholds(a.thresholds)[ALPHA_KEY])
+    old, todo = {}, []
+    for d in a.draws:
+        if not (d / "records.jsonl").is_file():
+            ap.error(f"{d}: no records.jsonl: give folders written by `bpmid calibrate ... --split heldout`")
+        for rec in read_records(d / "records.jsonl"):
+            if rec.get("phase") != "heldout" or rec.get("error"):
+                continue
+            if rec["id"] not in config_of:
+                ap.error(f"{d}: case {rec['id']} is made by none of --configs: give its sweep config")
+            old[rec["id"]] = rec
+            if reached(rec, alpha):
+                todo.append((config_of[rec["id"]], a.thresholds, rec["id"]))
+    a.out.mkdir(parents=True, exist_ok=True)
+    path = a.out / "records.jsonl"
+    new = {r["id"]: r for r in read_records(path)} if path.is_file() else {}
+    run = [t for t in todo if t[2] not in new]
+    print(f"{len(old)} held-out case(s); {len(todo)} reached by the new leaders ({len(run)} to run)", flush=True)
+    t0 = time.perf_counter()
+    with cf.ProcessPoolExecutor(a.workers) as ex, open(path, "a") as f:
+        for k, rec in enumerate(ex.map(_run, run), start=1):
+            f.write(json.dumps(rec) + "\n")
+            f.flush()
+            new[rec["id"]] = rec
+            print(f"[{k}/{len(run)}] {rec['id']} ({rec['kind']}) {rec['truth_ids']}: "
+                  f"{old[rec['id']]['named']} -> {rec['named']}", flush=True)
+    print(f"reran in {time.perf_counter() - t0:.0f} s")
+    tally = collections.defaultdict(lambda: [0, 0, 0])   # kind -> [cases, right before, right now]
+    for i, rec in old.items():
+        now = new.get(i, rec)
+        t = tally[rec["kind"]]
+        t[0] += 1
+        t[1] += right(rec)
+        t[2] += right(now)
+    print("\n| kind | cases | right as scored | right with this discovery |\n|---|---|---|---|")
+    for kind, (n, b, c) in sorted(tally.items()):
+        print(f"| {kind} | {n} | {b} ({100 * b / n:.1f} %) | {c} ({100 * c / n:.1f} %) |")
+    changed = [i for i in new if new[i]["named"] != old[i]["named"]]
+    for i in changed:
+        print(f"changed: {i} ({old[i]['kind']}, truth {old[i]['truth_ids']}): {old[i]['named']} -> {new[i]['named']}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
