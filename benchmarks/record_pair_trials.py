@@ -6,8 +6,9 @@ two effects at once can act.
 
 Calibration records written before the path existed lack its numbers (``calibration_pairs``). The path is asked
 only in a first round where no candidate passes alone (the gate and the path to the noise floor of
-``bpmid/discover/thresholds.yaml``), and it names two candidates only if both are among the three leaders (tested,
-identifiable, positive held-out gain) and pass the round's Holm-corrected test. Every other case's outcome cannot
+``bpmid/discover/thresholds.yaml``), and it names two candidates only if both are among its leaders
+(``pair_leaders``: the three largest positive held-out gains and the three smallest Holm-corrected p, among those
+tested and identifiable) and pass the round's Holm-corrected test. Every other case's outcome cannot
 change, so only the cases meeting both conditions are rerun, with the calibration half's permissive settings (which
 record the pair trials), on Dask; a rerun is bit-for-bit the same run, so its single-candidate records equal the
 old ones (checked: a case whose records differ is reported). Then
@@ -19,21 +20,18 @@ Synthetic data: :mod:`bpmid.validation`, from the sweep configs and seeds given.
 """
 from __future__ import annotations
 
-import math
 
 
 def selected(rec: dict, thr: dict) -> bool:
     """Whether the path for two effects at once can act on this case (see the module docstring)."""
-    from bpmid.discover.calibrate import _first_passing, case_records, floor_drops
+    from bpmid.discover.calibrate import _first_passing, case_records, floor_drops, pair_leader_records
 
     r1 = [r for r in case_records(rec) if r.round == 1]
     if not r1 or _first_passing(r1, thr["heldout_gain_min_sigma"], thr["gap_share_min"], thr["family_alpha"],
                                 thr["fit_share_min"], thr["fit_share_waived_above_sigma"],
                                 floor_drops(thr)) is not None:
         return False
-    lead = sorted([r for r in r1 if r.tested and r.identifiable and math.isfinite(r.gain_sigma) and r.gain_sigma > 0],
-                  key=lambda r: -r.gain_sigma)[:3]
-    return sum(r.lr_p_holm < thr["family_alpha"] for r in lead) >= 2
+    return sum(r.lr_p_holm < thr["family_alpha"] for r in pair_leader_records(r1)) >= 2
 
 
 def main(argv=None) -> int:

@@ -25,39 +25,20 @@ from pathlib import Path
 ALPHA_KEY = "family_alpha"
 
 
-class _Cand:
-    """A recorded first-round candidate, as :func:`bpmid.discover.workflow.pair_leaders` reads a confirmation."""
-
-    def __init__(self, rec: dict):
-        self.effect_id = rec["effect"]
-        self.tested = bool(rec.get("tested"))
-        self.identifiable = bool(rec.get("identifiable"))
-        g = rec.get("heldout_gain_in_noise_floors")
-        self.heldout_gain_sigma = float("nan") if g is None else float(g)
-        p = rec.get("likelihood_ratio_p_holm")
-        self.family_p = 1.0 if p is None else float(p)
-
-
-def _parse(value):
-    """A record field as written by a sweep (plain JSON, or the repr of a list of dicts in older records)."""
-    if not isinstance(value, str):
-        return value
-    return eval(value, {"__builtins__": {}}, {"nan": math.nan, "inf": math.inf})  # noqa: S307 (our own records)
-
-
 def _pairs(lead, alpha):
-    return {frozenset((a.effect_id, b.effect_id)) for i, a in enumerate(lead) for b in lead[i + 1:]
-            if a.family_p < alpha and b.family_p < alpha}
+    return {frozenset((a.candidate, b.candidate)) for i, a in enumerate(lead) for b in lead[i + 1:]
+            if a.lr_p_holm < alpha and b.lr_p_holm < alpha}
 
 
 def reached(rec: dict, alpha: float) -> bool:
     """Whether stop 50's leaders give this recorded case a pair to refit that the previous leaders did not."""
-    from bpmid.discover.workflow import PAIR_LEADERS, pair_leaders
+    from bpmid.discover.calibrate import case_records, pair_leader_records
+    from bpmid.discover.workflow import PAIR_LEADERS
 
-    r1 = [_Cand(c) for c in _parse(rec.get("candidates") or []) if c.get("round") == 1]
-    ok = [c for c in r1 if c.tested and c.identifiable and math.isfinite(c.heldout_gain_sigma)]
-    before = [c for c in sorted(ok, key=lambda c: -c.heldout_gain_sigma) if c.heldout_gain_sigma > 0][:PAIR_LEADERS]
-    return bool(_pairs(pair_leaders(r1), alpha) - _pairs(before, alpha))
+    r1 = [r for r in case_records(rec) if r.round == 1 and not r.rival]
+    ok = [r for r in r1 if r.tested and r.identifiable and math.isfinite(r.gain_sigma)]
+    before = [r for r in sorted(ok, key=lambda r: -r.gain_sigma) if r.gain_sigma > 0][:PAIR_LEADERS]
+    return bool(_pairs(pair_leader_records(r1), alpha) - _pairs(before, alpha))
 
 
 def right(rec: dict) -> bool:

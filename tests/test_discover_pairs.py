@@ -5,6 +5,7 @@ together when their joint refit removes a calibrated share of the held-out gap, 
 gain beside the other, and each passes the likelihood-ratio test beside the other (Bonferroni over the pairs)."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
@@ -350,3 +351,31 @@ def test_the_gate_is_chosen_on_its_whole_outcome_not_its_first_stage():
 
     assert right(0.25, False) == 41 > right(0.3, False) == 38      # the first stage alone prefers the looser gate
     assert right(0.25, True) == 41 < right(0.3, True) == 48        # the whole outcome does not
+
+
+def test_recorded_leaders_are_discoverys_own_and_the_rescore_reruns_only_cases_they_reach():
+    """calibrate.pair_leader_records applies workflow.pair_leaders to recorded numbers (the benchmarks that choose
+    which cases to rerun use it), and benchmarks/rescore_pair_leaders.py reruns a case only when the leaders give it
+    a pair of two Holm-significant members that the three largest gains alone did not."""
+    import importlib.util
+
+    from bpmid.discover.calibrate import pair_leader_records
+
+    masked = [_rec("c", "pair", "a+m", "a", 0.3, 0.2, p=1e-12), _rec("c", "pair", "a+m", "b", 0.2, 0.1, p=1e-12),
+              _rec("c", "pair", "a+m", "c", 0.1, 0.1, p=1e-12), _rec("c", "pair", "a+m", "m", -0.05, 0.0, p=1e-40)]
+    assert [r.candidate for r in pair_leader_records(masked)] == ["a", "b", "c", "m"]
+    spec = importlib.util.spec_from_file_location("rescore", THRESHOLDS_PATH.parents[2] / "benchmarks" /
+                                                  "rescore_pair_leaders.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+
+    def rec(records):
+        return {"calibration_records": [dataclasses.asdict(r) for r in records]}
+    assert mod.reached(rec(masked), 1e-9)
+    weak = [_rec("c", "pair", "a+m", "a", 0.3, 0.2, p=1e-12), _rec("c", "pair", "a+m", "b", 0.2, 0.1, p=0.5),
+            _rec("c", "pair", "a+m", "c", 0.1, 0.1, p=0.5), _rec("c", "pair", "a+m", "m", -0.05, 0.0, p=1e-6)]
+    assert "m" in [r.candidate for r in pair_leader_records(weak)]
+    assert not mod.reached(rec(weak), 1e-9)                                      # a leader, not significant alone
+    plain = [_rec("c", "pair", "a+m", "a", 0.3, 0.2, p=1e-40), _rec("c", "pair", "a+m", "b", 0.2, 0.1, p=1e-30),
+             _rec("c", "pair", "a+m", "c", 0.1, 0.1, p=1e-20), _rec("c", "pair", "a+m", "m", -0.05, 0.0, p=1e-12)]
+    assert not mod.reached(rec(plain), 1e-9)                                      # the same three lead either way

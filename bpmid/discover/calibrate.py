@@ -546,6 +546,19 @@ def rival_withholds(recs: Sequence[Record], named_after_over_floor: float, alpha
                for r in recs)
 
 
+def pair_leader_records(r1: Sequence[Record]) -> list[Record]:
+    """The first-round records whose candidates discovery's paths for two effects at once pair up: its own
+    :func:`bpmid.discover.workflow.pair_leaders` read from the recorded numbers (rivals are never candidates)."""
+    from types import SimpleNamespace
+
+    from bpmid.discover.workflow import pair_leaders
+
+    seen = [SimpleNamespace(effect_id=r.candidate, tested=r.tested, identifiable=r.identifiable,
+                            heldout_gain_sigma=r.gain_sigma, family_p=r.lr_p_holm, record=r)
+            for r in r1 if not r.rival]
+    return [c.record for c in pair_leaders(seen)]
+
+
 def _pair_eligible(recs: Sequence[Record], pairs: Sequence[PairRecord], g: float, alpha: float) -> list[PairRecord]:
     """The pair trials that meet the conditions of the paths for two effects at once that no calibrated share or
     gain sets: tested, identifiable, both members significant alone (Holm) and beside the other (Bonferroni), a
