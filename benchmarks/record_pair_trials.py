@@ -21,7 +21,6 @@ Synthetic data: :mod:`bpmid.validation`, from the sweep configs and seeds given.
 from __future__ import annotations
 
 
-
 def selected(rec: dict, thr: dict) -> bool:
     """Whether the path for two effects at once can act on this case (see the module docstring)."""
     from bpmid.discover.calibrate import _first_passing, case_records, floor_drops, pair_leader_records

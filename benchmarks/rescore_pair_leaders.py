@@ -10,7 +10,8 @@ Which cases: the paths for two effects at once refit, two at a time, the pairs o
 members both pass the round's Holm-corrected test alone. Before stop 50 the leaders were the three largest positive
 held-out gains; now the three with the smallest Holm-corrected p on the fitting logs join them. A case whose
 recorded first round gives no new such pair runs exactly as before (discovery is deterministic), so only the others
-are rerun: each is regenerated from its sweep config and seed and judged with the shipped thresholds. Synthetic data: :mod:`bpmid.validation`.
+are rerun: each is regenerated from its sweep config and seed and judged with the shipped thresholds. Synthetic
+data: :mod:`bpmid.validation`.
 """
 from __future__ import annotations
 
@@ -106,7 +107,7 @@ def main(argv=None) -> int:
     print("\n| kind | cases | right as scored | right with this discovery |\n|---|---|---|---|")
     for kind, (n, b, c) in sorted(tally.items()):
         print(f"| {kind} | {n} | {b} ({100 * b / n:.1f} %) | {c} ({100 * c / n:.1f} %) |")
-    changed = [i for i in new if new[i]["named"] != old[i]["named"]]
+    changed = [i for i in new if i in old and new[i]["named"] != old[i]["named"]]
     for i in changed:
         print(f"changed: {i} ({old[i]['kind']}, truth {old[i]['truth_ids']}): {old[i]['named']} -> {new[i]['named']}")
     return 0
