@@ -325,8 +325,8 @@ def _pair_paths_words(thr: dict) -> str:
     if math.isfinite(sh):
         words += (f". When no candidate passes alone in the first round, the {PAIR_LEADERS} largest held-out gains "
                   f"among those tested and identifiable, and the {PAIR_LEADERS} with the smallest Holm-corrected "
-                  f"likelihood-ratio p on the fitting logs (two effects can mask each other alone), are refitted two "
-                  f"at a time; two that both meet (1), (3) and "
+                  f"likelihood-ratio p on the fitting logs (two effects that mask each other can each gain nothing "
+                  f"alone), are refitted two at a time; two that both meet (1), (3) and "
                   f"(4) alone are named together when their joint refit removes at least {_pct(sh)} of the held-out gap "
                   f"with a gain of at least {_thr(thr['heldout_gain_min_sigma'])} noise floors, each adds at least "
                   f"{_thr(thr.get('pair_gain_min_sigma', math.inf))} noise floors of held-out gain beside the "
