@@ -48,13 +48,11 @@ def right(rec: dict) -> bool:
 
 
 def _run(args):
-    config, thresholds, cid = args
-    from bpmid.discover.calibrate import load_thresholds
+    case, dcfg = args
     from bpmid.progress import set_quiet
-    from bpmid.validation.sweep import cases_by_id, run_case
+    from bpmid.validation.sweep import run_case
     set_quiet(True)
-    cfg, case = cases_by_id([config])[cid]
-    return run_case(case, "heldout", cfg.discover_config("heldout", load_thresholds(thresholds)))
+    return run_case(case, "heldout", dcfg)
 
 
 def main(argv=None) -> int:
@@ -69,8 +67,9 @@ def main(argv=None) -> int:
     from bpmid.discover.calibrate import load_thresholds
     from bpmid.validation.sweep import cases_by_id, read_records
 
-    config_of = {i: c for c in a.configs for i in cases_by_id([c])}
-    alpha = float(load_thresholds(a.thresholds)[ALPHA_KEY])
+    made = cases_by_id(a.configs)   # id -> (its sweep config, the case)
+    thresholds = load_thresholds(a.thresholds)
+    alpha = float(thresholds[ALPHA_KEY])
     old, todo = {}, []
     for d in a.draws:
         if not (d / "records.jsonl").is_file():
@@ -78,15 +77,16 @@ def main(argv=None) -> int:
         for rec in read_records(d / "records.jsonl"):
             if rec.get("phase") != "heldout" or rec.get("error"):
                 continue
-            if rec["id"] not in config_of:
+            if rec["id"] not in made:
                 ap.error(f"{d}: case {rec['id']} is made by none of --configs: give its sweep config")
             old[rec["id"]] = rec
             if reached(rec, alpha):
-                todo.append((config_of[rec["id"]], a.thresholds, rec["id"]))
+                cfg, case = made[rec["id"]]
+                todo.append((case, cfg.discover_config("heldout", thresholds)))
     a.out.mkdir(parents=True, exist_ok=True)
     path = a.out / "records.jsonl"
     new = {r["id"]: r for r in read_records(path)} if path.is_file() else {}
-    run = [t for t in todo if t[2] not in new]
+    run = [t for t in todo if t[0].id not in new]
     print(f"{len(old)} held-out case(s); {len(todo)} reached by the new leaders ({len(run)} to run)", flush=True)
     t0 = time.perf_counter()
     with cf.ProcessPoolExecutor(a.workers) as ex, open(path, "a") as f:

@@ -554,7 +554,8 @@ def pair_leader_records(r1: Sequence[Record]) -> list[Record]:
     from bpmid.discover.workflow import pair_leaders
 
     seen = [SimpleNamespace(effect_id=r.candidate, tested=r.tested, identifiable=r.identifiable,
-                            heldout_gain_sigma=r.gain_sigma, family_p=r.lr_p_holm, record=r)
+                            heldout_gain_sigma=r.gain_sigma, record=r,
+                            family_p=r.lr_p_holm if math.isfinite(r.lr_p_holm) else r.lr_p)   # as Confirmation's
             for r in r1 if not r.rival]
     return [c.record for c in pair_leaders(seen)]
 
