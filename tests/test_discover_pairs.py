@@ -355,8 +355,9 @@ def test_the_gate_is_chosen_on_its_whole_outcome_not_its_first_stage():
 
 def test_recorded_leaders_are_discoverys_own_and_the_rescore_reruns_only_cases_they_reach():
     """calibrate.pair_leader_records applies workflow.pair_leaders to recorded numbers (the benchmarks that choose
-    which cases to rerun use it), and benchmarks/rescore_pair_leaders.py reruns a case only when the leaders give it
-    a pair of two Holm-significant members that the three largest gains alone did not."""
+    which cases to rerun use it), and benchmarks/rescore_spent.py --reach leaders reruns a case only when the leaders
+    give it a pair of two Holm-significant members that the three largest gains alone did not (``--reach named``:
+    only a case whose first round named something, the only ones with a later round)."""
     import importlib.util
 
     from bpmid.discover.calibrate import pair_leader_records
@@ -365,7 +366,7 @@ def test_recorded_leaders_are_discoverys_own_and_the_rescore_reruns_only_cases_t
               _rec("c", "pair", "a+m", "c", 0.1, 0.1, p=1e-12), _rec("c", "pair", "a+m", "m", -0.05, 0.0, p=1e-40)]
     assert [r.candidate for r in pair_leader_records(masked)] == ["a", "b", "c", "m"]
     spec = importlib.util.spec_from_file_location("rescore", THRESHOLDS_PATH.parents[2] / "benchmarks" /
-                                                  "rescore_pair_leaders.py")
+                                                  "rescore_spent.py")
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
 
@@ -379,3 +380,4 @@ def test_recorded_leaders_are_discoverys_own_and_the_rescore_reruns_only_cases_t
     plain = [_rec("c", "pair", "a+m", "a", 0.3, 0.2, p=1e-40), _rec("c", "pair", "a+m", "b", 0.2, 0.1, p=1e-30),
              _rec("c", "pair", "a+m", "c", 0.1, 0.1, p=1e-20), _rec("c", "pair", "a+m", "m", -0.05, 0.0, p=1e-12)]
     assert not mod.reached(rec(plain), 1e-9)                                      # the same three lead either way
+    assert mod.REACH["named"]({"named": ["angle_offset"]}, 1e-9) and not mod.REACH["named"]({"named": []}, 1e-9)
