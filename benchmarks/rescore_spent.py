@@ -133,7 +133,8 @@ def main(argv=None) -> int:
         t[0] += 1
         t[1] += right(rec)
         t[2] += right(now)
-    print("\n| kind | cases | right as scored | right with this discovery |\n|---|---|---|---|")
+    before = "right as scored" + (" (or as --over left them)" if a.over else "")
+    print(f"\n| kind | cases | {before} | right with this discovery |\n|---|---|---|---|")
     for kind, (n, b, c) in sorted(tally.items()):
         print(f"| {kind} | {n} | {b} ({100 * b / n:.1f} %) | {c} ({100 * c / n:.1f} %) |")
     changed = [i for i in new if i in old and new[i]["named"] != old[i]["named"]]
