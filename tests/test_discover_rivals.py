@@ -18,9 +18,10 @@ from bpmid.discover.model import ModelState
 from bpmid.discover.rivals import (RIVALS, AirLeak, MullinsSoftening, PayloadInertia, PressureNoise, beats, check_rival,
                                    held_against, own_shape)
 from bpmid.discover.workflow import DiscoverConfig, discover, gate_in_words
-from bpmid.discover.calibrate import PROTOCOLS, load_thresholds, paper_sized_set, start_model
+from bpmid.discover.calibrate import load_thresholds, paper_sized_set, start_model
 from bpmid.effects import get_effect
 from bpmid.effects._kernels import ring
+from _discover_cases import LOOSE, SHORT
 
 
 # ------------------------------------------------------------------------------------------------ the kernel
@@ -101,10 +102,6 @@ def test_calibration_applies_the_same_rule_to_the_records():
 
 
 # ------------------------------------------------------------------------------------------------ end to end
-#: the paper-sized protocols without the two long runs (the test's cost)
-SHORT = {k: v for k, v in PROTOCOLS.items() if not k.startswith(("long", "ho_long"))}
-LOOSE = {"heldout_gain_min_sigma": 0.0, "gap_share_min": 0.0, "family_alpha": 1e-6, "fit_share_min": 0.0,
-         "to_floor_drop_min_sigma": math.inf, "pair_share_min": math.inf}
 
 
 def test_a_ringing_payload_gets_nothing_named_and_a_lag_is_still_named():
