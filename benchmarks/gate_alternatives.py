@@ -10,7 +10,10 @@ recorded; held-out runs: the shipped gate's path) and replays, case by case:
   ``n_ho log(SSE_before / SSE_after)`` on the held-out logs, with ``n_ho`` approximated as half the fitting logs'
   effective sample size (the records keep no held-out one): a test of the drop, not of its size;
 - ``later share S``: the shipped gate, with the share of the held-out gap asked of a further effect lowered to S
-  (a pair's second effect; singles gaining an extra name count against it).
+  (a pair's second effect; singles gaining an extra name count against it);
+- ``later gain G``: the shipped gate, with the held-out gain asked of a further effect set to G (noise floors; a
+  change that touches only later rounds, such as how they are scored, is checked this way on records regenerated
+  with it).
 
     python benchmarks/gate_alternatives.py out/pool-draw12/records.jsonl ... [--heldout d16/records.jsonl ...]
 """
@@ -80,10 +83,12 @@ def round1_table(recs, namer):
     return t
 
 
-def later_table(recs, thr, share_later):
-    """Singles: right first and nothing further; pairs: both named (the recorded round 2 after the gate's first)."""
+def later_table(recs, thr, share_later, g_later=None):
+    """Singles: right first and nothing further; pairs: both named (the recorded round 2 after the gate's first).
+    ``g_later``: the held-out gain asked in the later round (None: the shipped one)."""
     g, sh, a = thr["heldout_gain_min_sigma"], thr["gap_share_min"], thr["family_alpha"]
-    fs, w, gl = thr["fit_share_min"], thr["fit_share_waived_above_sigma"], thr["heldout_gain_min_sigma_later"]
+    fs, w = thr["fit_share_min"], thr["fit_share_waived_above_sigma"]
+    gl = thr["heldout_gain_min_sigma_later"] if g_later is None else g_later
     d, q = floor_drops(thr), thr["to_floor_ratio_max"]
     t = collections.Counter()
     for rec in recs:
@@ -103,17 +108,18 @@ def later_table(recs, thr, share_later):
     return t
 
 
-def later_score(recs, thr, share_later):
+def later_score(recs, thr, share_later, g_later=None):
     """Right decisions minus twice the wrong names over every case (the calibration's score; round 1 the shipped
-    gate, later rounds asked ``share_later``): what ``thresholds_from_records`` would weigh."""
+    gate, later rounds asked ``share_later`` and ``g_later``, None: the shipped gain): what
+    ``thresholds_from_records`` would weigh."""
+    gl = thr["heldout_gain_min_sigma_later"] if g_later is None else g_later
     score = 0
     for rec in recs:
         rs = case_records(rec)
         if rs:
             right, wrong = _case_outcome(rs, thr["heldout_gain_min_sigma"], thr["gap_share_min"],
                                          thr["family_alpha"], thr["fit_share_min"],
-                                         thr["fit_share_waived_above_sigma"], thr["heldout_gain_min_sigma_later"],
-                                         share_later, floor_drops(thr))
+                                         thr["fit_share_waived_above_sigma"], gl, share_later, floor_drops(thr))
             score += right - 2 * wrong
     return score
 
@@ -141,6 +147,10 @@ def main(argv):
         for s in (thr["gap_share_min"], 0.30, 0.25, 0.20, 0.15):
             lt = later_table(recs, thr, s)
             print(f"  later share {s:.2f}: score {later_score(recs, thr, s)}; "
+                  + ", ".join(f"{k} {v}" for k, v in sorted(lt.items())))
+        for gl in (0.04, 0.06, 0.08, thr["heldout_gain_min_sigma_later"], thr["heldout_gain_min_sigma"]):
+            lt = later_table(recs, thr, thr["gap_share_min"], gl)
+            print(f"  later gain {gl:.2f}: score {later_score(recs, thr, thr['gap_share_min'], gl)}; "
                   + ", ".join(f"{k} {v}" for k, v in sorted(lt.items())))
 
 
