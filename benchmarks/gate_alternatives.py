@@ -144,11 +144,11 @@ def main(argv):
         show("shipped", round1_table(recs, lambda r: first_named_shipped(r, thr)))
         for t_min in (40.0, 60.0, 100.0):
             show(f"heldout-LR T >= {t_min:g}", round1_table(recs, lambda r, t_min=t_min: first_named_ho_lr(r, thr, t_min)))
-        for s in (thr["gap_share_min"], 0.30, 0.25, 0.20, 0.15):
+        for s in sorted({thr["gap_share_min"], 0.30, 0.25, 0.20, 0.15}, reverse=True):   # each value once
             lt = later_table(recs, thr, s)
             print(f"  later share {s:.2f}: score {later_score(recs, thr, s)}; "
                   + ", ".join(f"{k} {v}" for k, v in sorted(lt.items())))
-        for gl in (0.04, 0.06, 0.08, thr["heldout_gain_min_sigma_later"], thr["heldout_gain_min_sigma"]):
+        for gl in sorted({0.04, 0.06, 0.08, thr["heldout_gain_min_sigma_later"], thr["heldout_gain_min_sigma"]}):
             lt = later_table(recs, thr, thr["gap_share_min"], gl)
             print(f"  later gain {gl:.2f}: score {later_score(recs, thr, thr['gap_share_min'], gl)}; "
                   + ", ".join(f"{k} {v}" for k, v in sorted(lt.items())))
