@@ -31,13 +31,20 @@ def main(argv=None) -> int:
     ap.add_argument("--rerun", nargs="*", type=Path, default=[],
                     help="records.jsonl of cases rerun with more recorded (benchmarks/record_pair_trials.py): each "
                          "replaces the same case's record; cases not among RECORDS are ignored")
+    ap.add_argument("--later-only", action="store_true",
+                    help="hold the shipped first stage (gain, share, alpha, fitting share and its waiver) and choose "
+                         "only the later stages: for a change that touches only later rounds, on records regenerated "
+                         "with it; prints the shipped later stages' outcome on the same records beside")
     ap.add_argument("--write", action="store_true", help="write bpmid/discover/thresholds.yaml")
     a = ap.parse_args(argv)
 
-    from bpmid.discover.calibrate import (_case_outcome, case_records, floor_drops, pair_records,
-                                          thresholds_from_records, write_thresholds)
+    from bpmid.discover.calibrate import (_case_outcome, case_records, floor_drops, later_stages_from_records,
+                                          load_thresholds, pair_records, thresholds_from_records, write_thresholds)
     from bpmid.validation.sweep import GENERATOR, calibration_records, load_sweep
 
+    if a.later_only and a.write:
+        ap.error("--later-only compares later stages with the shipped ones; --write needs a full recalibration "
+                 "(drop --later-only)")
     missing = [str(p) for p in [*a.records, *a.rerun] if not p.is_file()]
     if missing:
         ap.error(f"records file not found: {', '.join(missing)} (a finished sweep's OUT/records.jsonl)")
@@ -55,25 +62,40 @@ def main(argv=None) -> int:
               + ", ".join(f"{n} from {p}" for p, n in replaced.items()) + f", of {len(recs)}")
     R = [x for rec in recs for x in case_records(rec)]
     P = [q for rec in recs for q in pair_records(rec)]
-    values = thresholds_from_records(R, P)
-    gate = dict(g=values["heldout_gain_min_sigma"], share=values["gap_share_min"], alpha=values["family_alpha"],
-                fit_share=values["fit_share_min"], waive=values["fit_share_waived_above_sigma"],
-                g_later=values["heldout_gain_min_sigma_later"],
-                to_floor=floor_drops(values),
-                pair_share=values["pair_share_min"], pair_gain=values["pair_gain_min_sigma"],
-                pair_over=values["pair_over_single_min_sigma"], pair_over_gain=values["pair_over_gain_min_sigma"])
-    tally = Counter()
-    for rec in recs:
-        rs = case_records(rec)
-        if rs:
-            right, wrong = _case_outcome(rs, **gate, pairs=pair_records(rec))
-            tally[(rec["kind"], "cases")] += 1
-            tally[(rec["kind"], "right")] += right
-            tally[(rec["kind"], "wrong")] += wrong
+    if a.later_only:
+        shipped = load_thresholds()
+        values = later_stages_from_records(R, P, shipped)
+    else:
+        values = thresholds_from_records(R, P)
+    def outcome(v: dict, title: str) -> None:
+        """Each case kind's right decisions and names counted against under the thresholds ``v``."""
+        gate = dict(g=v["heldout_gain_min_sigma"], share=v["gap_share_min"], alpha=v["family_alpha"],
+                    fit_share=v["fit_share_min"], waive=v["fit_share_waived_above_sigma"],
+                    g_later=v["heldout_gain_min_sigma_later"], to_floor=floor_drops(v),
+                    pair_share=v["pair_share_min"], pair_gain=v["pair_gain_min_sigma"],
+                    pair_over=v["pair_over_single_min_sigma"], pair_over_gain=v["pair_over_gain_min_sigma"])
+        tally = Counter()
+        for rec in recs:
+            rs = case_records(rec)
+            if rs:
+                right, wrong = _case_outcome(rs, **gate, pairs=pair_records(rec))
+                tally[(rec["kind"], "cases")] += 1
+                tally[(rec["kind"], "right")] += right
+                tally[(rec["kind"], "wrong")] += wrong
+        print(title)
+        for kind in ("single", "pair", "null", "out_of_catalogue"):
+            print(f"  {kind:<17} right {tally[(kind, 'right')]:>3} of {tally[(kind, 'cases')]:>3}, "
+                  f"names counted against {tally[(kind, 'wrong')]}")
+
     print({k: values[k] for k in values})
-    for kind in ("single", "pair", "null", "out_of_catalogue"):
-        print(f"  {kind:<17} right {tally[(kind, 'right')]:>3} of {tally[(kind, 'cases')]:>3}, "
-              f"names counted against {tally[(kind, 'wrong')]}")
+    outcome(values, "chosen" + (" (the shipped first stage held)" if a.later_only else "") + ":")
+    if a.later_only:
+        print("later stages chosen against shipped: " + ", ".join(
+            f"{k} {values[k]:g} vs {shipped[k]:g}" for k in ("heldout_gain_min_sigma_later", "to_floor_drop_min_sigma",
+                                                         "pair_share_min", "pair_gain_min_sigma",
+                                                         "pair_over_single_min_sigma", "pair_over_gain_min_sigma"))
+              + f"; drops by effect {values['to_floor_drop_by_effect']} vs {shipped.get('to_floor_drop_by_effect')}")
+        outcome(shipped, "the shipped thresholds on the same records:")
     if a.write:
         meta = {"produced_by": "python benchmarks/recalibrate.py " + " ".join(str(p) for p in a.records)
                 + (" --rerun " + " ".join(str(p) for p in a.rerun) if a.rerun else "")

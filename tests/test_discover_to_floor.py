@@ -12,7 +12,8 @@ import pytest
 
 from _discover_cases import discover_case_01
 from bpmid.discover.calibrate import (THRESHOLDS_PATH, Record, _case_outcome, _first_passing, case_records,
-                                      gain_winner, load_thresholds, thresholds_from_records, winner_rank)
+                                      gain_winner, later_stages_from_records, load_thresholds,
+                                      thresholds_from_records, winner_rank)
 from bpmid.discover.confirm import Confirmation, heldout_drop_sigma
 from bpmid.discover.workflow import DiscoverConfig, gate_in_words, judge, judge_to_floor
 from bpmid.errors import InputError
@@ -178,6 +179,29 @@ def test_calibration_picks_the_drop_that_names_absorbed_effects_within_the_bound
     assert _case_outcome(one, 0.2, 0.35, 1e-9, to_floor=0.4) == (1, 0)
     left_above = [dataclass_replace(r, after_over_floor=1.03) if r.case.startswith("s") else r for r in recs]
     assert thresholds_from_records(left_above)["to_floor_drop_min_sigma"] == math.inf
+
+
+def test_later_stages_with_the_first_stage_held_are_the_full_calibrations_and_keep_the_first_stage_given():
+    """The absorbed singles above: with the first stage the full calibration chose held, the later stages are
+    chosen as the full calibration chose them (the same drop, outcome and summary). With a first stage held
+    too strict for any single (a gain of 2 noise floors), that first stage is kept as given and the path to the floor
+    still names every absorbed single: the later stages are chosen for the first stage they are given."""
+    recs = []
+    for k in range(12):
+        recs += [_rec(f"s{k}", "single", "pressure_lag", "pressure_lag", 0.0, 0.45, 0.995, share=float("nan")),
+                 _rec(f"s{k}", "single", "pressure_lag", "angle_offset", 0.0, 0.12, 0.999, share=float("nan"))]
+    for k in range(21):
+        recs.append(_rec(f"o{k}", "out_of_catalogue", "none", "pressure_lag", 0.02, 0.3 if k == 0 else 0.05, 0.99))
+    for k in range(5):
+        recs.append(_rec(f"n{k}", "null", "none", "angle_offset", 0.01, 0.0, 1.0))
+    full = thresholds_from_records(recs)
+    held = later_stages_from_records(recs, (), full)
+    assert held == full
+    strict = dict(full, heldout_gain_min_sigma=2.0)
+    held = later_stages_from_records(recs, (), strict)
+    assert held["heldout_gain_min_sigma"] == 2.0 and held["gap_share_min"] == full["gap_share_min"]
+    assert 0.3 < held["to_floor_drop_min_sigma"] <= 0.45, held
+    assert held["right_decisions"] == 12 + 21 + 5 and held["false_positives"] == 0, held
 
 
 def test_an_effect_gets_its_own_drop_only_where_the_common_one_costs_right_decisions():

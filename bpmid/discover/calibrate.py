@@ -985,6 +985,10 @@ def _pair_over_from(cases, pairs: Mapping, gate: tuple, to_floor: float, pair_sh
                                                             and q.min_gain_given_other >= gain), t, allowed)
 
 
+#: the held-out gains the calibration tries (noise floors): 0 .. 1 in steps of 0.01, then to 6 in steps of 0.25
+GAINS = np.unique(np.round(np.concatenate([np.arange(0.0, 1.0, 0.01), np.arange(1.0, 6.01, 0.25)]), 2))
+
+
 #: first-stage gates (held-out gain, gap share, alpha, fitting share) taken to the later stages, best first (with
 #: the best of every gap share besides)
 FINALISTS = 10
@@ -1029,15 +1033,10 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
     asked on the path to the noise floor (:func:`_to_floor_from`), and those of the path for two effects at once
     (:func:`_pair_path_from`, from ``pairs``: the first rounds' pair trials); the finalist with the best final
     score wins (the same score and bounds; ties: the better first stage)."""
-    by_case: dict[str, list[Record]] = {}
-    for r in records:
-        by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
-    cases = list(by_case.values())
+    cases, by_case_pairs, allowed = _grouped(records, pairs)
     waive = fit_share_waiver(records)
-    gains = np.unique(np.round(np.concatenate([np.arange(0.0, 1.0, 0.01), np.arange(1.0, 6.01, 0.25)]), 2))
+    gains = GAINS
     shares = np.round(np.arange(0.0, 0.91, 0.05), 2)
-    n_ooc = sum(1 for recs in cases if recs[0].truth == "none" and recs[0].kind == "out_of_catalogue")
-    allowed = ooc_names_allowed(n_ooc)
     stage1 = []
     for fs in FIT_SHARES:
         for sh in shares:
@@ -1050,9 +1049,6 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
                 for i in np.lexsort((gains, score, feasible))[::-1][:FINALISTS]:
                     key = (bool(feasible[i]), int(score[i]), gains[i], sh, fs, -a)   # ties: the stricter gate
                     stage1.append((key, (float(gains[i]), float(sh), float(a), float(fs), tg, int(i))))
-    by_case_pairs: dict[str, list[PairRecord]] = {}
-    for q in pairs:
-        by_case_pairs.setdefault(q.case, []).append(q)
     # the gate is chosen on its whole outcome: the leading first-stage gates each get their later-round gain, path
     # to the floor and path for two effects, and the best final score wins (ties: the better first stage). Chosen
     # in stages alone, a looser first stage could crowd out the paths and end with a lower score.
@@ -1074,6 +1070,41 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
     if best is None:
         z = {"right": 0, "wrong": 0, "null_named": 0, "ooc_named": 0, "ooc": 0}
         best = (1.0, 0.25, 0.01, 0.0, 1.0, math.inf, math.inf, math.inf, math.inf, math.inf, z)
+    return _values(records, pairs, len(cases), waive, allowed, best)
+
+
+def _grouped(records: Sequence[Record], pairs: Sequence[PairRecord]) -> tuple[list, dict, int]:
+    """The records by case, the pair trials by case, and the out-of-catalogue names allowed."""
+    by_case: dict[str, list[Record]] = {}
+    for r in records:
+        by_case.setdefault(r.case or f"{r.truth}#{id(r)}", []).append(r)
+    cases = list(by_case.values())
+    by_case_pairs: dict[str, list[PairRecord]] = {}
+    for q in pairs:
+        by_case_pairs.setdefault(q.case, []).append(q)
+    n_ooc = sum(1 for recs in cases if recs[0].truth == "none" and recs[0].kind == "out_of_catalogue")
+    return cases, by_case_pairs, ooc_names_allowed(n_ooc)
+
+
+def later_stages_from_records(records: Sequence[Record], pairs: Sequence[PairRecord], first: Mapping) -> dict:
+    """The later stages of the gate (the gain asked of a further effect, the drops on the path to the noise floor,
+    the paths for two effects at once) chosen from calibration records exactly as :func:`thresholds_from_records`
+    chooses them for a finalist, with the first stage held at ``first``'s ``heldout_gain_min_sigma``,
+    ``gap_share_min``, ``family_alpha``, ``fit_share_min`` and ``fit_share_waived_above_sigma`` (e.g. the shipped
+    thresholds). For a change that touches only later rounds (how they are scored), on records regenerated with it:
+    the first rounds' records, and so the first stage chosen from them, cannot have moved."""
+    cases, by_case_pairs, allowed = _grouped(records, pairs)
+    g, sh, a, fs, waive = (float(first[k]) for k in ("heldout_gain_min_sigma", "gap_share_min", "family_alpha",
+                                                     "fit_share_min", "fit_share_waived_above_sigma"))
+    t = _tally(cases, g, sh, a, fs, waive)
+    best = (g, sh, a, fs) + _finish(cases, by_case_pairs, GAINS, g, sh, a, fs, waive, t, allowed)
+    return _values(records, pairs, len(cases), waive, allowed, best)
+
+
+def _values(records: Sequence[Record], pairs: Sequence[PairRecord], n_cases: int, waive: float, allowed: int,
+            best: tuple) -> dict:
+    """The thresholds and the calibration's summary from the chosen gate ``best``: (g, share, alpha, fitting
+    share) followed by :func:`_finish`'s result."""
     g, sh, a, fs, g_later, to_floor, pair_share, pair_gain, pair_over, pair_over_gain, t = best
     pos = [r for r in records if r.truth != "none" and r.round == 1 and r.candidate in r.truth.split("+")]
     neg = [r for r in records if not r.rival and (r.truth == "none" or (r.truth_in_model and "+" not in r.truth))]
@@ -1084,7 +1115,7 @@ def thresholds_from_records(records: Sequence[Record], pairs: Sequence[PairRecor
             "pair_share_min": pair_share, "pair_gain_min_sigma": pair_gain, "identifiable_waived_above_sigma": waive,
             "pair_over_single_min_sigma": pair_over, "pair_over_gain_min_sigma": pair_over_gain,
             "n_pair_trials": len(pairs),
-            "n_cases": len(cases), "right_decisions": int(t["right"]),
+            "n_cases": n_cases, "right_decisions": int(t["right"]),
             "false_positives": int(t["wrong"] + t["null_named"] + t["ooc_named"]),
             "wrong_names": int(t["wrong"]), "null_cases_named": int(t["null_named"]),
             "out_of_catalogue_named": int(t["ooc_named"]), "out_of_catalogue_cases": int(t["ooc"]),
