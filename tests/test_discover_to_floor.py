@@ -156,12 +156,10 @@ def test_a_round_takes_the_path_only_when_nothing_passes_the_gate():
     assert _first_passing([_rec("a", "single", "x", "x", 0.0, 0.9, 1.01)], *g, to_floor=0.2) is None
 
 
-def test_calibration_picks_the_drop_that_names_absorbed_effects_within_the_bounds():
+def _absorbed_singles() -> list:
     """Twelve singles whose effect the base had absorbed (gain 0, drop 0.45, left at the floor) beside a wrong
     candidate (drop 0.12); 21 cases outside the catalogue, one of which a candidate takes to the floor with a drop of
-    0.3 (one name allowed, but it costs a right decision and counts against); five nulls (drop 0). The calibration
-    keeps the gate and picks a drop above 0.3 and at most 0.45 (ties to the larger): every absorbed single named,
-    no name outside the catalogue. When the candidate is left above the floor, no drop helps: no path."""
+    0.3; five nulls (drop 0)."""
     recs = []
     for k in range(12):
         recs += [_rec(f"s{k}", "single", "pressure_lag", "pressure_lag", 0.0, 0.45, 0.995, share=float("nan")),
@@ -170,6 +168,16 @@ def test_calibration_picks_the_drop_that_names_absorbed_effects_within_the_bound
         recs.append(_rec(f"o{k}", "out_of_catalogue", "none", "pressure_lag", 0.02, 0.3 if k == 0 else 0.05, 0.99))
     for k in range(5):
         recs.append(_rec(f"n{k}", "null", "none", "angle_offset", 0.01, 0.0, 1.0))
+    return recs
+
+
+def test_calibration_picks_the_drop_that_names_absorbed_effects_within_the_bounds():
+    """Twelve singles whose effect the base had absorbed (gain 0, drop 0.45, left at the floor) beside a wrong
+    candidate (drop 0.12); 21 cases outside the catalogue, one of which a candidate takes to the floor with a drop of
+    0.3 (one name allowed, but it costs a right decision and counts against); five nulls (drop 0). The calibration
+    keeps the gate and picks a drop above 0.3 and at most 0.45 (ties to the larger): every absorbed single named,
+    no name outside the catalogue. When the candidate is left above the floor, no drop helps: no path."""
+    recs = _absorbed_singles()
     thr = thresholds_from_records(recs)
     assert 0.3 < thr["to_floor_drop_min_sigma"] <= 0.45, thr
     assert thr["to_floor_ratio_max"] == 1.0
@@ -186,14 +194,7 @@ def test_later_stages_with_the_first_stage_held_are_the_full_calibrations_and_ke
     chosen as the full calibration chose them (the same drop, outcome and summary). With a first stage held
     too strict for any single (a gain of 2 noise floors), that first stage is kept as given and the path to the floor
     still names every absorbed single: the later stages are chosen for the first stage they are given."""
-    recs = []
-    for k in range(12):
-        recs += [_rec(f"s{k}", "single", "pressure_lag", "pressure_lag", 0.0, 0.45, 0.995, share=float("nan")),
-                 _rec(f"s{k}", "single", "pressure_lag", "angle_offset", 0.0, 0.12, 0.999, share=float("nan"))]
-    for k in range(21):
-        recs.append(_rec(f"o{k}", "out_of_catalogue", "none", "pressure_lag", 0.02, 0.3 if k == 0 else 0.05, 0.99))
-    for k in range(5):
-        recs.append(_rec(f"n{k}", "null", "none", "angle_offset", 0.01, 0.0, 1.0))
+    recs = _absorbed_singles()
     full = thresholds_from_records(recs)
     held = later_stages_from_records(recs, (), full)
     assert held == full
