@@ -867,8 +867,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                      + [f"the floor used is {res.rmse:.3g} deg, the base fit's RMSE on the fitting logs: the noise "
                         f"reading above ({noise['sigma_deg']:.3g} deg) cannot exceed what the model leaves"])
         floor = noise["sigma_deg"]
-    base_gain = gain
-    before = scored_rmse(state, ho_logs, per_log_gain=base_gain)
+    before = scored_rmse(state, ho_logs, per_log_gain=gain)
     raw_before = rmse_deg(residuals(state, ho_logs))
     rounds: list[Round] = []
     named: list[str] = []
@@ -884,7 +883,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         # carry spikes where the switch moves with the step, which score every model of the round worse and
         # shrink a second effect's gain (draw58-0017: stiffening beside a slower deflation 0.24 noise floors in
         # the pair trial, 0.09 in round 2); re-derived for any named effect, their bounds come from a smaller
-        # fitting-log spread (see the final scoring below).
+        # fitting-log spread (see the before and after below).
         sim = simulate(state, fit_logs)
         parts = gained_residuals(sim, fit_logs, per_log_gain=gain)
         diag = diagnose(fit_logs, parts)
@@ -1073,10 +1072,10 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
         state = best.state
         note(f"discover: added {best.effect_id} (held-out {best.heldout_rmse_before:.3f} -> "
              f"{best.heldout_rmse_after:.3f} deg)")
-    # before and after scored alike: with the base model's nuisance (the one every first-round number used). A
-    # nuisance re-derived for the final model bounds the held-out factors by its own, smaller, fitting-log spread,
-    # and held against the base model's looser scoring it would understate what the named effects removed.
-    after = scored_rmse(state, ho_logs, per_log_gain=base_gain)
+    # before and after scored alike: with the base model's nuisance, the one every round used. A nuisance
+    # re-derived for the final model would bound the held-out factors by its own, smaller, fitting-log spread, and
+    # held against the base model's looser scoring it would understate what the named effects removed.
+    after = scored_rmse(state, ho_logs, per_log_gain=gain)
     raw_after = rmse_deg(residuals(state, ho_logs))
     # a round withheld for a rival outside the catalogue leaves a systematic residual the catalogue cannot explain
     unexplained = bool(raw_after - floor > cfg.unexplained_gap_sigma * floor or any(r.withheld for r in rounds))
@@ -1090,7 +1089,7 @@ def discover(logs: Sequence[MotionLog], base: VBMM, *, holdout: Sequence[MotionL
                            held_out_odd=held_out_odd)
     return DiscoveryResult(named, rounds, noise, base_state, state, list(fit_logs), list(ho_logs), before, after,
                            thr, unexplained, verdict, how, time.perf_counter() - t0, variation, base_report,
-                           raw_before, raw_after, base_gain, thresholds_file=cfg.thresholds_file,
+                           raw_before, raw_after, gain, thresholds_file=cfg.thresholds_file,
                            overridden=tuple(sorted({k for k in GATE_KEYS if getattr(cfg, k, None) is not None}
                                                    | ({BY_EFFECT_KEY} if cfg.to_floor_drop_by_effect is not None
                                                       else set()) | {k for k in (thresholds or {}) if k in thr})),
